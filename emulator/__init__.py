@@ -1,0 +1,1 @@
+"""emulator: the time of robot-skin fieldbus frames (cycle-time model and virtual daisy chain)."""

@@ -1,0 +1,55 @@
+"""``skinframes decode PATH [--json]``: every frame of a capture, as text or JSON Lines."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from skinframes.describe import frame_fields, summary
+from skinframes.dispatch import decode_frame, protocol_of
+from skinframes.errors import DecodeError
+from skinframes.pcap import LINKTYPE_ETHERNET, read_capture
+
+
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser("decode", help="decode every frame of a pcap/pcapng (gzip too)",
+                       description="Decode every frame of a pcap or pcapng file (gzip too). "
+                       "Skipped records are reported on stderr with their reason.")
+    p.add_argument("path", help="capture file")
+    p.add_argument("--json", action="store_true", help="JSON Lines: one object per frame")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Decode and print."""
+    capture = read_capture(args.path)
+    out = sys.stdout
+    for rec in capture:
+        obj: dict[str, Any] = {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
+        if rec.linktype != LINKTYPE_ETHERNET:
+            obj.update(protocol="other", linktype=rec.linktype, findings=[])
+            text = f"linktype {rec.linktype}, {len(rec.data)} bytes"
+        else:
+            try:
+                frame = decode_frame(rec.data)
+            except DecodeError as exc:
+                obj.update(protocol="other", findings=[{"severity": "error", "code": "eth.truncated",
+                                                        "message": str(exc)}])
+                text = str(exc)
+            else:
+                obj["protocol"] = protocol_of(frame)
+                obj.update(frame_fields(frame))
+                obj["findings"] = [f.to_json() for f in frame.findings]
+                text = summary(frame)
+        if args.json:
+            out.write(json.dumps(obj) + "\n")
+        else:
+            out.write(f"{rec.index:>6} {rec.time_ns / 1e9:>18.9f} {len(rec.data):>5}  {text}\n")
+    for s in capture.skipped:
+        print(f"skinframes: skipped record {s.index}: {s.reason}", file=sys.stderr)
+    print(f"skinframes: {capture.total} records: {len(capture.records)} decoded, "
+          f"{len(capture.skipped)} skipped", file=sys.stderr)
+    return 0

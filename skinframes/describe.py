@@ -1,0 +1,112 @@
+"""Human and JSON views of decoded frames, used by ``skinframes decode`` and ``check``.
+
+Field names in the JSON are skinframes' (snake_case spec names); ``tests/conformance/fields.py``
+maps them to tshark's.
+"""
+
+from __future__ import annotations
+
+from enum import IntEnum
+from typing import Any
+
+from skinframes import ethercat, ethernet, powerlink
+from skinframes.dispatch import protocol_of
+
+__all__ = ["frame_fields", "summary"]
+
+
+def _name(value: int, enum: type[IntEnum]) -> str:
+    try:
+        return enum(value).name
+    except ValueError:
+        return f"{value:#04x}"
+
+
+def frame_fields(frame: ethernet.EthernetFrame) -> dict[str, Any]:
+    """The protocol fields of a decoded frame as JSON-ready values."""
+    out: dict[str, Any] = {
+        "eth_dst": ethernet.format_mac(frame.dst),
+        "eth_src": ethernet.format_mac(frame.src),
+        "ethertype": frame.ethertype,
+    }
+    p = frame.payload
+    if isinstance(p, ethercat.EcatFrame):
+        out["ecat_length"] = p.datagram_bytes if p.length is None else p.length
+        out["ecat_type"] = p.frame_type
+        out["datagrams"] = [
+            {
+                "cmd": _name(d.cmd, ethercat.Command),
+                "cmd_code": int(d.cmd),
+                "idx": d.idx,
+                "adp": d.adp,
+                "ado": d.ado,
+                "lad": d.lad,
+                "length": d.length,
+                "circulating": d.circulating,
+                "irq": d.irq,
+                "wkc": d.wkc,
+            }
+            for d in p.datagrams
+        ]
+    elif isinstance(p, bytes | bytearray):
+        out["payload_length"] = len(p)
+    else:
+        out.update(_epl_fields(p))
+    return out
+
+
+def _epl_fields(m: Any) -> dict[str, Any]:
+    if isinstance(m, powerlink.RawMessage):
+        return {"message_type": m.message_type & 0x7F, "message": _name(m.message_type & 0x7F,
+                powerlink.MessageType), "dest": m.dest, "src": m.src, "data_length": len(m.data)}
+    out: dict[str, Any] = {"message_type": int(m.MESSAGE_TYPE),
+                           "message": powerlink.MessageType(m.MESSAGE_TYPE).name,
+                           "dest": m.dest, "src": m.src}
+    if isinstance(m, powerlink.PReq | powerlink.PRes):
+        out["size"] = m.size
+        out["pdo_version"] = m.pdo_version
+        out["flags1"] = int(m.flags1)
+    if isinstance(m, powerlink.PRes | powerlink.SoA):
+        out["nmt_status"] = int(m.nmt_status)
+    if isinstance(m, powerlink.SoA):
+        out["requested_service"] = int(m.requested_service)
+        out["requested_target"] = m.requested_target
+        out["epl_version"] = m.epl_version
+    if isinstance(m, powerlink.SoC):
+        out["net_time_s"] = m.net_time_s
+        out["net_time_ns"] = m.net_time_ns
+        out["relative_time_us"] = m.relative_time_us
+    if isinstance(m, powerlink.ASnd):
+        out["service_id"] = m.service_id
+        out["service"] = _name(m.service_id, powerlink.ServiceId)
+        s = m.service
+        if isinstance(s, powerlink.NmtCommand):
+            out["command_id"] = int(s.command_id)
+        if isinstance(s, powerlink.IdentResponse | powerlink.StatusResponse):
+            out["nmt_status"] = int(s.nmt_status)
+        if isinstance(s, powerlink.Sdo) and s.command is not None:
+            out["sdo_command_id"] = s.command.command_id
+            out["sdo_segment_size"] = len(s.command.data)
+    return out
+
+
+def summary(frame: ethernet.EthernetFrame) -> str:
+    """A one-line description in the spirit of Wireshark's Info column."""
+    p = frame.payload
+    proto = protocol_of(frame)
+    if proto == "ecat":
+        assert isinstance(p, ethercat.EcatFrame)
+        parts = [f"'{_name(d.cmd, ethercat.Command)}' len {d.length} wkc {d.wkc}" for d in p.datagrams]
+        shown = ", ".join(parts[:4]) + (f", ... ({len(parts)} datagrams)" if len(parts) > 4 else "")
+        return f"ECAT {shown}"
+    if proto == "other":
+        return f"ethertype {frame.ethertype:#06x}, {len(frame.payload_bytes)} bytes"
+    f = _epl_fields(p)
+    text = f"EPL {f['src']:>3}->{f['dest']:>3} {f['message']}"
+    if "size" in f:
+        text += f" [{f['size']}]"
+    if "requested_service" in f:
+        text += f" ({_name(f['requested_service'], powerlink.RequestedService)})->{f['requested_target']}"
+    if "service" in f:
+        text += f" ({f['service']})"
+    return text

@@ -1,0 +1,103 @@
+"""EtherType -> payload decoder: the one place that knows which protocols skinframes decodes."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from typing import Final, Literal
+
+from skinframes import ethercat, ethernet, powerlink
+from skinframes.errors import (
+    DecodeError,
+    InvalidFieldError,
+    LengthMismatchError,
+    TruncatedError,
+    UnknownProtocolError,
+)
+from skinframes.findings import Finding, error, info, warning
+
+__all__ = ["DECODERS", "decode_frame", "protocol_of"]
+
+Decoder = Callable[..., tuple[ethernet.Payload, int, list[Finding]]]
+
+DECODERS: Final[dict[int, Decoder]] = {
+    ethernet.ETHERTYPE_EPL: powerlink.decode,
+    ethernet.ETHERTYPE_ECAT: ethercat.decode,
+}
+
+PROTOCOL_NAMES: Final = {ethernet.ETHERTYPE_EPL: "epl", ethernet.ETHERTYPE_ECAT: "ecat"}
+
+
+def protocol_of(frame: ethernet.EthernetFrame) -> Literal["epl", "ecat", "other"]:
+    """``"epl"`` or ``"ecat"`` when the payload was decoded as such, else ``"other"``."""
+    if isinstance(frame.payload, ethercat.EcatFrame):
+        return "ecat"
+    if isinstance(frame.payload, bytes | bytearray):
+        return "other"
+    return "epl"
+
+
+def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame:
+    """Decode one Ethernet frame (as a pcap record holds it) down to EPL or EtherCAT.
+
+    Args:
+        data: the frame without FCS.
+        strict: raise on any deviation from the specs (short or non-zero padding, leftover bytes,
+            reserved fields, unknown EtherTypes). The default, capture mode, never loses a byte:
+            what cannot be decoded stays raw bytes, and every deviation becomes a finding.
+
+    Returns:
+        An :class:`~skinframes.ethernet.EthernetFrame` whose ``to_bytes()`` equals ``data``.
+
+    Raises:
+        DecodeError: fewer than 14 bytes, or (strict) any deviation.
+    """
+    data = bytes(data)
+    head = ethernet.EthernetFrame.from_bytes(data)
+    ethertype = head.ethertype
+    assert ethertype is not None
+    payload = data[ethernet.HEADER_BYTES :]
+    findings: list[Finding] = []
+    if len(data) < ethernet.MIN_FRAME_BYTES:
+        msg = f"Ethernet: {len(data)}-byte frame is shorter than the 60-byte minimum (unpadded)"
+        if strict:
+            raise TruncatedError(msg, offset=len(data))
+        findings.append(info("eth.unpadded", msg + "; typical of a capture on the sending host"))
+    if ethernet.is_group(head.src):
+        findings.append(warning("eth.src.group", f"Ethernet: source MAC {ethernet.format_mac(head.src)}"
+                                " is a group address (Wireshark warns)"))
+    decoder = DECODERS.get(ethertype)
+    if decoder is None:
+        if strict:
+            raise UnknownProtocolError(f"Ethernet: EtherType {ethertype:#06x} is not EPL or EtherCAT")
+        return ethernet.EthernetFrame(head.dst, head.src, payload, ethertype, b"", tuple(findings))
+    name = PROTOCOL_NAMES[ethertype]
+    try:
+        message, used, more = decoder(payload, strict=strict)
+    except DecodeError as exc:
+        if strict:
+            raise
+        findings.append(error(f"{name}.undecodable", f"{exc}; kept as raw bytes"))
+        return ethernet.EthernetFrame(head.dst, head.src, payload, ethertype, b"", tuple(findings))
+    findings += more
+    padding = payload[used:]
+    auto = ethernet.padding_for(ethernet.HEADER_BYTES + used)
+    pad: bytes | None = padding
+    fill = padding
+    if len(padding) >= ethernet.FCS_BYTES and data[-4:] == ethernet.fcs(data[:-4]):
+        fill = padding[: -ethernet.FCS_BYTES]  # a capture that kept the FCS (checked: correct)
+        findings.append(info("eth.fcs", "Ethernet: the frame ends with its 4-byte FCS (correct)"))
+    if len(padding) == auto and not any(padding):
+        pad = None
+    else:
+        if any(fill):
+            msg = f"Ethernet: {len(padding)} padding bytes after the {name} message are not all zero"
+            if strict:
+                raise InvalidFieldError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
+            findings.append(warning("eth.padding.nonzero", msg))
+        if len(fill) > auto:
+            msg = (f"Ethernet: {len(fill)} bytes follow the {used}-byte {name} message, "
+                   f"{auto} would pad to the minimum")
+            if strict:
+                raise LengthMismatchError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
+            findings.append(info("eth.trailer", msg))
+    return ethernet.EthernetFrame(head.dst, head.src, message, ethertype, pad, tuple(findings))

@@ -1,0 +1,134 @@
+"""The one exception tree of skinframes.
+
+Every error the library raises on bad input comes from here::
+
+    SkinframesError(Exception)          .field (dotted path), .offset (byte index)
+    ├── DecodeError(…, ValueError)      bytes -> model
+    │   ├── TruncatedError              fewer bytes than the header or length says
+    │   ├── InvalidFieldError           reserved bits set, bad constant, unknown enum value
+    │   ├── LengthMismatchError         a length field disagrees with the buffer; leftover bytes
+    │   ├── ChecksumError               FCS / CRC
+    │   ├── UnknownProtocolError        unregistered EtherType / link type
+    │   └── PcapFormatError             bad magic, version, truncated record
+    └── EncodeError(…, ValueError)      model -> bytes
+        ├── FieldRangeError             a value does not fit its field (11-bit length > 2047, node id > 255)
+        └── FrameTooLargeError          > 1500-byte payload, too many datagrams
+
+Wrong argument *types* stay ``TypeError``. construct's and python-can's exceptions never escape:
+:func:`decoding` and :func:`encoding` re-raise them as ours, chained with ``from``.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from contextlib import contextmanager
+
+import construct as cs
+
+__all__ = [
+    "ChecksumError",
+    "DecodeError",
+    "EncodeError",
+    "FieldRangeError",
+    "FrameTooLargeError",
+    "InvalidFieldError",
+    "LengthMismatchError",
+    "PcapFormatError",
+    "SkinframesError",
+    "TruncatedError",
+    "UnknownProtocolError",
+    "decoding",
+    "encoding",
+]
+
+
+class SkinframesError(Exception):
+    """Root of every error skinframes raises on bad input.
+
+    Args:
+        message: what went wrong, with expected and found values.
+        field: dotted path of the offending field, when known (``"datagram[2].length"``).
+        offset: byte index into the input, when known.
+    """
+
+    def __init__(self, message: str, *, field: str | None = None, offset: int | None = None):
+        super().__init__(message)
+        self.field = field
+        self.offset = offset
+
+
+class DecodeError(SkinframesError, ValueError):
+    """Bytes could not be turned into a model."""
+
+
+class TruncatedError(DecodeError):
+    """Fewer bytes than a header or length field announces."""
+
+
+class InvalidFieldError(DecodeError):
+    """A reserved bit is set, a constant differs, or an enum value is unknown."""
+
+
+class LengthMismatchError(DecodeError):
+    """A length field disagrees with the buffer, or bytes are left over."""
+
+
+class ChecksumError(DecodeError):
+    """A frame check sequence or CRC does not match."""
+
+
+class UnknownProtocolError(DecodeError):
+    """An EtherType or link type that skinframes does not decode."""
+
+
+class PcapFormatError(DecodeError):
+    """A capture file is not a readable pcap / pcapng (magic, version, record header)."""
+
+
+class EncodeError(SkinframesError, ValueError):
+    """A model could not be turned into bytes."""
+
+
+class FieldRangeError(EncodeError):
+    """A value does not fit the width of its field."""
+
+
+class FrameTooLargeError(EncodeError):
+    """The encoded frame exceeds the protocol's maximum size."""
+
+
+@contextmanager
+def decoding(what: str) -> Iterator[None]:
+    """Re-raise construct and builtin decoding failures as :class:`DecodeError` subclasses.
+
+    Args:
+        what: the thing being decoded, prefixed to the message (``"EtherCAT datagram"``).
+    """
+    try:
+        yield
+    except SkinframesError:
+        raise
+    except cs.StreamError as exc:  # ran out of bytes
+        raise TruncatedError(f"{what}: truncated ({exc})", field=_path(exc)) from exc
+    except cs.ConstructError as exc:
+        raise InvalidFieldError(f"{what}: {exc}", field=_path(exc)) from exc
+    except (ValueError, IndexError, KeyError) as exc:
+        raise InvalidFieldError(f"{what}: {exc}") from exc
+
+
+@contextmanager
+def encoding(what: str) -> Iterator[None]:
+    """Re-raise construct and builtin encoding failures as :class:`EncodeError` subclasses."""
+    try:
+        yield
+    except SkinframesError:
+        raise
+    except (cs.ConstructError, OverflowError, ValueError) as exc:
+        raise FieldRangeError(f"{what}: {exc}", field=_path(exc)) from exc
+
+
+def _path(exc: Exception) -> str | None:
+    path = getattr(exc, "path", None)
+    if not path:
+        return None
+    return str(path).replace("(parsing) -> ", "").replace("(building) -> ", "").replace(" -> ", ".")

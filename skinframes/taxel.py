@@ -1,0 +1,158 @@
+"""Taxel payloads: one patch = 16 triangles x 12 taxels x 8 bit = 192 bytes (paper eq. 1).
+
+A patch is a microcontroller reading up to 16 triangular modules over I2C; each triangle has 12
+capacitive taxels. Values are 8-bit and *inverted* as the iCub skin firmware sends them: an
+untouched taxel reads the no-load baseline (0xF0 in the robot configurations) and pressure lowers
+the value (see ../shared/reference/can.md 1.3). The byte order of a patch payload is
+triangle-major: byte ``12 * t + k`` is taxel k of triangle t, as the host reassembles CAN frames
+(``index = triangle * 12 + k``).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+
+from skinframes.errors import FieldRangeError, LengthMismatchError
+
+__all__ = [
+    "BODY_PATCHES",
+    "NO_LOAD",
+    "PATCH_BYTES",
+    "REGIONS",
+    "TAXELS_PER_TRIANGLE",
+    "TRIANGLES_PER_PATCH",
+    "BodyLayout",
+    "Region",
+    "contact_pattern",
+    "patch_from_bytes",
+    "patch_to_bytes",
+    "pack_patches",
+]
+
+TRIANGLES_PER_PATCH: Final = 16  # 4 I2C buses x 4 triangles (paper II-A)
+TAXELS_PER_TRIANGLE: Final = 12
+BITS_PER_TAXEL: Final = 8
+PATCH_BYTES: Final = TRIANGLES_PER_PATCH * TAXELS_PER_TRIANGLE * BITS_PER_TAXEL // 8  # 192, eq. 1
+BODY_PATCHES: Final = 160  # eq. 2: about 1 m^2 of skin
+NO_LOAD: Final = 0xF0  # robots-configuration skinSpec noLoad (can.md 1.3)
+
+
+def patch_to_bytes(taxels: npt.ArrayLike) -> bytes:
+    """Serialise a (T, 12) array of 8-bit taxels (T <= 16 triangles; a partial patch is fine).
+
+    Raises:
+        FieldRangeError: wrong shape, or a value outside 0..255 (numpy would wrap it silently).
+    """
+    arr = np.asarray(taxels)
+    if arr.ndim != 2 or arr.shape[1] != TAXELS_PER_TRIANGLE or arr.shape[0] > TRIANGLES_PER_PATCH:
+        raise FieldRangeError(f"taxels: shape {arr.shape}, expected (T<=16, 12)")
+    if arr.size and (arr.min() < 0 or arr.max() > 0xFF):
+        raise FieldRangeError("taxels: values must be 0..255")
+    return arr.astype(np.uint8).tobytes()
+
+
+def patch_from_bytes(data: bytes) -> npt.NDArray[np.uint8]:
+    """The (T, 12) uint8 view of a patch payload of 12*T bytes (read-only: it views ``data``)."""
+    if len(data) % TAXELS_PER_TRIANGLE or len(data) > PATCH_BYTES:
+        raise LengthMismatchError(
+            f"taxels: {len(data)} bytes is not a whole number of 12-taxel triangles (<= 192)"
+        )
+    return np.frombuffer(data, dtype=np.uint8).reshape(-1, TAXELS_PER_TRIANGLE)
+
+
+def pack_patches(patches: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
+    """(n, T, 12) taxels -> (n, 12*T) payload rows, one per patch, in patch order."""
+    arr = np.asarray(patches)
+    if arr.dtype != np.uint8 or arr.ndim != 3 or arr.shape[2] != TAXELS_PER_TRIANGLE:
+        raise FieldRangeError(f"patches: dtype {arr.dtype}, shape {arr.shape}; need uint8 (n, T, 12)")
+    return arr.reshape(arr.shape[0], -1)
+
+
+@dataclass(frozen=True, slots=True)
+class Region:
+    """A subnetwork of the skin (paper II-A: arm 10 %, leg 20 %, torso 33 % of the surface)."""
+
+    name: str
+    share: float  # fraction of the body's skin
+    patches: int
+
+
+# Paper II-A (after [18]): an arm carries ~10 % of the skin (16 patches), a leg ~20 %, the torso
+# ~33 % (the paper's "up to 55"); the remaining ~7 % (head, neck) completes the 160 patches.
+REGIONS: Final = (
+    Region("left_arm", 0.10, 16),
+    Region("right_arm", 0.10, 16),
+    Region("left_leg", 0.20, 32),
+    Region("right_leg", 0.20, 32),
+    Region("torso", 0.33, 53),
+    Region("head", 0.07, 11),
+)
+
+
+@dataclass(frozen=True, slots=True)
+class BodyLayout:
+    """Which patches make the skin and which subnetwork each belongs to."""
+
+    regions: tuple[Region, ...] = REGIONS
+
+    @property
+    def patches(self) -> int:
+        """Total number of patches (160 for the default body)."""
+        return sum(r.patches for r in self.regions)
+
+    def region_of(self, patch: int) -> Region:
+        """The region of patch number ``patch`` (0-based, regions in order)."""
+        for r in self.regions:
+            if patch < r.patches:
+                return r
+            patch -= r.patches
+        raise FieldRangeError(f"patch {patch} is beyond the layout's {self.patches} patches")
+
+    def subnetwork(self, name: str) -> range:
+        """Patch numbers of the region called ``name``."""
+        start = 0
+        for r in self.regions:
+            if r.name == name:
+                return range(start, start + r.patches)
+            start += r.patches
+        raise FieldRangeError(f"no region {name!r}; known: {[r.name for r in self.regions]}")
+
+
+def contact_pattern(
+    patches: int,
+    samples: int = 1,
+    *,
+    seed: int = 0,
+    contacts: int = 3,
+    no_load: int = NO_LOAD,
+    triangles: int = TRIANGLES_PER_PATCH,
+) -> npt.NDArray[np.uint8]:
+    """Seeded synthetic skin data: (samples, patches, triangles, 12) uint8, inverted values.
+
+    Every taxel rests at ``no_load`` plus small sensor noise; ``contacts`` pressure blobs per
+    sample move over the skin and lower the values under them (as pressure does on the iCub skin).
+    The same arguments give the same bytes on every machine.
+    """
+    if patches < 1 or samples < 1 or not 1 <= triangles <= TRIANGLES_PER_PATCH:
+        raise FieldRangeError("contact_pattern: need patches >= 1, samples >= 1, 1 <= triangles <= 16")
+    if not 0 <= no_load <= 0xFF:
+        raise FieldRangeError("contact_pattern: no_load must be 0..255")
+    rng = np.random.default_rng(seed)
+    shape = (samples, patches, triangles, TAXELS_PER_TRIANGLE)
+    noise = rng.integers(-2, 3, size=shape)
+    # a taxel's position: patch-major index along the skin, unfolded to a line
+    pos = np.arange(patches * triangles * TAXELS_PER_TRIANGLE).reshape(shape[1:]) / TAXELS_PER_TRIANGLE
+    centres = rng.uniform(0, patches * triangles, size=(samples, contacts))
+    drift = np.linspace(0, 3.0, samples)[:, None]
+    depth = rng.uniform(80, no_load, size=(samples, contacts))
+    width = rng.uniform(1.0, 4.0, size=(samples, contacts))
+    press = np.zeros(shape)
+    for c in range(contacts):
+        d = pos[None] - (centres[:, c] + drift[:, 0])[:, None, None, None]
+        press += depth[:, c, None, None, None] * np.exp(-0.5 * (d / width[:, c, None, None, None]) ** 2)
+    values = np.clip(no_load + noise - press, 0, 255)
+    return values.astype(np.uint8)
