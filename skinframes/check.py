@@ -11,8 +11,8 @@ from collections import Counter
 from dataclasses import dataclass, field
 
 from skinframes import powerlink
-from skinframes.errors import DecodeError
 from skinframes.dispatch import decode_frame, protocol_of
+from skinframes.errors import DecodeError
 from skinframes.findings import Finding, Severity, error, info, warning
 from skinframes.pcap import LINKTYPE_ETHERNET, Capture
 
@@ -98,14 +98,22 @@ class _CycleChecker:
             self.phase, self.polled = "isochronous", None
         elif isinstance(m, powerlink.PReq):
             if self.phase == "asynchronous":
-                out.append(error("epl.cycle.order", f"EPL: PReq to {m.dest} in the asynchronous phase"))
+                out.append(
+                    error("epl.cycle.order", f"EPL: PReq to {m.dest} in the asynchronous phase")
+                )
             self.polled = m.dest
         elif isinstance(m, powerlink.PRes):
             if self.phase == "asynchronous":
-                out.append(error("epl.cycle.order", f"EPL: PRes from {m.src} in the asynchronous phase"))
+                out.append(
+                    error("epl.cycle.order", f"EPL: PRes from {m.src} in the asynchronous phase")
+                )
             elif self.phase == "isochronous" and m.src not in (self.polled, MN):
-                out.append(warning("epl.cycle.unpolled",
-                                   f"EPL: PRes from {m.src}, the last PReq went to {self.polled}"))
+                out.append(
+                    warning(
+                        "epl.cycle.unpolled",
+                        f"EPL: PRes from {m.src}, the last PReq went to {self.polled}",
+                    )
+                )
             self.polled = None
         elif isinstance(m, powerlink.SoA):
             self.phase, self.asnd_after_soa = "asynchronous", 0
@@ -115,7 +123,9 @@ class _CycleChecker:
             elif self.phase == "asynchronous":
                 self.asnd_after_soa += 1
                 if self.asnd_after_soa > 1:
-                    out.append(info("epl.cycle.asnd_count", "EPL: more than one ASnd after one SoA"))
+                    out.append(
+                        info("epl.cycle.asnd_count", "EPL: more than one ASnd after one SoA")
+                    )
         return out
 
 

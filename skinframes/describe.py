@@ -57,11 +57,19 @@ def frame_fields(frame: ethernet.EthernetFrame) -> dict[str, Any]:
 
 def _epl_fields(m: Any) -> dict[str, Any]:
     if isinstance(m, powerlink.RawMessage):
-        return {"message_type": m.message_type & 0x7F, "message": _name(m.message_type & 0x7F,
-                powerlink.MessageType), "dest": m.dest, "src": m.src, "data_length": len(m.data)}
-    out: dict[str, Any] = {"message_type": int(m.MESSAGE_TYPE),
-                           "message": powerlink.MessageType(m.MESSAGE_TYPE).name,
-                           "dest": m.dest, "src": m.src}
+        return {
+            "message_type": m.message_type & 0x7F,
+            "message": _name(m.message_type & 0x7F, powerlink.MessageType),
+            "dest": m.dest,
+            "src": m.src,
+            "data_length": len(m.data),
+        }
+    out: dict[str, Any] = {
+        "message_type": int(m.MESSAGE_TYPE),
+        "message": powerlink.MessageType(m.MESSAGE_TYPE).name,
+        "dest": m.dest,
+        "src": m.src,
+    }
     if isinstance(m, powerlink.PReq | powerlink.PRes):
         out["size"] = m.size
         out["pdo_version"] = m.pdo_version
@@ -96,7 +104,9 @@ def summary(frame: ethernet.EthernetFrame) -> str:
     proto = protocol_of(frame)
     if proto == "ecat":
         assert isinstance(p, ethercat.EcatFrame)
-        parts = [f"'{_name(d.cmd, ethercat.Command)}' len {d.length} wkc {d.wkc}" for d in p.datagrams]
+        parts = [
+            f"'{_name(d.cmd, ethercat.Command)}' len {d.length} wkc {d.wkc}" for d in p.datagrams
+        ]
         shown = ", ".join(parts[:4]) + (f", ... ({len(parts)} datagrams)" if len(parts) > 4 else "")
         return f"ECAT {shown}"
     if proto == "other":

@@ -63,12 +63,19 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
             raise TruncatedError(msg, offset=len(data))
         findings.append(info("eth.unpadded", msg + "; typical of a capture on the sending host"))
     if ethernet.is_group(head.src):
-        findings.append(warning("eth.src.group", f"Ethernet: source MAC {ethernet.format_mac(head.src)}"
-                                " is a group address (Wireshark warns)"))
+        findings.append(
+            warning(
+                "eth.src.group",
+                f"Ethernet: source MAC {ethernet.format_mac(head.src)}"
+                " is a group address (Wireshark warns)",
+            )
+        )
     decoder = DECODERS.get(ethertype)
     if decoder is None:
         if strict:
-            raise UnknownProtocolError(f"Ethernet: EtherType {ethertype:#06x} is not EPL or EtherCAT")
+            raise UnknownProtocolError(
+                f"Ethernet: EtherType {ethertype:#06x} is not EPL or EtherCAT"
+            )
         return ethernet.EthernetFrame(head.dst, head.src, payload, ethertype, b"", tuple(findings))
     name = PROTOCOL_NAMES[ethertype]
     try:
@@ -90,13 +97,17 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
         pad = None
     else:
         if any(fill):
-            msg = f"Ethernet: {len(padding)} padding bytes after the {name} message are not all zero"
+            msg = (
+                f"Ethernet: {len(padding)} padding bytes after the {name} message are not all zero"
+            )
             if strict:
                 raise InvalidFieldError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
             findings.append(warning("eth.padding.nonzero", msg))
         if len(fill) > auto:
-            msg = (f"Ethernet: {len(fill)} bytes follow the {used}-byte {name} message, "
-                   f"{auto} would pad to the minimum")
+            msg = (
+                f"Ethernet: {len(fill)} bytes follow the {used}-byte {name} message, "
+                f"{auto} would pad to the minimum"
+            )
             if strict:
                 raise LengthMismatchError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
             findings.append(info("eth.trailer", msg))

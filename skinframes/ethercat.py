@@ -116,7 +116,8 @@ datagram_schema = cs.Struct(
     "idx" / cs.Int8ul,
     "adp" / cs.Int16ul,  # position / station address; low half of a logical address
     "ado" / cs.Int16ul,  # register offset; high half of a logical address
-    "flags" / cs.ByteSwapped(  # one LE word: M:1 | C:1 | reserved:3 | len:11
+    "flags"
+    / cs.ByteSwapped(  # one LE word: M:1 | C:1 | reserved:3 | len:11
         cs.BitStruct(
             "more" / cs.Flag,
             "circulating" / cs.Flag,
@@ -321,8 +322,18 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[EcatFrame, int, list
             override, more = True, False
         command = Command(cmd) if cmd in _COMMANDS else cmd
         datagrams.append(
-            Datagram(command, adp, ado, buf[end - n : end], idx, irq, wkc,
-                     bool(word & _CIRCULATING), override, res)
+            Datagram(
+                command,
+                adp,
+                ado,
+                buf[end - n : end],
+                idx,
+                irq,
+                wkc,
+                bool(word & _CIRCULATING),
+                override,
+                res,
+            )
         )
     total = pos - FRAME_HEADER_BYTES
     explicit: int | None = None
@@ -341,7 +352,9 @@ _COMMANDS: Final = frozenset(int(c) for c in Command)
 
 
 # --- layout: how many datagrams fit a frame (paper eqs. 14-15) -------------------------------------
-def datagrams_per_frame(data_bytes: int, max_payload_bytes: int = ethernet.MAX_PAYLOAD_BYTES) -> int:
+def datagrams_per_frame(
+    data_bytes: int, max_payload_bytes: int = ethernet.MAX_PAYLOAD_BYTES
+) -> int:
     """Largest number of equal datagrams of ``data_bytes`` that fit one frame (paper eq. 15).
 
     max_tgram = floor((1500 - 2) / (D_data + 10 + 2)).
@@ -387,7 +400,9 @@ def returned_mac(src: bytes) -> bytes:
     return bytes((src[0] | RETURNED_MAC_BIT,)) + src[1:]
 
 
-def frame(ecat: EcatFrame, *, src: bytes = MASTER_MAC, returned: bool = False) -> ethernet.EthernetFrame:
+def frame(
+    ecat: EcatFrame, *, src: bytes = MASTER_MAC, returned: bool = False
+) -> ethernet.EthernetFrame:
     """Wrap an EtherCAT frame in Ethernet as a master sends it (broadcast destination)."""
     return ethernet.EthernetFrame(BROADCAST_MAC, returned_mac(src) if returned else src, ecat)
 
@@ -436,7 +451,11 @@ def pack_frames_batch(
     addr = np.broadcast_to(np.asarray(addresses, dtype=np.int64), (n, k))
     idx_a = np.broadcast_to(np.asarray(idx, dtype=np.int64), (n, k))
     wkc_a = np.broadcast_to(np.asarray(wkc, dtype=np.int64), (n, k))
-    for name, arr, hi in (("address", addr, 0xFFFFFFFF), ("idx", idx_a, 0xFF), ("wkc", wkc_a, 0xFFFF)):
+    for name, arr, hi in (
+        ("address", addr, 0xFFFFFFFF),
+        ("idx", idx_a, 0xFF),
+        ("wkc", wkc_a, 0xFFFF),
+    ):
         if arr.size and (arr.min() < 0 or arr.max() > hi):
             raise FieldRangeError(f"EtherCAT batch: {name} out of range", field=name)
     template = np.zeros(length, dtype=np.uint8)
@@ -461,7 +480,9 @@ def pack_frames_batch(
 
 def unpack_frames_batch(
     frames: npt.NDArray[np.uint8], k: int, size: int
-) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint32], npt.NDArray[np.uint8], npt.NDArray[np.uint16]]:
+) -> tuple[
+    npt.NDArray[np.uint8], npt.NDArray[np.uint32], npt.NDArray[np.uint8], npt.NDArray[np.uint16]
+]:
     """Parse n frames of one fixed layout (k datagrams of ``size`` bytes) at once.
 
     Every row is checked (EtherType, header length and type, each datagram's length and M bit)
@@ -472,7 +493,7 @@ def unpack_frames_batch(
         (cmds (n, k), addresses (n, k), data (n, k, size) as a read-only view, wkc (n, k)).
     """
     frames = np.asarray(frames, dtype=np.uint8)
-    body, stride, length = _layout(k, size)
+    body, stride, _ = _layout(k, size)
     if frames.ndim != 2 or frames.shape[1] < ethernet.HEADER_BYTES + body:
         raise TruncatedError("EtherCAT batch: rows shorter than the layout")
     n = frames.shape[0]
@@ -487,10 +508,11 @@ def unpack_frames_batch(
     ok &= np.all((words & ~np.uint16(_CIRCULATING)) == expect, axis=1)
     if not bool(np.all(ok)):
         bad = int(np.argmin(ok))
-        raise LengthMismatchError(f"EtherCAT batch: frame {bad} does not have the {k}x{size} layout")
+        raise LengthMismatchError(
+            f"EtherCAT batch: frame {bad} does not have the {k}x{size} layout"
+        )
     addr = np.ascontiguousarray(dg[:, :, 2:6]).view("<u4")[..., 0]
     wkc = np.ascontiguousarray(dg[:, :, 10 + size : 12 + size]).view("<u2")[..., 0]
     data = dg[:, :, 10 : 10 + size]
     data.flags.writeable = False
     return dg[:, :, 0], addr, data, wkc
-

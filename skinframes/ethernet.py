@@ -10,7 +10,7 @@ from __future__ import annotations
 import struct
 import zlib
 from dataclasses import dataclass, field
-from typing import Final, Protocol
+from typing import ClassVar, Final, Protocol
 
 import construct as cs
 
@@ -106,7 +106,7 @@ def wire_bytes(frame_bytes: int) -> int:
 class Payload(Protocol):
     """What an Ethernet frame can carry besides raw bytes: an EPL or EtherCAT message."""
 
-    ETHERTYPE: int
+    ETHERTYPE: ClassVar[int]
 
     def to_bytes(self) -> bytes:
         """The payload's bytes, without Ethernet padding."""
@@ -156,7 +156,8 @@ class EthernetFrame:
         body = self.payload_bytes
         if len(body) > MAX_PAYLOAD_BYTES:
             raise FrameTooLargeError(
-                f"Ethernet: payload of {len(body)} bytes exceeds {MAX_PAYLOAD_BYTES}", field="payload"
+                f"Ethernet: payload of {len(body)} bytes exceeds {MAX_PAYLOAD_BYTES}",
+                field="payload",
             )
         head = _HEADER.pack(self.dst, self.src, self.ethertype)
         pad = self.padding

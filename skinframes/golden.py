@@ -59,15 +59,22 @@ def epl_cycle_4cn() -> Records:
 def epl_asnd_services() -> Records:
     """Each ASnd service once, each invited by its SoA as in an asynchronous phase."""
     ident = IdentResponse(
-        nmt_status=NmtState.PRE_OPERATIONAL_2, vendor_id=0x12345678, product_code=0x0192,
-        serial_number=1, mtu=300, poll_in_size=192, poll_out_size=0,
+        nmt_status=NmtState.PRE_OPERATIONAL_2,
+        vendor_id=0x12345678,
+        product_code=0x0192,
+        serial_number=1,
+        mtu=300,
+        poll_in_size=192,
+        poll_out_size=0,
         ip_address=ipaddress.IPv4Address("192.168.100.1"),
         subnet_mask=ipaddress.IPv4Address("255.255.255.0"),
         default_gateway=ipaddress.IPv4Address("192.168.100.254"),
         host_name=b"skin-patch-1".ljust(32, b"\x00"),
     )
     read_device_type = SdoCommand(transaction_id=1, command_id=2, data=bytes.fromhex("00100000"))
-    answer = SdoCommand(transaction_id=1, command_id=2, response=True, data=(0x0191).to_bytes(4, "little"))
+    answer = SdoCommand(
+        transaction_id=1, command_id=2, response=True, data=(0x0191).to_bytes(4, "little")
+    )
     msgs: list[powerlink.EplMessage] = [
         SoA(RequestedService.IDENT_REQUEST, 1),
         ASnd(ident, src=1),
@@ -87,21 +94,31 @@ def epl_asnd_services() -> Records:
 
 def ecat_lrd_7x192() -> Records:
     """One frame of 7 LRD datagrams of 192 taxel bytes: as sent, and as returned by 7 slaves."""
-    datagrams = [Datagram.logical(Command.LRD, i * taxel.PATCH_BYTES, bytes(taxel.PATCH_BYTES), idx=i)
-                 for i in range(7)]
+    datagrams = [
+        Datagram.logical(Command.LRD, i * taxel.PATCH_BYTES, bytes(taxel.PATCH_BYTES), idx=i)
+        for i in range(7)
+    ]
     out = EcatFrame(tuple(datagrams))
-    back = EcatFrame(tuple(Datagram.logical(Command.LRD, d.lad, p, idx=d.idx, wkc=1)
-                           for d, p in zip(datagrams, _patches(7), strict=True)))
+    back = EcatFrame(
+        tuple(
+            Datagram.logical(Command.LRD, d.lad, p, idx=d.idx, wkc=1)
+            for d, p in zip(datagrams, _patches(7), strict=True)
+        )
+    )
     return _stamp([ethercat.frame(out).to_bytes(), ethercat.frame(back, returned=True).to_bytes()])
 
 
 def ecat_23_slaves() -> Records:
     """23 slaves x 192 bytes, one LRD per slave, packed into as few frames as fit (7+7+7+2)."""
     patches = _patches(23)
-    sent = [Datagram.logical(Command.LRD, i * taxel.PATCH_BYTES, bytes(taxel.PATCH_BYTES), idx=i)
-            for i in range(23)]
-    back = [Datagram.logical(Command.LRD, d.lad, p, idx=d.idx, wkc=1)
-            for d, p in zip(sent, patches, strict=True)]
+    sent = [
+        Datagram.logical(Command.LRD, i * taxel.PATCH_BYTES, bytes(taxel.PATCH_BYTES), idx=i)
+        for i in range(23)
+    ]
+    back = [
+        Datagram.logical(Command.LRD, d.lad, p, idx=d.idx, wkc=1)
+        for d, p in zip(sent, patches, strict=True)
+    ]
     frames = [ethercat.frame(f).to_bytes() for f in ethercat.pack_datagrams(sent)]
     frames += [ethercat.frame(f, returned=True).to_bytes() for f in ethercat.pack_datagrams(back)]
     return _stamp(frames)

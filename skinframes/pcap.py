@@ -192,7 +192,9 @@ def parse_capture(raw: bytes, name: str = "<bytes>") -> Capture:
         raw, damage = _gunzip(raw)
         fmt_suffix = "+gzip"
         if damage:
-            skipped.append(Skipped(-1, f"gzip stream damaged ({damage}); records after it are lost"))
+            skipped.append(
+                Skipped(-1, f"gzip stream damaged ({damage}); records after it are lost")
+            )
     if len(raw) < 4:
         raise PcapFormatError(f"{name}: {len(raw)} bytes, not a capture file")
     if raw[:4] == PCAPNG_MAGIC:
@@ -244,23 +246,38 @@ def _read_pcap(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
     index = 0
     while pos < len(raw):
         if len(raw) - pos < rec.size:
-            skipped.append(Skipped(index, f"truncated record header at byte {pos} "
-                                          f"({len(raw) - pos} of 16 bytes)"))
+            skipped.append(
+                Skipped(
+                    index, f"truncated record header at byte {pos} ({len(raw) - pos} of 16 bytes)"
+                )
+            )
             break
         sec, frac, incl, orig = rec.unpack_from(raw, pos)
         if incl > limit:
-            skipped.append(Skipped(index, f"record at byte {pos} claims {incl} bytes, more than the "
-                                          f"snap length {limit}; rest of file unreadable"))
+            skipped.append(
+                Skipped(
+                    index,
+                    f"record at byte {pos} claims {incl} bytes, more than the "
+                    f"snap length {limit}; rest of file unreadable",
+                )
+            )
             break
         if pos + rec.size + incl > len(raw):
-            skipped.append(Skipped(index, f"record at byte {pos} claims {incl} bytes, only "
-                                          f"{len(raw) - pos - rec.size} remain (truncated file)"))
+            skipped.append(
+                Skipped(
+                    index,
+                    f"record at byte {pos} claims {incl} bytes, only "
+                    f"{len(raw) - pos - rec.size} remain (truncated file)",
+                )
+            )
             break
         data = raw[pos + rec.size : pos + rec.size + incl]
-        if scale != 1 and frac >= 1_000_000 or scale == 1 and frac >= NS_PER_S:
+        if (scale != 1 and frac >= 1_000_000) or (scale == 1 and frac >= NS_PER_S):
             skipped.append(Skipped(index, f"record at byte {pos}: fraction {frac} out of range"))
         else:
-            records.append(Record(index, sec * NS_PER_S + frac * scale, data, linktype, max(orig, incl)))
+            records.append(
+                Record(index, sec * NS_PER_S + frac * scale, data, linktype, max(orig, incl))
+            )
         pos += rec.size + incl
         index += 1
     return records, skipped
@@ -280,7 +297,7 @@ def _read_pcapng(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
     skipped: list[Skipped] = []
     try:
         try:
-            reader = RawPcapNgReader(fd)
+            reader = RawPcapNgReader(fd)  # type: ignore[arg-type]  # scapy accepts a file object
         except (Scapy_Exception, struct.error, EOFError, ValueError) as exc:
             raise PcapFormatError(f"{name}: not a readable pcapng ({exc})") from exc
         iface_ids: dict[tuple[int, bytes | None], int] = {}
@@ -290,19 +307,37 @@ def _read_pcapng(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
                 data, meta = reader._read_packet()
             except EOFError:
                 if fd.tell() < len(raw):
-                    skipped.append(Skipped(index, f"damaged pcapng block at or after byte "
-                                                  f"{fd.tell()} of {len(raw)}; rest unreadable"))
+                    skipped.append(
+                        Skipped(
+                            index,
+                            f"damaged pcapng block at or after byte "
+                            f"{fd.tell()} of {len(raw)}; rest unreadable",
+                        )
+                    )
                 break
             except Exception as exc:  # scapy raises assorted types on damaged blocks
-                skipped.append(Skipped(index, f"damaged pcapng block after record {index} "
-                                              f"({type(exc).__name__}: {exc}); rest unreadable"))
+                skipped.append(
+                    Skipped(
+                        index,
+                        f"damaged pcapng block after record {index} "
+                        f"({type(exc).__name__}: {exc}); rest unreadable",
+                    )
+                )
                 break
             ts = ((meta.tshigh or 0) << 32) | (meta.tslow or 0)
             time_ns = ts * NS_PER_S // meta.tsresol if meta.tsresol else 0
             key = (meta.linktype, meta.ifname)
             iface = iface_ids.setdefault(key, len(iface_ids))
-            records.append(Record(index, time_ns, bytes(data), meta.linktype,
-                                  max(meta.wirelen or 0, len(data)), iface))
+            records.append(
+                Record(
+                    index,
+                    time_ns,
+                    bytes(data),
+                    meta.linktype,
+                    max(meta.wirelen or 0, len(data)),
+                    iface,
+                )
+            )
             index += 1
     finally:
         scapy_log.setLevel(level)

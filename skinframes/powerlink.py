@@ -14,7 +14,7 @@ from __future__ import annotations
 import ipaddress
 import struct
 from collections.abc import Callable
-from dataclasses import dataclass, field, fields
+from dataclasses import dataclass, fields
 from enum import IntEnum, IntFlag
 from typing import Any, ClassVar, Final
 
@@ -94,6 +94,7 @@ SDO_COMMAND_HEADER_BYTES: Final = 8
 SYNC_RESPONSE_BYTES: Final = 30
 MAX_PDO_PAYLOAD_BYTES: Final = 1490  # C_DLL_ISOCHR_MAX_PAYL
 EPL_VERSION_2_0: Final = 0x20
+NO_ADDRESS: Final = ipaddress.IPv4Address(0)  # IdentResponse IP fields not set
 
 
 class MessageType(IntEnum):
@@ -315,7 +316,8 @@ sdo_sequence_schema = cs.Struct(
 sdo_command_schema = cs.Struct(
     "reserved_8" / cs.Int8ul,
     "transaction_id" / cs.Int8ul,
-    "flags" / cs.BitStruct(
+    "flags"
+    / cs.BitStruct(
         "response" / cs.Flag,
         "abort" / cs.Flag,
         "segmentation" / cs.BitsInteger(2),  # 0 expedited, 1 initiate, 2 segment, 3 complete
@@ -435,8 +437,16 @@ class PRes:
     def to_bytes(self) -> bytes:
         """The EPL bytes (10 + payload), without Ethernet padding."""
         _check_pdo(self.payload)
-        return pack_pres(self.src, self.payload, self.dest, self.nmt_status, self.flags1,
-                         self.flags2, self.pdo_version, self.reserved_7)
+        return pack_pres(
+            self.src,
+            self.payload,
+            self.dest,
+            self.nmt_status,
+            self.flags1,
+            self.flags2,
+            self.pdo_version,
+            self.reserved_7,
+        )
 
 
 @dataclass(frozen=True, slots=True)
@@ -458,8 +468,12 @@ class SoA:
 
     def to_bytes(self) -> bytes:
         """The EPL bytes (10, or 40 with a SyncRequest), without Ethernet padding."""
-        if (self.requested_service == RequestedService.SYNC_REQUEST) != (self.sync_request is not None):
-            raise FieldRangeError("EPL SoA: sync_request goes with requested_service 6 and only there")
+        if (self.requested_service == RequestedService.SYNC_REQUEST) != (
+            self.sync_request is not None
+        ):
+            raise FieldRangeError(
+                "EPL SoA: sync_request goes with requested_service 6 and only there"
+            )
         with encoding("EPL SoA"):
             return bytes(soa_schema.build(dict(_as_dict(self), message_type=self.MESSAGE_TYPE)))
 
@@ -489,9 +503,9 @@ class IdentResponse:
     verify_conf_time: int = 0
     app_sw_date: int = 0
     app_sw_time: int = 0
-    ip_address: ipaddress.IPv4Address = ipaddress.IPv4Address(0)
-    subnet_mask: ipaddress.IPv4Address = ipaddress.IPv4Address(0)
-    default_gateway: ipaddress.IPv4Address = ipaddress.IPv4Address(0)
+    ip_address: ipaddress.IPv4Address = NO_ADDRESS
+    subnet_mask: ipaddress.IPv4Address = NO_ADDRESS
+    default_gateway: ipaddress.IPv4Address = NO_ADDRESS
     host_name: bytes = bytes(32)
     vendor_specific_ext2: bytes = bytes(48)
     reserved_7: int = 0
@@ -578,7 +592,10 @@ class NmtRequest:
     def to_bytes(self) -> bytes:
         """The service bytes after the 4-byte ASnd header."""
         with encoding("EPL NMTRequest"):
-            return struct.pack("<BB", self.requested_command_id, self.requested_command_target) + self.data
+            return (
+                struct.pack("<BB", self.requested_command_id, self.requested_command_target)
+                + self.data
+            )
 
     @classmethod
     def _decode(cls, body: bytes) -> tuple[NmtRequest, int]:
@@ -626,8 +643,12 @@ class SdoCommand:
         return {
             "reserved_8": self.reserved_8,
             "transaction_id": self.transaction_id,
-            "flags": {"response": self.response, "abort": self.abort,
-                      "segmentation": self.segmentation, "reserved": self.flags_reserved},
+            "flags": {
+                "response": self.response,
+                "abort": self.abort,
+                "segmentation": self.segmentation,
+                "reserved": self.flags_reserved,
+            },
             "command_id": self.command_id,
             "reserved_14": self.reserved_14,
             "data": self.data,
@@ -653,11 +674,13 @@ class Sdo:
     def to_bytes(self) -> bytes:
         """The service bytes after the 4-byte ASnd header."""
         with encoding("EPL SDO"):
-            seq = sdo_sequence_schema.build({
-                "receive": {"sequence": self.receive_sequence, "con": self.receive_con},
-                "send": {"sequence": self.send_sequence, "con": self.send_con},
-                "reserved_6": self.reserved_6,
-            })
+            seq = sdo_sequence_schema.build(
+                {
+                    "receive": {"sequence": self.receive_sequence, "con": self.receive_con},
+                    "send": {"sequence": self.send_sequence, "con": self.send_con},
+                    "reserved_6": self.reserved_6,
+                }
+            )
             if self.command is None:
                 return bytes(seq)
             return bytes(seq) + bytes(sdo_command_schema.build(self.command._build_dict()))
@@ -677,12 +700,20 @@ class Sdo:
                 )
             c = sdo_command_schema.parse(rest)
             command = SdoCommand(
-                c.transaction_id, c.command_id, bytes(c.data), c.flags.response, c.flags.abort,
-                c.flags.segmentation, c.flags.reserved, c.reserved_8, c.reserved_14,
+                c.transaction_id,
+                c.command_id,
+                bytes(c.data),
+                c.flags.response,
+                c.flags.abort,
+                c.flags.segmentation,
+                c.flags.reserved,
+                c.reserved_8,
+                c.reserved_14,
             )
             pos += SDO_COMMAND_HEADER_BYTES + seg
-        sdo = cls(s.receive.sequence, s.receive.con, s.send.sequence, s.send.con, command,
-                  s.reserved_6)
+        sdo = cls(
+            s.receive.sequence, s.receive.con, s.send.sequence, s.send.con, command, s.reserved_6
+        )
         return sdo, pos
 
 
@@ -797,9 +828,10 @@ def _reserved(name: str, value: int | bytes, strict: bool, findings: list[Findin
     findings.append(info("epl.reserved", msg))
 
 
-def _decode_pdo(
+def _pdo_kwargs(
     kind: str, schema: cs.Struct, cls: type[PReq] | type[PRes], buf: bytes
-) -> tuple[PReq | PRes, int]:
+) -> tuple[dict[str, Any], int]:
+    """PReq/PRes fields from the schema, and the bytes the message occupies (10 + Size)."""
     if len(buf) < PDO_HEADER_BYTES:
         raise TruncatedError(f"EPL {kind}: {len(buf)} bytes, header needs {PDO_HEADER_BYTES}")
     size = int.from_bytes(buf[8:10], "little")
@@ -810,9 +842,7 @@ def _decode_pdo(
             field="size",
             offset=8,
         )
-    c = schema.parse(buf)
-    kw = _kwargs(cls, c)
-    return cls(**kw), PDO_HEADER_BYTES + size
+    return _kwargs(cls, schema.parse(buf)), PDO_HEADER_BYTES + size
 
 
 def _decode_service(
@@ -893,13 +923,15 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[EplMessage, int, lis
             _reserved("reserved_3", message.reserved_3, strict, findings)
             _reserved("reserved_5", message.reserved_5, strict, findings)
         elif mtype == MessageType.PREQ:
-            message, used = _decode_pdo("PReq", preq_schema, PReq, buf)
-            _reserved("reserved_3", message.reserved_3, strict, findings)  # type: ignore[union-attr]
-            _reserved("reserved_7", message.reserved_7, strict, findings)
+            kw, used = _pdo_kwargs("PReq", preq_schema, PReq, buf)
+            message = PReq(**kw)
+            _reserved("reserved_3", kw["reserved_3"], strict, findings)
+            _reserved("reserved_7", kw["reserved_7"], strict, findings)
         elif mtype == MessageType.PRES:
-            message, used = _decode_pdo("PRes", pres_schema, PRes, buf)
-            _reserved("reserved_7", message.reserved_7, strict, findings)
-            message = PRes(**dict(_as_dict(message), nmt_status=_enum(NmtState, message.nmt_status)))  # type: ignore[arg-type]
+            kw, used = _pdo_kwargs("PRes", pres_schema, PRes, buf)
+            kw["nmt_status"] = _enum(NmtState, kw["nmt_status"])
+            message = PRes(**kw)
+            _reserved("reserved_7", kw["reserved_7"], strict, findings)
         elif mtype == MessageType.SOA:
             if len(buf) < SOA_BYTES:
                 raise TruncatedError(f"EPL SoA: {len(buf)} bytes, needs {SOA_BYTES}")
@@ -968,8 +1000,17 @@ def pack_pres(
 ) -> bytes:
     """Encode a PRes message (EPL bytes) with one ``struct`` call; same bytes as ``pres_schema``."""
     try:
-        head = _PRES_HEAD.pack(MessageType.PRES, dest, src, nmt_status, flags1, flags2,
-                               pdo_version, reserved_7, len(payload))
+        head = _PRES_HEAD.pack(
+            MessageType.PRES,
+            dest,
+            src,
+            nmt_status,
+            flags1,
+            flags2,
+            pdo_version,
+            reserved_7,
+            len(payload),
+        )
     except struct.error as exc:
         raise FieldRangeError(f"EPL PRes: {exc}") from exc
     return head + payload
@@ -1007,8 +1048,12 @@ def pack_pres_frames(
     length = max(head_len + size, ethernet.MIN_FRAME_BYTES)
     template = np.zeros(length, dtype=np.uint8)
     template[:head_len] = np.frombuffer(
-        MAC_PRES + node_mac(0) + struct.pack(">H", ethernet.ETHERTYPE_EPL)
-        + _PRES_HEAD.pack(MessageType.PRES, BROADCAST_NODE_ID, 0, nmt_status, flags1, 0, 0, 0, size),
+        MAC_PRES
+        + node_mac(0)
+        + struct.pack(">H", ethernet.ETHERTYPE_EPL)
+        + _PRES_HEAD.pack(
+            MessageType.PRES, BROADCAST_NODE_ID, 0, nmt_status, flags1, 0, 0, 0, size
+        ),
         dtype=np.uint8,
     )
     out = np.empty((n, length), dtype=np.uint8)
@@ -1019,7 +1064,9 @@ def pack_pres_frames(
     return out
 
 
-def unpack_pres_frames(frames: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]:
+def unpack_pres_frames(
+    frames: npt.NDArray[np.uint8],
+) -> tuple[npt.NDArray[np.uint8], npt.NDArray[np.uint8]]:
     """Decode n equal-length PRes frames at once (batch fast path).
 
     Args:
@@ -1037,7 +1084,9 @@ def unpack_pres_frames(frames: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.ui
     ethertype_ok = (frames[:, 12] == 0x88) & (frames[:, 13] == 0xAB)
     mtype_ok = (frames[:, 14] & 0x7F) == MessageType.PRES
     if not bool(np.all(ethertype_ok & mtype_ok)):
-        raise InvalidFieldError("EPL PRes batch: a row is not an EPL PRes frame", field="message_type")
+        raise InvalidFieldError(
+            "EPL PRes batch: a row is not an EPL PRes frame", field="message_type"
+        )
     sizes = frames[:, 22].astype(np.int64) | (frames[:, 23].astype(np.int64) << 8)
     size = int(sizes[0]) if len(sizes) else 0
     if not bool(np.all(sizes == size)):
@@ -1045,4 +1094,3 @@ def unpack_pres_frames(frames: npt.NDArray[np.uint8]) -> tuple[npt.NDArray[np.ui
     if ethernet.HEADER_BYTES + PDO_HEADER_BYTES + size > frames.shape[1]:
         raise TruncatedError(f"EPL PRes batch: Size {size} runs past the frame", field="size")
     return frames[:, 16], frames[:, 24 : 24 + size]
-

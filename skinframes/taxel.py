@@ -28,9 +28,9 @@ __all__ = [
     "BodyLayout",
     "Region",
     "contact_pattern",
+    "pack_patches",
     "patch_from_bytes",
     "patch_to_bytes",
-    "pack_patches",
 ]
 
 TRIANGLES_PER_PATCH: Final = 16  # 4 I2C buses x 4 triangles (paper II-A)
@@ -68,7 +68,9 @@ def pack_patches(patches: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
     """(n, T, 12) taxels -> (n, 12*T) payload rows, one per patch, in patch order."""
     arr = np.asarray(patches)
     if arr.dtype != np.uint8 or arr.ndim != 3 or arr.shape[2] != TAXELS_PER_TRIANGLE:
-        raise FieldRangeError(f"patches: dtype {arr.dtype}, shape {arr.shape}; need uint8 (n, T, 12)")
+        raise FieldRangeError(
+            f"patches: dtype {arr.dtype}, shape {arr.shape}; need uint8 (n, T, 12)"
+        )
     return arr.reshape(arr.shape[0], -1)
 
 
@@ -138,14 +140,19 @@ def contact_pattern(
     The same arguments give the same bytes on every machine.
     """
     if patches < 1 or samples < 1 or not 1 <= triangles <= TRIANGLES_PER_PATCH:
-        raise FieldRangeError("contact_pattern: need patches >= 1, samples >= 1, 1 <= triangles <= 16")
+        raise FieldRangeError(
+            "contact_pattern: need patches >= 1, samples >= 1, 1 <= triangles <= 16"
+        )
     if not 0 <= no_load <= 0xFF:
         raise FieldRangeError("contact_pattern: no_load must be 0..255")
     rng = np.random.default_rng(seed)
     shape = (samples, patches, triangles, TAXELS_PER_TRIANGLE)
     noise = rng.integers(-2, 3, size=shape)
     # a taxel's position: patch-major index along the skin, unfolded to a line
-    pos = np.arange(patches * triangles * TAXELS_PER_TRIANGLE).reshape(shape[1:]) / TAXELS_PER_TRIANGLE
+    pos = (
+        np.arange(patches * triangles * TAXELS_PER_TRIANGLE).reshape(shape[1:])
+        / TAXELS_PER_TRIANGLE
+    )
     centres = rng.uniform(0, patches * triangles, size=(samples, contacts))
     drift = np.linspace(0, 3.0, samples)[:, None]
     depth = rng.uniform(80, no_load, size=(samples, contacts))
@@ -153,6 +160,8 @@ def contact_pattern(
     press = np.zeros(shape)
     for c in range(contacts):
         d = pos[None] - (centres[:, c] + drift[:, 0])[:, None, None, None]
-        press += depth[:, c, None, None, None] * np.exp(-0.5 * (d / width[:, c, None, None, None]) ** 2)
+        press += depth[:, c, None, None, None] * np.exp(
+            -0.5 * (d / width[:, c, None, None, None]) ** 2
+        )
     values = np.clip(no_load + noise - press, 0, 255)
     return values.astype(np.uint8)

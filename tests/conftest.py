@@ -15,16 +15,21 @@ PCAPS = ROOT / "pcaps"
 SHARED_CAPTURES = ROOT.parent / "shared" / "captures"
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
-settings.register_profile("ci", max_examples=400, deadline=None,
-                          suppress_health_check=[HealthCheck.too_slow])
-settings.register_profile("dev", max_examples=100, deadline=None,
-                          suppress_health_check=[HealthCheck.too_slow])
+settings.register_profile(
+    "ci", max_examples=400, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
+settings.register_profile(
+    "dev", max_examples=100, deadline=None, suppress_health_check=[HealthCheck.too_slow]
+)
 settings.load_profile("ci" if IN_CI else "dev")
 
 
 def pytest_addoption(parser: pytest.Parser) -> None:
-    parser.addoption("--update-golden", action="store_true",
-                     help="rewrite the golden files in pcaps/ instead of comparing")
+    parser.addoption(
+        "--update-golden",
+        action="store_true",
+        help="rewrite the golden files in pcaps/ instead of comparing",
+    )
 
 
 @pytest.fixture
@@ -37,8 +42,10 @@ def tshark() -> str:
     """Path of tshark; skips loudly without it, fails under CI=true."""
     path = shutil.which("tshark")
     if path is None:
-        reason = ("tshark (Wireshark) is not installed: the Wireshark conformance tests cannot run. "
-                  "Install Debian's 'tshark' package (make test does so when run as root).")
+        reason = (
+            "tshark (Wireshark) is not installed: the Wireshark conformance tests cannot run. "
+            "Install Debian's 'tshark' package (make test does so when run as root)."
+        )
         if IN_CI:
             pytest.fail("CI=true: " + reason)
         pytest.skip(reason)
@@ -77,8 +84,10 @@ def golden_file(update_golden: bool) -> Callable[[str, bytes], None]:
         want = path.read_bytes()
         if want != data:
             at = first_difference(want, data)
-            pytest.fail(f"{name}: differs from the golden file at byte {at} "
-                        f"(golden {len(want)} bytes, rebuilt {len(data)}); "
-                        "if intended, run pytest --update-golden and review the git diff")
+            pytest.fail(
+                f"{name}: differs from the golden file at byte {at} "
+                f"(golden {len(want)} bytes, rebuilt {len(data)}); "
+                "if intended, run pytest --update-golden and review the git diff"
+            )
 
     return check

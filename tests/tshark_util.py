@@ -7,20 +7,37 @@ from pathlib import Path
 
 
 def run(tshark: str, path: Path | str, *args: str) -> str:
-    result = subprocess.run([tshark, "-n", "-r", str(path), *args], capture_output=True,
-                            text=True, timeout=300, check=False)
+    result = subprocess.run(
+        [tshark, "-n", "-r", str(path), *args],
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
     assert result.returncode == 0, f"tshark {args} failed: {result.stderr}"
     return result.stdout
 
 
 def problems(tshark: str, path: Path | str) -> list[str]:
     """Frames tshark calls malformed or flags with an expert item of warning or worse."""
-    out = run(tshark, path, "-Y", "_ws.malformed || _ws.expert.severity >= warning",
-              "-T", "fields", "-e", "frame.number", "-e", "_ws.expert.message")
+    out = run(
+        tshark,
+        path,
+        "-Y",
+        "_ws.malformed || _ws.expert.severity >= warning",
+        "-T",
+        "fields",
+        "-e",
+        "frame.number",
+        "-e",
+        "_ws.expert.message",
+    )
     return [line for line in out.splitlines() if line.strip()]
 
 
-def fields(tshark: str, path: Path | str, names: list[str], display_filter: str = "") -> list[dict[str, list[str]]]:
+def fields(
+    tshark: str, path: Path | str, names: list[str], display_filter: str = ""
+) -> list[dict[str, list[str]]]:
     """One dict per frame: field -> all its occurrences (tshark -E occurrence=a)."""
     args = ["-T", "fields", "-E", "occurrence=a", "-E", "separator=\t", "-E", "aggregator=,"]
     if display_filter:
@@ -37,8 +54,9 @@ def fields(tshark: str, path: Path | str, names: list[str], display_filter: str 
 
 def values(tshark: str, field: str) -> dict[int, str]:
     """``tshark -G values`` for one field: value -> name."""
-    out = subprocess.run([tshark, "-G", "values"], capture_output=True, text=True, timeout=120,
-                         check=True).stdout
+    out = subprocess.run(
+        [tshark, "-G", "values"], capture_output=True, text=True, timeout=120, check=True
+    ).stdout
     table = {}
     for line in out.splitlines():
         parts = line.split("\t")

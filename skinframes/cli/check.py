@@ -15,14 +15,20 @@ from skinframes.pcap import read_capture
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
-        "check", help="conformance findings for a capture (exit 1 on any error)",
+        "check",
+        help="conformance findings for a capture (exit 1 on any error)",
         description="Check every frame of a capture against the EPL and EtherCAT frame rules: "
         "size and length fields, the datagram chain, padding, node ids and the EPL cycle order. "
-        "Exit status 1 when any finding is an error.")
+        "Exit status 1 when any finding is an error.",
+    )
     p.add_argument("path", help="capture file (pcap, pcapng, gzip)")
     p.add_argument("--json", action="store_true", help="one JSON document")
-    p.add_argument("--min-severity", choices=["info", "warning", "error"], default="info",
-                   help="hide findings below this severity in the listing (default: info)")
+    p.add_argument(
+        "--min-severity",
+        choices=["info", "warning", "error"],
+        default="info",
+        help="hide findings below this severity in the listing (default: info)",
+    )
     p.set_defaults(run=run)
 
 
@@ -43,9 +49,14 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(doc, indent=2))
     else:
         for f in shown:
-            print(f"record {f.index:>6}  {f.finding.severity!s:<7} {f.finding.code:<22} "
-                  f"{f.finding.message}")
+            print(
+                f"record {f.index:>6}  {f.finding.severity!s:<7} {f.finding.code:<22} "
+                f"{f.finding.message}"
+            )
         counts = ", ".join(f"{k} {v}" for k, v in sorted(report.counts.items()))
-        print(f"{report.path}: {report.total} records ({counts}): "
-              f"{report.errors} errors, {report.warnings} warnings", file=sys.stderr)
+        print(
+            f"{report.path}: {report.total} records ({counts}): "
+            f"{report.errors} errors, {report.warnings} warnings",
+            file=sys.stderr,
+        )
     return 1 if report.errors else 0

@@ -15,9 +15,12 @@ from skinframes.pcap import LINKTYPE_ETHERNET, read_capture
 
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
-    p = sub.add_parser("decode", help="decode every frame of a pcap/pcapng (gzip too)",
-                       description="Decode every frame of a pcap or pcapng file (gzip too). "
-                       "Skipped records are reported on stderr with their reason.")
+    p = sub.add_parser(
+        "decode",
+        help="decode every frame of a pcap/pcapng (gzip too)",
+        description="Decode every frame of a pcap or pcapng file (gzip too). "
+        "Skipped records are reported on stderr with their reason.",
+    )
     p.add_argument("path", help="capture file")
     p.add_argument("--json", action="store_true", help="JSON Lines: one object per frame")
     p.set_defaults(run=run)
@@ -36,8 +39,10 @@ def run(args: argparse.Namespace) -> int:
             try:
                 frame = decode_frame(rec.data)
             except DecodeError as exc:
-                obj.update(protocol="other", findings=[{"severity": "error", "code": "eth.truncated",
-                                                        "message": str(exc)}])
+                obj.update(
+                    protocol="other",
+                    findings=[{"severity": "error", "code": "eth.truncated", "message": str(exc)}],
+                )
                 text = str(exc)
             else:
                 obj["protocol"] = protocol_of(frame)
@@ -50,6 +55,9 @@ def run(args: argparse.Namespace) -> int:
             out.write(f"{rec.index:>6} {rec.time_ns / 1e9:>18.9f} {len(rec.data):>5}  {text}\n")
     for s in capture.skipped:
         print(f"skinframes: skipped record {s.index}: {s.reason}", file=sys.stderr)
-    print(f"skinframes: {capture.total} records: {len(capture.records)} decoded, "
-          f"{len(capture.skipped)} skipped", file=sys.stderr)
+    print(
+        f"skinframes: {capture.total} records: {len(capture.records)} decoded, "
+        f"{len(capture.skipped)} skipped",
+        file=sys.stderr,
+    )
     return 0

@@ -29,6 +29,7 @@ def _if(cls: type | tuple[type, ...], attr: str) -> Extract:
     def get(frame: EthernetFrame) -> list[int]:
         m = _epl(frame)
         return [int(getattr(m, attr))] if isinstance(m, cls) else []
+
     return get
 
 
@@ -50,10 +51,14 @@ EPL_FIELDS: dict[str, Extract] = {
 }
 
 ECAT_FIELDS: dict[str, Extract] = {
-    "ecatf.length": lambda f: ([p.datagram_bytes if p.length is None else p.length]
-                               if isinstance(p := f.payload, ethercat.EcatFrame) else []),
-    "ecatf.type": lambda f: ([int(p.frame_type)]
-                             if isinstance(p := f.payload, ethercat.EcatFrame) else []),
+    "ecatf.length": lambda f: (
+        [p.datagram_bytes if p.length is None else p.length]
+        if isinstance(p := f.payload, ethercat.EcatFrame)
+        else []
+    ),
+    "ecatf.type": lambda f: (
+        [int(p.frame_type)] if isinstance(p := f.payload, ethercat.EcatFrame) else []
+    ),
     "ecat.cmd": lambda f: [int(d.cmd) for d in _dgs(f)],
     "ecat.idx": lambda f: [d.idx for d in _dgs(f)],
     "ecat.adp": lambda f: [d.adp for d in _dgs(f) if _physical(d)],

@@ -5,8 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-
 import tshark_util
+
 from conformance.fields import ALL_FIELDS
 from skinframes import decode_frame, ethercat, golden, powerlink, read_capture
 from skinframes.pcap import write_pcap
@@ -27,7 +27,9 @@ def assert_fields_agree(tshark: str, path: Path) -> int:
         frame = decode_frame(rec.data)
         for name, extract in ALL_FIELDS.items():
             theirs = [int(v, 0) for v in row[name]]
-            assert extract(frame) == theirs, f"record {rec.index}: {name} ours {extract(frame)} tshark {theirs}"
+            assert extract(frame) == theirs, (
+                f"record {rec.index}: {name} ours {extract(frame)} tshark {theirs}"
+            )
     return len(rows)
 
 
@@ -41,10 +43,16 @@ def test_golden_pcap_is_clean_and_agrees(tshark: str, name: str) -> None:
     assert assert_fields_agree(tshark, path) > 0
 
 
-@pytest.mark.parametrize("name", [
-    "epl-viz_EPL_Example.cap", "epl-viz_1CN.pcapng", "epl-viz_MultiWriteRead_example.pcapng",
-    "ethercrab_replay-ek1100-el2828-el2889.pcapng", "ethercrab_soem-sdinfo-ek1100-el1004.pcapng",
-])
+@pytest.mark.parametrize(
+    "name",
+    [
+        "epl-viz_EPL_Example.cap",
+        "epl-viz_1CN.pcapng",
+        "epl-viz_MultiWriteRead_example.pcapng",
+        "ethercrab_replay-ek1100-el2828-el2889.pcapng",
+        "ethercrab_soem-sdinfo-ek1100-el1004.pcapng",
+    ],
+)
 def test_real_capture_fields_agree(tshark: str, shared_captures: Path, name: str) -> None:
     assert assert_fields_agree(tshark, shared_captures / name) > 0
 
@@ -57,12 +65,16 @@ def test_enums_equal_tshark_values(tshark: str) -> None:
 
 def test_frames_of_every_size_are_clean(tshark: str, tmp_path: Path) -> None:
     """PRes of 0..1490 bytes and EtherCAT frames of 1..max datagrams, all at once."""
-    records = [powerlink.frame(powerlink.PRes(7, (bytes(range(256)) * 6)[:size])).to_bytes()
-               for size in (0, 1, 35, 36, 37, 192, 1000, powerlink.MAX_PDO_PAYLOAD_BYTES)]
+    records = [
+        powerlink.frame(powerlink.PRes(7, (bytes(range(256)) * 6)[:size])).to_bytes()
+        for size in (0, 1, 35, 36, 37, 192, 1000, powerlink.MAX_PDO_PAYLOAD_BYTES)
+    ]
     for size in (1, 2, 192, 700):
         k = ethercat.datagrams_per_frame(size)
-        dgs = [ethercat.Datagram.logical(ethercat.Command.LRD, i * size, bytes(size), wkc=1)
-               for i in range(k)]
+        dgs = [
+            ethercat.Datagram.logical(ethercat.Command.LRD, i * size, bytes(size), wkc=1)
+            for i in range(k)
+        ]
         records.append(ethercat.frame(ethercat.EcatFrame(tuple(dgs))).to_bytes())
     path = tmp_path / "sizes.pcap"
     write_pcap(path, [(i * 1000, r) for i, r in enumerate(records)])

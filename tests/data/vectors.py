@@ -3,21 +3,21 @@ accepts each without a malformed frame or expert item). Independent expected byt
 
 VECTORS: dict[int, tuple[str, bytes]] = {
     1: (
-        '240->255 SoC',
+        "240->255 SoC",
         bytes.fromhex(
             "01111e000001020000000af088ab01fff000000000f1536515cd5b07e8030000"
             "00000000000000000000000000000000000000000000000000000000"
         ),
     ),
     2: (
-        '240->  1  PReq [   8]  F:RD=1,EA=0  V:0.0',
+        "240->  1  PReq [   8]  F:RD=1,EA=0  V:0.0",
         bytes.fromhex(
             "020000000a01020000000af088ab0301f0000100000008000001020304050607"
             "00000000000000000000000000000000000000000000000000000000"
         ),
     ),
     3: (
-        '1->255  PRes [ 192]  F:RD=1,EN=0,RS=0,PR=0  V=0.0  NMT_CS_OPERATIONAL',
+        "1->255  PRes [ 192]  F:RD=1,EN=0,RS=0,PR=0  V=0.0  NMT_CS_OPERATIONAL",
         bytes.fromhex(
             "01111e000002020000000a0188ab04ff01fd01000000c0000001020304050607"
             "08090a0b0c0d0e0f101112131415161718191a1b1c1d1e1f2021222324252627"
@@ -29,14 +29,14 @@ VECTORS: dict[int, tuple[str, bytes]] = {
         ),
     ),
     4: (
-        '240->255  SoA  (IDENT_REQUEST)->  1  F:EA=0,ER=0    NMT_MS_OPERATIONAL',
+        "240->255  SoA  (IDENT_REQUEST)->  1  F:EA=0,ER=0    NMT_MS_OPERATIONAL",
         bytes.fromhex(
             "01111e000003020000000af088ab05fff0fd0000010120000000000000000000"
             "00000000000000000000000000000000000000000000000000000000"
         ),
     ),
     5: (
-        '1->255  ASnd (IDENT_RESPONSE)   F:EC=0,EN=0,RS=0,PR=0  Generic I/O module',
+        "1->255  ASnd (IDENT_RESPONSE)   F:EC=0,EN=0,RS=0,PR=0  Generic I/O module",
         bytes.fromhex(
             "01111e000004020000000a0188ab06ff01010000fd002000450000002c01c000"
             "c000a86100000000910100006c00000134120000010000002a00000000000000"
@@ -47,21 +47,21 @@ VECTORS: dict[int, tuple[str, bytes]] = {
         ),
     ),
     6: (
-        '1->255  ASnd (STATUS_RESPONSE)   F:EC=0,EN=0,RS=0,PR=0  NMT_CS_OPERATIONAL',
+        "1->255  ASnd (STATUS_RESPONSE)   F:EC=0,EN=0,RS=0,PR=0  NMT_CS_OPERATIONAL",
         bytes.fromhex(
             "01111e000004020000000a0188ab06ff01020000fd0000000000000000000000"
             "00000000000000000000000000000000000000000000000000000000"
         ),
     ),
     7: (
-        '240->  1  ASnd (NMT_COMMAND) NMTStartNode',
+        "240->  1  ASnd (NMT_COMMAND) NMTStartNode",
         bytes.fromhex(
             "01111e000004020000000af088ab0601f0042100000000000000000000000000"
             "00000000000000000000000000000000000000000000000000000000"
         ),
     ),
     8: (
-        '240->  1  ASnd (SDO) Seq:00c,01c(Valid) Cmd:EX,TID=01 ReadByIndex[4]: (0x1000/0) (NMT_DeviceType_U32/NMT_DeviceType_U32)',
+        "240->  1  ASnd (SDO) Seq:00c,01c(Valid) Cmd:EX,TID=01 ReadByIndex[4]: (0x1000/0) (NMT_DeviceType_U32/NMT_DeviceType_U32)",
         bytes.fromhex(
             "01111e000004020000000af088ab0601f0050206000000010002040000000010"
             "00000000000000000000000000000000000000000000000000000000"

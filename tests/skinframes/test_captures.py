@@ -6,8 +6,8 @@ from collections import Counter
 from pathlib import Path
 
 import pytest
-
 import tshark_util
+
 from skinframes import decode_frame, protocol_of, read_capture
 from skinframes.pcap import LINKTYPE_ETHERNET
 

@@ -14,7 +14,9 @@ PCAPS = Path(__file__).resolve().parents[2] / "pcaps"
 
 
 @pytest.mark.parametrize("name", sorted(golden.SCENARIOS))
-def test_golden_rebuilds_byte_for_byte(name: str, golden_file: Callable[[str, bytes], None]) -> None:
+def test_golden_rebuilds_byte_for_byte(
+    name: str, golden_file: Callable[[str, bytes], None]
+) -> None:
     golden_file(f"{name}.pcap", pcap_bytes(golden.build(name)))
 
 
@@ -28,6 +30,7 @@ def test_golden_decodes_strictly(name: str) -> None:
 
 def test_golden_layouts() -> None:
     """What the issue asks each file to hold, counted from the bytes."""
+
     def frames(name: str) -> list:
         return [decode_frame(r.data).payload for r in read_capture(PCAPS / f"{name}.pcap")]
 
@@ -36,8 +39,13 @@ def test_golden_layouts() -> None:
     assert [m.size for m in epl if type(m).__name__ == "PRes"] == [192] * 4
     asnd = [m.service_id for m in frames("epl_asnd_services") if type(m).__name__ == "ASnd"]
     assert sorted(set(asnd)) == [1, 2, 3, 4, 5]
-    (out, back) = frames("ecat_lrd_7x192")
+    (_, back) = frames("ecat_lrd_7x192")
     assert [(int(d.cmd), d.length, d.wkc) for d in back.datagrams] == [(0x0A, 192, 1)] * 7
-    assert [len(f.datagrams) for f in frames("ecat_23_slaves")] == [7, 7, 7, 2] * 2  # 1498 // 204 = 7
+    assert [len(f.datagrams) for f in frames("ecat_23_slaves")] == [
+        7,
+        7,
+        7,
+        2,
+    ] * 2  # 1498 // 204 = 7
     cmds = [int(f.datagrams[0].cmd) for f in frames("ecat_all_commands")]
     assert cmds == list(range(15))
