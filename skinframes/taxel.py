@@ -31,6 +31,7 @@ __all__ = [
     "pack_patches",
     "patch_from_bytes",
     "patch_to_bytes",
+    "sample_payloads",
 ]
 
 TRIANGLES_PER_PATCH: Final = 16  # 4 I2C buses x 4 triangles (paper II-A)
@@ -165,3 +166,21 @@ def contact_pattern(
         )
     values = np.clip(no_load + noise - press, 0, 255)
     return values.astype(np.uint8)
+
+
+def sample_payloads(
+    patches: int, samples: int, data_bytes: int, *, seed: int = 0
+) -> npt.NDArray[np.uint8]:
+    """(samples, patches, data_bytes) payload bytes: seeded contact patterns, one row per patch.
+
+    ``data_bytes`` up to 192 takes the first bytes of the patch (a partial patch: whole
+    triangles first); more than 192 repeats the patch's bytes (for payload sweeps beyond one
+    patch).
+    """
+    if data_bytes < 0:
+        raise FieldRangeError(f"payload of {data_bytes} bytes")
+    flat = contact_pattern(patches, samples, seed=seed).reshape(samples, patches, PATCH_BYTES)
+    if data_bytes <= PATCH_BYTES:
+        return np.ascontiguousarray(flat[:, :, :data_bytes])
+    reps = -(-data_bytes // PATCH_BYTES)
+    return np.ascontiguousarray(np.tile(flat, (1, 1, reps))[:, :, :data_bytes])

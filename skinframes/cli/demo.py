@@ -6,35 +6,81 @@ import argparse
 from pathlib import Path
 from typing import Any
 
-from skinframes import golden
+from skinframes import golden, taxel
 from skinframes.check import check_capture
 from skinframes.pcap import read_capture, write_pcap
+
+NODES = taxel.BODY_PATCHES  # 160 patches
+BYTES = taxel.PATCH_BYTES  # 192 bytes each
+LOOPS_MS = (1, 5)
+RUNS = (
+    ("epl", "EPL, MN + CNs via hubs"),
+    ("ecat", "EtherCAT open ring"),
+    ("ecat_redundant", "EtherCAT closed ring"),
+)
 
 
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
         "demo",
-        help="the main job: write pcaps for a 160-patch skin and report",
-        description="Write the reference captures under DIR and check them.",
+        help="the main job: a 160-patch skin over EPL and EtherCAT",
+        description="Emulate a 160-patch skin (192 bytes each) over EPL, EtherCAT "
+        "open ring and closed ring with both timing presets; write the pcaps, a "
+        "plot and the reference captures under DIR; print the cycle times.",
     )
     p.add_argument("--out", default="out", help="output directory (default: ./out)")
+    p.add_argument("--no-plot", action="store_true", help="skip the figure (faster)")
     p.set_defaults(run=run)
 
 
+def _status(path: Path) -> str:
+    report = check_capture(read_capture(path))
+    if report.errors or report.warnings:
+        return f"check: {report.errors} errors, {report.warnings} warnings"
+    return "check: clean"
+
+
 def run(args: argparse.Namespace) -> int:
-    """Write every golden scenario and decode it back."""
+    """Emulate, write and report."""
+    from emulator.model import simulate
+    from emulator.params import PRESETS
+    from skinframes.cli.plot import make_plot
+
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
-    print(f"Reference frames ({out}/):")
-    for name in golden.SCENARIOS:
-        path = out / f"{name}.pcap"
-        n = write_pcap(path, golden.build(name))
-        report = check_capture(read_capture(path))
-        status = (
-            "ok"
-            if not report.errors and not report.warnings
-            else (f"{report.errors} errors, {report.warnings} warnings")
-        )
-        print(f"  {path}  {n:>3} frames  check: {status}")
+    print(f"A {NODES}-patch skin, {BYTES} taxel bytes per patch, measured at the master's port\n")
+    print(
+        f"{'network':<24}"
+        + "".join(f"{name + ' preset':>16}" for name in PRESETS)
+        + "".join(f"{f'fits {ms} ms':>11}" for ms in LOOPS_MS)
+    )
+    files = []
+    for table, name in RUNS:
+        cycle = {}
+        for pname, params in PRESETS.items():
+            r = simulate(table, NODES, BYTES, params, cycles=3, seed=1)
+            r.trace.check_no_overlap()
+            path = out / f"{table}_{NODES}x{BYTES}_{pname}.pcap"
+            r.trace.write_pcap(path)
+            files.append((path, f"{name}, {pname} preset, {r.cycles} cycles, {r.frames} frames"))
+            cycle[pname] = r.cycle_us()["median"]
+        worst = max(cycle.values())
+        fits = "".join(f"{'yes' if worst <= ms * 1000 else 'no':>11}" for ms in LOOPS_MS)
+        print(f"{name:<24}" + "".join(f"{cycle[p]:>13.2f} us" for p in PRESETS) + fits)
+    print(
+        "\n('fits' uses the slower preset: a reactive loop of that period can read every taxel"
+        " once per cycle)"
+    )
+    for scenario in golden.SCENARIOS:
+        path = out / f"{scenario}.pcap"
+        write_pcap(path, golden.build(scenario))
+        files.append((path, "reference frames (same bytes as pcaps/)"))
+    if not args.no_plot:
+        plot = make_plot(out / "cycle_time.png", "paper")
+        files.append((plot, "cycle time vs nodes, analytic and emulated, paper preset"))
+    print("\nFiles:")
+    for path, what in files:
+        status = _status(path) if path.suffix == ".pcap" else ""
+        print(f"  {path!s:<46} {what}  {status}")
     return 0

@@ -1,0 +1,84 @@
+"""One entry point for a cycle time: analytic (the paper's formulas) or emulated (real frames)."""
+
+from __future__ import annotations
+
+from typing import Final
+
+from emulator import analytic
+from emulator.ecat_cycle import MAX_SLAVES, simulate_ecat
+from emulator.epl_cycle import simulate_epl
+from emulator.errors import TopologyError
+from emulator.params import TimingParams
+from emulator.result import SimResult
+from skinframes import ethercat, powerlink
+
+__all__ = ["MODELS", "TABLES", "cycle_us", "simulate", "validate"]
+
+TABLES: Final = ("epl", "ecat", "ecat_redundant")  # paper Tables I, II, III
+MODELS: Final = ("analytic", "emulated")
+
+
+def simulate(
+    table: str,
+    nodes: int,
+    data_bytes: int,
+    params: TimingParams,
+    *,
+    layout: str = "per-slave",
+    cycles: int = 2,
+    seed: int = 0,
+) -> SimResult:
+    """Emulate one configuration named as the paper's tables name them."""
+    if table == "epl":
+        return simulate_epl(nodes, data_bytes, params, cycles=cycles, seed=seed)
+    if table in ("ecat", "ecat_redundant"):
+        return simulate_ecat(
+            nodes,
+            data_bytes,
+            params,
+            redundant=table == "ecat_redundant",
+            layout=layout,
+            cycles=cycles,
+            seed=seed,
+        )
+    raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
+
+
+def validate(table: str, nodes: int, data_bytes: int) -> None:
+    """Raise TopologyError unless the network can exist (the emulators check the same)."""
+    if table == "epl":
+        if not 1 <= nodes <= powerlink.MAX_CN_NODE_ID:
+            raise TopologyError(f"EPL: {nodes} CNs (1..{powerlink.MAX_CN_NODE_ID})")
+        if not 0 <= data_bytes <= powerlink.MAX_PDO_PAYLOAD_BYTES:
+            raise TopologyError(
+                f"EPL: {data_bytes} payload bytes (0..{powerlink.MAX_PDO_PAYLOAD_BYTES})"
+            )
+    elif table in ("ecat", "ecat_redundant"):
+        if not 1 <= nodes <= MAX_SLAVES:
+            raise TopologyError(f"EtherCAT: {nodes} slaves (1..{MAX_SLAVES})")
+        if not 1 <= data_bytes <= ethercat.MAX_DATAGRAM_DATA_BYTES:
+            raise TopologyError(
+                f"EtherCAT: {data_bytes} bytes per slave (1..{ethercat.MAX_DATAGRAM_DATA_BYTES})"
+            )
+    else:
+        raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
+
+
+def cycle_us(
+    table: str, nodes: int, data_bytes: int, params: TimingParams, model: str = "analytic"
+) -> float:
+    """Cycle time in us of ``table`` ("epl", "ecat", "ecat_redundant") by ``model``."""
+    validate(table, nodes, data_bytes)
+    if model == "analytic":
+        if table == "epl":
+            return float(analytic.epl_cycle_us(nodes, data_bytes, params))
+        if table in ("ecat", "ecat_redundant"):
+            return float(
+                analytic.ecat_cycle_us(
+                    nodes, data_bytes, params, redundant=table == "ecat_redundant"
+                )
+            )
+        raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
+    if model == "emulated":
+        return simulate(table, nodes, data_bytes, params, cycles=1).cycle_us()["median"]
+    raise TopologyError(f"unknown model {model!r}; choose from {list(MODELS)}")

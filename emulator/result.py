@@ -1,0 +1,92 @@
+"""The outcome of an emulation run, and its JSON form (INTERFACE.md, ``simulate --json``)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any
+
+import numpy as np
+
+from emulator.trace import CycleTrace
+from emulator.units import PS_PER_NS, PS_PER_US
+
+__all__ = ["CycleDetail", "SimResult"]
+
+
+@dataclass(frozen=True, slots=True)
+class CycleDetail:
+    """One cycle as measured at the master's port.
+
+    For EtherCAT ``wkc`` is the sum of the returned working counters; for EPL it is the number
+    of PRes the MN received (the EPL analogue), with ``expected_wkc`` the number of CNs polled.
+    """
+
+    cycle: int
+    start_ps: int
+    cycle_ps: int
+    wkc: int
+    expected_wkc: int
+
+    def to_json(self) -> dict[str, Any]:
+        """The INTERFACE.md ``cycles_detail`` entry."""
+        return {
+            "cycle": self.cycle,
+            "start_ns": self.start_ps // PS_PER_NS,
+            "cycle_us": self.cycle_ps / PS_PER_US,
+            "wkc": self.wkc,
+            "expected_wkc": self.expected_wkc,
+        }
+
+
+@dataclass
+class SimResult:
+    """Everything ``simulate`` reports."""
+
+    protocol: str
+    topology: str
+    nodes: int
+    bytes: int
+    preset: str
+    layout: str
+    details: list[CycleDetail]
+    trace: CycleTrace
+    pcap: str | None = None
+    recovery_us: float | None = None
+    diagnosis: list[str] = field(default_factory=list)
+
+    @property
+    def cycles(self) -> int:
+        """Number of cycles emulated."""
+        return len(self.details)
+
+    @property
+    def frames(self) -> int:
+        """Frames at the master's port, both directions."""
+        return self.trace.frames
+
+    def cycle_us(self) -> dict[str, float]:
+        """min / median / max cycle time in us, measured from the frames' timestamps."""
+        values = np.array([d.cycle_ps for d in self.details], dtype=np.float64) / PS_PER_US
+        return {
+            "min": float(values.min()),
+            "median": float(np.median(values)),
+            "max": float(values.max()),
+        }
+
+    def to_json(self) -> dict[str, Any]:
+        """The INTERFACE.md ``simulate --json`` document."""
+        return {
+            "protocol": self.protocol,
+            "topology": self.topology,
+            "nodes": self.nodes,
+            "bytes": self.bytes,
+            "preset": self.preset,
+            "layout": self.layout,
+            "cycles": self.cycles,
+            "frames": self.frames,
+            "cycle_us": self.cycle_us(),
+            "cycles_detail": [d.to_json() for d in self.details],
+            "recovery_us": self.recovery_us,
+            "diagnosis": list(self.diagnosis),
+            "pcap": self.pcap,
+        }

@@ -1,0 +1,26 @@
+"""Option parsers shared by several subcommands."""
+
+from __future__ import annotations
+
+from skinframes.errors import SkinframesError
+
+
+def int_list(text: str) -> list[int]:
+    """``start:stop:step`` (stop inclusive) or a comma list, e.g. ``130:200:10`` or ``2,32``."""
+    try:
+        if ":" in text:
+            parts = [int(p) for p in text.split(":")]
+            if len(parts) not in (2, 3) or (len(parts) == 3 and parts[2] <= 0):
+                raise ValueError
+            start, stop = parts[0], parts[1]
+            step = parts[2] if len(parts) == 3 else 1
+            values = list(range(start, stop + 1, step))
+        else:
+            values = [int(p) for p in text.split(",") if p.strip()]
+    except ValueError:
+        raise SkinframesError(
+            f"{text!r}: expected start:stop:step (stop inclusive) or a comma list of integers"
+        ) from None
+    if not values:
+        raise SkinframesError(f"{text!r} selects no values")
+    return values

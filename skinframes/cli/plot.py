@@ -1,0 +1,106 @@
+"""``skinframes plot``: cycle time vs nodes per protocol and payload (the paper's Figs. 9-11)."""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from pathlib import Path
+from typing import Any
+
+from skinframes.errors import SkinframesError
+
+PAYLOADS = (2, 32, 128, 192, 256)
+PANELS = (
+    ("epl", "Ethernet POWERLINK (Fig. 9)"),
+    ("ecat", "EtherCAT, open ring (Fig. 10)"),
+    ("ecat_redundant", "EtherCAT, closed ring (Fig. 11)"),
+)
+
+
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "plot",
+        help="cycle time vs nodes, analytic and emulated overlaid (PNG or SVG)",
+        description="Plot cycle time against the number of nodes (1..239 for EPL, 1..240 for "
+        "EtherCAT) for several payloads: the analytic model as lines, the emulator as markers, "
+        "and the paper's printed table cells.",
+    )
+    p.add_argument("--out", default="cycle_time.png", help="output file, .png or .svg")
+    p.add_argument("--preset", choices=["paper", "wire"], default="paper")
+    p.add_argument("--step", type=int, default=20, help="nodes between emulated points")
+    p.set_defaults(run=run)
+
+
+def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
+    """Draw the figure into ``out``."""
+    import matplotlib
+
+    matplotlib.use("Agg")
+    import matplotlib.pyplot as plt
+    import numpy as np
+    from tqdm import tqdm
+
+    from emulator import analytic
+    from emulator.model import cycle_us
+    from emulator.paper_tables import BYTES, NODES, paper_value
+    from emulator.params import preset
+
+    if out.suffix.lower() not in (".png", ".svg"):
+        raise SkinframesError(f"{out}: the plot is written as .png or .svg")
+    if step < 1:
+        raise SkinframesError("--step must be >= 1")
+    params = preset(preset_name)
+    fig, axes = plt.subplots(1, 3, figsize=(16, 5.2), constrained_layout=True)
+    points = [
+        (t, b, n)
+        for t, _ in PANELS
+        for b in PAYLOADS
+        for n in range(step, (239 if t == "epl" else 240) + 1, step)
+    ]
+    emulated: dict[tuple[str, int], list[tuple[int, float]]] = {}
+    for t, b, n in tqdm(points, desc="emulating", unit="run", disable=not sys.stderr.isatty()):
+        emulated.setdefault((t, b), []).append((n, cycle_us(t, n, b, params, "emulated")))
+    colors = plt.get_cmap("viridis")(np.linspace(0, 0.9, len(PAYLOADS)))
+    for ax, (table, title) in zip(axes, PANELS, strict=True):
+        nodes = np.arange(1, (239 if table == "epl" else 240) + 1)
+        for b, color in zip(PAYLOADS, colors, strict=True):
+            if table == "epl":
+                y = analytic.epl_cycle_us(nodes, b, params)
+            else:
+                y = analytic.ecat_cycle_us(nodes, b, params, redundant=table == "ecat_redundant")
+            ax.plot(nodes, np.asarray(y) / 1000, color=color, lw=1.5, label=f"{b} B analytic")
+            en, ey = zip(*emulated[(table, b)], strict=True)
+            ax.plot(en, np.asarray(ey) / 1000, "o", color=color, ms=4, mfc="none")
+        if preset_name == "paper":
+            px = [(n, paper_value(table, n, b)) for n in NODES for b in BYTES]
+            ax.plot(
+                [n for n, _ in px],
+                [v / 1000 for _, v in px if v is not None],
+                "kx",
+                ms=5,
+                label="paper's table",
+            )
+        for limit_ms, style in ((1.0, ":"), (5.0, "--")):
+            ax.axhline(limit_ms, color="grey", ls=style, lw=0.8)
+        ax.axvline(160, color="firebrick", lw=0.6, alpha=0.5)
+        ax.set_title(title)
+        ax.set_xlabel("nodes (patches)")
+        ax.set_ylabel("cycle time [ms]")
+        ax.grid(alpha=0.3)
+    axes[0].legend(fontsize=8, title="o = emulated", title_fontsize=8)
+    fig.suptitle(
+        f"Cycle time vs nodes, preset '{preset_name}' (dotted: 1 ms, dashed: 5 ms; "
+        "red: 160 patches)"
+    )
+    out.parent.mkdir(parents=True, exist_ok=True)
+    fig.savefig(out, dpi=110)
+    plt.close(fig)
+    return out
+
+
+def run(args: argparse.Namespace) -> int:
+    """Draw and report the file."""
+    path = make_plot(Path(args.out), args.preset, args.step)
+    print(f"wrote {path}")
+    return 0

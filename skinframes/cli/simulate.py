@@ -1,0 +1,91 @@
+"""``skinframes simulate {epl,ecat}``: run the virtual daisy chain with real frames."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from skinframes.errors import SkinframesError
+
+
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "simulate",
+        help="emulate EPL or EtherCAT cycles with real frames (pcap optional)",
+        description="Emulate a daisy chain of skin patches: EPL (MN + CNs behind hubs) or "
+        "EtherCAT (master + ESC slaves, open or closed ring). Cycle time is measured from the "
+        "emulated frames' timestamps at the master's port.",
+    )
+    p.add_argument("protocol", choices=["epl", "ecat"])
+    p.add_argument("--nodes", type=int, required=True, help="CNs / slaves (patches)")
+    p.add_argument("--bytes", type=int, required=True, help="taxel bytes per node (192 = a patch)")
+    p.add_argument("--redundant", action="store_true", help="EtherCAT closed ring (Table III)")
+    p.add_argument("--preset", choices=["paper", "wire"], default="paper")
+    p.add_argument(
+        "--layout",
+        choices=["per-slave", "logical"],
+        default="per-slave",
+        help="EtherCAT: one LRD per slave (paper) or a contiguous logical image",
+    )
+    p.add_argument("--cycles", type=int, default=4, help="cycles to emulate (default 4)")
+    p.add_argument("--pcap", help="write the frames at the master's port to this pcap")
+    p.add_argument(
+        "--fault",
+        action="append",
+        default=[],
+        metavar="SPEC",
+        help="inject a fault ('--fault help' lists the kinds)",
+    )
+    p.add_argument("--seed", type=int, default=0, help="seed of the taxel contact patterns")
+    p.add_argument("--json", action="store_true", help="one JSON document")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Emulate and report."""
+    from emulator.model import simulate
+    from emulator.params import preset
+
+    if args.fault:
+        if args.fault == ["help"]:
+            print(
+                "No fault kinds are implemented yet; cable breaks (cable:K@C), power loss, "
+                "bit errors, frame drops and late CNs are planned."
+            )
+            return 0
+        raise SkinframesError(
+            f"--fault {args.fault[0]!r}: fault injection is not implemented yet ('--fault help')"
+        )
+    if args.protocol == "epl" and args.redundant:
+        raise SkinframesError("--redundant applies to EtherCAT only")
+    table = "epl" if args.protocol == "epl" else ("ecat_redundant" if args.redundant else "ecat")
+    result = simulate(
+        table,
+        args.nodes,
+        args.bytes,
+        preset(args.preset),
+        layout=args.layout,
+        cycles=args.cycles,
+        seed=args.seed,
+    )
+    result.trace.check_no_overlap()
+    if args.pcap:
+        result.trace.write_pcap(args.pcap)
+        result.pcap = args.pcap
+    if args.json:
+        print(json.dumps(result.to_json(), indent=2))
+        return 0
+    c = result.cycle_us()
+    print(
+        f"{result.protocol} {result.topology}: {result.nodes} nodes x {result.bytes} bytes, "
+        f"preset {result.preset}, layout {result.layout}"
+    )
+    print(f"  cycles {result.cycles}, frames {result.frames}")
+    print(
+        f"  cycle time: min {c['min']:.3f} us, median {c['median']:.3f} us, max {c['max']:.3f} us"
+    )
+    if result.pcap:
+        print(f"  pcap: {result.pcap}")
+    return 0

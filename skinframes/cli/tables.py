@@ -1,0 +1,100 @@
+"""``skinframes tables``: cycle-time tables in the layout of the paper's Tables I-III."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import sys
+from typing import Any
+
+from skinframes.cli.options import int_list
+
+TITLES = {
+    "epl": "Table I: Ethernet POWERLINK cycle time [us]",
+    "ecat": "Table II: EtherCAT cycle time, non-redundant (open ring) [us]",
+    "ecat_redundant": "Table III: EtherCAT cycle time, redundant (closed ring) [us]",
+}
+
+
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "tables",
+        help="cycle-time tables (the paper's Tables I-III by default)",
+        description="Cycle times of EPL and EtherCAT (open and closed ring) for each number of "
+        "nodes and payload size. With --preset paper the printed paper value and the difference "
+        "are shown where the paper has that cell.",
+    )
+    p.add_argument(
+        "--model",
+        choices=["analytic", "emulated"],
+        default="analytic",
+        help="the paper's formulas, or the frame-level emulator (default: analytic)",
+    )
+    p.add_argument(
+        "--preset",
+        choices=["paper", "wire"],
+        default="paper",
+        help="timing constants (default: paper)",
+    )
+    p.add_argument(
+        "--nodes",
+        type=int_list,
+        default=int_list("130:200:10"),
+        help="start:stop:step (stop inclusive) or comma list (default: 130:200:10)",
+    )
+    p.add_argument(
+        "--bytes",
+        type=int_list,
+        default=int_list("2,32,128,256"),
+        help="payload bytes per node, same syntax (default: 2,32,128,256)",
+    )
+    p.add_argument("--json", action="store_true", help="one JSON document")
+    p.set_defaults(run=run)
+
+
+def compute(model: str, preset: str, nodes: list[int], sizes: list[int]) -> dict[str, Any]:
+    """The JSON document of INTERFACE.md for these parameters."""
+    from tqdm import tqdm
+
+    from emulator.model import TABLES, cycle_us
+    from emulator.params import preset as get_preset
+
+    params = get_preset(preset)
+    doc: dict[str, Any] = {"model": model, "preset": preset, "unit": "us"}
+    cells = [(t, n, b) for t in TABLES for n in nodes for b in sizes]
+    show = model == "emulated" and len(cells) > 50 and sys.stderr.isatty()
+    for table in TABLES:
+        doc[table] = {str(n): {} for n in nodes}
+    for table, n, b in tqdm(cells, desc="cycles", unit="cell", disable=not show):
+        doc[table][str(n)][str(b)] = round(cycle_us(table, n, b, params, model), 6)
+    return doc
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the tables."""
+    from emulator.paper_tables import paper_value
+
+    doc = compute(args.model, args.preset, args.nodes, args.bytes)
+    if args.json:
+        print(json.dumps(doc, indent=2))
+        return 0
+    print(f"model {doc['model']}, preset {doc['preset']}")
+    for table, title in TITLES.items():
+        print(f"\n{title}")
+        print("nodes " + "".join(f"{b:>12}" for b in args.bytes))
+        deltas = []
+        for n in args.nodes:
+            row = doc[table][str(n)]
+            print(f"{n:>5} " + "".join(f"{row[str(b)]:>12.2f}" for b in args.bytes))
+            if args.preset == "paper":
+                for b in args.bytes:
+                    printed = paper_value(table, n, b)
+                    if printed is not None:
+                        deltas.append(abs(row[str(b)] - printed))
+        if deltas:
+            print(
+                f"      {len(deltas)} cells printed in the paper; largest difference "
+                f"{max(deltas):.4f} us (the paper rounds to 0.01)"
+            )
+    return 0
