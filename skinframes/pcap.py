@@ -20,7 +20,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import BinaryIO, Final
+from typing import Any, BinaryIO, Final
 
 from skinframes.errors import PcapFormatError
 
@@ -237,7 +237,7 @@ def _read_pcap(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
     major, _minor, _zone, _sig, snaplen, network = struct.unpack_from(order + "HHiIII", raw, 4)
     if major != 2:
         raise PcapFormatError(f"{name}: pcap version {major}, expected 2")
-    linktype = network & 0x0FFFFFFF  # upper bits: FCS length flags
+    linktype = network & 0xFFFF  # libpcap LT_LINKTYPE; bits 26-31: FCS length flags
     rec = struct.Struct(order + "IIII")
     limit = max(snaplen, SNAPLEN)
     records: list[Record] = []
@@ -283,9 +283,50 @@ def _read_pcap(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
     return records, skipped
 
 
+def _pcapng_reader(fd: io.BytesIO) -> Any:
+    """scapy's ``RawPcapNgReader``, plus what it does not report: the interface id of each packet
+    (local to its section, as Wireshark's ``frame.interface_id``), where the last block started (a
+    clean end is at the end of the file), and the packets it drops for an undescribed interface."""
+    from scapy.utils import RawPcapNgReader
+
+    class Reader(RawPcapNgReader):
+        block_start = 0
+        intid = 0
+        undescribed: list[int]
+
+        def _read_block(self, size: int = SNAPLEN) -> Any:
+            self.block_start = self.f.tell()
+            return super()._read_block(size)
+
+        def _read_block_shb(self) -> None:
+            # interface ids are local to a section; scapy keeps one list for the whole file
+            self.interfaces = []
+            self.undescribed = getattr(self, "undescribed", [])  # the first SHB comes from __init__
+            super()._read_block_shb()
+
+        def _read_block_epb(self, block: bytes, size: int) -> Any:
+            self.intid = struct.unpack_from(self.endian + "I", block)[0] if len(block) >= 4 else 0
+            return super()._read_block_epb(block, size)
+
+        def _read_block_pkt(self, block: bytes, size: int) -> Any:
+            self.intid = struct.unpack_from(self.endian + "H", block)[0] if len(block) >= 2 else 0
+            return super()._read_block_pkt(block, size)
+
+        def _read_block_spb(self, block: bytes, size: int) -> Any:
+            self.intid = 0
+            return super()._read_block_spb(block, size)
+
+        def _check_interface_id(self, intid: int) -> bool:
+            ok = bool(super()._check_interface_id(intid))
+            if not ok:
+                self.undescribed.append(intid)
+            return ok
+
+    return Reader(fd)  # type: ignore[arg-type]  # scapy accepts a file object
+
+
 def _read_pcapng(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
     from scapy.error import Scapy_Exception  # lazy: scapy takes ~0.2 s to import
-    from scapy.utils import RawPcapNgReader
 
     fd = io.BytesIO(raw)
     # scapy logs (rather than raises) on damaged blocks and then reports EOF; keep its logger
@@ -297,25 +338,34 @@ def _read_pcapng(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
     skipped: list[Skipped] = []
     try:
         try:
-            reader = RawPcapNgReader(fd)  # type: ignore[arg-type]  # scapy accepts a file object
+            reader = _pcapng_reader(fd)
         except (Scapy_Exception, struct.error, EOFError, ValueError) as exc:
             raise PcapFormatError(f"{name}: not a readable pcapng ({exc})") from exc
-        iface_ids: dict[tuple[int, bytes | None], int] = {}
         index = 0
+
+        def drain_undescribed() -> None:
+            nonlocal index
+            for intid in reader.undescribed:
+                skipped.append(Skipped(index, f"packet block names undescribed interface {intid}"))
+                index += 1
+            reader.undescribed.clear()
+
         while True:
             try:
-                data, meta = reader._read_packet()
+                data, meta = reader._read_packet(size=SNAPLEN)
             except EOFError:
-                if fd.tell() < len(raw):
+                drain_undescribed()
+                if reader.block_start < len(raw):
                     skipped.append(
                         Skipped(
                             index,
-                            f"damaged pcapng block at or after byte "
-                            f"{fd.tell()} of {len(raw)}; rest unreadable",
+                            f"damaged pcapng block at byte "
+                            f"{reader.block_start} of {len(raw)}; rest unreadable",
                         )
                     )
                 break
             except Exception as exc:  # scapy raises assorted types on damaged blocks
+                drain_undescribed()
                 skipped.append(
                     Skipped(
                         index,
@@ -326,8 +376,8 @@ def _read_pcapng(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
                 break
             ts = ((meta.tshigh or 0) << 32) | (meta.tslow or 0)
             time_ns = ts * NS_PER_S // meta.tsresol if meta.tsresol else 0
-            key = (meta.linktype, meta.ifname)
-            iface = iface_ids.setdefault(key, len(iface_ids))
+            drain_undescribed()
+            iface = reader.intid
             records.append(
                 Record(
                     index,

@@ -10,7 +10,7 @@ from typing import Any
 from skinframes.describe import frame_fields, summary
 from skinframes.dispatch import decode_frame, protocol_of
 from skinframes.errors import DecodeError
-from skinframes.pcap import LINKTYPE_ETHERNET, read_capture
+from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, read_capture
 
 
 def add_parser(sub: Any) -> None:
@@ -33,7 +33,8 @@ def run(args: argparse.Namespace) -> int:
     for rec in capture:
         obj: dict[str, Any] = {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
         if rec.linktype != LINKTYPE_ETHERNET:
-            obj.update(protocol="other", linktype=rec.linktype, findings=[])
+            proto = "can" if rec.linktype == LINKTYPE_CAN_SOCKETCAN else "other"
+            obj.update(protocol=proto, linktype=rec.linktype, findings=[])
             text = f"linktype {rec.linktype}, {len(rec.data)} bytes"
         else:
             try:

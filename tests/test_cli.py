@@ -1,0 +1,341 @@
+"""The ``skinframes`` command line as INTERFACE.md promises it.
+
+Exit 0 ok, 1 ``check`` found an error, 2 bad input or usage: then exactly one stderr line starting
+with ``skinframes: error:`` and no traceback (unless ``--debug``). Results on stdout, diagnostics on
+stderr; ``--json`` is one document, except ``decode --json`` which is JSON Lines.
+
+Expected values come from pcaps/README.md (frame counts, timestamps 10 us apart from 0) and from
+hand computation of the frame lengths.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+import re
+import struct
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from skinframes import powerlink
+from skinframes.cli import build_parser, main
+from skinframes.errors import PcapFormatError
+from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, pcap_bytes
+from skinframes.powerlink import PReq, PRes, SoA, SoC
+
+ROOT = Path(__file__).resolve().parent.parent
+PCAPS = ROOT / "pcaps"
+
+# pcaps/README.md: frames per file; every file is stamped 0, 10 us, 20 us, ...
+GOLDEN = {
+    "epl_cycle_4cn.pcap": 10,
+    "epl_asnd_services.pcap": 12,
+    "ecat_lrd_7x192.pcap": 2,
+    "ecat_23_slaves.pcap": 8,
+    "ecat_all_commands.pcap": 15,
+}
+FRAME_KEYS = {"index", "time_ns", "length", "protocol", "findings"}
+
+
+def run(argv: list[str], capsys: pytest.CaptureFixture[str]) -> tuple[int, str, str]:
+    """main(argv) -> (exit code, stdout, stderr); argparse's SystemExit counts as the exit code."""
+    try:
+        code = main(argv)
+    except SystemExit as exc:
+        code = exc.code if isinstance(exc.code, int) else (0 if exc.code is None else 2)
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def assert_one_error_line(err: str) -> None:
+    lines = err.splitlines()
+    assert len(lines) == 1, f"expected one stderr line, got {lines}"
+    assert lines[0].startswith("skinframes: error: ")
+    assert "Traceback" not in err
+
+
+def epl_bytes(m: powerlink.EplMessage) -> bytes:
+    return powerlink.frame(m).to_bytes()
+
+
+@pytest.fixture
+def capture_with_error(tmp_path: Path) -> Path:
+    """SoC, PReq 1, PRes 1 whose Size field (u16 LE at EPL offset 8) says 192 with 8 bytes, SoA."""
+    pres = bytearray(epl_bytes(PRes(1, bytes(8))))
+    pres[14 + 8 : 14 + 10] = struct.pack("<H", 192)
+    frames = [epl_bytes(SoC()), epl_bytes(PReq(1)), bytes(pres), epl_bytes(SoA())]
+    path = tmp_path / "size_error.pcap"
+    path.write_bytes(pcap_bytes([(i * 1000, f) for i, f in enumerate(frames)]))
+    return path
+
+
+# --- decode ----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(GOLDEN))
+def test_decode_text(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(["decode", str(PCAPS / name)], capsys)
+    assert code == 0
+    lines = out.splitlines()
+    assert len(lines) == GOLDEN[name]
+    for i, line in enumerate(lines):
+        index, seconds, length = line.split()[:3]
+        assert int(index) == i
+        assert float(seconds) == pytest.approx(i * 10e-6, abs=1e-9)
+        assert int(length) >= 60
+    assert err.splitlines() == [
+        f"skinframes: {GOLDEN[name]} records: {GOLDEN[name]} decoded, 0 skipped"
+    ]
+
+
+def test_decode_text_names_the_messages(capsys: pytest.CaptureFixture[str]) -> None:
+    _, out, _ = run(["decode", str(PCAPS / "epl_cycle_4cn.pcap")], capsys)
+    kinds = [re.findall(r"\b(SOC|PREQ|PRES|SOA|ASND)\b", line) for line in out.splitlines()]
+    assert kinds == [["SOC"]] + [["PREQ"], ["PRES"]] * 4 + [["SOA"]]
+
+
+def _json_lines(out: str) -> list[dict[str, object]]:
+    objs = [json.loads(line) for line in out.splitlines()]  # every stdout line is one JSON object
+    assert all(isinstance(o, dict) for o in objs)
+    return objs
+
+
+@pytest.mark.parametrize("name", sorted(GOLDEN))
+def test_decode_json_lines(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(["decode", "--json", str(PCAPS / name)], capsys)
+    assert code == 0
+    objs = _json_lines(out)
+    assert len(objs) == GOLDEN[name]
+    for i, o in enumerate(objs):
+        assert o.keys() >= FRAME_KEYS
+        assert (o["index"], o["time_ns"]) == (i, i * 10_000)
+        assert o["protocol"] == ("epl" if name.startswith("epl") else "ecat")
+        assert o["findings"] == []
+    assert len(err.splitlines()) == 1 and f"{GOLDEN[name]} records" in err  # the count line
+
+
+def test_decode_json_lengths_hand_computed(capsys: pytest.CaptureFixture[str]) -> None:
+    # EPL: SoC 22 / PReq 10 / SoA 10 bytes pad to 60; PRes = 14 + 10 + 192 = 216
+    _, out, _ = run(["decode", "--json", str(PCAPS / "epl_cycle_4cn.pcap")], capsys)
+    assert [o["length"] for o in _json_lines(out)] == [60] + [60, 216] * 4 + [60]
+    # EtherCAT: 14 + 2 + 7 x (12 + 192) = 1444; the last frame of 23 carries 2: 14 + 2 + 408 = 424
+    _, out, _ = run(["decode", "--json", str(PCAPS / "ecat_23_slaves.pcap")], capsys)
+    assert [o["length"] for o in _json_lines(out)] == [1444, 1444, 1444, 424] * 2
+
+
+def test_decode_json_real_capture_with_other_traffic(
+    shared_captures: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # frames.md 5: 580 EtherCAT frames plus 14 IP/TLS frames; SOEM sends from a group MAC
+    code, out, err = run(
+        ["decode", "--json", str(shared_captures / "ethercrab_soem-sdinfo-ek1100-el1004.pcapng")],
+        capsys,
+    )
+    assert code == 0
+    objs = _json_lines(out)
+    assert len(objs) == 594
+    assert sum(o["protocol"] == "ecat" for o in objs) == 580
+    assert sum(o["protocol"] == "other" for o in objs) == 14
+    assert {o["protocol"] for o in objs} <= {"epl", "ecat", "other"}
+    codes = [f["code"] for o in objs for f in o["findings"]]  # type: ignore[attr-defined]
+    assert codes.count("eth.src.group") == 580
+    assert "594 records" in err
+
+
+def test_decode_json_marks_finding_fields(
+    capture_with_error: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, out, _ = run(["decode", "--json", str(capture_with_error)], capsys)
+    assert code == 0  # decode reports, check judges
+    objs = _json_lines(out)
+    bad = objs[2]["findings"]
+    assert isinstance(bad, list) and bad and bad[0].keys() == {"severity", "code", "message"}
+    assert bad[0]["severity"] == "error"
+    assert [o["findings"] for i, o in enumerate(objs) if i != 2] == [[], [], []]
+
+
+def test_decode_socketcan_records(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    # LINKTYPE_CAN_SOCKETCAN (227): CAN id u32 BE, DLC, 3 reserved bytes, data
+    frame = struct.pack(">IB3x", 0x410, 8) + bytes(range(8))
+    path = tmp_path / "can.pcap"
+    path.write_bytes(pcap_bytes([(5, frame)], linktype=LINKTYPE_CAN_SOCKETCAN))
+    code, out, _ = run(["decode", "--json", str(path)], capsys)
+    assert code == 0
+    (obj,) = _json_lines(out)
+    assert (obj["protocol"], obj["length"], obj["time_ns"], obj["findings"]) == ("can", 16, 5, [])
+
+
+def test_decode_damaged_capture_prints_the_good_records(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    raw = (PCAPS / "epl_cycle_4cn.pcap").read_bytes()
+    path = tmp_path / "cut.pcap"
+    path.write_bytes(raw[:-7])  # the last record (a SoA) loses 7 bytes
+    code, out, err = run(["decode", "--json", str(path)], capsys)
+    assert code == 0
+    assert [o["index"] for o in _json_lines(out)] == list(range(9))
+    assert "skipped record 9" in err
+    assert err.splitlines()[-1] == "skinframes: 10 records: 9 decoded, 1 skipped"
+    assert "Traceback" not in err
+    # check calls the lost record an error
+    code, _, _ = run(["check", str(path)], capsys)
+    assert code == 1
+
+
+# --- check -----------------------------------------------------------------------------------------
+@pytest.mark.parametrize("name", sorted(GOLDEN))
+def test_check_golden_exit_0(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(["check", str(PCAPS / name)], capsys)
+    assert code == 0
+    assert out == ""  # no findings to list
+    assert err.splitlines()[-1].endswith(": 0 errors, 0 warnings")
+    assert f"{GOLDEN[name]} records" in err
+
+
+@pytest.mark.parametrize("name", sorted(GOLDEN))
+def test_check_json_one_document(name: str, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(["check", "--json", str(PCAPS / name)], capsys)
+    assert code == 0
+    doc = json.loads(out)  # exactly one document: json.loads rejects trailing data
+    assert doc["records"] == GOLDEN[name]
+    assert (doc["errors"], doc["warnings"], doc["findings"]) == (0, 0, [])
+    assert sum(doc["counts"].values()) == GOLDEN[name]
+    assert doc["path"] == str(PCAPS / name)
+    assert err == ""
+
+
+def test_check_error_exit_1(capture_with_error: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(["check", str(capture_with_error)], capsys)
+    assert code == 1
+    assert len(out.splitlines()) == 1 and "error" in out  # the finding, on record 2
+    assert out.split()[:2] == ["record", "2"]
+    assert err.splitlines()[-1].endswith(": 1 errors, 0 warnings")
+    code, out, err = run(["check", "--json", str(capture_with_error)], capsys)
+    assert code == 1
+    doc = json.loads(out)
+    assert doc["errors"] == 1 and doc["records"] == 4
+    (finding,) = doc["findings"]
+    assert finding["index"] == 2 and finding["severity"] == "error"
+    assert finding.keys() == {"index", "severity", "code", "message"}
+
+
+def test_check_min_severity_hides_but_keeps_the_exit_code(
+    shared_captures: Path, capture_with_error: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    soem = str(shared_captures / "ethercrab_soem-sdinfo-ek1100-el1004.pcapng")
+    code, out, _ = run(["check", "--json", soem], capsys)
+    doc = json.loads(out)
+    assert code == 0 and doc["warnings"] == 580 and doc["errors"] == 0
+    assert {f["severity"] for f in doc["findings"]} == {"info", "warning"}
+    code, out, _ = run(["check", "--json", "--min-severity", "warning", soem], capsys)
+    assert {f["severity"] for f in json.loads(out)["findings"]} == {"warning"}
+    code, out, _ = run(["check", "--min-severity", "error", soem], capsys)
+    assert code == 0 and out == ""
+    code, _, _ = run(["check", "--min-severity", "error", str(capture_with_error)], capsys)
+    assert code == 1
+
+
+# --- bad input and usage ---------------------------------------------------------------------------
+def _bad_files(tmp: Path) -> dict[str, Path]:
+    text = tmp / "notes.txt"
+    text.write_text("this is a text file, not a capture\n" * 3)
+    short = tmp / "short.pcap"
+    short.write_bytes((PCAPS / "epl_cycle_4cn.pcap").read_bytes()[:20])  # global header cut
+    empty = tmp / "empty.pcap"
+    empty.write_bytes(b"")
+    magic = tmp / "magic.pcap"
+    magic.write_bytes(b"\x00" * 100)
+    return {
+        "missing": tmp / "does-not-exist.pcap",
+        "text": text,
+        "truncated": short,
+        "empty": empty,
+        "magic": magic,
+        "directory": tmp,
+    }
+
+
+@pytest.mark.parametrize("command", ["decode", "check"])
+@pytest.mark.parametrize("kind", ["missing", "text", "truncated", "empty", "magic", "directory"])
+@pytest.mark.parametrize("json_flag", [[], ["--json"]], ids=["text", "json"])
+def test_bad_file_exit_2(
+    command: str,
+    kind: str,
+    json_flag: list[str],
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    path = _bad_files(tmp_path)[kind]
+    code, out, err = run([command, *json_flag, str(path)], capsys)
+    assert code == 2
+    assert out == ""
+    assert_one_error_line(err)
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        [],
+        ["frobnicate"],
+        ["decode"],
+        ["check"],
+        ["decode", "--bogus", "x.pcap"],
+        ["check", "--min-severity", "fatal", "x.pcap"],
+        ["--nope", "decode", "x.pcap"],
+        ["decode", "a.pcap", "b.pcap"],
+    ],
+)
+def test_usage_errors_exit_2(argv: list[str], capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(argv, capsys)
+    assert code == 2
+    assert out == ""
+    assert_one_error_line(err)
+
+
+def test_debug_shows_the_exception(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    with pytest.raises(PcapFormatError):
+        main(["--debug", "decode", str(tmp_path / "missing.pcap")])
+
+
+def _subcommands() -> list[str]:
+    parser = build_parser()
+    (sub,) = [a for a in parser._actions if isinstance(a, argparse._SubParsersAction)]
+    return sorted(sub.choices)
+
+
+def test_help(capsys: pytest.CaptureFixture[str]) -> None:
+    code, out, err = run(["--help"], capsys)
+    assert code == 0 and out.startswith("usage: skinframes") and err == ""
+    for name in ("decode", "check", "demo"):
+        assert name in out
+    for name in _subcommands():
+        code, out, err = run([name, "--help"], capsys)
+        assert code == 0, name
+        assert out.startswith(f"usage: skinframes {name}"), name
+        assert err == ""
+
+
+def test_module_entry_point() -> None:
+    golden = PCAPS / "epl_cycle_4cn.pcap"
+    result = subprocess.run(
+        [sys.executable, "-m", "skinframes", "decode", str(golden)],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        cwd=ROOT,
+    )
+    assert result.returncode == 0, result.stderr
+    assert len(result.stdout.splitlines()) == 10
+    assert result.stderr.splitlines() == ["skinframes: 10 records: 10 decoded, 0 skipped"]
+    result = subprocess.run(
+        [sys.executable, "-m", "skinframes", "check", str(ROOT / "no-such.pcap")],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        cwd=ROOT,
+    )
+    assert result.returncode == 2 and result.stdout == ""
+    assert_one_error_line(result.stderr)
