@@ -72,7 +72,7 @@ def pack_patches(patches: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
         raise FieldRangeError(
             f"patches: dtype {arr.dtype}, shape {arr.shape}; need uint8 (n, T, 12)"
         )
-    return arr.reshape(arr.shape[0], -1)
+    return arr.reshape(arr.shape[0], arr.shape[1] * TAXELS_PER_TRIANGLE)
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,11 +109,12 @@ class BodyLayout:
 
     def region_of(self, patch: int) -> Region:
         """The region of patch number ``patch`` (0-based, regions in order)."""
+        rest = patch
         for r in self.regions:
-            if patch < r.patches:
+            if 0 <= rest < r.patches:
                 return r
-            patch -= r.patches
-        raise FieldRangeError(f"patch {patch} is beyond the layout's {self.patches} patches")
+            rest -= r.patches
+        raise FieldRangeError(f"patch {patch} is not one of the layout's {self.patches} patches")
 
     def subnetwork(self, name: str) -> range:
         """Patch numbers of the region called ``name``."""
@@ -136,36 +137,41 @@ def contact_pattern(
 ) -> npt.NDArray[np.uint8]:
     """Seeded synthetic skin data: (samples, patches, triangles, 12) uint8, inverted values.
 
-    Every taxel rests at ``no_load`` plus small sensor noise; ``contacts`` pressure blobs per
-    sample move over the skin and lower the values under them (as pressure does on the iCub skin).
-    The same arguments give the same bytes on every machine.
+    Every taxel rests at ``no_load`` plus sensor noise of +-2; ``contacts`` pressure blobs per
+    sample slide along the skin (taxels numbered patch-major, as if unfolded to a line) and lower
+    the values under them, deepest at the centre, as pressure does on the iCub skin. Integer
+    arithmetic and numpy's frozen legacy generator (RandomState) make the bytes the same on
+    every machine and numpy version.
     """
-    if patches < 1 or samples < 1 or not 1 <= triangles <= TRIANGLES_PER_PATCH:
+    if patches < 1 or samples < 1 or contacts < 0 or not 1 <= triangles <= TRIANGLES_PER_PATCH:
         raise FieldRangeError(
-            "contact_pattern: need patches >= 1, samples >= 1, 1 <= triangles <= 16"
+            "contact_pattern: need patches >= 1, samples >= 1, contacts >= 0, 1 <= triangles <= 16"
         )
     if not 0 <= no_load <= 0xFF:
         raise FieldRangeError("contact_pattern: no_load must be 0..255")
-    rng = np.random.default_rng(seed)
-    shape = (samples, patches, triangles, TAXELS_PER_TRIANGLE)
-    noise = rng.integers(-2, 3, size=shape)
-    # a taxel's position: patch-major index along the skin, unfolded to a line
-    pos = (
-        np.arange(patches * triangles * TAXELS_PER_TRIANGLE).reshape(shape[1:])
-        / TAXELS_PER_TRIANGLE
-    )
-    centres = rng.uniform(0, patches * triangles, size=(samples, contacts))
-    drift = np.linspace(0, 3.0, samples)[:, None]
-    depth = rng.uniform(80, no_load, size=(samples, contacts))
-    width = rng.uniform(1.0, 4.0, size=(samples, contacts))
-    press = np.zeros(shape)
-    for c in range(contacts):
-        d = pos[None] - (centres[:, c] + drift[:, 0])[:, None, None, None]
-        press += depth[:, c, None, None, None] * np.exp(
-            -0.5 * (d / width[:, c, None, None, None]) ** 2
+    rng = np.random.RandomState(seed)
+    length = patches * triangles * TAXELS_PER_TRIANGLE
+    noise = np.frombuffer(rng.bytes(samples * length), dtype=np.uint8) % 5  # 0..4 -> -2..+2
+    values = noise.reshape(samples, length).astype(np.int16) + np.int16(no_load - 2)
+    if contacts:
+        # per contact: start, speed (taxels per sample), half-width (1..4 triangles), depth
+        start = rng.randint(0, length, size=contacts)
+        speed = rng.randint(-3, 4, size=contacts)
+        half = rng.randint(TAXELS_PER_TRIANGLE, 4 * TAXELS_PER_TRIANGLE + 1, size=contacts)
+        depth = rng.randint(80, max(81, no_load + 1), size=contacts)
+        offsets = np.arange(-4 * TAXELS_PER_TRIANGLE, 4 * TAXELS_PER_TRIANGLE + 1)
+        t = np.arange(samples)[:, None, None]
+        centre = (start[None, :, None] + speed[None, :, None] * t) % length
+        idx = centre + offsets[None, None, :]
+        inside = (
+            (np.abs(offsets)[None, None, :] < half[None, :, None]) & (idx >= 0) & (idx < length)
         )
-    values = np.clip(no_load + noise - press, 0, 255)
-    return values.astype(np.uint8)
+        press = depth[None, :, None] * (half[None, :, None] - np.abs(offsets)[None, None, :])
+        press = np.broadcast_to(press // half[None, :, None], idx.shape)
+        rows = np.broadcast_to(t, idx.shape)
+        np.subtract.at(values, (rows[inside], idx[inside]), press[inside].astype(np.int16))
+    np.clip(values, 0, 0xFF, out=values)
+    return values.astype(np.uint8).reshape(samples, patches, triangles, TAXELS_PER_TRIANGLE)
 
 
 def sample_payloads(
