@@ -41,7 +41,10 @@ def build_parser() -> argparse.ArgumentParser:
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (0 ok, 1 problems found, 2 bad input)."""
     parser = build_parser()
-    args = parser.parse_args(argv)
+    try:
+        args = parser.parse_args(argv)
+    except SystemExit as exc:  # usage errors (exit 2) and --help (exit 0), as a return code
+        return exc.code if isinstance(exc.code, int) else 2
     try:
         code: int = args.run(args)
         return code
@@ -50,6 +53,11 @@ def main(argv: Sequence[str] | None = None) -> int:
             raise
         print(f"skinframes: error: {exc}", file=sys.stderr)
         return 2
+    except BrokenPipeError:  # `skinframes decode x | head`: the reader left, stop quietly
+        import os
+
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        return 0
     except OSError as exc:
         if args.debug:
             raise

@@ -53,7 +53,8 @@ def run(args: argparse.Namespace) -> int:
         if args.json:
             out.write(json.dumps(obj) + "\n")
         else:
-            out.write(f"{rec.index:>6} {rec.time_ns / 1e9:>18.9f} {len(rec.data):>5}  {text}\n")
+            sec, ns = divmod(rec.time_ns, 1_000_000_000)  # exact: a float has no room for ns
+            out.write(f"{rec.index:>6} {f'{sec}.{ns:09d}':>20} {len(rec.data):>5}  {text}\n")
     for s in capture.skipped:
         print(f"skinframes: skipped record {s.index}: {s.reason}", file=sys.stderr)
     print(

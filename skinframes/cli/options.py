@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from skinframes.errors import SkinframesError
+import argparse
 
 
 def int_list(text: str) -> list[int]:
@@ -18,9 +18,9 @@ def int_list(text: str) -> list[int]:
         else:
             values = [int(p) for p in text.split(",") if p.strip()]
     except ValueError:
-        raise SkinframesError(
+        raise argparse.ArgumentTypeError(
             f"{text!r}: expected start:stop:step (stop inclusive) or a comma list of integers"
         ) from None
     if not values:
-        raise SkinframesError(f"{text!r} selects no values")
+        raise argparse.ArgumentTypeError(f"{text!r} selects no values")
     return values

@@ -1,0 +1,128 @@
+"""The cycle-time commands: tables, simulate, plan, plot, demo (INTERFACE.md shapes)."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import pytest
+from data.paper_tables import PAPER_TABLES
+
+from skinframes import read_capture
+from skinframes.cli import main
+
+
+def run_json(capsys: pytest.CaptureFixture[str], *argv: str) -> dict:
+    assert main(list(argv)) == 0
+    return json.loads(capsys.readouterr().out)
+
+
+def test_tables_json_reproduces_the_paper(capsys: pytest.CaptureFixture[str]) -> None:
+    doc = run_json(capsys, "tables", "--json")
+    assert (doc["model"], doc["preset"], doc["unit"]) == ("analytic", "paper", "us")
+    for table, rows in PAPER_TABLES.items():
+        for n, row in rows.items():
+            for b, value in row.items():
+                assert doc[table][str(n)][str(b)] == pytest.approx(value, abs=0.006)
+
+
+def test_tables_emulated_with_ranges(capsys: pytest.CaptureFixture[str]) -> None:
+    doc = run_json(
+        capsys, "tables", "--model", "emulated", "--nodes", "160,170", "--bytes", "128", "--json"
+    )
+    assert doc["model"] == "emulated"
+    assert set(doc["epl"]) == {"160", "170"}
+    assert doc["ecat"]["160"]["128"] == pytest.approx(PAPER_TABLES["ecat"][160][128], abs=0.01)
+
+
+def test_simulate_json_keys_and_pcap(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
+    pcap = tmp_path / "ring.pcap"
+    doc = run_json(
+        capsys,
+        "simulate",
+        "ecat",
+        "--nodes",
+        "23",
+        "--bytes",
+        "192",
+        "--redundant",
+        "--cycles",
+        "3",
+        "--pcap",
+        str(pcap),
+        "--json",
+    )
+    assert set(doc) >= {
+        "protocol",
+        "topology",
+        "nodes",
+        "bytes",
+        "preset",
+        "layout",
+        "cycles",
+        "frames",
+        "cycle_us",
+        "cycles_detail",
+        "recovery_us",
+        "diagnosis",
+        "pcap",
+    }
+    assert (doc["protocol"], doc["topology"], doc["cycles"], doc["frames"]) == (
+        "ecat",
+        "closed",
+        3,
+        24,
+    )
+    assert doc["pcap"] == str(pcap)
+    assert len(list(read_capture(pcap))) == 24  # 4 frames out and 4 back per cycle
+    detail = doc["cycles_detail"]
+    assert [d["cycle"] for d in detail] == [0, 1, 2]
+    assert all(d["wkc"] == d["expected_wkc"] == 23 for d in detail)
+    assert detail[1]["start_ns"] == round(detail[0]["cycle_us"] * 1000)
+
+
+def test_simulate_epl_text(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["simulate", "epl", "--nodes", "4", "--bytes", "192"]) == 0
+    assert "cycle time" in capsys.readouterr().out
+
+
+def test_plan_prefers_the_logical_image_for_many_patches(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    doc = run_json(capsys, "plan", "--nodes", "160", "--bytes", "192", "--json")
+    assert doc["limit_us"] == pytest.approx(160 * 192 * 0.08)  # n x B bytes at 100 Mbit/s
+    assert doc["ecat"]["layout"] == "logical"
+    assert doc["ecat"]["frames_per_cycle"] == 21  # ceil(30720 / 1486)
+    assert doc["epl"]["cycle_us"] > doc["ecat"]["cycle_us"]
+
+
+def test_plot_writes_a_png(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    out = tmp_path / "fig.png"
+    assert main(["plot", "--out", str(out), "--step", "120"]) == 0
+    assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["simulate", "epl", "--nodes", "240", "--bytes", "192"],
+        ["simulate", "ecat", "--nodes", "4", "--bytes", "0"],
+        ["simulate", "epl", "--nodes", "4", "--bytes", "8", "--redundant"],
+        ["simulate", "ecat", "--nodes", "4", "--bytes", "8", "--fault", "cable:2@1"],
+        ["tables", "--nodes", "1:x"],
+        ["tables", "--nodes", "200:100"],
+        ["plot", "--out", "fig.gif"],
+    ],
+)
+def test_bad_input_is_one_error_line(capsys: pytest.CaptureFixture[str], argv: list[str]) -> None:
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("skinframes: error:")
+
+
+def test_demo_writes_pcaps_and_reports(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["demo", "--out", str(tmp_path), "--no-plot"]) == 0
+    out = capsys.readouterr().out
+    assert "2792.88 us" in out  # closed ring, paper preset = Table III's model at 160 x 192
+    names = {p.name for p in tmp_path.glob("*.pcap")}
+    assert {"epl_160x192_wire.pcap", "ecat_redundant_160x192_paper.pcap"} <= names
