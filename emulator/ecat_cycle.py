@@ -17,14 +17,13 @@ from __future__ import annotations
 from typing import Final
 
 import numpy as np
-import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc import EscChain
 from emulator.params import TimingParams
 from emulator.result import CycleDetail, SimResult
 from emulator.trace import CycleTrace
-from skinframes import ethercat, taxel
+from skinframes import ethercat, ethernet, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
 __all__ = ["LAYOUTS", "frames_for", "path_latency_ps", "simulate_ecat"]
@@ -100,15 +99,16 @@ def simulate_ecat(
     chain = EscChain(nodes, data_bytes)
     taxels = taxel.sample_payloads(nodes, cycles, data_bytes, seed=seed).reshape(cycles, -1)
 
-    sent, returned, gather_dst, gather_src = [], [], [], []
+    sent: list[bytes] = []
+    returned: list[bytes] = []
+    gather: list[list[tuple[int, int, int]]] = []
     expected_wkc = 0
     for f in sent_frames:
         sent.append(ethercat.frame(f).to_bytes())
         back, copies = _returned(f, chain)
         expected_wkc += sum(d.wkc for d in back.datagrams)
         returned.append(ethercat.frame(back, returned=True).to_bytes())
-        gather_dst.append(copies[0])
-        gather_src.append(copies[1])
+        gather.append(copies)
 
     # timing at the master's port (integer ps)
     wire = np.array([params.frame_ps(len(b)) for b in sent], dtype=np.int64)
@@ -131,7 +131,8 @@ def simulate_ecat(
         frame_bytes = returned[k] if is_back else sent[k]
         data[:, col : col + len(frame_bytes)] = np.frombuffer(frame_bytes, dtype=np.uint8)
         if is_back:
-            data[:, col + gather_dst[k]] = taxels[:, gather_src[k]]
+            for dst, src, n in gather[k]:  # each slave's bytes: one contiguous run
+                data[:, col + dst : col + dst + n] = taxels[:, src : src + n]
         col += len(frame_bytes)
 
     starts = np.arange(cycles, dtype=np.int64) * cycle_ps
@@ -151,18 +152,15 @@ def simulate_ecat(
     )
 
 
-def _returned(
-    f: EcatFrame, chain: EscChain
-) -> tuple[EcatFrame, tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]]:
+def _returned(f: EcatFrame, chain: EscChain) -> tuple[EcatFrame, list[tuple[int, int, int]]]:
     """The frame as it comes back (constant part), and where each slave's taxel bytes go.
 
     Returns:
-        (returned frame with zero taxel data, (byte columns in the returned Ethernet frame,
-        indices into the chain's flattened input image)).
+        (returned frame with zero taxel data, runs of (byte offset in the returned Ethernet
+        frame, offset in the chain's flattened input image, length)).
     """
-    dst: list[npt.NDArray[np.int64]] = []
-    src: list[npt.NDArray[np.int64]] = []
-    pos = 14 + ethercat.FRAME_HEADER_BYTES  # Ethernet header + EtherCAT header
+    runs: list[tuple[int, int, int]] = []
+    pos = ethernet.HEADER_BYTES + ethercat.FRAME_HEADER_BYTES
     back: list[Datagram] = []
     for d in f.datagrams:
         eff = chain.effect(d)
@@ -170,10 +168,9 @@ def _returned(
         for off, value in eff.constant:
             data[off : off + len(value)] = value
         data_at = pos + ethercat.DATAGRAM_HEADER_BYTES
-        for c in eff.copies:
-            dst.append(np.arange(data_at + c.dst, data_at + c.dst + c.length, dtype=np.int64))
-            start = c.slave * chain.input_bytes + c.src
-            src.append(np.arange(start, start + c.length, dtype=np.int64))
+        runs += [
+            (data_at + c.dst, c.slave * chain.input_bytes + c.src, c.length) for c in eff.copies
+        ]
         back.append(
             Datagram(
                 d.cmd,
@@ -187,8 +184,4 @@ def _returned(
             )
         )
         pos += d.size_bytes
-    empty = np.zeros(0, dtype=np.int64)
-    return EcatFrame(tuple(back)), (
-        np.concatenate(dst) if dst else empty,
-        np.concatenate(src) if src else empty,
-    )
+    return EcatFrame(tuple(back)), runs

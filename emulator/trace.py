@@ -91,15 +91,14 @@ class CycleTrace:
         head[:, :, 2] = lengths
         head[:, :, 3] = lengths
         out = np.empty((c, image), dtype=np.uint8)
-        hdr_idx = (hdr_off[:, None] + np.arange(_RECORD_HEADER_BYTES)).ravel()
-        out[:, hdr_idx] = head.view(np.uint8).reshape(c, -1)
-        dat_idx = np.concatenate(
-            [
-                np.arange(o + _RECORD_HEADER_BYTES, o + _RECORD_HEADER_BYTES + n)
-                for o, n in zip(hdr_off.tolist(), lengths.tolist(), strict=True)
+        head_bytes = head.view(np.uint8).reshape(c, r, _RECORD_HEADER_BYTES)
+        src = 0
+        for k, (off, n) in enumerate(zip(hdr_off.tolist(), lengths.tolist(), strict=True)):
+            out[:, off : off + _RECORD_HEADER_BYTES] = head_bytes[:, k]
+            out[:, off + _RECORD_HEADER_BYTES : off + _RECORD_HEADER_BYTES + n] = self.data[
+                :, src : src + n
             ]
-        )
-        out[:, dat_idx] = self.data
+            src += n
         return pcap_header(LINKTYPE_ETHERNET) + out.tobytes()
 
     def write_pcap(self, path: str | Path) -> None:

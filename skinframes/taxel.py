@@ -152,7 +152,10 @@ def contact_pattern(
     rng = np.random.RandomState(seed)
     length = patches * triangles * TAXELS_PER_TRIANGLE
     noise = np.frombuffer(rng.bytes(samples * length), dtype=np.uint8) % 5  # 0..4 -> -2..+2
-    values = noise.reshape(samples, length).astype(np.int16) + np.int16(no_load - 2)
+    if 2 <= no_load <= 0xFF - 2:  # no wrap-around possible: stay in uint8
+        values = noise + np.uint8(no_load - 2)
+    else:
+        values = np.clip(noise.astype(np.int16) + (no_load - 2), 0, 0xFF).astype(np.uint8)
     if contacts:
         # per contact: start, speed (taxels per sample), half-width (1..4 triangles), depth
         start = rng.randint(0, length, size=contacts)
@@ -163,15 +166,17 @@ def contact_pattern(
         t = np.arange(samples)[:, None, None]
         centre = (start[None, :, None] + speed[None, :, None] * t) % length
         idx = centre + offsets[None, None, :]
-        inside = (
-            (np.abs(offsets)[None, None, :] < half[None, :, None]) & (idx >= 0) & (idx < length)
-        )
-        press = depth[None, :, None] * (half[None, :, None] - np.abs(offsets)[None, None, :])
-        press = np.broadcast_to(press // half[None, :, None], idx.shape)
-        rows = np.broadcast_to(t, idx.shape)
-        np.subtract.at(values, (rows[inside], idx[inside]), press[inside].astype(np.int16))
-    np.clip(values, 0, 0xFF, out=values)
-    return values.astype(np.uint8).reshape(samples, patches, triangles, TAXELS_PER_TRIANGLE)
+        dist = np.abs(offsets)[None, None, :]
+        inside = (dist < half[None, :, None]) & (idx >= 0) & (idx < length)
+        press = np.broadcast_to(
+            depth[None, :, None] * (half[None, :, None] - dist) // half[None, :, None], idx.shape
+        )[inside]
+        # sum overlapping blobs per taxel, then press only the touched taxels (sparse)
+        flat, inverse = np.unique((t * length + idx)[inside], return_inverse=True)
+        total = np.bincount(inverse, weights=press).astype(np.int64)
+        touched = values.reshape(-1)
+        touched[flat] = np.clip(touched[flat].astype(np.int64) - total, 0, 0xFF)
+    return values.reshape(samples, patches, triangles, TAXELS_PER_TRIANGLE)
 
 
 def sample_payloads(
