@@ -9,7 +9,10 @@ paper eqs. 3-11):
 * SoC, then one IFG before the first PReq (eq. 4);
 * a CN answers ``epl_cn_delay_ps`` after the end of its PReq (D_CN), the MN sends its next
   frame ``epl_mn_delay_ps`` after the end of a PRes (D_MN) -- at least an IFG in the wire preset;
-* SoA, one IFG, and the idle period before the next SoC (eq. 10, T_id).
+* SoA, one IFG, and the idle period before the next SoC (eq. 10, T_id);
+* optionally (``asnd=True``) an ASnd in the asynchronous phase: the SoA invites one CN per cycle
+  in turn with a StatusRequest and the cycle closes after its StatusResponse. The paper's eq. (11)
+  charges only the ASnd's bytes; the emulator also charges the CN's turnaround and the hub chain.
 """
 
 from __future__ import annotations
@@ -25,6 +28,7 @@ from emulator.trace import CycleTrace
 from emulator.units import PS_PER_NS, PS_PER_US
 from skinframes import powerlink, taxel
 from skinframes.pcap import NS_PER_S
+from skinframes.powerlink import RequestedService
 
 __all__ = ["hops_to", "simulate_epl"]
 
@@ -43,8 +47,18 @@ def simulate_epl(
     *,
     cycles: int = 4,
     seed: int = 0,
+    asnd: bool = False,
+    pres_timeout_ps: int | None = None,
 ) -> SimResult:
-    """Emulate ``cycles`` EPL cycles: n CNs each answering with ``data_bytes`` of taxels."""
+    """Emulate ``cycles`` EPL cycles: n CNs each answering with ``data_bytes`` of taxels.
+
+    Args:
+        asnd: fill the asynchronous phase: each SoA invites one CN in turn (StatusRequest) and
+            that CN answers with a StatusResponse ASnd. The paper's assumption (iii) is False.
+        pres_timeout_ps: the MN's PRes timeout, from the end of a PReq to the start of the PRes
+            at the MN (DS 301 NMT_MNCNPResTimeout). A timeout that a CN cannot meet on this
+            chain is rejected: the CN's late PRes would collide with the MN's next frame.
+    """
     if not 1 <= nodes <= powerlink.MAX_CN_NODE_ID:
         raise TopologyError(f"EPL: {nodes} CNs (1..{powerlink.MAX_CN_NODE_ID})")
     if not 0 <= data_bytes <= powerlink.MAX_PDO_PAYLOAD_BYTES:
@@ -63,7 +77,20 @@ def simulate_epl(
     pres = powerlink.pack_pres_frames(
         payloads.reshape(cycles * n, data_bytes), np.tile(cns, cycles)
     ).reshape(cycles, n, -1)
-    soa = powerlink.frame(powerlink.SoA()).to_bytes()
+    targets = (np.arange(cycles) % n) + 1  # the CN each SoA invites when asnd is on
+    if asnd:
+        soa_rows = [
+            powerlink.frame(powerlink.SoA(RequestedService.STATUS_REQUEST, int(t))).to_bytes()
+            for t in targets
+        ]
+        asnd_rows = [
+            powerlink.frame(powerlink.ASnd(powerlink.StatusResponse(), src=int(t))).to_bytes()
+            for t in targets
+        ]
+    else:
+        soa_rows = [powerlink.frame(powerlink.SoA()).to_bytes()] * cycles
+        asnd_rows = []
+    soa = soa_rows[0]
     soc_len = len(powerlink.frame(powerlink.SoC()).to_bytes())
     lq, ls = preq.shape[1], pres.shape[2]
 
@@ -80,30 +107,53 @@ def simulate_epl(
     )
     preq_t = soc_wire + p.ifg_ps + np.concatenate(([0], np.cumsum(per_cn)[:-1]))
     pres_t = preq_t + preq_wire + 2 * hops * p.hop_ps + p.gap_ps(p.epl_cn_delay_ps)
+    if pres_timeout_ps is not None:
+        needed = 2 * hops * p.hop_ps + p.gap_ps(p.epl_cn_delay_ps)
+        late = np.flatnonzero(needed > pres_timeout_ps)
+        if len(late):
+            raise TopologyError(
+                f"EPL: a PRes timeout of {pres_timeout_ps / PS_PER_US:g} us is shorter than the "
+                f"{int(needed[late[0]]) / PS_PER_US:g} us CN {late[0] + 1} needs on this chain"
+            )
     soa_t = int(preq_t[-1] + per_cn[-1])
-    cycle_ps = soa_t + p.frame_ps(len(soa)) + p.ifg_ps + p.epl_cycle_idle_ps
+    soa_wire = p.frame_ps(len(soa))
+    end_t = np.full(cycles, soa_t + soa_wire, dtype=np.int64)  # last bit of the cycle's last frame
+    rel_rows = np.tile(
+        np.concatenate(([0], np.ravel(np.column_stack((preq_t, pres_t))), [soa_t])), (cycles, 1)
+    )
+    lengths_list = [soc_len] + [lq, ls] * n + [len(soa)]
+    wire_list = [soc_wire] + [preq_wire, pres_wire] * n + [soa_wire]
+    outbound_list = [True] + [True, False] * n + [True]
+    if asnd:  # the invited CN answers after it has received the SoA, as it answers a PReq
+        asnd_wire = p.frame_ps(len(asnd_rows[0]))
+        asnd_t = soa_t + soa_wire + 2 * hops[targets - 1] * p.hop_ps + p.gap_ps(p.epl_cn_delay_ps)
+        rel_rows = np.column_stack((rel_rows, asnd_t))
+        end_t = asnd_t + asnd_wire
+        lengths_list.append(len(asnd_rows[0]))
+        wire_list.append(asnd_wire)
+        outbound_list.append(False)
+    cycle_ps = end_t + p.ifg_ps + p.epl_cycle_idle_ps
+    starts = np.concatenate(([0], np.cumsum(cycle_ps)[:-1])).astype(np.int64)
 
-    rel = np.concatenate(([0], np.ravel(np.column_stack((preq_t, pres_t))), [soa_t]))
-    lengths = np.array([soc_len] + [lq, ls] * n + [len(soa)], dtype=np.int64)
-    wire = np.array([soc_wire] + [preq_wire, pres_wire] * n + [p.frame_ps(len(soa))], np.int64)
-    outbound = np.array([True] + [True, False] * n + [True])
-
-    starts = np.arange(cycles, dtype=np.int64) * cycle_ps
     socs = np.stack([np.frombuffer(_soc(int(s)), np.uint8) for s in starts])
     polls = np.concatenate((np.broadcast_to(preq, (cycles, n, lq)), pres), axis=2)
-    data = np.concatenate(
-        (
-            socs,
-            polls.reshape(cycles, -1),
-            np.broadcast_to(np.frombuffer(soa, np.uint8), (cycles, len(soa))),
-        ),
-        axis=1,
-    )
+    parts = [
+        socs,
+        polls.reshape(cycles, -1),
+        np.stack([np.frombuffer(r, np.uint8) for r in soa_rows]),
+    ]
+    if asnd:
+        parts.append(np.stack([np.frombuffer(r, np.uint8) for r in asnd_rows]))
+    data = np.concatenate(parts, axis=1)
 
     trace = CycleTrace(
-        starts[:, None] + rel[None, :], lengths, np.ascontiguousarray(data), wire, outbound
+        starts[:, None] + rel_rows,
+        np.array(lengths_list, dtype=np.int64),
+        np.ascontiguousarray(data),
+        np.array(wire_list, dtype=np.int64),
+        np.array(outbound_list),
     )
-    details = [CycleDetail(c, int(starts[c]), cycle_ps, n, n) for c in range(cycles)]
+    details = [CycleDetail(c, int(starts[c]), int(cycle_ps[c]), n, n) for c in range(cycles)]
     return SimResult("epl", "daisy", n, data_bytes, p.name, "per-slave", details, trace)
 
 

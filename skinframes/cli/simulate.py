@@ -30,6 +30,18 @@ def add_parser(sub: Any) -> None:
         help="EtherCAT: one LRD per slave (paper) or a contiguous logical image",
     )
     p.add_argument("--cycles", type=int, default=4, help="cycles to emulate (default 4)")
+    p.add_argument(
+        "--asnd",
+        action="store_true",
+        help="EPL: each SoA invites one CN in turn, which answers with an ASnd "
+        "(StatusResponse); the paper assumes no asynchronous frames",
+    )
+    p.add_argument(
+        "--pres-timeout-us",
+        type=float,
+        metavar="US",
+        help="EPL: the MN's PRes timeout; rejected if a CN cannot meet it",
+    )
     p.add_argument("--pcap", help="write the frames at the master's port to this pcap")
     p.add_argument(
         "--fault",
@@ -60,16 +72,33 @@ def run(args: argparse.Namespace) -> int:
         )
     if args.protocol == "epl" and args.redundant:
         raise SkinframesError("--redundant applies to EtherCAT only")
-    table = "epl" if args.protocol == "epl" else ("ecat_redundant" if args.redundant else "ecat")
-    result = simulate(
-        table,
-        args.nodes,
-        args.bytes,
-        preset(args.preset),
-        layout=args.layout,
-        cycles=args.cycles,
-        seed=args.seed,
-    )
+    if args.protocol == "ecat" and (args.asnd or args.pres_timeout_us is not None):
+        raise SkinframesError("--asnd and --pres-timeout-us apply to EPL only")
+    params = preset(args.preset)
+    if args.protocol == "epl":
+        from emulator.epl_cycle import simulate_epl
+
+        timeout = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1e6)
+        result = simulate_epl(
+            args.nodes,
+            args.bytes,
+            params,
+            cycles=args.cycles,
+            seed=args.seed,
+            asnd=args.asnd,
+            pres_timeout_ps=timeout,
+        )
+    else:
+        table = "ecat_redundant" if args.redundant else "ecat"
+        result = simulate(
+            table,
+            args.nodes,
+            args.bytes,
+            params,
+            layout=args.layout,
+            cycles=args.cycles,
+            seed=args.seed,
+        )
     result.trace.check_no_overlap()
     if args.pcap:
         result.trace.write_pcap(args.pcap)

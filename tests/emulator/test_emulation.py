@@ -204,3 +204,24 @@ def test_esc_register_reads_return_station_and_al_status() -> None:
 def test_impossible_networks_raise_topology_error(call, args) -> None:  # type: ignore[no-untyped-def]
     with pytest.raises(TopologyError):
         call(*args, PAPER)
+
+
+def test_asnd_phase_costs_frame_turnaround_and_hub_chain() -> None:
+    """With --asnd, CN k answers the SoA: eq. (11)'s bytes plus D_CN and 2(k+1) hops (hand sum)."""
+    n = 4
+    r = simulate_epl(n, 192, PAPER, cycles=n, asnd=True)
+    base = simulate_epl(n, 192, PAPER, cycles=1).details[0].cycle_ps
+    asnd_frame_ps = (8 + 60 + 4) * 80_000  # a 60-byte StatusResponse on the wire
+    for c, detail in enumerate(r.details):
+        k = c + 1  # the CN invited in cycle c
+        assert detail.cycle_ps == base + 1_000_000 + 2 * (k + 1) * 300_500 + asnd_frame_ps
+    r.trace.check_no_overlap()
+    kinds = [type(decode_frame(r.trace.frame(0, i)).payload).__name__ for i in range(2 * n + 3)]
+    assert kinds[-2:] == ["SoA", "ASnd"]
+
+
+def test_pres_timeout_shorter_than_the_chain_needs_is_rejected() -> None:
+    # CN 39 of a paper-preset chain: 2 x 40 hops x 0.3005 us + 1 us = 25.04 us > 25 us
+    with pytest.raises(TopologyError, match="CN 39"):
+        simulate_epl(160, 192, PAPER, cycles=1, pres_timeout_ps=25_000_000)
+    simulate_epl(38, 192, PAPER, cycles=1, pres_timeout_ps=25_000_000)
