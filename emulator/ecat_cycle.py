@@ -17,13 +17,14 @@ from __future__ import annotations
 from typing import Final
 
 import numpy as np
+import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc import EscChain
 from emulator.params import TimingParams
-from emulator.result import CycleDetail, SimResult
+from emulator.result import CycleDetail, SimResult, node_payloads
 from emulator.trace import CycleTrace
-from skinframes import ethercat, ethernet, taxel
+from skinframes import ethercat, ethernet
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
 __all__ = ["LAYOUTS", "frames_for", "path_latency_ps", "simulate_ecat"]
@@ -87,8 +88,12 @@ def simulate_ecat(
     layout: str = "per-slave",
     cycles: int = 4,
     seed: int = 0,
+    payloads: npt.NDArray[np.uint8] | None = None,
 ) -> SimResult:
     """Emulate ``cycles`` EtherCAT cycles reading ``data_bytes`` of taxels from each slave.
+
+    ``payloads`` (cycles, nodes, data_bytes) uint8 are the taxel bytes the slaves publish (e.g.
+    the samples of a CAN trace); seeded contact patterns when None.
 
     Returns:
         The result, whose trace holds every frame at the master's port (sent and returned).
@@ -97,7 +102,7 @@ def simulate_ecat(
         raise TopologyError(f"cycles must be >= 1, not {cycles}")
     sent_frames = frames_for(nodes, data_bytes, layout)
     chain = EscChain(nodes, data_bytes)
-    taxels = taxel.sample_payloads(nodes, cycles, data_bytes, seed=seed).reshape(cycles, -1)
+    taxels = node_payloads(payloads, cycles, nodes, data_bytes, seed).reshape(cycles, -1)
 
     sent: list[bytes] = []
     returned: list[bytes] = []

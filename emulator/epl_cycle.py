@@ -20,13 +20,14 @@ from __future__ import annotations
 from typing import Final
 
 import numpy as np
+import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.params import TimingParams
-from emulator.result import CycleDetail, SimResult
+from emulator.result import CycleDetail, SimResult, node_payloads
 from emulator.trace import CycleTrace
 from emulator.units import PS_PER_NS, PS_PER_US
-from skinframes import powerlink, taxel
+from skinframes import powerlink
 from skinframes.pcap import NS_PER_S
 from skinframes.powerlink import RequestedService
 
@@ -47,12 +48,15 @@ def simulate_epl(
     *,
     cycles: int = 4,
     seed: int = 0,
+    payloads: npt.NDArray[np.uint8] | None = None,
     asnd: bool = False,
     pres_timeout_ps: int | None = None,
 ) -> SimResult:
     """Emulate ``cycles`` EPL cycles: n CNs each answering with ``data_bytes`` of taxels.
 
     Args:
+        payloads: (cycles, nodes, data_bytes) uint8 taxel bytes to carry (e.g. the samples of a
+            CAN trace); seeded contact patterns when None.
         asnd: fill the asynchronous phase: each SoA invites one CN in turn (StatusRequest) and
             that CN answers with a StatusResponse ASnd. The paper's assumption (iii) is False.
         pres_timeout_ps: the MN's PRes timeout, from the end of a PReq to the start of the PRes
@@ -69,7 +73,7 @@ def simulate_epl(
         raise TopologyError(f"cycles must be >= 1, not {cycles}")
     n = nodes
     cns = np.arange(1, n + 1)
-    payloads = taxel.sample_payloads(n, cycles, data_bytes, seed=seed)
+    payloads = node_payloads(payloads, cycles, n, data_bytes, seed)
 
     preq = np.stack(
         [np.frombuffer(powerlink.frame(powerlink.PReq(int(i))).to_bytes(), np.uint8) for i in cns]

@@ -6,11 +6,14 @@ from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
+import numpy.typing as npt
 
+from emulator.errors import TopologyError
 from emulator.trace import CycleTrace
 from emulator.units import PS_PER_NS, PS_PER_US
+from skinframes import taxel
 
-__all__ = ["CycleDetail", "SimResult"]
+__all__ = ["CycleDetail", "SimResult", "node_payloads"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -90,3 +93,20 @@ class SimResult:
             "diagnosis": list(self.diagnosis),
             "pcap": self.pcap,
         }
+
+
+def node_payloads(
+    payloads: npt.NDArray[np.uint8] | None, cycles: int, nodes: int, data_bytes: int, seed: int
+) -> npt.NDArray[np.uint8]:
+    """The (cycles, nodes, data_bytes) taxel bytes a run carries: given, or seeded patterns.
+
+    Given payloads (e.g. the samples of a CAN trace) must have exactly that shape and dtype uint8.
+    """
+    if payloads is None:
+        return taxel.sample_payloads(nodes, cycles, data_bytes, seed=seed)
+    arr = np.asarray(payloads)
+    if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
+        raise TopologyError(
+            f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
+        )
+    return np.ascontiguousarray(arr)
