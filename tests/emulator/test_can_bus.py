@@ -1,0 +1,44 @@
+"""CAN arbitration, worked by hand."""
+
+from __future__ import annotations
+
+import pytest
+
+from emulator.can_bus import BusFrame, arbitrate, bit_time_ps
+from emulator.errors import ScheduleError
+
+
+def test_lowest_identifier_wins_and_bits_take_time() -> None:
+    frames = [
+        BusFrame(0, node=2, can_id=0x420, bits=100),
+        BusFrame(0, node=1, can_id=0x410, bits=120),
+        BusFrame(0, node=1, can_id=0x411, bits=110),
+    ]
+    s = arbitrate(frames)  # 1 Mbit/s: 1 us per bit
+    # node 1 wins twice (0x410 < 0x411 < 0x420), then node 2
+    assert s.start_ps.tolist() == [230_000_000, 0, 120_000_000]
+    assert s.end_ps.tolist() == [330_000_000, 120_000_000, 230_000_000]
+    assert s.busy_ps(0, 330_000_000) == 330_000_000
+    assert s.load(0, 660_000_000) == pytest.approx(0.5)
+
+
+def test_a_node_sends_its_queue_in_order_even_against_lower_ids() -> None:
+    # node 1 queues 0x500 then 0x100: 0x100 cannot overtake its own queue head
+    frames = [BusFrame(0, 1, 0x500, 50), BusFrame(0, 1, 0x100, 50), BusFrame(0, 2, 0x300, 50)]
+    s = arbitrate(frames)
+    assert s.start_ps.tolist() == [50_000_000, 100_000_000, 0]
+
+
+def test_idle_bus_waits_for_release() -> None:
+    s = arbitrate([BusFrame(1_000_000_000, 1, 0x10, 47), BusFrame(0, 2, 0x20, 47)])
+    assert s.start_ps.tolist() == [1_000_000_000, 0]
+
+
+def test_same_identifier_from_two_nodes_is_an_error() -> None:
+    with pytest.raises(ScheduleError):
+        arbitrate([BusFrame(0, 1, 0x410, 100), BusFrame(0, 2, 0x410, 100)])
+
+
+def test_bit_time() -> None:
+    assert bit_time_ps(1_000_000) == 1_000_000
+    assert bit_time_ps(500_000) == 2_000_000
