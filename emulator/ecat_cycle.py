@@ -21,6 +21,7 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc import EscChain
+from emulator.limits import check_cycles, check_ecat
 from emulator.params import TimingParams
 from emulator.result import CycleDetail, SimResult, node_payloads
 from emulator.trace import CycleTrace
@@ -30,7 +31,6 @@ from skinframes.ethercat import Command, Datagram, EcatFrame
 __all__ = ["LAYOUTS", "frames_for", "path_latency_ps", "simulate_ecat"]
 
 LAYOUTS: Final = ("per-slave", "logical")
-MAX_SLAVES: Final = 0xFFFF  # 16-bit position addresses
 
 
 def frames_for(nodes: int, data_bytes: int, layout: str = "per-slave") -> list[EcatFrame]:
@@ -41,12 +41,7 @@ def frames_for(nodes: int, data_bytes: int, layout: str = "per-slave") -> list[E
     fewest LRD datagrams of up to 1486 bytes (one per frame), as masters such as TwinCAT and SOEM
     map process data.
     """
-    if not 1 <= nodes <= MAX_SLAVES:
-        raise TopologyError(f"EtherCAT: {nodes} slaves (1..{MAX_SLAVES})")
-    if not 1 <= data_bytes <= ethercat.MAX_DATAGRAM_DATA_BYTES:
-        raise TopologyError(
-            f"EtherCAT: {data_bytes} bytes per slave (1..{ethercat.MAX_DATAGRAM_DATA_BYTES})"
-        )
+    check_ecat(nodes, data_bytes)
     if layout == "per-slave":
         dgs = [
             Datagram.logical(Command.LRD, i * data_bytes, bytes(data_bytes), idx=i & 0xFF)
@@ -98,8 +93,7 @@ def simulate_ecat(
     Returns:
         The result, whose trace holds every frame at the master's port (sent and returned).
     """
-    if cycles < 1:
-        raise TopologyError(f"cycles must be >= 1, not {cycles}")
+    check_cycles(cycles)
     sent_frames = frames_for(nodes, data_bytes, layout)
     chain = EscChain(nodes, data_bytes)
     taxels = node_payloads(payloads, cycles, nodes, data_bytes, seed).reshape(cycles, -1)

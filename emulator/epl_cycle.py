@@ -23,6 +23,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.limits import check_cycles, check_epl
 from emulator.params import TimingParams
 from emulator.result import CycleDetail, SimResult, node_payloads
 from emulator.trace import CycleTrace
@@ -63,14 +64,8 @@ def simulate_epl(
             at the MN (DS 301 NMT_MNCNPResTimeout). A timeout that a CN cannot meet on this
             chain is rejected: the CN's late PRes would collide with the MN's next frame.
     """
-    if not 1 <= nodes <= powerlink.MAX_CN_NODE_ID:
-        raise TopologyError(f"EPL: {nodes} CNs (1..{powerlink.MAX_CN_NODE_ID})")
-    if not 0 <= data_bytes <= powerlink.MAX_PDO_PAYLOAD_BYTES:
-        raise TopologyError(
-            f"EPL: {data_bytes} payload bytes (0..{powerlink.MAX_PDO_PAYLOAD_BYTES})"
-        )
-    if cycles < 1:
-        raise TopologyError(f"cycles must be >= 1, not {cycles}")
+    check_epl(nodes, data_bytes)
+    check_cycles(cycles)
     n = nodes
     cns = np.arange(1, n + 1)
     payloads = node_payloads(payloads, cycles, n, data_bytes, seed)

@@ -5,12 +5,12 @@ from __future__ import annotations
 from typing import Final
 
 from emulator import analytic
-from emulator.ecat_cycle import MAX_SLAVES, simulate_ecat
+from emulator.ecat_cycle import simulate_ecat
 from emulator.epl_cycle import simulate_epl
 from emulator.errors import TopologyError
+from emulator.limits import check_ecat, check_epl
 from emulator.params import TimingParams
 from emulator.result import SimResult
-from skinframes import ethercat, powerlink
 
 __all__ = ["MODELS", "TABLES", "cycle_us", "simulate", "validate"]
 
@@ -47,19 +47,9 @@ def simulate(
 def validate(table: str, nodes: int, data_bytes: int) -> None:
     """Raise TopologyError unless the network can exist (the emulators check the same)."""
     if table == "epl":
-        if not 1 <= nodes <= powerlink.MAX_CN_NODE_ID:
-            raise TopologyError(f"EPL: {nodes} CNs (1..{powerlink.MAX_CN_NODE_ID})")
-        if not 0 <= data_bytes <= powerlink.MAX_PDO_PAYLOAD_BYTES:
-            raise TopologyError(
-                f"EPL: {data_bytes} payload bytes (0..{powerlink.MAX_PDO_PAYLOAD_BYTES})"
-            )
+        check_epl(nodes, data_bytes)
     elif table in ("ecat", "ecat_redundant"):
-        if not 1 <= nodes <= MAX_SLAVES:
-            raise TopologyError(f"EtherCAT: {nodes} slaves (1..{MAX_SLAVES})")
-        if not 1 <= data_bytes <= ethercat.MAX_DATAGRAM_DATA_BYTES:
-            raise TopologyError(
-                f"EtherCAT: {data_bytes} bytes per slave (1..{ethercat.MAX_DATAGRAM_DATA_BYTES})"
-            )
+        check_ecat(nodes, data_bytes)
     else:
         raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
 

@@ -1,0 +1,38 @@
+"""What networks can exist: node counts and payload sizes each protocol allows."""
+
+from __future__ import annotations
+
+from typing import Final
+
+from emulator.errors import TopologyError
+from skinframes import ethercat, powerlink
+
+__all__ = ["MAX_SLAVES", "check_cycles", "check_ecat", "check_epl"]
+
+MAX_SLAVES: Final = 0xFFFF  # EtherCAT: 16-bit position addresses (ETG.1000.4)
+
+
+def check_epl(nodes: int, data_bytes: int) -> None:
+    """EPL: 1..239 CNs (DS 301 node ids), PRes payload 0..1490 bytes (C_DLL_ISOCHR_MAX_PAYL)."""
+    if not 1 <= nodes <= powerlink.MAX_CN_NODE_ID:
+        raise TopologyError(f"EPL: {nodes} CNs (1..{powerlink.MAX_CN_NODE_ID})")
+    if not 0 <= data_bytes <= powerlink.MAX_PDO_PAYLOAD_BYTES:
+        raise TopologyError(
+            f"EPL: {data_bytes} payload bytes (0..{powerlink.MAX_PDO_PAYLOAD_BYTES})"
+        )
+
+
+def check_ecat(nodes: int, data_bytes: int) -> None:
+    """EtherCAT: 1..65535 slaves, 1..1486 bytes per slave (one datagram in one frame)."""
+    if not 1 <= nodes <= MAX_SLAVES:
+        raise TopologyError(f"EtherCAT: {nodes} slaves (1..{MAX_SLAVES})")
+    if not 1 <= data_bytes <= ethercat.MAX_DATAGRAM_DATA_BYTES:
+        raise TopologyError(
+            f"EtherCAT: {data_bytes} bytes per slave (1..{ethercat.MAX_DATAGRAM_DATA_BYTES})"
+        )
+
+
+def check_cycles(cycles: int) -> None:
+    """At least one cycle."""
+    if cycles < 1:
+        raise TopologyError(f"cycles must be >= 1, not {cycles}")
