@@ -36,8 +36,9 @@ def run(name: str, cycles: int, path: Path) -> tuple[float, float, int]:
     if name == "epl":
         r = simulate_epl(NODES, BYTES, WIRE, cycles=cycles, seed=1)
     else:
-        r = simulate_ecat(NODES, BYTES, WIRE, redundant=name.endswith("closed ring"),
-                          cycles=cycles, seed=1)
+        r = simulate_ecat(
+            NODES, BYTES, WIRE, redundant=name.endswith("closed ring"), cycles=cycles, seed=1
+        )
     r.trace.write_pcap(path)
     wall = time.perf_counter() - t0
     last = r.details[-1]
@@ -50,10 +51,14 @@ def main() -> None:
     args = ap.parse_args()
     rounds = 3 if args.quick else 7
     target_s = 0.25 if args.quick else 1.0
-    print(f"{NODES} patches x {BYTES} bytes, wire preset, pcap written to a temp dir; "
-          f"median of {rounds} rounds\n")
-    print(f"{'network':<18}{'cycles':>8}{'sim s':>8}{'wall s':>9}{'x real time':>13}"
-          f"{'pcap MB':>9}   goal / stretch")
+    print(
+        f"{NODES} patches x {BYTES} bytes, wire preset, pcap written to a temp dir; "
+        f"median of {rounds} rounds\n"
+    )
+    print(
+        f"{'network':<18}{'cycles':>8}{'sim s':>8}{'wall s':>9}{'x real time':>13}"
+        f"{'pcap MB':>9}   goal / stretch"
+    )
     with tempfile.TemporaryDirectory() as tmp:
         for name, (goal, stretch) in GOALS.items():
             probe_sim, _, _ = run(name, 2, Path(tmp) / "probe.pcap")
@@ -64,8 +69,10 @@ def main() -> None:
             factor = sim / wall
             verdict = "MET" if factor >= goal else "NOT MET"
             verdict += ", stretch MET" if factor >= stretch else ""
-            print(f"{name:<18}{cycles:>8}{sim:>8.3f}{wall:>9.3f}{factor:>13.1f}"
-                  f"{results[0][2] / 1e6:>9.1f}   {goal}x / {stretch}x: {verdict}")
+            print(
+                f"{name:<18}{cycles:>8}{sim:>8.3f}{wall:>9.3f}{factor:>13.1f}"
+                f"{results[0][2] / 1e6:>9.1f}   {goal}x / {stretch}x: {verdict}"
+            )
 
 
 if __name__ == "__main__":
