@@ -76,15 +76,26 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
             raise UnknownProtocolError(
                 f"Ethernet: EtherType {ethertype:#06x} is not EPL or EtherCAT"
             )
-        return ethernet.EthernetFrame(head.dst, head.src, payload, ethertype, b"", tuple(findings))
+        return ethernet.EthernetFrame(
+            head.dst, head.src, head.payload, ethertype, head.padding, tuple(findings)
+        )
     name = PROTOCOL_NAMES[ethertype]
     try:
         message, used, more = decoder(payload, strict=strict)
+        if used > ethernet.MAX_PAYLOAD_BYTES:
+            raise LengthMismatchError(
+                f"Ethernet: the {used}-byte {name} message exceeds the "
+                f"{ethernet.MAX_PAYLOAD_BYTES}-byte maximum payload",
+                field="payload",
+                offset=ethernet.HEADER_BYTES,
+            )
     except DecodeError as exc:
         if strict:
             raise
         findings.append(error(f"{name}.undecodable", f"{exc}; kept as raw bytes"))
-        return ethernet.EthernetFrame(head.dst, head.src, payload, ethertype, b"", tuple(findings))
+        return ethernet.EthernetFrame(
+            head.dst, head.src, head.payload, ethertype, head.padding, tuple(findings)
+        )
     findings += more
     padding = payload[used:]
     auto = ethernet.padding_for(ethernet.HEADER_BYTES + used)

@@ -20,6 +20,7 @@ Wrong argument *types* stay ``TypeError``. construct's and python-can's exceptio
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Iterator
 from contextlib import contextmanager
 
@@ -123,7 +124,7 @@ def encoding(what: str) -> Iterator[None]:
         yield
     except SkinframesError:
         raise
-    except (cs.ConstructError, OverflowError, ValueError) as exc:
+    except (cs.ConstructError, OverflowError, ValueError, struct.error) as exc:
         raise FieldRangeError(f"{what}: {exc}", field=_path(exc)) from exc
 
 

@@ -483,6 +483,10 @@ def pack_frames_batch(
     n, k, size = data.shape
     if len(cmds) != k:
         raise FieldRangeError(f"EtherCAT batch: {len(cmds)} commands for {k} datagrams")
+    if not all(0 <= c <= 0xFF for c in cmds):
+        raise FieldRangeError("EtherCAT batch: commands must fit 8 bits", field="cmd")
+    if len(src) != ethernet.MAC_BYTES or len(dst) != ethernet.MAC_BYTES:
+        raise FieldRangeError("EtherCAT batch: MAC addresses must be 6 bytes", field="dst/src")
     body, stride, length = _layout(k, size)
     addr = np.broadcast_to(np.asarray(addresses, dtype=np.int64), (n, k))
     idx_a = np.broadcast_to(np.asarray(idx, dtype=np.int64), (n, k))

@@ -171,11 +171,16 @@ class EthernetFrame:
 
     @classmethod
     def from_bytes(cls, data: bytes) -> EthernetFrame:
-        """Decode the header only; the payload stays raw bytes (see :func:`skinframes.decode_frame`)."""
+        """Decode the header only; the payload stays raw bytes (see :func:`skinframes.decode_frame`).
+
+        Bytes past the 1500-byte maximum payload (VLAN-tagged or jumbo frames) are kept as a
+        trailer in ``padding``, so that ``to_bytes()`` returns ``data`` at any length.
+        """
         if len(data) < HEADER_BYTES:
             raise TruncatedError(
                 f"Ethernet: {len(data)} bytes, the header needs {HEADER_BYTES}", offset=len(data)
             )
         with decoding("Ethernet header"):
             dst, src, ethertype = _HEADER.unpack_from(data)
-        return cls(dst, src, bytes(data[HEADER_BYTES:]), ethertype, padding=b"")
+        body = bytes(data[HEADER_BYTES:])
+        return cls(dst, src, body[:MAX_PAYLOAD_BYTES], ethertype, padding=body[MAX_PAYLOAD_BYTES:])

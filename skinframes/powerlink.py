@@ -880,11 +880,13 @@ def _decode_service(
     if service_id == ServiceId.SYNC_RESPONSE:
         return SyncResponse._decode(body)
     decoder: Callable[[bytes], tuple[Service, int]]
+    fixed = 2  # NMTRequest / NMTCommand: two command bytes before the data; RawService: none
     if service_id == ServiceId.NMT_REQUEST:
         decoder = NmtRequest._decode
     elif service_id == ServiceId.NMT_COMMAND:
         decoder = NmtCommand._decode
     else:
+        fixed = 0
         msg = f"EPL ASnd: service id {service_id:#04x} is not modelled; kept as bytes"
         if strict and not 0xA0 <= service_id <= 0xFE:
             raise InvalidFieldError(msg, field="service_id")
@@ -897,7 +899,7 @@ def _decode_service(
     # are taken as Ethernet padding (re-encoding pads with the same zeros).
     end = len(body)
     if total == ethernet.MIN_PAYLOAD_BYTES:
-        while end > 2 and body[end - 1] == 0:
+        while end > fixed and body[end - 1] == 0:
             end -= 1
     service, _ = decoder(body[:end])
     return service, end
@@ -930,7 +932,7 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[EplMessage, int, lis
                 msg = f"EPL: {MessageType(mtype).name} (DS 302-A) kept as bytes"
             else:
                 msg = f"EPL: unknown MessageType {mtype:#04x}; Wireshark does not decode it as EPL"
-            if strict and mtype not in (MessageType.AINV, MessageType.AMNI):
+            if strict and (raw_type & 0x80 or mtype not in (MessageType.AINV, MessageType.AMNI)):
                 raise InvalidFieldError(msg, field="message_type", offset=0)
             findings.append(
                 info("epl.raw", msg) if mtype in (7, 13) else error("epl.message_type", msg)
@@ -1067,13 +1069,12 @@ def pack_pres_frames(
     head_len = ethernet.HEADER_BYTES + PDO_HEADER_BYTES
     length = max(head_len + size, ethernet.MIN_FRAME_BYTES)
     template = np.zeros(length, dtype=np.uint8)
-    template[:head_len] = np.frombuffer(
-        MAC_PRES
-        + node_mac(0)
-        + struct.pack(">H", ethernet.ETHERTYPE_EPL)
-        + _PRES_HEAD.pack(
+    with encoding("EPL PRes batch"):  # nmt_status and flags1 must fit a byte
+        head = _PRES_HEAD.pack(
             MessageType.PRES, BROADCAST_NODE_ID, 0, nmt_status, flags1, 0, 0, 0, size
-        ),
+        )
+    template[:head_len] = np.frombuffer(
+        MAC_PRES + node_mac(0) + struct.pack(">H", ethernet.ETHERTYPE_EPL) + head,
         dtype=np.uint8,
     )
     out = np.empty((n, length), dtype=np.uint8)
