@@ -373,8 +373,10 @@ class CanFrame:
     """One classic CAN frame as a trace records it (any identifier, not only skin data).
 
     Attributes:
-        arbitration_id: 11-bit (``extended=False``) or 29-bit identifier; 0 for error frames.
-        data: the data bytes (empty for remote frames; up to 64 for CAN FD frames).
+        arbitration_id: 11-bit (``extended=False``) or 29-bit identifier; for an error frame
+            the SocketCAN error-class bits (0 when the trace has none, as in python-can's).
+        data: the data bytes (empty for remote frames; up to 64 for CAN FD frames; the
+            SocketCAN error details for an error frame).
         time_ns: timestamp in nanoseconds, as the trace gives it.
         extended: 29-bit identifier (CAN 2.0B).
         remote: remote transmission request (no data on the wire; ``dlc`` gives the DLC field).
@@ -416,14 +418,18 @@ class CanFrame:
         """The LINKTYPE_CAN_SOCKETCAN record: Linux ``struct can_frame`` (16 bytes) or
         ``struct canfd_frame`` (72 bytes), the CAN-id word big-endian as pcap requires.
 
-        Error frames are written as ``CAN_ERR_FLAG`` with ``len`` 8 and zero error data (python-can
-        traces do not carry the error class).
+        Error frames are written as ``CAN_ERR_FLAG | arbitration_id`` (the error class) with
+        ``len`` 8 and ``data`` zero-padded (python-can traces carry neither: all zero).
 
         Raises:
             FieldRangeError: identifier or DLC out of range, more data than the frame type holds.
         """
         if self.error:
-            return _SOCKETCAN.pack(CAN_ERR_FLAG, CAN_ERR_DLC, 0, 0, 0) + bytes(CAN_ERR_DLC)
+            _check_range("arbitration_id", self.arbitration_id, MAX_EFF_ID)  # error class bits
+            if len(self.data) > CAN_ERR_DLC:
+                raise FrameTooLargeError(f"error frame: {len(self.data)} data bytes > 8")
+            header = _SOCKETCAN.pack(CAN_ERR_FLAG | self.arbitration_id, CAN_ERR_DLC, 0, 0, 0)
+            return header + self.data.ljust(CAN_ERR_DLC, b"\0")
         limit = MAX_SFF_ID if not self.extended else MAX_EFF_ID
         _check_range("arbitration_id", self.arbitration_id, limit)
         can_id = self.arbitration_id | (CAN_EFF_FLAG if self.extended else 0)
@@ -463,9 +469,9 @@ class CanFrame:
         fd = bool(flags & CANFD_FDF) or len(buf) == SOCKETCANFD_MTU
         extended = bool(can_id & CAN_EFF_FLAG)
         ident = can_id & (MAX_EFF_ID if extended else MAX_SFF_ID)
-        if can_id & CAN_ERR_FLAG:
+        if can_id & CAN_ERR_FLAG:  # error class in the id bits, details in the data
             data = buf[SOCKETCAN_HEADER_BYTES : SOCKETCAN_HEADER_BYTES + min(length, 8)]
-            return cls(0, bytes(data), time_ns=time_ns, error=True)
+            return cls(can_id & MAX_EFF_ID, bytes(data), time_ns=time_ns, error=True)
         if length > (64 if fd else MAX_DATA_BYTES):
             raise InvalidFieldError(f"SocketCAN record: len {length} > 8", field="len", offset=4)
         remote = bool(can_id & CAN_RTR_FLAG) and not fd

@@ -610,7 +610,11 @@ def test_socketcan_records_by_hand() -> None:
         CanFrame(0x123, bytes(range(20)), fd=True),
     ):
         assert CanFrame.from_socketcan(f.to_socketcan()) == f
-    assert CanFrame.from_socketcan(err).error
+    assert CanFrame.from_socketcan(err) == CanFrame(0, bytes(8), error=True)
+    # a Linux error frame (CAN_ERR_ACK 0x20, CAN_ERR_BUSOFF 0x40) re-encodes byte for byte
+    linux_err = struct.pack(">IB3x", 0x20000060, 8) + bytes.fromhex("0000000000000000")
+    assert CanFrame.from_socketcan(linux_err).to_socketcan() == linux_err
+    assert CanFrame.from_socketcan(linux_err).arbitration_id == 0x60
     with pytest.raises(TruncatedError):
         CanFrame.from_socketcan(bytes(7))
     with pytest.raises(TruncatedError):
