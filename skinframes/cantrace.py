@@ -21,7 +21,8 @@ What python-can's writers lose (checked with python-can 4.6.1): ``.trc`` drops C
 error frames; ``.log`` drops the DLC of remote frames; ``.csv`` and ``.db`` drop the CAN FD flag.
 :func:`write_trace` refuses such frames unless ``strict=False``. Timestamps: ``.asc`` comes back
 relative to the start of the measurement (python-can's default), ``.log``, ``.asc`` and ``.trc``
-keep microseconds only.
+keep microseconds only; ``.blf``, ``.csv`` and ``.db`` pass through float seconds (exact to the
+nanosecond near 0, to ~0.2 us for Unix-epoch times).
 """
 
 from __future__ import annotations
@@ -350,7 +351,10 @@ def write_trace(path: str | Path, frames: Iterable[CanFrame], *, strict: bool = 
                 )
             if loss and base == ".trc":
                 continue  # TRCWriter would drop it with a log line
-            out.on_message_received(to_message(f))
+            msg = to_message(f)
+            if base == ".blf":  # BLFWriter truncates int((t - start) * 1e9): nudge by 0.5 ns
+                msg.timestamp += 0.5 / NS_PER_S
+            out.on_message_received(msg)
             written += 1
     return written
 

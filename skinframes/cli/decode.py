@@ -7,9 +7,10 @@ import json
 import sys
 from typing import Any
 
+from skinframes.canwire import CanFrame
 from skinframes.describe import frame_fields, summary
 from skinframes.dispatch import decode_frame, protocol_of
-from skinframes.errors import DecodeError
+from skinframes.errors import DecodeError, TruncatedError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, read_capture
 
 
@@ -32,9 +33,11 @@ def run(args: argparse.Namespace) -> int:
     out = sys.stdout
     for rec in capture:
         obj: dict[str, Any] = {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
-        if rec.linktype != LINKTYPE_ETHERNET:
-            proto = "can" if rec.linktype == LINKTYPE_CAN_SOCKETCAN else "other"
-            obj.update(protocol=proto, linktype=rec.linktype, findings=[])
+        if rec.linktype == LINKTYPE_CAN_SOCKETCAN:
+            fields, text = _can_fields(rec.data)
+            obj.update(protocol="can", linktype=rec.linktype, **fields)
+        elif rec.linktype != LINKTYPE_ETHERNET:
+            obj.update(protocol="other", linktype=rec.linktype, findings=[])
             text = f"linktype {rec.linktype}, {len(rec.data)} bytes"
         else:
             try:
@@ -63,3 +66,28 @@ def run(args: argparse.Namespace) -> int:
         file=sys.stderr,
     )
     return 0
+
+
+def _can_fields(data: bytes) -> tuple[dict[str, Any], str]:
+    """JSON fields and a text line for a SocketCAN record (LINKTYPE 227)."""
+    try:
+        f = CanFrame.from_socketcan(data)
+    except DecodeError as exc:
+        code = "can.truncated" if isinstance(exc, TruncatedError) else "can.invalid"
+        return {"findings": [{"severity": "error", "code": code, "message": str(exc)}]}, str(exc)
+    bits = None if f.error or f.fd else f.bits()
+    fields = {
+        "can_id": f.arbitration_id,
+        "extended": f.extended,
+        "remote": f.remote,
+        "error_frame": f.error,
+        "fd": f.fd,
+        "dlc": f.dlc_field,
+        "data": f.data.hex(),
+        "wire_bits": bits,
+        "findings": [],
+    }
+    kind = "error frame" if f.error else "remote" if f.remote else "FD" if f.fd else "data"
+    ident = f"{f.arbitration_id:08x}" if f.extended else f"{f.arbitration_id:03x}"
+    text = f"CAN {ident} {kind} [{f.dlc_field}] {f.data.hex(' ')}".rstrip()
+    return fields, text
