@@ -52,9 +52,7 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
         DecodeError: fewer than 14 bytes, or (strict) any deviation.
     """
     data = bytes(data)
-    head = ethernet.EthernetFrame.from_bytes(data)
-    ethertype = head.ethertype
-    assert ethertype is not None
+    dst, src, ethertype = ethernet.unpack_header(data)
     payload = data[ethernet.HEADER_BYTES :]
     findings: list[Finding] = []
     if len(data) < ethernet.MIN_FRAME_BYTES:
@@ -62,11 +60,11 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
         if strict:
             raise TruncatedError(msg, offset=len(data))
         findings.append(info("eth.unpadded", msg + "; typical of a capture on the sending host"))
-    if ethernet.is_group(head.src):
+    if ethernet.is_group(src):
         findings.append(
             warning(
                 "eth.src.group",
-                f"Ethernet: source MAC {ethernet.format_mac(head.src)}"
+                f"Ethernet: source MAC {ethernet.format_mac(src)}"
                 " is a group address (Wireshark warns)",
             )
         )
@@ -76,9 +74,8 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
             raise UnknownProtocolError(
                 f"Ethernet: EtherType {ethertype:#06x} is not EPL or EtherCAT"
             )
-        return ethernet.EthernetFrame(
-            head.dst, head.src, head.payload, ethertype, head.padding, tuple(findings)
-        )
+        body, trailer = _raw(data)
+        return ethernet.EthernetFrame(dst, src, body, ethertype, trailer, tuple(findings))
     name = PROTOCOL_NAMES[ethertype]
     try:
         message, used, more = decoder(payload, strict=strict)
@@ -93,9 +90,8 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
         if strict:
             raise
         findings.append(error(f"{name}.undecodable", f"{exc}; kept as raw bytes"))
-        return ethernet.EthernetFrame(
-            head.dst, head.src, head.payload, ethertype, head.padding, tuple(findings)
-        )
+        body, trailer = _raw(data)
+        return ethernet.EthernetFrame(dst, src, body, ethertype, trailer, tuple(findings))
     findings += more
     padding = payload[used:]
     auto = ethernet.padding_for(ethernet.HEADER_BYTES + used)
@@ -122,4 +118,10 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
             if strict:
                 raise LengthMismatchError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
             findings.append(info("eth.trailer", msg))
-    return ethernet.EthernetFrame(head.dst, head.src, message, ethertype, pad, tuple(findings))
+    return ethernet.EthernetFrame(dst, src, message, ethertype, pad, tuple(findings))
+
+
+def _raw(data: bytes) -> tuple[bytes, bytes]:
+    """(payload, trailer) of a frame kept as raw bytes: the payload stops at 1500 bytes."""
+    body = data[ethernet.HEADER_BYTES :]
+    return body[: ethernet.MAX_PAYLOAD_BYTES], body[ethernet.MAX_PAYLOAD_BYTES :]

@@ -14,7 +14,7 @@ from typing import ClassVar, Final, Protocol
 
 import construct as cs
 
-from skinframes.errors import FieldRangeError, FrameTooLargeError, TruncatedError, decoding
+from skinframes.errors import FieldRangeError, FrameTooLargeError, TruncatedError
 from skinframes.findings import Finding
 
 __all__ = [
@@ -103,6 +103,20 @@ def wire_bytes(frame_bytes: int) -> int:
     return PREAMBLE_SFD_BYTES + max(frame_bytes, MIN_FRAME_BYTES) + FCS_BYTES
 
 
+def unpack_header(data: bytes) -> tuple[bytes, bytes, int]:
+    """(destination MAC, source MAC, EtherType) of a frame.
+
+    Raises:
+        TruncatedError: fewer than 14 bytes.
+    """
+    if len(data) < HEADER_BYTES:
+        raise TruncatedError(
+            f"Ethernet: {len(data)} bytes, the header needs {HEADER_BYTES}", offset=len(data)
+        )
+    dst, src, ethertype = _HEADER.unpack_from(data)
+    return dst, src, ethertype
+
+
 class Payload(Protocol):
     """What an Ethernet frame can carry besides raw bytes: an EPL or EtherCAT message."""
 
@@ -176,11 +190,6 @@ class EthernetFrame:
         Bytes past the 1500-byte maximum payload (VLAN-tagged or jumbo frames) are kept as a
         trailer in ``padding``, so that ``to_bytes()`` returns ``data`` at any length.
         """
-        if len(data) < HEADER_BYTES:
-            raise TruncatedError(
-                f"Ethernet: {len(data)} bytes, the header needs {HEADER_BYTES}", offset=len(data)
-            )
-        with decoding("Ethernet header"):
-            dst, src, ethertype = _HEADER.unpack_from(data)
+        dst, src, ethertype = unpack_header(data)
         body = bytes(data[HEADER_BYTES:])
         return cls(dst, src, body[:MAX_PAYLOAD_BYTES], ethertype, padding=body[MAX_PAYLOAD_BYTES:])

@@ -935,7 +935,7 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[EplMessage, int, lis
             if strict and (raw_type & 0x80 or mtype not in (MessageType.AINV, MessageType.AMNI)):
                 raise InvalidFieldError(msg, field="message_type", offset=0)
             findings.append(
-                info("epl.raw", msg) if mtype in (7, 13) else error("epl.message_type", msg)
+                info("epl.raw", msg) if raw_type in (7, 13) else error("epl.message_type", msg)
             )
             return RawMessage(raw_type, buf[1], buf[2], buf[3:]), len(buf), findings
         message: EplMessage

@@ -149,6 +149,8 @@ def contact_pattern(
         )
     if not 0 <= no_load <= 0xFF:
         raise FieldRangeError("contact_pattern: no_load must be 0..255")
+    if not 0 <= seed <= 0xFFFFFFFF:
+        raise FieldRangeError(f"contact_pattern: seed {seed} outside 0..2**32-1")
     rng = np.random.RandomState(seed)
     length = patches * triangles * TAXELS_PER_TRIANGLE
     noise = np.frombuffer(rng.bytes(samples * length), dtype=np.uint8) % 5  # 0..4 -> -2..+2
