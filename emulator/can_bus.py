@@ -18,9 +18,11 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import ScheduleError, TopologyError
-from emulator.units import PS_PER_S
+from emulator.units import PS_PER_NS, PS_PER_S
+from skinframes import canbus
+from skinframes.canwire import CanFrame
 
-__all__ = ["BusFrame", "CanSchedule", "arbitrate", "bit_time_ps"]
+__all__ = ["BusFrame", "CanSchedule", "arbitrate", "bit_time_ps", "skin_bus"]
 
 DEFAULT_BITRATE_BPS: Final = 1_000_000  # the skin bus (can.md 1.5)
 
@@ -113,3 +115,41 @@ def arbitrate(frames: list[BusFrame], bitrate_bps: int = DEFAULT_BITRATE_BPS) ->
             nxt = queues[node][heads[node]]
             heapq.heappush(waiting, (max(frames[nxt].release_ps, t), node))
     return CanSchedule(tuple(frames), start, end, bit)
+
+
+def skin_bus(
+    boards: list[int],
+    taxels: npt.NDArray[np.uint8],
+    period_ps: int,
+    *,
+    skin_class: int = 4,
+    bitrate_bps: int = DEFAULT_BITRATE_BPS,
+) -> tuple[list[CanFrame], CanSchedule]:
+    """The legacy skin bus at work: each board queues its 2T frames at every period start.
+
+    Args:
+        boards: board addresses (1..14) on the bus.
+        taxels: (samples, len(boards), T, 12) uint8 taxel values.
+        period_ps: the boards' transmit period (50 ms by default in the firmware).
+
+    Returns:
+        The frames as a trace would record them (timestamp = start of the frame on the bus, in
+        time order) and the bus schedule.
+    """
+    arr = np.asarray(taxels)
+    if arr.ndim != 4 or arr.shape[1] != len(boards):
+        raise TopologyError(f"taxels: shape {arr.shape}, expected (samples, {len(boards)}, T, 12)")
+    payloads: list[tuple[int, bytes]] = []
+    bus: list[BusFrame] = []
+    for k in range(arr.shape[0]):
+        for i, board in enumerate(boards):
+            for ident, data in canbus.encode_board(board, arr[k, i], skin_class=skin_class):
+                payloads.append((ident, data))
+                bus.append(BusFrame(k * period_ps, board, ident, CanFrame(ident, data).bits()))
+    sched = arbitrate(bus, bitrate_bps)
+    frames = [
+        CanFrame(ident, data, time_ns=int(t) // PS_PER_NS)
+        for (ident, data), t in zip(payloads, sched.start_ps, strict=True)
+    ]
+    order = np.argsort(sched.start_ps, kind="stable")
+    return [frames[i] for i in order], sched

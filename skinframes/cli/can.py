@@ -19,6 +19,7 @@ from typing import Any, Final
 
 from skinframes.canbus import LEGACY_SKIN_CLASS, SKIN_CLASS, FrameCounts
 from skinframes.cantrace import PCAP_SUFFIXES, TRACE_SUFFIXES, Trace, read_trace
+from skinframes.cli.can_convert import add_convert
 from skinframes.cli.options import int_list
 
 __all__ = ["SUBCOMMANDS", "add_decode", "add_parser"]
@@ -30,7 +31,7 @@ def add_parser(sub: Any) -> None:
     """Register ``can`` and its subcommands."""
     p = sub.add_parser(
         "can",
-        help="legacy CAN skin traces (decode)",
+        help="legacy CAN skin traces (decode, convert)",
         description="Legacy iCub skin CAN traces: any python-can format "
         f"({' '.join(TRACE_SUFFIXES)}) or a SocketCAN pcap ({' '.join(PCAP_SUFFIXES)}).",
     )
@@ -116,4 +117,4 @@ def _report(trace: Trace) -> None:
         print(f"skinframes: skipped record {s.index}: {s.reason}", file=err)
 
 
-SUBCOMMANDS: Final[tuple[Callable[[Any], None], ...]] = (add_decode,)
+SUBCOMMANDS: Final[tuple[Callable[[Any], None], ...]] = (add_decode, add_convert)

@@ -72,6 +72,7 @@ def run(args: argparse.Namespace) -> int:
         "\n('fits' uses the slower preset: a reactive loop of that period can read every taxel"
         " once per cycle)"
     )
+    files += _can_comparison(out)
     for scenario in golden.SCENARIOS:
         path = out / f"{scenario}.pcap"
         write_pcap(path, golden.build(scenario))
@@ -84,3 +85,41 @@ def run(args: argparse.Namespace) -> int:
         status = _status(path) if path.suffix == ".pcap" else ""
         print(f"  {path!s:<46} {what}  {status}")
     return 0
+
+
+CAN_BOARDS = list(range(8, 15))  # a 7-board skin bus, as on the iCub's arm (can.md 1.5)
+CAN_SAMPLES = 5
+
+
+def _can_comparison(out: Path) -> list[tuple[Path, str]]:
+    """Write a legacy skin CAN trace (7 boards, 50 ms period) and compare the buses on it."""
+    import math
+
+    from emulator.can_bus import skin_bus
+    from emulator.compare import compare, samples_of
+    from emulator.params import WIRE
+    from skinframes.canbus import DEFAULT_PERIOD_MS, MAX_BOARD
+    from skinframes.cantrace import read_trace, write_trace
+    from skinframes.cli.compare import plot, print_table
+
+    taxels = taxel.contact_pattern(len(CAN_BOARDS), CAN_SAMPLES, seed=2)
+    frames, _ = skin_bus(CAN_BOARDS, taxels, DEFAULT_PERIOD_MS * 1_000_000_000)
+    trace_path = out / "skin_can.asc"
+    write_trace(trace_path, frames)
+    doc = compare(samples_of(read_trace(trace_path)), WIRE)
+    print(
+        "\nThe legacy CAN bus against EPL and EtherCAT, on the same taxels (skinframes compare):\n"
+    )
+    print_table(doc)
+    per_board_us = doc["can"]["cycle_us"] / len(CAN_BOARDS)
+    per_bus = min(MAX_BOARD - 1, int(DEFAULT_PERIOD_MS * 1000 // per_board_us))
+    print(
+        f"\n{NODES} patches on CAN: {per_bus} boards fit one 1 Mbit/s bus at "
+        f"{DEFAULT_PERIOD_MS} ms, so {math.ceil(NODES / per_bus)} buses; one EtherCAT ring "
+        "carries them all in under 3 ms."
+    )
+    png = plot(doc, out / "compare.png")
+    return [
+        (trace_path, f"skin CAN trace: {len(CAN_BOARDS)} boards, {CAN_SAMPLES} samples"),
+        (png, "CAN vs EPL vs EtherCAT for that trace"),
+    ]

@@ -1,0 +1,54 @@
+"""``skinframes can convert TRACE --to epl|ecat --pcap OUT``: a CAN trace's samples on Ethernet."""
+
+from __future__ import annotations
+
+import argparse
+from typing import Any
+
+
+def add_convert(sub: Any) -> None:
+    """Register ``can convert``."""
+    p = sub.add_parser(
+        "convert",
+        help="carry a trace's skin samples over EPL or EtherCAT (pcap)",
+        description="Every complete skin sample of the trace, in order, becomes one emulated cycle "
+        "on EPL (one CN per board, the board's taxels as PRes payload) or EtherCAT (one slave per "
+        "board, its taxels in its datagram); the frames are timed by the emulator and written "
+        "as a pcap. Boards are numbered in ascending address order (CN 1 / slave 0 = the lowest).",
+    )
+    p.add_argument("trace", help="CAN trace (.log .asc .blf .trc .csv, or a SocketCAN pcap)")
+    p.add_argument("--to", choices=["epl", "ecat"], required=True, dest="target")
+    p.add_argument("--pcap", required=True, help="output pcap")
+    p.add_argument("--preset", choices=["paper", "wire"], default="wire")
+    p.add_argument("--redundant", action="store_true", help="EtherCAT closed ring")
+    p.set_defaults(run=run_convert)
+
+
+def run_convert(args: argparse.Namespace) -> int:
+    """Convert and report."""
+    from emulator.compare import samples_of
+    from emulator.ecat_cycle import simulate_ecat
+    from emulator.epl_cycle import simulate_epl
+    from emulator.params import preset
+    from skinframes.cantrace import read_trace
+    from skinframes.errors import SkinframesError
+
+    if args.target == "epl" and args.redundant:
+        raise SkinframesError("--redundant applies to EtherCAT only")
+    s = samples_of(read_trace(args.trace))
+    params = preset(args.preset)
+    n, size, cycles = len(s.boards), s.data_bytes, s.samples
+    if args.target == "epl":
+        r = simulate_epl(n, size, params, cycles=cycles, payloads=s.taxels)
+    else:
+        r = simulate_ecat(
+            n, size, params, redundant=args.redundant, cycles=cycles, payloads=s.taxels
+        )
+    r.trace.check_no_overlap()
+    r.trace.write_pcap(args.pcap)
+    print(
+        f"{cycles} samples of {n} boards ({', '.join(map(str, s.boards))}) x {size} bytes -> "
+        f"{r.frames} frames, {r.protocol} {r.topology}, cycle {r.cycle_us()['median']:.2f} us "
+        f"({args.preset} preset): {args.pcap}"
+    )
+    return 0

@@ -1,0 +1,107 @@
+"""CAN vs EPL vs EtherCAT: `compare`, `can convert`, and the skin bus behind them."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from emulator.can_bus import skin_bus
+from skinframes import decode_frame, ethercat, powerlink, read_capture, taxel
+from skinframes.cantrace import write_trace
+from skinframes.canwire import frame_bits
+from skinframes.cli import main
+
+BOARDS = [8, 9, 10]
+SAMPLES = 3
+PERIOD_PS = 50_000_000_000  # 50 ms, the firmware default
+
+
+@pytest.fixture(scope="module")
+def skin_trace(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarray]:
+    taxels = taxel.contact_pattern(len(BOARDS), SAMPLES, seed=11)
+    frames, _ = skin_bus(BOARDS, taxels, PERIOD_PS)
+    path = tmp_path_factory.mktemp("can") / "skin.log"
+    write_trace(path, frames)
+    return path, taxels
+
+
+def test_can_figure_is_the_sum_of_exact_frame_times(
+    skin_trace: tuple[Path, np.ndarray], capsys: pytest.CaptureFixture[str]
+) -> None:
+    path, taxels = skin_trace
+    assert main(["compare", str(path), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    # hand sum: every frame of every board, frame_bits each, 1 us per bit at 1 Mbit/s
+    per_sample = []
+    for k in range(SAMPLES):
+        bits = 0
+        for i, board in enumerate(BOARDS):
+            for t in range(16):
+                head = bytes([0x40, *taxels[k, i, t, :7]])
+                tail = bytes([0xC0, *taxels[k, i, t, 7:], 0, 0])
+                ident = 4 << 8 | board << 4 | t
+                bits += frame_bits(ident, head) + frame_bits(ident, tail)
+        per_sample.append(bits)
+    assert doc["can"]["cycle_us"] == pytest.approx(float(np.median(per_sample)))
+    assert doc["period_us"] == pytest.approx(50_000)
+    assert doc["can"]["bus_load"] == pytest.approx(doc["can"]["cycle_us"] / 50_000)
+    # the bus re-emulated from the same frames: they were scheduled back to back
+    assert doc["can"]["emulated"]["cycle_us"] == pytest.approx(doc["can"]["cycle_us"], rel=0.02)
+    for bus in ("can", "epl", "ecat"):
+        assert set(doc[bus]) >= {
+            "cycle_us",
+            "bus_load",
+            "wire_bytes_per_sample",
+            "max_patches_1ms",
+            "max_patches_5ms",
+        }
+    assert doc["ecat"]["cycle_us"] < doc["epl"]["cycle_us"] < doc["can"]["cycle_us"]
+    assert doc["can"]["max_patches_1ms"] == 0  # 32 frames of ~115 bits > 1 ms per board
+    assert doc["ecat"]["max_patches_5ms"] > doc["epl"]["max_patches_5ms"] > 1
+
+
+@pytest.mark.parametrize("target", ["epl", "ecat"])
+def test_convert_carries_every_taxel_of_every_sample_in_order(
+    skin_trace: tuple[Path, np.ndarray],
+    tmp_path: Path,
+    target: str,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    path, taxels = skin_trace
+    out = tmp_path / f"{target}.pcap"
+    assert main(["can", "convert", str(path), "--to", target, "--pcap", str(out)]) == 0
+    got: list[bytes] = []
+    for rec in read_capture(out):
+        frame = decode_frame(rec.data)
+        m = frame.payload
+        if isinstance(m, powerlink.PRes):
+            got.append(m.payload)
+        elif isinstance(m, ethercat.EcatFrame) and frame.src[0] & ethercat.RETURNED_MAC_BIT:
+            got += [d.data for d in m.datagrams]
+    want = [taxels[k, i].tobytes() for k in range(SAMPLES) for i in range(len(BOARDS))]
+    assert got == want
+
+
+def test_compare_plot_and_text(
+    skin_trace: tuple[Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    png = tmp_path / "cmp.png"
+    assert main(["compare", str(skin_trace[0]), "--plot", str(png)]) == 0
+    text = capsys.readouterr().out
+    assert "CAN as recorded" in text and "EtherCAT" in text
+    assert png.read_bytes()[:4] == b"\x89PNG"
+
+
+def test_compare_without_skin_data_is_one_error_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from skinframes.canwire import CanFrame
+
+    path = tmp_path / "other.log"
+    write_trace(path, [CanFrame(0x123, b"\x01\x02", time_ns=1000)])
+    assert main(["compare", str(path)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("skinframes: error:")
