@@ -1,0 +1,429 @@
+"""The Slave Information Interface (SII) EEPROM image of an emulated EtherCAT slave.
+
+Layout: ETG.1000.6 clause 5.4 / ETG.2010 (SII specification) as the Beckhoff ESC datasheet
+section I, 11.1 (Tables 42 and 43) summarises it. The EEPROM is word addressed, little-endian:
+
+* words 0-7: ESC configuration area A (PDI control and configuration, SYNC pulse length,
+  extended PDI configuration, configured station alias, two reserved words) and word 7, the
+  checksum: the low byte is the CRC-8 of bytes 0-13 with polynomial x^8 + x^2 + x + 1 (0x07),
+  initial value 0xFF, no reflection, no final XOR (datasheet I, Table 42);
+* words 8-15: vendor ID, product code, revision number, serial number (u32 each);
+* words 0x14-0x1C: bootstrap and standard mailbox offsets/sizes and the mailbox protocols,
+  all 0 here: the skin patch has no mailbox;
+* word 0x3E: EEPROM size in Kibit minus 1; word 0x3F: version (1);
+* from word 0x40: categories ``{type u16, size in words u16, data}``, ended by type 0xFFFF.
+
+The categories written here: STRINGS (10), GENERAL (30), FMMU (40), SYNCM (41), TXPDO (50) and
+RXPDO (51) when the slave has outputs (ETG.2010 Tables 4-13). A :class:`SlaveInfo` is the small
+description they are built from; :meth:`SlaveInfo.skin_patch` describes one tactile patch whose
+TxPDO carries its taxel bytes.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+from enum import IntEnum
+from typing import Final
+
+from emulator.errors import TopologyError
+from skinframes import taxel
+
+__all__ = [
+    "CHECKSUM_BYPASS",
+    "CONFIG_AREA_WORDS",
+    "FIRST_CATEGORY_WORD",
+    "PRODUCT_CODE_BASE",
+    "VENDOR_ID",
+    "Category",
+    "DataType",
+    "FmmuUsage",
+    "Pdo",
+    "PdoEntry",
+    "SlaveInfo",
+    "SyncManagerSpec",
+    "SyncManagerType",
+    "build_sii",
+    "crc8",
+    "eeprom_kibit",
+]
+
+# --- constants (ETG.2010 Table 2; datasheet I, Tables 42/43) ---------------------------------
+CONFIG_AREA_WORDS: Final = 7  # words 0-6 are covered by the checksum in word 7
+CHECKSUM_WORD: Final = 7
+CHECKSUM_BYPASS: Final = 0x88A4  # datasheet I, Table 42: "disable the checksum validation"
+WORD_VENDOR: Final = 0x08
+WORD_PRODUCT: Final = 0x0A
+WORD_REVISION: Final = 0x0C
+WORD_SERIAL: Final = 0x0E
+WORD_STD_RX_MAILBOX: Final = 0x18
+WORD_MAILBOX_PROTOCOL: Final = 0x1C
+WORD_SIZE: Final = 0x3E
+WORD_VERSION: Final = 0x3F
+FIRST_CATEGORY_WORD: Final = 0x40
+SII_VERSION: Final = 1
+MIN_EEPROM_KIBIT: Final = 2  # datasheet I, 11: words 0-63 plus General need at least 2 Kibit
+
+PDI_SPI_SLAVE: Final = 0x05  # 0x0140 PDI control: SPI slave (datasheet II, 2.6.1)
+PHYSICAL_PORT_MII: Final = 0x1  # GENERAL byte 16: 4 bits per port, 1 = MII
+
+# Identity of the emulated skin patch. "SKIN" in ASCII: a vendor ID chosen for the emulator,
+# not one assigned by the ETG; the product code carries the patch's input size.
+VENDOR_ID: Final = 0x534B494E
+PRODUCT_CODE_BASE: Final = 0x00010000
+REVISION: Final = 0x00010000  # major 1, minor 0
+PROCESS_RAM_START: Final = 0x1000  # datasheet I, 1.1: process memory starts at 0x1000
+
+
+class Category(IntEnum):
+    """SII category types (ETG.2010 Table 3)."""
+
+    NOP = 0
+    STRINGS = 10
+    DATATYPES = 20
+    GENERAL = 30
+    FMMU = 40
+    SYNCM = 41
+    TXPDO = 50
+    RXPDO = 51
+    DC = 60
+    END = 0xFFFF
+
+
+class FmmuUsage(IntEnum):
+    """FMMU category: what each FMMU is meant for (ETG.2010 Table 8)."""
+
+    UNUSED = 0x00
+    OUTPUTS = 0x01
+    INPUTS = 0x02
+    SYNCM_STATUS = 0x03
+
+
+class SyncManagerType(IntEnum):
+    """SYNCM category byte 7 (ETG.2010 Table 9)."""
+
+    UNUSED = 0x00
+    MAILBOX_OUT = 0x01  # master -> slave mailbox
+    MAILBOX_IN = 0x02  # slave -> master mailbox
+    OUTPUTS = 0x03  # process data, master -> slave (RxPDO)
+    INPUTS = 0x04  # process data, slave -> master (TxPDO)
+
+
+class DataType(IntEnum):
+    """CoE basic data types used in PDO entries (ETG.1000.6 Table 64; SOEM's ECT_* values)."""
+
+    BOOLEAN = 0x0001
+    INTEGER8 = 0x0002
+    INTEGER16 = 0x0003
+    INTEGER32 = 0x0004
+    UNSIGNED8 = 0x0005
+    UNSIGNED16 = 0x0006
+    UNSIGNED32 = 0x0007
+    OCTET_STRING = 0x000A
+
+
+# SyncManager control bytes (datasheet II, 2.14.3): bits 1:0 mode (00 buffered), bits 3:2
+# direction (00 ECAT reads, 01 ECAT writes), bit 5 interrupt in AL event, bit 6 watchdog.
+SM_CONTROL_INPUTS: Final = 0x20
+SM_CONTROL_OUTPUTS: Final = 0x64
+
+
+def crc8(data: bytes) -> int:
+    """CRC-8 of the ESC configuration area: polynomial 0x07, initial value 0xFF, MSB first.
+
+    Datasheet I, Table 42 (word 7): "remainder of division of word 0 to word 6 as unsigned
+    number divided by the polynomial x^8+x^2+x+1 (initial value 0xFF)".
+    """
+    crc = 0xFF
+    for byte in data:
+        crc ^= byte
+        for _ in range(8):
+            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
+    return crc
+
+
+def eeprom_kibit(image_bytes: int) -> int:
+    """The smallest standard EEPROM (a power of two, at least 2 Kibit) that holds the image."""
+    kibit = MIN_EEPROM_KIBIT
+    while kibit * 128 < image_bytes:
+        kibit *= 2
+    return kibit
+
+
+@dataclass(frozen=True, slots=True)
+class PdoEntry:
+    """One PDO entry (ETG.2010 Table 12): object index/subindex, data type and bit length."""
+
+    index: int
+    subindex: int
+    bit_length: int
+    data_type: int = DataType.UNSIGNED8
+    name_index: int = 0
+    flags: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class Pdo:
+    """One PDO (ETG.2010 Table 11) and the SyncManager it is assigned to."""
+
+    index: int
+    sync_manager: int
+    entries: tuple[PdoEntry, ...]
+    name: str = ""
+    synchronization: int = 0
+    flags: int = 0
+
+    @property
+    def bit_length(self) -> int:
+        """Sum of the entries' bit lengths: what the PDO occupies in the SyncManager."""
+        return sum(e.bit_length for e in self.entries)
+
+
+@dataclass(frozen=True, slots=True)
+class SyncManagerSpec:
+    """One SYNCM entry (ETG.2010 Table 9): the configuration a master programs into 0x0800+."""
+
+    start: int
+    length: int
+    control: int
+    enable: int
+    type: SyncManagerType
+
+    @property
+    def ecat_writes(self) -> bool:
+        """Direction bits 3:2 = 01: the master writes (outputs, mailbox out)."""
+        return (self.control >> 2) & 0x3 == 1
+
+
+@dataclass(frozen=True, slots=True)
+class SlaveInfo:
+    """What an emulated slave tells a master through its SII (the small description).
+
+    ``sync_managers`` and ``fmmus`` are listed in the SII in order; ``tx_pdos`` (inputs) and
+    ``rx_pdos`` (outputs) name the SyncManager they are mapped to. ``alias`` goes to word 4.
+    """
+
+    vendor_id: int
+    product_code: int
+    revision: int
+    serial: int
+    name: str
+    sync_managers: tuple[SyncManagerSpec, ...]
+    fmmus: tuple[FmmuUsage, ...]
+    tx_pdos: tuple[Pdo, ...] = ()
+    rx_pdos: tuple[Pdo, ...] = ()
+    alias: int = 0
+    group: str = ""
+    order: str = ""
+    pdi_control: int = PDI_SPI_SLAVE
+    esc_configuration: int = 0x00  # 0x0141: no device emulation, no enhanced link detection
+
+    def __post_init__(self) -> None:
+        for label, value, bits in (
+            ("vendor_id", self.vendor_id, 32),
+            ("product_code", self.product_code, 32),
+            ("revision", self.revision, 32),
+            ("serial", self.serial, 32),
+            ("alias", self.alias, 16),
+        ):
+            if not 0 <= value < 1 << bits:
+                raise TopologyError(f"SII: {label} {value:#x} does not fit {bits} bits")
+        for pdo in self.tx_pdos + self.rx_pdos:
+            if not 0 <= pdo.sync_manager < len(self.sync_managers):
+                raise TopologyError(f"SII: PDO {pdo.index:#06x} names SM{pdo.sync_manager}")
+            if len(pdo.entries) > 0xFF:
+                raise TopologyError(f"SII: PDO {pdo.index:#06x} has more than 255 entries")
+
+    @property
+    def input_bytes(self) -> int:
+        """Bytes of inputs (TxPDOs), rounded up to whole bytes."""
+        return (sum(p.bit_length for p in self.tx_pdos) + 7) // 8
+
+    @property
+    def output_bytes(self) -> int:
+        """Bytes of outputs (RxPDOs), rounded up to whole bytes."""
+        return (sum(p.bit_length for p in self.rx_pdos) + 7) // 8
+
+    def sm_bytes(self, index: int) -> int:
+        """Bytes the PDOs assigned to SyncManager ``index`` occupy (what SOEM programs)."""
+        bits = sum(p.bit_length for p in self.tx_pdos + self.rx_pdos if p.sync_manager == index)
+        return (bits + 7) // 8
+
+    def sm_of_type(self, kind: SyncManagerType) -> int | None:
+        """Index of the first SyncManager of ``kind``, or None."""
+        for i, sm in enumerate(self.sync_managers):
+            if sm.type == kind:
+                return i
+        return None
+
+    @classmethod
+    def skin_patch(
+        cls,
+        input_bytes: int = taxel.PATCH_BYTES,
+        *,
+        serial: int = 0,
+        alias: int = 0,
+        output_bytes: int = 0,
+    ) -> SlaveInfo:
+        """A tactile patch: its taxels as a TxPDO on SM0 at 0x1000, no mailbox.
+
+        Each taxel is one UNSIGNED8 entry, object 0x6000 + triangle, subindex 1-12 (16 triangles
+        of 12 taxels make the 192 bytes of a patch); PDO 0x1A00 + k carries 16 triangles. A
+        payload beyond one patch uses one 96-bit OCTET_STRING entry per triangle instead, so the
+        SII stays small. ``output_bytes`` adds an RxPDO 0x1600 (UNSIGNED8 entries of object
+        0x7000) on SM1, placed after the three buffers of SM0 (datasheet I, 8.1).
+        """
+        if not 1 <= input_bytes <= 1486:
+            raise TopologyError(f"skin patch: {input_bytes} input bytes (1..1486)")
+        if not 0 <= output_bytes <= 1486:
+            raise TopologyError(f"skin patch: {output_bytes} output bytes (0..1486)")
+        per = taxel.TAXELS_PER_TRIANGLE
+        tx: list[Pdo] = []
+        if input_bytes <= taxel.PATCH_BYTES:
+            entries = tuple(
+                PdoEntry(0x6000 + i // per, i % per + 1, 8, DataType.UNSIGNED8)
+                for i in range(input_bytes)
+            )
+            tx.append(Pdo(0x1A00, 0, entries, name="Taxels"))
+        else:
+            triangles = [
+                PdoEntry(0x6000 + t, 1, 8 * min(per, input_bytes - t * per), DataType.OCTET_STRING)
+                for t in range(-(-input_bytes // per))
+            ]
+            step = taxel.TRIANGLES_PER_PATCH
+            for k in range(0, len(triangles), step):
+                tx.append(Pdo(0x1A00 + k // step, 0, tuple(triangles[k : k + step]), "Taxels"))
+        sms = [
+            SyncManagerSpec(
+                PROCESS_RAM_START, input_bytes, SM_CONTROL_INPUTS, 1, SyncManagerType.INPUTS
+            )
+        ]
+        fmmus = [FmmuUsage.INPUTS]
+        rx: tuple[Pdo, ...] = ()
+        if output_bytes:
+            start = PROCESS_RAM_START + 3 * (-(-input_bytes // 8) * 8)  # 3 buffers, 8-aligned
+            sms.append(
+                SyncManagerSpec(start, output_bytes, SM_CONTROL_OUTPUTS, 1, SyncManagerType.OUTPUTS)
+            )
+            fmmus.insert(0, FmmuUsage.OUTPUTS)  # SOEM maps outputs with the first FMMU
+            out = tuple(PdoEntry(0x7000, i + 1, 8) for i in range(output_bytes))
+            rx = (Pdo(0x1600, 1, out, name="Outputs"),)
+        return cls(
+            vendor_id=VENDOR_ID,
+            product_code=PRODUCT_CODE_BASE + input_bytes,
+            revision=REVISION,
+            serial=serial,
+            name=f"SkinPatch{input_bytes}",
+            sync_managers=tuple(sms),
+            fmmus=tuple(fmmus),
+            tx_pdos=tuple(tx),
+            rx_pdos=rx,
+            alias=alias,
+            group="RobotSkin",
+            order=f"SKIN-{input_bytes}",
+        )
+
+
+# --- the image ---------------------------------------------------------------------------------
+def _category(kind: int, data: bytes) -> bytes:
+    if len(data) % 2:
+        data += b"\x00"  # categories are whole words
+    return struct.pack("<HH", kind, len(data) // 2) + data
+
+
+def _strings(strings: list[str]) -> bytes:
+    out = bytearray([len(strings)])
+    for s in strings:
+        raw = s.encode("ascii")
+        if len(raw) > 0xFF:
+            raise TopologyError(f"SII: string {s!r} longer than 255 bytes")
+        out += bytes([len(raw)]) + raw
+    return bytes(out)
+
+
+def build_sii(info: SlaveInfo) -> bytes:
+    """The EEPROM image of ``info`` (ETG.2010), padded with 0xFF to the EEPROM's size.
+
+    The size in word 0x3E is the smallest power-of-two EEPROM (>= 2 Kibit) holding the image.
+    """
+    strings: list[str] = []
+
+    def string_index(s: str) -> int:
+        if not s:
+            return 0
+        if s not in strings:
+            strings.append(s)
+        return strings.index(s) + 1  # string indices are 1-based, 0 means "none"
+
+    name_idx = string_index(info.name)  # string 1: SOEM reads the device name from index 1
+    group_idx = string_index(info.group)
+    order_idx = string_index(info.order)
+
+    words = [0] * FIRST_CATEGORY_WORD
+    words[0] = info.pdi_control | info.esc_configuration << 8
+    words[4] = info.alias
+    head = bytearray(struct.pack(f"<{FIRST_CATEGORY_WORD}H", *words))
+    struct.pack_into("<H", head, 2 * CHECKSUM_WORD, crc8(bytes(head[: 2 * CONFIG_AREA_WORDS])))
+    struct.pack_into(
+        "<IIII",
+        head,
+        2 * WORD_VENDOR,
+        info.vendor_id,
+        info.product_code,
+        info.revision,
+        info.serial,
+    )
+    struct.pack_into("<H", head, 2 * WORD_VERSION, SII_VERSION)
+
+    general = bytearray(32)  # ETG.2010 Table 6
+    general[0] = group_idx
+    general[2] = order_idx
+    general[3] = name_idx
+    general[14] = group_idx  # duplicate of GroupIdx "for compatibility"
+    struct.pack_into("<H", general, 16, PHYSICAL_PORT_MII | PHYSICAL_PORT_MII << 4)
+
+    fmmu = bytes(int(u) for u in info.fmmus)
+    syncm = b"".join(
+        struct.pack("<HHBBBB", s.start, s.length, s.control, 0, s.enable, s.type)
+        for s in info.sync_managers
+    )
+
+    def pdos(items: tuple[Pdo, ...]) -> bytes:
+        out = bytearray()
+        for p in items:
+            out += struct.pack(
+                "<HBBBBH",
+                p.index,
+                len(p.entries),
+                p.sync_manager,
+                p.synchronization,
+                string_index(p.name),
+                p.flags,
+            )
+            for e in p.entries:
+                out += struct.pack(
+                    "<HBBBBH",
+                    e.index,
+                    e.subindex,
+                    e.name_index,
+                    e.data_type & 0xFF,
+                    e.bit_length,
+                    e.flags,
+                )
+        return bytes(out)
+
+    tx, rx = pdos(info.tx_pdos), pdos(info.rx_pdos)  # PDO names join the string table
+    body = _category(Category.STRINGS, _strings(strings))
+    body += _category(Category.GENERAL, bytes(general))
+    body += _category(Category.FMMU, fmmu)
+    body += _category(Category.SYNCM, syncm)
+    if tx:
+        body += _category(Category.TXPDO, tx)
+    if rx:
+        body += _category(Category.RXPDO, rx)
+    body += struct.pack("<H", Category.END)
+    used = len(head) + len(body)
+    kibit = eeprom_kibit(used)
+    image = head + body + b"\xff" * (kibit * 128 - used)
+    struct.pack_into("<H", image, 2 * WORD_SIZE, kibit - 1)
+    return bytes(image)
