@@ -31,7 +31,7 @@ from skinframes.errors import (
     decoding,
     encoding,
 )
-from skinframes.findings import Finding, error, info
+from skinframes.findings import Finding, error, info, warning
 
 __all__ = [
     "BROADCAST_NODE_ID",
@@ -711,10 +711,48 @@ class Sdo:
                 c.reserved_14,
             )
             pos += SDO_COMMAND_HEADER_BYTES + seg
+            findings += _multi_param_findings(command, trailing=len(body) - pos)
         sdo = cls(
             s.receive.sequence, s.receive.con, s.send.sequence, s.send.con, command, s.reserved_6
         )
         return sdo, pos
+
+
+SDO_WRITE_MULTIPLE_PARAM: Final = 0x31
+SDO_READ_MULTIPLE_PARAM: Final = 0x32
+# Expedited multi-parameter layouts (DS 301 6.3.2.4.2.2): a read request lists 4-byte entries
+# (index u16, sub-index u8, reserved u8); a write response lists 8-byte entries (index u16,
+# sub-index u8, flags u8 with bit 7 = abort, abort code u32).
+_MULTI_ENTRY_BYTES: Final = {
+    (SDO_READ_MULTIPLE_PARAM, False): 4,
+    (SDO_WRITE_MULTIPLE_PARAM, True): 8,
+}
+
+
+def _multi_param_findings(c: SdoCommand, trailing: int) -> list[Finding]:
+    """What to say about a Write/ReadMultipleParam segment (Wireshark 4.0 misreads padded ones)."""
+    if c.command_id not in (SDO_WRITE_MULTIPLE_PARAM, SDO_READ_MULTIPLE_PARAM) or c.abort:
+        return []
+    out: list[Finding] = []
+    entry = _MULTI_ENTRY_BYTES.get((c.command_id, c.response))
+    if c.segmentation == 0 and entry and len(c.data) % entry:
+        out.append(
+            warning(
+                "epl.sdo.multi_param.length",
+                f"EPL SDO: {len(c.data)}-byte multi-parameter segment is not a whole number of "
+                f"{entry}-byte entries",
+            )
+        )
+    if trailing > 0:
+        out.append(
+            info(
+                "epl.sdo.multi_param.padding",
+                f"EPL SDO: {trailing} bytes (padding, FCS) follow the {len(c.data)}-byte "
+                "multi-parameter segment; Wireshark 4.0 reads such segments on into them and can "
+                "report the frame as Malformed, although the segment is complete",
+            )
+        )
+    return out
 
 
 @dataclass(frozen=True, slots=True)

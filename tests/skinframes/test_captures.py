@@ -67,3 +67,22 @@ def test_known_deviations_become_findings(shared_captures: Path) -> None:
     assert f["eth.unpadded"] == 1789
     _, f, _ = _decode_all(shared_captures / "epl-viz_MultiWriteRead_example.pcapng")
     assert f["eth.fcs"] == 7
+
+
+def test_wiresharks_malformed_sdo_frames_are_complete_segments(shared_captures: Path) -> None:
+    """tshark flags 2 frames Malformed (frames.md 5); their SDO segments are whole (hand-read):
+    record 1: WriteMultipleParam response, one 8-byte entry (0x6101/5, abort 0x06070010);
+    record 5: ReadMultipleParam request, five 4-byte entries (0x6101/1..4, 0x6101/0xee)."""
+    from skinframes.powerlink import ASnd, Sdo
+
+    recs = list(read_capture(shared_captures / "epl-viz_MultiWriteRead_example.pcapng"))
+    want = {
+        1: bytes.fromhex("0161058010000706"),
+        5: bytes.fromhex("016101000161020001610300016104000161ee00"),
+    }
+    for index, data in want.items():
+        frame = decode_frame(recs[index].data)
+        assert isinstance(frame.payload, ASnd) and isinstance(frame.payload.service, Sdo)
+        command = frame.payload.service.command
+        assert command is not None and command.data == data
+        assert "epl.sdo.multi_param.padding" in {f.code for f in frame.findings}

@@ -333,7 +333,8 @@ def test_tshark_flags_the_pres_size_error_too(tshark: str, tmp_path: Path) -> No
 REAL = {
     "epl-viz_EPL_Example.cap": {"epl.reserved": 251, "eth.trailer": 251},
     "epl-viz_1CN.pcapng": {"eth.unpadded": 552, "eth.trailer": 6},
-    "epl-viz_MultiWriteRead_example.pcapng": {"eth.fcs": 7},
+    # 4 of the 7 frames carry a Write/ReadMultipleParam segment with bytes after it (INFO)
+    "epl-viz_MultiWriteRead_example.pcapng": {"eth.fcs": 7, "epl.sdo.multi_param.padding": 4},
     "ethercrab_replay-ek1100-el2828-el2889.pcapng": {"eth.unpadded": 1789},
     "ethercrab_soem-sdinfo-ek1100-el1004.pcapng": {"eth.unpadded": 290, "eth.src.group": 580},
 }
