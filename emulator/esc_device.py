@@ -1,0 +1,936 @@
+"""One EtherCAT slave controller (ESC): 64 KiB of registers and process memory, as on the wire.
+
+What the ESC does is the Beckhoff ESC datasheet (section I "technology", section II "registers")
+and ETG.1000.4 (data link layer: addressing, commands, working counter):
+
+* addressing (ETG.1000.4 5.3, datasheet I 2.3): auto-increment commands act where ADP is 0 on
+  arrival and every ESC increments ADP; configured-address commands act where ADP equals the
+  station address 0x0010 or, when DL control 0x0100 bit 24 is set, the alias 0x0012; broadcast
+  commands act everywhere and increment ADP; logical commands act through the FMMUs;
+* commands and working counter (datasheet I Tables 5-7): a read adds 1, a write 1, a read-write
+  1 for the read and 2 for the write (read before write); BRD/BRW OR the memory into the data;
+  ARMW/FRMW read at the addressed ESC and write at every other one (+1 either way); a logical
+  read replaces only the FMMU-mapped bits; an access counts if at least one byte or bit of it was
+  successfully read or written (a SyncManager may deny it);
+* registers 0x0000-0x0F7F are written through shadow buffers that take effect at the end of the
+  frame (datasheet I 3.4); reads inside the frame see the old values; per-byte ECAT write masks
+  follow section II (read-only and reserved bits keep their value, the access still counts);
+* SyncManagers (datasheet I 8, II 2.14): buffered (3-buffer) and mailbox mode, direction,
+  "a buffer has to be accessed beginning with the start address", buffer exchange at the end of
+  the frame that accessed the end address, the whole area locked while the PDI deactivates the
+  SyncManager (0x0807 bit 0), configuration writable only while disabled;
+* FMMUs (datasheet I 7, II 2.13): bit-wise logical->physical mapping, read and/or write, the
+  lower-numbered FMMU wins a logical byte claimed twice;
+* the SII EEPROM interface 0x0500-0x050F (datasheet I 11.2, II 2.11): ECAT/PDI ownership,
+  read (8 bytes), write (one word, write enable in the same frame), reload, the error bits, and
+  the configuration area A loaded at power-on with its CRC checked (else process memory stays
+  inaccessible and DL status bit 0 clear);
+* DL control loop settings and DL status (datasheet I 3.1, II 2.4), ECAT event request
+  0x0210 ORed into each datagram's IRQ field through the mask 0x0200 (datasheet I Table 3),
+  and the ESC reset sequence 'R','E','S' in 0x0040.
+
+Not modelled: distributed clocks (0x0008 bit 2 reads 0, 0x0900-0x09FF read 0 and ignore
+writes), watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
+circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI is a
+:class:`emulator.esm.PdiApplication`; the skin patch's is :class:`SkinPatchApplication`.
+"""
+
+from __future__ import annotations
+
+import struct
+from dataclasses import dataclass
+from typing import Final
+
+from emulator.errors import TopologyError
+from emulator.esm import PdiApplication, SkinPatchApplication
+from emulator.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
+
+__all__ = [
+    "ADDRESS_SPACE",
+    "PROCESS_RAM",
+    "REGISTER_END",
+    "EscConfig",
+    "EscDevice",
+    "TraceCopy",
+]
+
+ADDRESS_SPACE: Final = 0x10000
+REGISTER_END: Final = 0x0F80  # registers 0x0000-0x0F7F have shadow buffers (datasheet I 3.4)
+PROCESS_RAM: Final = 0x1000
+
+# register addresses (datasheet II chapter 2)
+REG_TYPE: Final = 0x0000
+REG_STATION: Final = 0x0010
+REG_ALIAS: Final = 0x0012
+REG_RESET_ECAT: Final = 0x0040
+REG_DL_CONTROL: Final = 0x0100
+REG_RW_OFFSET: Final = 0x0108
+REG_DL_STATUS: Final = 0x0110
+REG_AL_CONTROL: Final = 0x0120
+REG_AL_STATUS: Final = 0x0130
+REG_AL_CODE: Final = 0x0134
+REG_PDI_CONTROL: Final = 0x0140
+REG_ECAT_EVENT_MASK: Final = 0x0200
+REG_ECAT_EVENT: Final = 0x0210
+REG_ERROR_COUNTERS: Final = 0x0300
+REG_PU_ERRORS: Final = 0x030C  # ECAT processing unit error counter
+REG_WD_DIVIDER: Final = 0x0400
+REG_WD_PDI: Final = 0x0410
+REG_WD_PD: Final = 0x0420
+REG_WD_STATUS: Final = 0x0440
+REG_EEPROM_CONFIG: Final = 0x0500
+REG_EEPROM_PDI: Final = 0x0501
+REG_EEPROM_CONTROL: Final = 0x0502
+REG_EEPROM_ADDRESS: Final = 0x0504
+REG_EEPROM_DATA: Final = 0x0508
+REG_FMMU: Final = 0x0600
+REG_SM: Final = 0x0800
+FMMU_BYTES: Final = 16
+SM_BYTES: Final = 8
+
+# EEPROM control/status 0x0502 (datasheet I Table 45, II 2.11.3)
+EE_WRITE_ENABLE: Final = 0x0001
+EE_READ_8_BYTES: Final = 0x0040
+EE_TWO_ADDRESS_BYTES: Final = 0x0080  # EEPROMs above 16 Kibit
+EE_CHECKSUM_ERROR: Final = 0x0800
+EE_NOT_LOADED: Final = 0x1000
+EE_ACK_ERROR: Final = 0x2000  # missing acknowledge or invalid command
+EE_WRITE_ENABLE_ERROR: Final = 0x4000
+EE_CMD_READ: Final = 1
+EE_CMD_WRITE: Final = 2
+EE_CMD_RELOAD: Final = 4
+
+# ECAT event request 0x0210 (datasheet II 2.7)
+EVENT_DL_STATUS: Final = 0x0004
+EVENT_AL_STATUS: Final = 0x0008
+
+# SyncManager status 0x0805 bits (datasheet II 2.14.4)
+SM_IRQ_WRITE: Final = 0x01
+SM_IRQ_READ: Final = 0x02
+SM_MAILBOX_FULL: Final = 0x08
+SM_NO_BUFFER: Final = 0x30
+SM_READ_OPEN: Final = 0x40
+SM_WRITE_OPEN: Final = 0x80
+
+# commands (ETG.1000.4 Table 14; datasheet I Table 6) as plain ints for the hot path
+_APRD, _APWR, _APRW, _FPRD, _FPWR, _FPRW, _BRD, _BWR, _BRW = range(1, 10)
+_LRD, _LWR, _LRW, _ARMW, _FRMW = range(10, 15)
+_RESET_SEQUENCE: Final = b"RES"
+
+
+@dataclass(frozen=True, slots=True)
+class EscConfig:
+    """The ESC's identity registers 0x0000-0x0009 (datasheet II 2.1).
+
+    Defaults: an ET1100-type register set (type 0x11, revision 0, 8 FMMUs, 8 SyncManagers) with
+    the full 60 KiB of process RAM the address space allows, two MII ports (port descriptor
+    0x0F) and feature bits all 0: bit-oriented FMMUs, no distributed clocks, LRW and the
+    read-write commands supported.
+    """
+
+    esc_type: int = 0x11
+    revision: int = 0x00
+    build: int = 0x0000
+    fmmus: int = 8
+    syncmanagers: int = 8
+    ram_kib: int = 60
+    port_descriptor: int = 0x0F
+    features: int = 0x0000
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.fmmus <= 16 or not 1 <= self.syncmanagers <= 16:
+            raise TopologyError("ESC: 1..16 FMMUs and SyncManagers (0x0600-0x06FF, 0x0800-0x087F)")
+
+
+@dataclass(frozen=True, slots=True)
+class TraceCopy:
+    """Input bytes an ESC copied from a SyncManager buffer into a frame (for timing models)."""
+
+    position: int  # the ESC's position in its chain
+    sm: int  # SyncManager index
+    src: int  # offset in the SyncManager buffer
+    dst: int  # offset in the frame buffer
+    length: int
+
+
+def _write_masks(cfg: EscConfig) -> bytes:
+    """Bits of each register byte an ECAT write may change (datasheet II, "ECAT" column)."""
+    m = bytearray(REGISTER_END)
+
+    def put(addr: int, *masks: int) -> None:
+        m[addr : addr + len(masks)] = bytes(masks)
+
+    put(REG_STATION, 0xFF, 0xFF)
+    put(REG_DL_CONTROL, 0x03, 0xFF, 0x4F, 0x01)  # bits 0-1, 8-15, 16-19, 22, 24
+    put(REG_RW_OFFSET, 0xFF, 0xFF)
+    put(REG_AL_CONTROL, 0x7F, 0x00)  # state, ack, device identification, warning ack
+    put(0x0138, 0x1F, 0x1F)  # RUN/ERR LED override
+    put(REG_ECAT_EVENT_MASK, 0xFF, 0xFF)
+    put(REG_WD_DIVIDER, 0xFF, 0xFF)
+    put(REG_WD_PDI, 0xFF, 0xFF)
+    put(REG_WD_PD, 0xFF, 0xFF)
+    put(REG_EEPROM_CONFIG, 0x03)
+    put(REG_EEPROM_CONTROL, 0x01, 0x07)  # write enable, command bits 8-10
+    put(REG_EEPROM_ADDRESS, *(0xFF,) * 4)
+    put(REG_EEPROM_DATA, *(0xFF,) * 8)
+    fmmu = (0xFF,) * 6 + (0x07, 0x07, 0xFF, 0xFF, 0x07, 0x03, 0x01, 0, 0, 0)
+    for y in range(cfg.fmmus):
+        put(REG_FMMU + FMMU_BYTES * y, *fmmu)
+    for y in range(cfg.syncmanagers):
+        # start, length, control (bit 7 sequential mode not supported), activate bits 0,1,6,7
+        put(REG_SM + SM_BYTES * y, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F, 0x00, 0xC3, 0x00)
+    return bytes(m)
+
+
+class _Sm:
+    """Run-time state of one enabled SyncManager (datasheet I 8.1/8.2)."""
+
+    __slots__ = (
+        "buf",
+        "complete",
+        "ecat_writes",
+        "end",
+        "full",
+        "index",
+        "latest",
+        "length",
+        "locked",
+        "mailbox",
+        "open",
+        "start",
+    )
+
+    def __init__(self, index: int, start: int, length: int, control: int) -> None:
+        self.index = index
+        self.start = start
+        self.length = length
+        self.end = start + length
+        self.mailbox = control & 0x03 == 0x02
+        self.ecat_writes = (control >> 2) & 0x03 == 0x01
+        self.locked = False  # deactivated by the PDI: the whole area is protected
+        self.open = False  # ECAT side opened the buffer (accessed the start address)
+        self.complete = False  # ECAT side accessed the end address in this frame
+        self.full = False  # mailbox mode
+        self.latest: bytes | None = None  # read SM: last buffer the PDI wrote completely
+        self.buf: bytes | bytearray | None = None  # ECAT's buffer while open
+
+
+class EscDevice:
+    """An ESC with its SII EEPROM and the application behind its PDI.
+
+    Args:
+        info: the slave's description; its SII image is built with :func:`build_sii`.
+        config: identity registers.
+        sii: a different EEPROM image (for example a corrupted one).
+        app: the PDI application; a :class:`SkinPatchApplication` by default.
+    """
+
+    def __init__(
+        self,
+        info: SlaveInfo,
+        *,
+        config: EscConfig | None = None,
+        sii: bytes | None = None,
+        app: PdiApplication | None = None,
+    ) -> None:
+        self.info = info
+        self.config = config or EscConfig()
+        self.app: PdiApplication = app if app is not None else SkinPatchApplication(info)
+        self._sii_image = sii if sii is not None else build_sii(info)
+        if len(self._sii_image) % 2 or len(self._sii_image) < 2 * 0x40:
+            raise TopologyError(f"SII image of {len(self._sii_image)} bytes (even, >= 128)")
+        self._masks = _write_masks(self.config)
+        self.position = 0  # set by the chain; used in traces
+        self.port1_link = False  # set by the chain: a neighbour on port 1
+        self.trace: list[TraceCopy] | None = None
+        self.mem = bytearray(ADDRESS_SPACE)
+        self.sii = bytearray(self._sii_image)  # non-volatile: survives an ESC reset
+        self.pdi_operational = False
+        self._pending: list[tuple[int, bytes]] = []
+        self._completed: list[_Sm] = []
+        self._sms: list[_Sm | None] = []
+        self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
+        self._fmmus: list[tuple[int, ...]] = []
+        self._irq = 0
+        self._reset_progress = 0
+        self._reset_written: int | None = None
+        self._power_on()
+
+    # --- power-on, EEPROM load ----------------------------------------------------------------
+    def _power_on(self) -> None:
+        """Reset values of section II, then the EEPROM load of datasheet I 11.1."""
+        cfg, mem = self.config, self.mem
+        mem[:] = bytes(ADDRESS_SPACE)
+        struct.pack_into(
+            "<BBHBBBBH",
+            mem,
+            REG_TYPE,
+            cfg.esc_type,
+            cfg.revision,
+            cfg.build,
+            cfg.fmmus,
+            cfg.syncmanagers,
+            cfg.ram_kib,
+            cfg.port_descriptor,
+            cfg.features,
+        )
+        mem[REG_DL_CONTROL : REG_DL_CONTROL + 4] = bytes((0x01, 0x00, 0x07, 0x00))
+        struct.pack_into("<H", mem, REG_AL_CONTROL, 0x0001)
+        struct.pack_into("<H", mem, REG_AL_STATUS, 0x0001)
+        struct.pack_into("<H", mem, REG_WD_DIVIDER, 0x09C2)  # 100 us watchdog ticks
+        struct.pack_into("<H", mem, REG_WD_PDI, 0x03E8)  # 100 ms
+        struct.pack_into("<H", mem, REG_WD_PD, 0x03E8)  # 100 ms
+        mem[REG_WD_STATUS] = 0x01
+        kibit = struct.unpack_from("<H", self.sii, 2 * 0x3E)[0] + 1
+        status = EE_READ_8_BYTES | EE_NOT_LOADED | (EE_TWO_ADDRESS_BYTES if kibit > 16 else 0)
+        struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
+        for y in range(cfg.syncmanagers):
+            mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+        self._sms = [None] * cfg.syncmanagers
+        self._active, self._fmmus, self._pending, self._completed = [], [], [], []
+        self.pdi_operational = self._load_config_area(first=True)
+        mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS  # the links came up
+        self._update_dl_status()
+        if self.pdi_operational:
+            self.app.power_on(self)
+        self._update_irq()
+
+    def _load_config_area(self, *, first: bool) -> bool:
+        """Load ESC configuration area A (datasheet I 11.1, Table 42); False on a bad CRC."""
+        mem, image = self.mem, self.sii
+        words = struct.unpack_from("<8H", image)
+        ok = words[7] == CHECKSUM_BYPASS or words[7] & 0xFF == crc8(bytes(image[:14]))
+        (status,) = struct.unpack_from("<H", mem, REG_EEPROM_CONTROL)
+        if not ok:
+            status |= EE_CHECKSUM_ERROR | EE_NOT_LOADED
+            struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
+            return False
+        status &= ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
+        struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
+        esc_config = words[0] >> 8
+        if not first:  # enhanced link detection bits 1, 4-7 only at the first load
+            esc_config = (esc_config & ~0xF2) | (mem[REG_PDI_CONTROL + 1] & 0xF2)
+        mem[REG_PDI_CONTROL] = words[0] & 0xFF
+        mem[REG_PDI_CONTROL + 1] = esc_config
+        struct.pack_into("<HH", mem, 0x0150, words[1], words[3])  # PDI configuration (A1, A3)
+        struct.pack_into("<HB", mem, 0x0142, words[5], words[6] & 0xFF)  # ESC configuration A5/A6
+        if first:
+            struct.pack_into("<H", mem, REG_ALIAS, words[4])
+            if words[6] & 0x0002:  # A6[1]: default of DL control bit 0 is 0
+                mem[REG_DL_CONTROL] &= ~0x01
+        return True
+
+    # --- properties the chain and the PDI application use ---------------------------------------
+    @property
+    def station(self) -> int:
+        """Configured station address (0x0010)."""
+        return self.mem[REG_STATION] | self.mem[REG_STATION + 1] << 8
+
+    @property
+    def alias(self) -> int:
+        """Configured station alias (0x0012)."""
+        return self.mem[REG_ALIAS] | self.mem[REG_ALIAS + 1] << 8
+
+    @property
+    def al_status(self) -> int:
+        """AL status (0x0130): state in bits 0-3, error indication bit 4."""
+        return self.mem[REG_AL_STATUS] | self.mem[REG_AL_STATUS + 1] << 8
+
+    @property
+    def al_status_code(self) -> int:
+        """AL status code (0x0134)."""
+        return self.mem[REG_AL_CODE] | self.mem[REG_AL_CODE + 1] << 8
+
+    @property
+    def irq(self) -> int:
+        """ECAT event request (0x0210) masked by 0x0200: what this ESC ORs into IRQ fields."""
+        return self._irq
+
+    @property
+    def changes_source_mac(self) -> bool:
+        """DL control bit 0 = 1: the processing unit sets SOURCE_MAC[1] (datasheet II 2.4.1)."""
+        return bool(self.mem[REG_DL_CONTROL] & 0x01)
+
+    def forwards(self) -> bool | None:
+        """Where a processed frame goes from port 1 (datasheet I 3.1, DL control bits 10-11).
+
+        Returns:
+            True: out of port 1 to the next ESC; False: the loop is closed and the frame returns
+            towards the master; None: port 1 is forced open without a link, the frame is lost.
+        """
+        setting = (self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03
+        if setting == 0x03:  # closed
+            return False
+        if setting == 0x02:  # open, whatever the link
+            return True if self.port1_link else None
+        return self.port1_link  # auto, auto close: open with a link
+
+    def registers(self, addr: int, length: int) -> bytes:
+        """The committed register/memory bytes (no side effects; for tests and tools)."""
+        return bytes(self.mem[addr : addr + length])
+
+    def sm_registers(self, index: int) -> tuple[int, int, int, int]:
+        """(start, length, control, activate) of SyncManager ``index``."""
+        start, length, control, _, activate = struct.unpack_from(
+            "<HHBBB", self.mem, REG_SM + SM_BYTES * index
+        )
+        return start, length, control, activate
+
+    # --- the PDI side (the slave application) ---------------------------------------------------
+    def pdi_set_al_status(self, state: int, *, error: bool, code: int) -> None:
+        """The application writes AL status and AL status code (datasheet I 10.1)."""
+        value = (state & 0x0F) | (0x10 if error else 0)
+        if value != self.al_status:
+            self.mem[REG_ECAT_EVENT] |= EVENT_AL_STATUS
+            self._update_irq()
+        struct.pack_into("<HxxH", self.mem, REG_AL_STATUS, value, code)
+
+    def pdi_deactivate_sm(self, index: int, deactivate: bool) -> None:
+        """PDI control 0x0807 bit 0: lock (True) or release a SyncManager (datasheet I 8.7)."""
+        addr = REG_SM + SM_BYTES * index + 7
+        old = self.mem[addr] & 0x01
+        self.mem[addr] = (self.mem[addr] & ~0x01) | (0x01 if deactivate else 0)
+        if old != (1 if deactivate else 0):
+            self._sms[index] = None  # the SyncManager's state is reset
+            self._rebuild_sms()
+
+    def pdi_write(self, addr: int, data: bytes) -> None:
+        """The application writes memory; a whole read-SM buffer is a buffer exchange."""
+        self.mem[addr : addr + len(data)] = data
+        for sm in self._active:
+            if sm.start == addr and sm.length == len(data) and not sm.ecat_writes:
+                sm.latest = bytes(data)
+                st = REG_SM + SM_BYTES * sm.index + 5
+                if sm.mailbox:
+                    sm.full = True
+                    self.mem[st] |= SM_MAILBOX_FULL
+                else:
+                    last = (self.mem[st] >> 4) & 0x03
+                    self.mem[st] = (self.mem[st] & 0xCD) | ((last + 1) % 3 if last < 3 else 0) << 4
+                self.mem[st] = (self.mem[st] | SM_IRQ_WRITE) & ~SM_IRQ_READ
+
+    def pdi_read(self, addr: int, length: int) -> bytes:
+        """The application reads memory (outputs a master committed to a write SyncManager)."""
+        for sm in self._active:
+            if sm.start == addr and sm.ecat_writes:
+                st = REG_SM + SM_BYTES * sm.index + 5
+                self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_IRQ_READ
+                if sm.mailbox:
+                    sm.full = False
+                    self.mem[st] &= ~SM_MAILBOX_FULL
+        return bytes(self.mem[addr : addr + length])
+
+    # --- frame processing -----------------------------------------------------------------------
+    def end_frame(self) -> None:
+        """The frame has passed: shadow registers take effect, buffers change (datasheet I 3.4)."""
+        if self._pending:
+            self._commit_registers()
+        if self._completed:
+            for sm in self._completed:
+                self._finish_buffer(sm)
+            self._completed.clear()
+        if self._reset_written is None:
+            self._reset_progress = 0
+        else:
+            expected = _RESET_SEQUENCE[self._reset_progress]
+            if self._reset_written == expected:
+                self._reset_progress += 1
+            else:
+                self._reset_progress = 1 if self._reset_written == _RESET_SEQUENCE[0] else 0
+            self._reset_written = None
+            if self._reset_progress == len(_RESET_SEQUENCE):
+                self._reset_progress = 0
+                self._power_on()
+        self.mem[REG_RESET_ECAT] = self._reset_progress
+
+    def process(
+        self, cmd: int, adp: int, ado: int, buf: bytearray, off: int, n: int
+    ) -> tuple[int, int]:
+        """Execute one datagram whose data is ``buf[off:off+n]``, in place.
+
+        Returns:
+            (the ADP this ESC passes on, the working-counter increment).
+        """
+        if cmd <= _APRW or cmd == _ARMW:  # auto increment (NOP is 0: untouched)
+            if cmd == 0:
+                return adp, 0
+            out = (adp + 1) & 0xFFFF
+            if cmd == _ARMW:
+                if adp == 0:
+                    return out, self._read(ado, buf, off, n, False)
+                return out, self._write(ado, bytes(buf[off : off + n]))
+            if adp != 0:
+                return out, 0
+            return out, self._physical(cmd - _APRD, ado, buf, off, n)
+        if cmd <= _FPRW or cmd == _FRMW:  # configured station address or alias
+            mem = self.mem
+            hit = adp == mem[REG_STATION] | mem[REG_STATION + 1] << 8 or (
+                mem[REG_DL_CONTROL + 3] & 0x01 and adp == mem[REG_ALIAS] | mem[REG_ALIAS + 1] << 8
+            )
+            if cmd == _FRMW:
+                if hit:
+                    return adp, self._read(ado, buf, off, n, False)
+                return adp, self._write(ado, bytes(buf[off : off + n]))
+            return adp, (self._physical(cmd - _FPRD, ado, buf, off, n) if hit else 0)
+        if cmd <= _BRW:  # broadcast
+            return (adp + 1) & 0xFFFF, self._physical(cmd - _BRD, ado, buf, off, n, broadcast=True)
+        if cmd <= _LRW:
+            if not self._fmmus:
+                return adp, 0
+            return adp, self._logical(cmd, adp | ado << 16, buf, off, n)
+        return adp, 0  # reserved command values: ignored
+
+    def _physical(
+        self, kind: int, ado: int, buf: bytearray, off: int, n: int, *, broadcast: bool = False
+    ) -> int:
+        """kind 0 read, 1 write, 2 read-write (datasheet I Table 7)."""
+        if kind == 0:
+            return self._read(ado, buf, off, n, broadcast)
+        if kind == 1:
+            return self._write(ado, bytes(buf[off : off + n]))
+        data_in = bytes(buf[off : off + n])  # read before write; the write uses Data In
+        r = self._read(ado, buf, off, n, broadcast)
+        rw_offset = self.mem[REG_RW_OFFSET] | self.mem[REG_RW_OFFSET + 1] << 8
+        w = self._write((ado + rw_offset) & 0xFFFF, data_in)
+        return r + 2 * w
+
+    # --- physical access ------------------------------------------------------------------------
+    def _read(self, addr: int, buf: bytearray, off: int, n: int, or_mode: bool) -> int:
+        segments = self._read_phys(addr, n)
+        if not segments:
+            return 0
+        for rel, data, sm, src in segments:
+            at = off + rel
+            if or_mode:
+                k = len(data)
+                merged = int.from_bytes(buf[at : at + k], "little") | int.from_bytes(data, "little")
+                buf[at : at + k] = merged.to_bytes(k, "little")
+            else:
+                buf[at : at + len(data)] = data
+            if sm >= 0 and self.trace is not None:
+                self.trace.append(TraceCopy(self.position, sm, src, at, len(data)))
+        return 1
+
+    def _read_phys(self, addr: int, n: int) -> list[tuple[int, bytes, int, int]]:
+        """Readable parts of [addr, addr+n): (offset in the access, bytes, SM index or -1, offset
+        in the SM buffer). Register reads have their side effects here."""
+        end = min(addr + n, ADDRESS_SPACE)
+        mem = self.mem
+        out: list[tuple[int, bytes, int, int]] = []
+        pos = addr
+        if pos < REGISTER_END:
+            hi = min(end, REGISTER_END)
+            out.append((0, bytes(mem[pos:hi]), -1, 0))
+            if pos <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS:
+                self._clear_event(EVENT_DL_STATUS)
+            if pos <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS:
+                self._clear_event(EVENT_AL_STATUS)
+            pos = hi
+        if pos >= end:
+            return out
+        for sm in self._active:
+            if sm.end <= pos:
+                continue
+            if sm.start >= end:
+                break
+            if sm.start > pos:
+                self._plain_read(out, addr, pos, sm.start)
+                pos = sm.start
+            hi = min(sm.end, end)
+            self._sm_read(out, sm, addr, pos, hi)
+            pos = hi
+        if pos < end:
+            self._plain_read(out, addr, pos, end)
+        return out
+
+    def _plain_read(
+        self, out: list[tuple[int, bytes, int, int]], addr: int, lo: int, hi: int
+    ) -> None:
+        if not self.pdi_operational:
+            hi = min(hi, PROCESS_RAM)  # no process RAM before the EEPROM loaded (I 11.2.1)
+        if lo < hi:
+            out.append((lo - addr, bytes(self.mem[lo:hi]), -1, 0))
+
+    def _sm_read(
+        self, out: list[tuple[int, bytes, int, int]], sm: _Sm, addr: int, lo: int, hi: int
+    ) -> None:
+        if sm.ecat_writes or sm.locked:
+            return  # a write SyncManager's buffer is not readable from ECAT; a locked one at all
+        st = REG_SM + SM_BYTES * sm.index + 5
+        if lo == sm.start:
+            if sm.mailbox and not sm.full:
+                return  # "read w. failure (mailbox empty)"
+            sm.open = True
+            sm.buf = (
+                sm.latest
+                if (sm.latest is not None and not sm.mailbox)
+                else bytes(self.mem[sm.start : sm.end])
+            )
+            self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
+        elif not sm.open:
+            return  # "a buffer has to be accessed beginning with the start address"
+        assert sm.buf is not None
+        out.append(
+            (lo - addr, bytes(sm.buf[lo - sm.start : hi - sm.start]), sm.index, lo - sm.start)
+        )
+        if hi == sm.end and not sm.complete:
+            sm.complete = True
+            self._completed.append(sm)
+
+    def _write(self, addr: int, data: bytes) -> int:
+        """Write ``data`` at ``addr``; 1 if any byte was accepted."""
+        end = min(addr + len(data), ADDRESS_SPACE)
+        ok = 0
+        pos = addr
+        if pos < REGISTER_END:
+            hi = min(end, REGISTER_END)
+            self._pending.append((pos, data[: hi - addr]))
+            if pos <= REG_RESET_ECAT < hi:
+                self._reset_written = data[REG_RESET_ECAT - addr]
+            ok = 1
+            pos = hi
+        if pos >= end:
+            return ok
+        for sm in self._active:
+            if sm.end <= pos:
+                continue
+            if sm.start >= end:
+                break
+            if sm.start > pos:
+                ok |= self._plain_write(addr, data, pos, sm.start)
+                pos = sm.start
+            hi = min(sm.end, end)
+            ok |= self._sm_write(sm, addr, data, pos, hi)
+            pos = hi
+        if pos < end:
+            ok |= self._plain_write(addr, data, pos, end)
+        return ok
+
+    def _plain_write(self, addr: int, data: bytes, lo: int, hi: int) -> int:
+        if not self.pdi_operational:
+            hi = min(hi, PROCESS_RAM)
+        if lo >= hi:
+            return 0
+        self.mem[lo:hi] = data[lo - addr : hi - addr]  # user and process RAM: no shadow buffer
+        return 1
+
+    def _sm_write(self, sm: _Sm, addr: int, data: bytes, lo: int, hi: int) -> int:
+        if not sm.ecat_writes or sm.locked:
+            return 0  # a read SyncManager's buffer is written by the PDI only
+        st = REG_SM + SM_BYTES * sm.index + 5
+        if lo == sm.start:
+            if sm.mailbox and sm.full:
+                return 0  # "write w. failure (mailbox full)"
+            sm.open = True
+            sm.buf = bytearray(self.mem[sm.start : sm.end])
+            self.mem[st] = (self.mem[st] & ~SM_IRQ_READ) | SM_WRITE_OPEN
+        elif not sm.open:
+            return 0
+        assert isinstance(sm.buf, bytearray)
+        sm.buf[lo - sm.start : hi - sm.start] = data[lo - addr : hi - addr]
+        if hi == sm.end and not sm.complete:
+            sm.complete = True
+            self._completed.append(sm)
+        return 1
+
+    def _finish_buffer(self, sm: _Sm) -> None:
+        """Buffer exchange after the frame that accessed the end address (datasheet I 8.1)."""
+        sm.complete = False
+        if self._sms[sm.index] is not sm:
+            return  # the SyncManager was reset in the meantime
+        st = REG_SM + SM_BYTES * sm.index + 5
+        sm.open = False
+        if sm.ecat_writes:
+            assert isinstance(sm.buf, bytearray)
+            self.mem[sm.start : sm.end] = sm.buf
+            status = (self.mem[st] & ~SM_WRITE_OPEN) | SM_IRQ_WRITE
+            if sm.mailbox:
+                sm.full = True
+                status |= SM_MAILBOX_FULL
+            else:
+                last = (status >> 4) & 0x03
+                status = (status & 0xCF) | ((last + 1) % 3 if last < 3 else 0) << 4
+            self.mem[st] = status
+        else:
+            self.mem[st] = (self.mem[st] & ~SM_READ_OPEN) | SM_IRQ_READ
+            if sm.mailbox:
+                sm.full = False
+                sm.latest = None
+                self.mem[st] &= ~SM_MAILBOX_FULL
+        sm.buf = None
+
+    # --- logical access through the FMMUs ------------------------------------------------------
+    def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
+        lo, hi = lad, lad + n
+        reads: list[tuple[int, ...]] = []
+        writes: list[tuple[int, ...]] = []
+        for f in self._fmmus:
+            if f[1] <= lo or f[0] >= hi:
+                continue
+            if f[6] and cmd != _LWR:
+                reads.append(f)
+            if f[7] and cmd != _LRD:
+                writes.append(f)
+        if not reads and not writes:
+            return 0
+        data_in = bytes(buf[off : off + n]) if writes else b""
+        r = w = 0
+        claimed: bytearray | None = bytearray(n) if len(reads) > 1 else None
+        for f in reads:
+            r |= self._fmmu_read(f, lad, buf, off, n, claimed)
+        claimed = bytearray(n) if len(writes) > 1 else None
+        for f in writes:
+            w |= self._fmmu_write(f, lad, data_in, claimed)
+        if cmd == _LRD:
+            return r
+        if cmd == _LWR:
+            return w
+        return r + 2 * w
+
+    def _fmmu_read(
+        self,
+        f: tuple[int, ...],
+        lad: int,
+        buf: bytearray,
+        off: int,
+        n: int,
+        claimed: bytearray | None,
+    ) -> int:
+        log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
+        lo, hi = max(lad, log_start), min(lad + n, log_end)
+        if claimed is not None:  # the lower-numbered FMMU owns a logical byte (datasheet I 7)
+            while lo < hi and claimed[lo - lad]:
+                lo += 1
+            while hi > lo and claimed[hi - 1 - lad]:
+                hi -= 1
+            claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
+        if lo >= hi:
+            return 0
+        if f[8]:  # byte-wise mapping
+            at = phys + (lo - log_start)
+            return self._read(at, buf, off + (lo - lad), hi - lo, False)
+        # bit-wise: logical bit b maps to physical bit p0 + (b - l0)
+        l0 = log_start * 8 + start_bit
+        l1 = (log_end - 1) * 8 + stop_bit  # inclusive
+        b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
+        if b0 > b1:
+            return 0
+        p0 = phys * 8 + phys_bit + (b0 - l0)
+        p1 = p0 + (b1 - b0)
+        segments = self._read_phys(p0 // 8, p1 // 8 - p0 // 8 + 1)
+        if not segments:
+            return 0
+        phys_bytes = bytearray(p1 // 8 - p0 // 8 + 1)
+        valid = bytearray(len(phys_bytes))
+        for rel, data, _, _ in segments:
+            phys_bytes[rel : rel + len(data)] = data
+            valid[rel : rel + len(data)] = b"\x01" * len(data)
+        base = (p0 // 8) * 8
+        for b in range(b0, b1 + 1):
+            p = p0 + (b - b0) - base
+            if not valid[p // 8]:
+                continue
+            bit = (phys_bytes[p // 8] >> (p % 8)) & 1
+            at = off + b // 8 - lad
+            buf[at] = (buf[at] & ~(1 << (b % 8))) | (bit << (b % 8))
+        return 1
+
+    def _fmmu_write(
+        self, f: tuple[int, ...], lad: int, data_in: bytes, claimed: bytearray | None
+    ) -> int:
+        log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
+        n = len(data_in)
+        lo, hi = max(lad, log_start), min(lad + n, log_end)
+        if claimed is not None:
+            while lo < hi and claimed[lo - lad]:
+                lo += 1
+            while hi > lo and claimed[hi - 1 - lad]:
+                hi -= 1
+            claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
+        if lo >= hi:
+            return 0
+        if f[8]:
+            return self._write(phys + (lo - log_start), data_in[lo - lad : hi - lad])
+        l0 = log_start * 8 + start_bit
+        l1 = (log_end - 1) * 8 + stop_bit
+        b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
+        if b0 > b1:
+            return 0
+        p0 = phys * 8 + phys_bit + (b0 - l0)
+        p1 = p0 + (b1 - b0)
+        first = p0 // 8
+        target = bytearray(self.mem[first : p1 // 8 + 1])  # unmapped bits keep their value
+        for b in range(b0, b1 + 1):
+            p = p0 + (b - b0) - first * 8
+            bit = (data_in[b // 8 - lad] >> (b % 8)) & 1
+            target[p // 8] = (target[p // 8] & ~(1 << (p % 8))) | (bit << (p % 8))
+        return self._write(first, bytes(target))
+
+    # --- shadow registers and their side effects ------------------------------------------------
+    def _commit_registers(self) -> None:
+        mem, masks = self.mem, self._masks
+        sm_base, sm_end = REG_SM, REG_SM + SM_BYTES * self.config.syncmanagers
+        fmmu_end = REG_FMMU + FMMU_BYTES * self.config.fmmus
+        sm_enabled = [mem[REG_SM + SM_BYTES * y + 6] & 1 for y in range(self.config.syncmanagers)]
+        al_written = eeprom_command = dl_changed = fmmu_changed = sm_changed = False
+        for addr, data in self._pending:
+            for i, value in enumerate(data):
+                a = addr + i
+                if REG_ERROR_COUNTERS <= a < 0x0314 or a in (0x0442, 0x0443):
+                    if a < REG_PU_ERRORS:  # one write clears all RX error counters
+                        mem[REG_ERROR_COUNTERS:REG_PU_ERRORS] = bytes(REG_PU_ERRORS - 0x0300)
+                    else:
+                        mem[a] = 0
+                    continue
+                mask = masks[a]
+                if not mask:
+                    continue
+                if REG_EEPROM_CONTROL <= a < 0x0510 and not self._ecat_owns_eeprom():
+                    continue  # the PDI controls the EEPROM interface (datasheet I 11.2.2)
+                if sm_base <= a < sm_end:
+                    y, k = divmod(a - sm_base, SM_BYTES)
+                    if k <= 4 and sm_enabled[y]:
+                        continue  # configuration only while disabled (datasheet II 2.14.1)
+                    sm_changed = True
+                elif REG_FMMU <= a < fmmu_end:
+                    fmmu_changed = True
+                elif REG_DL_CONTROL <= a < REG_DL_CONTROL + 4:
+                    dl_changed = True
+                elif a in (REG_AL_CONTROL, REG_AL_CONTROL + 1):
+                    al_written = True
+                elif a in (REG_EEPROM_CONTROL, REG_EEPROM_CONTROL + 1):
+                    eeprom_command = True
+                elif a == REG_EEPROM_CONFIG and value & 0x02:
+                    mem[REG_EEPROM_PDI] &= ~0x01  # force ECAT access
+                mem[a] = (mem[a] & ~mask) | (value & mask)
+        self._pending.clear()
+        if fmmu_changed:
+            self._rebuild_fmmus()
+        if sm_changed:
+            self._rebuild_sms(sm_enabled)
+        if dl_changed:
+            self._update_dl_status()
+        self._update_irq()
+        if eeprom_command:
+            self._eeprom_command()
+        if al_written and self.pdi_operational:
+            value = mem[REG_AL_CONTROL] | mem[REG_AL_CONTROL + 1] << 8
+            if mem[REG_PDI_CONTROL + 1] & 0x01:  # device emulation: AL control -> AL status
+                self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
+            else:
+                self.app.al_control(self, value)
+
+    def _ecat_owns_eeprom(self) -> bool:
+        return not (self.mem[REG_EEPROM_CONFIG] & 0x01 or self.mem[REG_EEPROM_PDI] & 0x01)
+
+    def _eeprom_command(self) -> None:
+        """Execute the command written to 0x0502 bits 8-10 (datasheet I 11.2.3)."""
+        mem = self.mem
+        (control,) = struct.unpack_from("<H", mem, REG_EEPROM_CONTROL)
+        command = (control >> 8) & 0x07
+        status = control & ~(0x0700 | EE_WRITE_ENABLE)  # command and write enable self-clear
+        (word,) = struct.unpack_from("<I", mem, REG_EEPROM_ADDRESS)
+        words = len(self.sii) // 2
+        if command == 0:
+            status &= ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR)  # "000" clears the error bits
+        elif command == EE_CMD_READ:
+            if word >= words:
+                status |= EE_ACK_ERROR  # no EEPROM answers beyond its size
+            else:
+                start = 2 * word
+                data = (
+                    self.sii[start : start + 8] + self.sii[: max(0, start + 8 - len(self.sii))]
+                )[:8]
+                mem[REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data  # sequential read wraps around
+        elif command == EE_CMD_WRITE:
+            if not control & EE_WRITE_ENABLE:
+                status |= EE_WRITE_ENABLE_ERROR
+            elif word >= words:
+                status |= EE_ACK_ERROR
+            else:
+                self.sii[2 * word : 2 * word + 2] = mem[REG_EEPROM_DATA : REG_EEPROM_DATA + 2]
+        elif command == EE_CMD_RELOAD:
+            struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
+            self._load_config_area(first=False)
+            return
+        else:
+            status |= EE_ACK_ERROR  # invalid command
+        struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
+
+    def _rebuild_fmmus(self) -> None:
+        """Cache the active FMMUs (datasheet II 2.13) in register order."""
+        fmmus: list[tuple[int, ...]] = []
+        for y in range(self.config.fmmus):
+            log, length, sbit, ebit, phys, pbit, kind, act = struct.unpack_from(
+                "<IHBBHBBB", self.mem, REG_FMMU + FMMU_BYTES * y
+            )
+            if act & 0x01 and length and kind & 0x03:
+                bytewise = sbit == 0 and ebit == 7 and pbit == 0
+                fmmus.append(
+                    (log, log + length, phys, sbit, ebit, pbit, kind & 1, kind >> 1 & 1, bytewise)
+                )
+        self._fmmus = fmmus
+
+    def _rebuild_sms(self, enabled_before: list[int] | None = None) -> None:
+        """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.
+
+        A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
+        deactivated by the PDI locks its whole area (datasheet I 8.5, 8.7).
+        """
+        active: list[_Sm] = []
+        locked: list[_Sm] = []
+        for y in range(self.config.syncmanagers):
+            start, length, control, activate = self.sm_registers(y)
+            pdi_locked = self.mem[REG_SM + SM_BYTES * y + 7] & 0x01
+            if not activate & 0x01 or length < 2:
+                self._sms[y] = None
+                self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+                continue
+            old = self._sms[y]
+            toggled = enabled_before is not None and not enabled_before[y]
+            if old is None or toggled or (old.start, old.length) != (start, length):
+                old = _Sm(y, start, length, control)
+                self._sms[y] = old
+                self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+            (locked if pdi_locked else active).append(old)
+        for sm in active:
+            sm.locked = False
+        for sm in locked:
+            sm.locked = True
+        self._active = sorted(active + locked, key=lambda s: s.start)
+
+    def _update_dl_status(self) -> None:
+        """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2)."""
+        value = 0x0003 if self.pdi_operational else 0  # PDI operational, PDI watchdog reloaded
+        value |= 0x0010 | 0x0200  # port 0: link, open, communication established
+        setting = (self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03
+        if self.port1_link:
+            value |= 0x0020 | 0x0800
+        if setting == 0x03 or (setting in (0, 1) and not self.port1_link):
+            value |= 0x0400  # port 1 loop closed
+        value |= 0x1000 | 0x4000  # ports 2 and 3 not implemented: closed
+        old = self.mem[REG_DL_STATUS] | self.mem[REG_DL_STATUS + 1] << 8
+        if value != old:
+            struct.pack_into("<H", self.mem, REG_DL_STATUS, value)
+            self.mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS
+
+    def set_port1_link(self, link: bool) -> None:
+        """The chain connects (or disconnects) a neighbour at port 1."""
+        self.port1_link = link
+        self._update_dl_status()
+        self._update_irq()
+
+    def _clear_event(self, bit: int) -> None:
+        if self.mem[REG_ECAT_EVENT] & bit:
+            self.mem[REG_ECAT_EVENT] &= ~bit
+            self._update_irq()
+
+    def _update_irq(self) -> None:
+        mem = self.mem
+        events = mem[REG_ECAT_EVENT] | mem[REG_ECAT_EVENT + 1] << 8
+        self._irq = events & (mem[REG_ECAT_EVENT_MASK] | mem[REG_ECAT_EVENT_MASK + 1] << 8)
+
+    def count_frame_error(self) -> None:
+        """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""
+        if self.mem[REG_PU_ERRORS] < 0xFF:
+            self.mem[REG_PU_ERRORS] += 1

@@ -1,0 +1,605 @@
+"""The emulated ESC on crafted frames: every command, working counters, registers, SyncManagers,
+FMMUs, the SII EEPROM interface and the AL state machine.
+
+Expected values come from the ESC datasheet (section I "technology", section II "registers"),
+ETG.1000.4/.6 and hand computation, as each comment says; frames are built with the skinframes
+EtherCAT codec (tested on its own against tshark).
+"""
+
+from __future__ import annotations
+
+import struct
+
+import pytest
+
+from emulator.ecat_chain import EcatChain
+from emulator.esc_device import EscDevice
+from emulator.esm import AlStatusCode
+from emulator.sii import SlaveInfo, build_sii, crc8
+from skinframes import ethercat, taxel
+from skinframes.ethercat import Command as C  # noqa: N817 (short, the spec's table style)
+from skinframes.ethercat import Datagram, EcatFrame
+from skinframes.ethernet import EthernetFrame
+
+
+def u16(v: int) -> bytes:
+    return struct.pack("<H", v)
+
+
+def send(chain: EcatChain, *dgs: Datagram) -> list[Datagram]:
+    raw = ethercat.frame(EcatFrame(dgs)).to_bytes()
+    back = chain.process_frame(raw)
+    assert back is not None
+    assert len(back) == len(raw)
+    ecat, _, _ = ethercat.decode(back[14:], strict=False)
+    return list(ecat.datagrams)
+
+
+def one(chain: EcatChain, d: Datagram) -> Datagram:
+    return send(chain, d)[0]
+
+
+def word(d: Datagram) -> int:
+    return int(struct.unpack_from("<H", d.data)[0])
+
+
+class NullApp:
+    """A PDI application that does nothing: SyncManagers stay under master control only."""
+
+    def power_on(self, device: EscDevice) -> None:
+        pass
+
+    def al_control(self, device: EscDevice, value: int) -> None:
+        pass
+
+
+def bare_chain(n: int = 1, input_bytes: int = 16) -> EcatChain:
+    return EcatChain(
+        [
+            EscDevice(SlaveInfo.skin_patch(input_bytes, serial=i + 1), app=NullApp())
+            for i in range(n)
+        ]
+    )
+
+
+# --- power-on register image ----------------------------------------------------------------
+def test_identity_registers_and_reset_values() -> None:
+    chain = EcatChain.skin(3, 192)
+    d = one(chain, Datagram(C.BRD, 0, 0x0000, bytes(10)))
+    # type 0x11 (ET1100), revision 0, build 0, 8 FMMUs, 8 SMs, 60 KiB RAM, ports 0/1 MII
+    # (0x0F = 11 11 00 00), features 0: bit-oriented FMMU, no DC (datasheet II 2.1)
+    assert d.data == bytes([0x11, 0, 0, 0, 8, 8, 60, 0x0F, 0, 0])
+    assert (d.wkc, d.adp) == (3, 3)  # every slave reads and increments the position
+    al = one(chain, Datagram(C.APRD, 0, 0x0130, bytes(6)))
+    assert al.data == bytes([0x01, 0, 0, 0, 0, 0])  # INIT, no error, code 0
+    wd = one(chain, Datagram(C.APRD, 0, 0x0400, bytes(2)))
+    assert word(wd) == 0x09C2  # watchdog divider reset value: 100 us (datasheet II 2.10)
+
+
+def test_dl_status_middle_and_last_slave() -> None:
+    chain = EcatChain.skin(3, 16)
+    # bit 0 PDI operational, 1 PDI watchdog reloaded, 4/5 link port 0/1, 9/11 communication
+    # on port 0/1, 10 loop port 1 closed, 12/14 ports 2/3 (not implemented) closed
+    middle = 0x0001 | 0x0002 | 0x0010 | 0x0020 | 0x0200 | 0x0800 | 0x1000 | 0x4000
+    last = 0x0001 | 0x0002 | 0x0010 | 0x0200 | 0x0400 | 0x1000 | 0x4000
+    assert (middle, last) == (0x5A33, 0x5613)  # 0x5A/0x56 as in datasheet II Table 2
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0110, bytes(2)))) == middle
+    assert word(one(chain, Datagram(C.APRD, (-2) & 0xFFFF, 0x0110, bytes(2)))) == last
+
+
+# --- device addressing ----------------------------------------------------------------------
+def test_auto_increment_commands() -> None:
+    chain = EcatChain.skin(4, 16)
+    for p in range(4):
+        d = one(chain, Datagram(C.APWR, (-p) & 0xFFFF, 0x0010, u16(0x100 + p)))
+        assert (d.wkc, d.adp) == (1, (-p + 4) & 0xFFFF)
+    assert [dev.station for dev in chain.devices] == [0x100, 0x101, 0x102, 0x103]
+    d = one(chain, Datagram(C.APRD, 0xFFFE, 0x0010, bytes(2)))  # position 2
+    assert (word(d), d.wkc, d.adp) == (0x102, 1, 2)
+    d = one(chain, Datagram(C.APRD, 0xFFF0, 0x0010, bytes(2)))  # position 16: nobody
+    assert (d.data, d.wkc, d.adp) == (bytes(2), 0, 0xFFF4)
+    # APRW: returns the old value, writes the new one, WKC 1 + 2 (datasheet I Table 5)
+    d = one(chain, Datagram(C.APRW, 0xFFFF, 0x0010, u16(0x0BEE)))
+    assert (word(d), d.wkc) == (0x101, 3)
+    assert chain.devices[1].station == 0x0BEE
+
+
+def test_configured_address_and_alias() -> None:
+    infos = [SlaveInfo.skin_patch(16, serial=1), SlaveInfo.skin_patch(16, serial=2, alias=0x0ABC)]
+    chain = EcatChain([EscDevice(i) for i in infos])
+    send(chain, Datagram(C.APWR, 0, 0x0010, u16(0x1001)))
+    send(chain, Datagram(C.APWR, 0xFFFF, 0x0010, u16(0x1002)))
+    assert one(chain, Datagram(C.FPRD, 0x1002, 0x0012, bytes(2))).data == u16(0x0ABC)
+    assert one(chain, Datagram(C.FPRD, 0x0ABC, 0x0010, bytes(2))).wkc == 0  # alias not enabled
+    send(chain, Datagram(C.BWR, 0, 0x0103, b"\x01"))  # DL control bit 24: use the alias
+    d = one(chain, Datagram(C.FPRD, 0x0ABC, 0x0010, bytes(2)))
+    assert (word(d), d.wkc, d.adp) == (0x1002, 1, 0x0ABC)  # FPxx never change ADP
+    assert one(chain, Datagram(C.FPWR, 0x1001, 0x0400, u16(0x1234))).wkc == 1
+    d = one(chain, Datagram(C.FPRW, 0x1001, 0x0400, u16(0x0101)))
+    assert (word(d), d.wkc) == (0x1234, 3)
+    assert word(one(chain, Datagram(C.FPRD, 0x1001, 0x0400, bytes(2)))) == 0x0101
+
+
+def test_broadcast_read_ors_and_read_write_writes_data_in() -> None:
+    chain = EcatChain.skin(3, 16)
+    for p, value in enumerate((0x0001, 0x0002, 0x0004)):
+        send(chain, Datagram(C.APWR, (-p) & 0xFFFF, 0x0010, u16(value)))
+    d = one(chain, Datagram(C.BRD, 0, 0x0010, u16(0x0100)))
+    assert (word(d), d.wkc, d.adp) == (0x0107, 3, 3)  # data in OR 1 OR 2 OR 4
+    assert one(chain, Datagram(C.BWR, 0x0020, 0x0400, u16(0x0777))).adp == 0x0023
+    # BRW (datasheet I Table 7): out = in OR read, memory := in, per slave in chain order:
+    # slave 0: in 0x0100 -> writes 0x0100, out 0x0101; slave 1: in 0x0101 -> writes 0x0101,
+    # out 0x0103; slave 2: in 0x0103 -> writes 0x0103, out 0x0107. WKC 3 x 3.
+    d = one(chain, Datagram(C.BRW, 0, 0x0010, u16(0x0100)))
+    assert (word(d), d.wkc) == (0x0107, 9)
+    assert [dev.station for dev in chain.devices] == [0x0100, 0x0101, 0x0103]
+
+
+def test_read_multiple_write() -> None:
+    chain = EcatChain.skin(4, 16)
+    for p in range(4):
+        send(chain, Datagram(C.APWR, (-p) & 0xFFFF, 0x0010, u16(0x1001 + p)))
+    send(chain, Datagram(C.FPWR, 0x1003, 0x0400, u16(0x4321)))
+    # FRMW: slave 0x1003 reads, all others write what it read (WKC +1 each, datasheet I Table 7)
+    d = one(chain, Datagram(C.FRMW, 0x1003, 0x0400, bytes(2)))
+    assert (word(d), d.wkc, d.adp) == (0x4321, 4, 0x1003)
+    values = [word(one(chain, Datagram(C.FPRD, 0x1001 + p, 0x0400, bytes(2)))) for p in range(4)]
+    # slaves 0 and 1 wrote the datagram before slave 2 read (0x0000); slave 3 wrote 0x4321
+    assert values == [0x0000, 0x0000, 0x4321, 0x4321]
+    # ARMW at a position nobody has: every slave writes (+1 each), ADP counts up
+    d = one(chain, Datagram(C.ARMW, 0x0100, 0x0400, u16(0x0055)))
+    assert (d.wkc, d.adp, d.data) == (4, 0x0104, u16(0x0055))
+    assert {word(one(chain, Datagram(C.FPRD, 0x1001 + p, 0x0400, bytes(2)))) for p in range(4)} == {
+        0x0055
+    }
+
+
+def test_nop_and_reserved_commands_leave_the_datagram_alone() -> None:
+    chain = EcatChain.skin(2, 16)
+    d = one(chain, Datagram(C.NOP, 0x1234, 0x0010, b"\xaa\xbb"))
+    assert (d.adp, d.data, d.wkc) == (0x1234, b"\xaa\xbb", 0)
+    d = one(chain, Datagram(0x0F, 0x0000, 0x0010, b"\xaa\xbb"))  # reserved value 15
+    assert (d.adp, d.data, d.wkc) == (0, b"\xaa\xbb", 0)
+
+
+def test_writes_to_read_only_registers_count_but_change_nothing() -> None:
+    chain = EcatChain.skin(1, 16)
+    d = one(chain, Datagram(C.APWR, 0, 0x0000, b"\x99"))
+    assert d.wkc == 1  # the access reached the ESC (datasheet I 2.4)
+    assert chain.devices[0].registers(0x0000, 1) == b"\x11"
+    assert one(chain, Datagram(C.APWR, 0, 0x0130, u16(0x0008))).wkc == 1
+    assert chain.devices[0].al_status == 0x0001
+
+
+def test_shadow_registers_take_effect_after_the_frame_user_ram_at_once() -> None:
+    chain = EcatChain.skin(2, 16)
+    # datasheet I 3.4: writes to 0x0000-0x0F7F take effect after the frame's FCS
+    out = send(chain, Datagram(C.BWR, 0, 0x0400, u16(0x1111)), Datagram(C.BRD, 0, 0x0400, bytes(2)))
+    assert word(out[1]) == 0x09C2
+    assert word(one(chain, Datagram(C.BRD, 0, 0x0400, bytes(2)))) == 0x1111
+    out = send(
+        chain, Datagram(C.APWR, 0, 0x0010, u16(0x0777)), Datagram(C.FPRD, 0x0777, 0, bytes(1))
+    )
+    assert out[1].wkc == 0  # the new station address is not valid yet inside the frame
+    # user RAM 0x0F80-0x0FFF has no shadow buffer
+    out = send(chain, Datagram(C.APWR, 0, 0x0F80, b"\x5a"), Datagram(C.APRD, 0, 0x0F80, b"\x00"))
+    assert out[1].data == b"\x5a"
+
+
+# --- DL control, loop, events, frame-level behaviour ----------------------------------------
+def test_closing_port_1_shortens_the_line_and_forcing_it_open_loses_frames() -> None:
+    chain = EcatChain.skin(3, 16)
+    send(chain, Datagram(C.APWR, 0xFFFF, 0x0101, b"\x0c"))  # slave 1: loop port 1 closed
+    d = one(chain, Datagram(C.BRD, 0, 0x0000, bytes(1)))
+    assert (d.wkc, d.adp) == (2, 2)  # slave 2 is behind a closed port
+    status = word(one(chain, Datagram(C.APRD, 0xFFFF, 0x0110, bytes(2))))
+    assert status & 0x0C00 == 0x0C00  # loop closed, communication established (link present)
+    send(chain, Datagram(C.APWR, 0xFFFF, 0x0101, b"\x00"))  # auto again
+    assert one(chain, Datagram(C.BRD, 0, 0x0000, bytes(1))).wkc == 3
+    send(chain, Datagram(C.APWR, 0xFFFE, 0x0101, b"\x08"))  # last slave: port 1 open, no link
+    raw = ethercat.frame(EcatFrame((Datagram(C.BRD, 0, 0, bytes(1)),))).to_bytes()
+    assert chain.process_frame(raw) is None
+
+
+def test_irq_field_carries_masked_event_requests() -> None:
+    chain = EcatChain.skin(2, 16)
+    assert one(chain, Datagram(C.BRD, 0, 0x0000, bytes(1))).irq == 0  # mask 0 after reset
+    send(chain, Datagram(C.BWR, 0, 0x0200, u16(0x0004)))  # DL status event
+    # the link-up event is pending since power-on; reading 0x0110 clears it (datasheet II 2.4.3)
+    assert one(chain, Datagram(C.BRD, 0, 0x0000, bytes(1))).irq == 0x0004
+    send(chain, Datagram(C.BRD, 0, 0x0110, bytes(2)))
+    assert one(chain, Datagram(C.BRD, 0, 0x0000, bytes(1))).irq == 0
+
+
+def test_frame_length_padding_and_source_mac() -> None:
+    chain = EcatChain.skin(2, 16)
+    ecat = EcatFrame((Datagram(C.BRD, 0, 0x0130, bytes(2)),))
+    padded = ethercat.frame(ecat).to_bytes()
+    bare = EthernetFrame(ethercat.BROADCAST_MAC, ethercat.MASTER_MAC, ecat, padding=b"").to_bytes()
+    assert (len(padded), len(bare)) == (60, 30)
+    back = chain.process_frame(padded)
+    assert back is not None and len(back) == 60 and back[30:] == padded[30:]  # padding kept
+    assert back[6] == ethercat.MASTER_MAC[0] | 0x02 and back[7:12] == padded[7:12]
+    back = chain.process_frame(bare)
+    assert back is not None and len(back) == 30
+    # DL control bit 0 = 0 on every slave: the source MAC is not changed (datasheet II 2.4.1)
+    send(chain, Datagram(C.BWR, 0, 0x0100, b"\x00"))
+    back = chain.process_frame(padded)
+    assert back is not None and back[6:12] == padded[6:12]
+
+
+def test_non_ethercat_frames_and_broken_frames() -> None:
+    chain = EcatChain.skin(2, 16)
+    ip = bytes(12) + b"\x08\x00" + bytes(46)
+    assert chain.process_frame(ip) is None  # forwarding rule 1 (reset): destroyed
+    send(chain, Datagram(C.BWR, 0, 0x0100, b"\x00"))
+    assert chain.process_frame(ip) == ip  # forwarded untouched
+    raw = bytearray(ethercat.frame(EcatFrame((Datagram(C.BRD, 0, 0, bytes(4)),))).to_bytes())
+    raw[22] = 0x40  # datagram length 64 runs past the frame
+    assert chain.process_frame(bytes(raw)) is None
+    assert one(chain, Datagram(C.APRD, 0, 0x030C, bytes(1))).data == b"\x01"
+    vlan = bytearray(ethercat.frame(EcatFrame((Datagram(C.BRD, 0, 0, bytes(1)),))).to_bytes())
+    vlan[12:12] = b"\x81\x00\x00\x05"  # 802.1Q tag: processed, tag untouched
+    back = chain.process_frame(bytes(vlan))
+    # tag 12-15, EtherType 16, header 18, datagram 20: ADP at 22, data at 30, WKC at 31
+    assert back is not None and back[12:16] == b"\x81\x00\x00\x05"
+    assert (back[22], back[31]) == (2, 2)
+
+
+def test_esc_reset_sequence() -> None:
+    chain = EcatChain.skin(1, 16)
+    send(chain, Datagram(C.APWR, 0, 0x0010, u16(0x4444)))
+    for i, ch in enumerate(b"RES"):
+        if i < 2:
+            assert chain.devices[0].station == 0x4444
+        send(chain, Datagram(C.APWR, 0, 0x0040, bytes([ch])))
+    assert chain.devices[0].station == 0  # reset value after 'R','E','S' in 3 frames
+    send(chain, Datagram(C.APWR, 0, 0x0010, u16(0x4444)))
+    send(chain, Datagram(C.APWR, 0, 0x0040, b"R"))
+    send(chain, Datagram(C.APRD, 0, 0x0000, bytes(1)))  # a frame that does not continue
+    send(chain, Datagram(C.APWR, 0, 0x0040, b"E"))
+    send(chain, Datagram(C.APWR, 0, 0x0040, b"S"))
+    assert chain.devices[0].station == 0x4444
+
+
+# --- SII EEPROM interface -------------------------------------------------------------------
+def eeprom_read(chain: EcatChain, station: int, word_address: int) -> tuple[int, bytes]:
+    assert (
+        one(chain, Datagram(C.FPWR, station, 0x0502, struct.pack("<HI", 0x0100, word_address))).wkc
+        == 1
+    )
+    status = word(one(chain, Datagram(C.FPRD, station, 0x0502, bytes(2))))
+    return status, one(chain, Datagram(C.FPRD, station, 0x0508, bytes(8))).data
+
+
+def stations(chain: EcatChain) -> None:
+    for p in range(len(chain)):
+        send(chain, Datagram(C.APWR, (-p) & 0xFFFF, 0x0010, u16(0x1001 + p)))
+
+
+def test_eeprom_read_status_and_errors() -> None:
+    chain = EcatChain.skin(2, 192)
+    stations(chain)
+    status = word(one(chain, Datagram(C.FPRD, 0x1001, 0x0502, bytes(2))))
+    # idle, 8-byte reads (bit 6), 16 Kibit EEPROM needs 1 address byte (bit 7 = 0), loaded
+    assert status == 0x0040
+    status, data = eeprom_read(chain, 0x1002, 0x08)
+    assert status == 0x0040
+    # vendor "SKIN" 0x534B494E and product 0x000100C0, little-endian
+    assert data == bytes.fromhex("4e494b53c0000100")
+    status, _ = eeprom_read(chain, 0x1001, 0x400)  # beyond the 1024-word EEPROM
+    assert status & 0x2000  # missing acknowledge (datasheet I Table 45)
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, u16(0x0000)))  # "000" clears the errors
+    assert word(one(chain, Datagram(C.FPRD, 0x1001, 0x0502, bytes(2)))) == 0x0040
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, u16(0x0300)))  # invalid command 011
+    assert word(one(chain, Datagram(C.FPRD, 0x1001, 0x0502, bytes(2)))) == 0x2040
+
+
+def test_eeprom_broadcast_read_ors_the_serial_numbers() -> None:
+    chain = EcatChain.skin(3, 16)
+    d = one(chain, Datagram(C.BWR, 0, 0x0502, struct.pack("<HI", 0x0100, 0x0E)))
+    assert d.wkc == 3
+    d = one(chain, Datagram(C.BRD, 0, 0x0508, bytes(4)))
+    assert (struct.unpack("<I", d.data)[0], d.wkc) == (1 | 2 | 3, 3)
+
+
+def test_eeprom_write_needs_write_enable_in_the_same_frame() -> None:
+    chain = EcatChain.skin(1, 16)
+    stations(chain)
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0508, u16(0xBEEF)))
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, struct.pack("<HI", 0x0200, 0x20)))
+    status = word(one(chain, Datagram(C.FPRD, 0x1001, 0x0502, bytes(2))))
+    assert status & 0x4000  # write without write enable
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, u16(0)))
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0508, u16(0xBEEF)))
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, struct.pack("<HI", 0x0201, 0x20)))
+    assert word(one(chain, Datagram(C.FPRD, 0x1001, 0x0502, bytes(2)))) & 0x6001 == 0
+    _, data = eeprom_read(chain, 0x1001, 0x20)
+    assert data[:2] == u16(0xBEEF)
+
+
+def test_eeprom_owned_by_pdi_ignores_ecat_commands() -> None:
+    chain = EcatChain.skin(1, 16)
+    stations(chain)
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0500, b"\x01"))  # offer the EEPROM to the PDI
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, struct.pack("<HI", 0x0100, 0x08)))
+    assert one(chain, Datagram(C.FPRD, 0x1001, 0x0508, bytes(4))).data == bytes(4)
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0500, b"\x02"))  # force, then take it back
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0500, b"\x00"))
+    _, data = eeprom_read(chain, 0x1001, 0x08)
+    assert data[:4] == bytes.fromhex("4e494b53")
+
+
+def test_eeprom_reload_keeps_the_alias_and_checks_the_crc() -> None:
+    chain = EcatChain.skin(1, 16)
+    stations(chain)
+
+    def write_word(address: int, value: int) -> None:
+        send(chain, Datagram(C.FPWR, 0x1001, 0x0508, u16(value)))
+        send(chain, Datagram(C.FPWR, 0x1001, 0x0502, struct.pack("<HI", 0x0201, address)))
+
+    # new config area: PDI 0x08 (16-bit async uC), alias 0x0077, checksum by hand-run CRC
+    area = struct.pack("<7H", 0x0008, 0, 0, 0, 0x0077, 0, 0)
+    for i, value in enumerate(struct.unpack("<7H", area)):
+        write_word(i, value)
+    write_word(7, crc8(area))
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, u16(0x0400)))  # reload
+    regs = one(chain, Datagram(C.FPRD, 0x1001, 0x0140, bytes(1))).data
+    alias = one(chain, Datagram(C.FPRD, 0x1001, 0x0012, bytes(2))).data
+    assert (regs, alias) == (b"\x08", u16(0))  # alias only at the first load (datasheet I 11.1)
+    write_word(0, 0x0005)  # now the checksum no longer fits
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0502, u16(0x0400)))
+    status = word(one(chain, Datagram(C.FPRD, 0x1001, 0x0502, bytes(2))))
+    assert status & 0x1800 == 0x1800  # checksum error, device information not loaded
+    assert one(chain, Datagram(C.FPRD, 0x1001, 0x0140, bytes(1))).data == b"\x08"  # kept
+
+
+def test_bad_checksum_at_power_on_keeps_the_pdi_down() -> None:
+    info = SlaveInfo.skin_patch(16)
+    image = bytearray(build_sii(info))
+    image[14] ^= 0xFF
+    chain = EcatChain([EscDevice(info, sii=bytes(image))])
+    status = word(one(chain, Datagram(C.APRD, 0, 0x0502, bytes(2))))
+    assert status & 0x1800 == 0x1800
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0110, bytes(2)))) & 0x0001 == 0
+    assert one(chain, Datagram(C.APRD, 0, 0x1000, bytes(4))).wkc == 0  # no process RAM
+    send(chain, Datagram(C.BWR, 0, 0x0120, u16(0x0002)))
+    assert chain.devices[0].al_status == 0x0001  # no application answers
+    image[14:16] = u16(0x88A4)  # the debugging bypass value of datasheet I Table 42
+    bypass = EcatChain([EscDevice(info, sii=bytes(image))])
+    assert bypass.devices[0].pdi_operational
+
+
+def test_eeprom_survives_an_esc_reset() -> None:
+    chain = EcatChain.skin(1, 16)
+    send(chain, Datagram(C.APWR, 0, 0x0508, u16(0x1234)))
+    send(chain, Datagram(C.APWR, 0, 0x0502, struct.pack("<HI", 0x0201, 0x30)))
+    for ch in b"RES":
+        send(chain, Datagram(C.APWR, 0, 0x0040, bytes([ch])))
+    send(chain, Datagram(C.APWR, 0, 0x0502, struct.pack("<HI", 0x0100, 0x30)))
+    assert one(chain, Datagram(C.APRD, 0, 0x0508, bytes(2))).data == u16(0x1234)
+
+
+# --- AL state machine -----------------------------------------------------------------------
+def al(chain: EcatChain) -> tuple[int, int]:
+    d = one(chain, Datagram(C.APRD, 0, 0x0130, bytes(6)))
+    status, _, code = struct.unpack("<HHH", d.data)
+    return status, code
+
+
+def request(chain: EcatChain, value: int) -> None:
+    send(chain, Datagram(C.BWR, 0, 0x0120, u16(value)))
+
+
+def configure_sm0(chain: EcatChain, length: int = 16, control: int = 0x20) -> None:
+    regs = struct.pack("<HHBBBB", 0x1000, length, control, 0, 1, 0)
+    send(chain, Datagram(C.APWR, 0, 0x0800, regs))
+
+
+def test_state_machine_transitions_and_error_codes() -> None:
+    chain = EcatChain.skin(1, 16)
+    request(chain, 0x08)  # INIT -> OP
+    assert al(chain) == (0x11, 0x0011)  # stays INIT with error: invalid requested state change
+    request(chain, 0x02)  # without acknowledge: ignored
+    assert al(chain) == (0x11, 0x0011)
+    request(chain, 0x12)  # PREOP + acknowledge
+    assert al(chain) == (0x02, 0x0000)
+    request(chain, 0x05)
+    assert al(chain) == (0x12, 0x0012)  # unknown requested state
+    request(chain, 0x01)  # INIT without ack is accepted, the indication stays
+    assert al(chain) == (0x11, 0x0012)
+    request(chain, 0x13)  # BOOT from INIT: not supported
+    assert al(chain) == (0x11, 0x0013)
+    request(chain, 0x12)
+    request(chain, 0x14)  # SAFEOP without a programmed SyncManager
+    assert al(chain) == (0x12, 0x001E)  # invalid input configuration
+    configure_sm0(chain, length=15)
+    request(chain, 0x14)
+    assert al(chain) == (0x12, 0x001E)
+    send(chain, Datagram(C.APWR, 0, 0x0806, b"\x00"))  # disable to reprogram (II 2.14.1)
+    configure_sm0(chain, control=0x24)  # direction "ECAT writes": wrong for inputs
+    request(chain, 0x14)
+    assert al(chain) == (0x12, 0x001E)
+    send(chain, Datagram(C.APWR, 0, 0x0806, b"\x00"))
+    configure_sm0(chain)
+    request(chain, 0x14)
+    assert al(chain) == (0x04, 0x0000)
+    request(chain, 0x08)
+    assert al(chain) == (0x08, 0x0000)
+    request(chain, 0x03)  # OP -> BOOT
+    assert al(chain) == (0x18, 0x0011)
+    request(chain, 0x11)  # OP -> INIT with acknowledge
+    assert al(chain) == (0x01, 0x0000)
+
+
+def test_state_codes_match_soem_names() -> None:
+    pysoem = pytest.importorskip("pysoem")  # SOEM's own table: an independent source
+    names = {
+        AlStatusCode.INVALID_STATE_CHANGE: "Invalid requested state change",
+        AlStatusCode.UNKNOWN_STATE: "Unknown requested state",
+        AlStatusCode.BOOTSTRAP_NOT_SUPPORTED: "Bootstrap not supported",
+        AlStatusCode.INVALID_INPUT_CONFIGURATION: "Invalid input configuration",
+        AlStatusCode.INVALID_OUTPUT_CONFIGURATION: "Invalid output configuration",
+    }
+    for code, name in names.items():
+        assert pysoem.al_status_code_to_string(code).lower() == name.lower()
+
+
+def test_device_emulation_copies_al_control() -> None:
+    base = SlaveInfo.skin_patch(16)
+    info = SlaveInfo(
+        base.vendor_id,
+        base.product_code,
+        base.revision,
+        0,
+        "Emulated",
+        base.sync_managers,
+        base.fmmus,
+        base.tx_pdos,
+        esc_configuration=0x01,  # 0x0141 bit 0 via SII word 0 (datasheet I 10.1.2)
+    )
+    chain = EcatChain([EscDevice(info)])
+    request(chain, 0x08)
+    assert al(chain)[0] == 0x08  # no checks: copied
+    request(chain, 0x12)
+    assert al(chain)[0] == 0x12  # the acknowledge bit shows up as error indication
+
+
+# --- SyncManagers and FMMUs -----------------------------------------------------------------
+def test_process_data_only_in_safeop_and_op() -> None:
+    chain = EcatChain.configured(3, 16)
+    payloads = taxel.sample_payloads(3, 2, 16, seed=4)
+    chain.publish(payloads[0])
+    d = one(chain, Datagram.logical(C.LRD, 0, bytes(48)))
+    assert (d.data, d.wkc) == (payloads[0].tobytes(), 3)
+    request(chain, 0x02)  # back to PREOP: the application locks the SyncManager (I 8.7)
+    d = one(chain, Datagram.logical(C.LRD, 0, bytes(48)))
+    assert (d.data, d.wkc) == (bytes(48), 0)
+
+
+def test_logical_commands_on_input_only_slaves() -> None:
+    chain = EcatChain.configured(4, 16, logical_base=0x00010000)
+    rows = taxel.sample_payloads(4, 1, 16, seed=5)[0]
+    chain.publish(rows)
+    d = one(chain, Datagram.logical(C.LRW, 0x00010000, b"\xff" * 64))
+    assert (d.data, d.wkc) == (rows.tobytes(), 4)  # read part only: +1 per slave
+    d = one(chain, Datagram.logical(C.LWR, 0x00010000, b"\xff" * 64))
+    assert (d.data, d.wkc) == (b"\xff" * 64, 0)  # no output FMMU: nobody writes
+    d = one(chain, Datagram.logical(C.LRD, 0x00010010, bytes(32)))  # slaves 1 and 2
+    assert (d.data, d.wkc) == (rows[1:3].tobytes(), 2)
+    d = one(chain, Datagram.logical(C.LRD, 0x00020000, b"\x77" * 8))  # nothing mapped
+    assert (d.data, d.wkc) == (b"\x77" * 8, 0)
+    # the image spans two datagrams of one frame: each slave reads where it is mapped
+    out = send(
+        chain,
+        Datagram.logical(C.LRD, 0x00010000, bytes(32)),
+        Datagram.logical(C.LRD, 0x00010020, bytes(32)),
+    )
+    assert [o.wkc for o in out] == [2, 2]
+    assert out[0].data + out[1].data == rows.tobytes()
+
+
+def test_syncmanager_buffer_must_be_entered_at_its_start() -> None:
+    chain = EcatChain.configured(2, 16)
+    rows = taxel.sample_payloads(2, 2, 16, seed=6)
+    chain.publish(rows[0])
+    send(chain, Datagram(C.APWR, 0, 0x0010, u16(0x1001)))
+    d = one(chain, Datagram(C.FPRD, 0x1001, 0x1004, bytes(4)))
+    assert d.wkc == 0  # "a buffer has to be accessed beginning with the start address"
+    d = one(chain, Datagram(C.FPRD, 0x1001, 0x1000, bytes(8)))  # opens the buffer
+    assert (d.data, d.wkc) == (rows[0, 0, :8].tobytes(), 1)
+    chain.publish(rows[1])  # a new sample arrives while the master reads in two strokes
+    d = one(chain, Datagram(C.FPRD, 0x1001, 0x1008, bytes(8)))  # end address: closes
+    assert (d.data, d.wkc) == (rows[0, 0, 8:].tobytes(), 1)  # still the consistent old buffer
+    d = one(chain, Datagram(C.FPRD, 0x1001, 0x1000, bytes(16)))
+    assert d.data == rows[1, 0].tobytes()  # the next access gets the latest buffer
+    assert one(chain, Datagram(C.FPWR, 0x1001, 0x1000, bytes(16))).wkc == 0  # ECAT-read SM
+
+
+def test_syncmanager_configuration_is_locked_while_enabled() -> None:
+    chain = bare_chain()
+    regs = struct.pack("<HHBBBB", 0x1000, 16, 0x20, 0, 1, 0)
+    send(chain, Datagram(C.APWR, 0, 0x0800, regs))
+    send(chain, Datagram(C.APWR, 0, 0x0800, struct.pack("<HH", 0x1800, 4)))
+    assert chain.devices[0].sm_registers(0) == (0x1000, 16, 0x20, 1)
+    send(chain, Datagram(C.APWR, 0, 0x0806, b"\x00"))
+    send(chain, Datagram(C.APWR, 0, 0x0800, struct.pack("<HH", 0x1800, 4)))
+    assert chain.devices[0].sm_registers(0) == (0x1800, 4, 0x20, 0)
+    # disabled SyncManager: "access to memory without SyncManager control"
+    assert one(chain, Datagram(C.APWR, 0, 0x1802, b"\x42")).wkc == 1
+    assert one(chain, Datagram(C.APRD, 0, 0x1802, b"\x00")).data == b"\x42"
+
+
+def test_mailbox_mode_alternates_write_and_read() -> None:
+    chain = bare_chain()
+    dev = chain.devices[0]
+    # SM0: mailbox (mode 10), ECAT writes (direction 01): control 0x06; SM1: mailbox, ECAT reads
+    send(chain, Datagram(C.APWR, 0, 0x0800, struct.pack("<HHBBBB", 0x1800, 8, 0x06, 0, 1, 0)))
+    send(chain, Datagram(C.APWR, 0, 0x0808, struct.pack("<HHBBBB", 0x1900, 8, 0x02, 0, 1, 0)))
+    assert one(chain, Datagram(C.APWR, 0, 0x1800, b"request!")).wkc == 1
+    assert dev.registers(0x0805, 1)[0] & 0x08  # mailbox full
+    assert one(chain, Datagram(C.APWR, 0, 0x1800, b"again...")).wkc == 0  # full: refused
+    assert dev.pdi_read(0x1800, 8) == b"request!"
+    assert one(chain, Datagram(C.APWR, 0, 0x1800, b"again...")).wkc == 1
+    assert one(chain, Datagram(C.APRD, 0, 0x1900, bytes(8))).wkc == 0  # empty
+    dev.pdi_write(0x1900, b"response")
+    d = one(chain, Datagram(C.APRD, 0, 0x1900, bytes(8)))
+    assert (d.data, d.wkc) == (b"response", 1)
+    assert one(chain, Datagram(C.APRD, 0, 0x1900, bytes(8))).wkc == 0  # read out: empty again
+
+
+def test_outputs_through_a_write_fmmu() -> None:
+    info = SlaveInfo.skin_patch(16, output_bytes=4)
+    chain = EcatChain([EscDevice(info)])
+    dev = chain.devices[0]
+    send(chain, Datagram(C.APWR, 0, 0x0800, struct.pack("<HHBBBB", 0x1000, 16, 0x20, 0, 1, 0)))
+    send(chain, Datagram(C.APWR, 0, 0x0808, struct.pack("<HHBBBB", 0x1030, 4, 0x64, 0, 1, 0)))
+    # FMMU0 outputs at logical 0 (type 2 = write), FMMU1 inputs at logical 4 (type 1 = read)
+    send(
+        chain, Datagram(C.APWR, 0, 0x0600, struct.pack("<IHBBHBBB3x", 0, 4, 0, 7, 0x1030, 0, 2, 1))
+    )
+    send(
+        chain, Datagram(C.APWR, 0, 0x0610, struct.pack("<IHBBHBBB3x", 4, 16, 0, 7, 0x1000, 0, 1, 1))
+    )
+    for state in (0x02, 0x04, 0x08):
+        request(chain, state)
+    assert al(chain) == (0x08, 0)
+    d = one(chain, Datagram.logical(C.LRW, 0, b"\x01\x02\x03\x04" + bytes(16)))
+    assert d.wkc == 3  # read +1, write +2
+    assert dev.pdi_read(0x1030, 4) == b"\x01\x02\x03\x04"
+    assert one(chain, Datagram.logical(C.LWR, 0, b"\x05\x06\x07\x08")).wkc == 1
+    assert dev.pdi_read(0x1030, 4) == b"\x05\x06\x07\x08"
+    assert one(chain, Datagram.logical(C.LRD, 0, bytes(20))).wkc == 1  # inputs only
+
+
+def test_bitwise_fmmu_mapping_of_the_datasheet_example() -> None:
+    # datasheet I Table 24: 14 bits from logical 0x00010011.3 .. 0x00010013.0 to physical
+    # bit 1 onwards; here the physical start is user RAM 0x0F81 (the example uses 0x0F01).
+    chain = bare_chain()
+    fmmu = struct.pack("<IHBBHBBB3x", 0x00010011, 3, 3, 0, 0x0F81, 1, 1, 1)
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu))
+    send(chain, Datagram(C.APWR, 0, 0x0F81, b"\xaa\x55"))
+    d = one(chain, Datagram.logical(C.LRD, 0x00010010, b"\xff" * 5))
+    # physical bits 0x0F81.1-7 = 1,0,1,0,1,0,1 and 0x0F82.0-6 = 1,0,1,0,1,0,1 land on logical
+    # 0x11.3-7 (1,0,1,0,1 -> 0xA8 | untouched 0x07 = 0xAF), 0x12.0-7 (0,1,1,0,1,0,1,0 = 0x56),
+    # 0x13.0 (1: 0xFF stays 0xFF); bytes 0x10 and 0x14 are not mapped
+    assert (d.data, d.wkc) == (bytes([0xFF, 0xAF, 0x56, 0xFF, 0xFF]), 1)
+    d = one(chain, Datagram.logical(C.LRD, 0x00010010, bytes(5)))
+    assert d.data == bytes([0x00, 0xA8, 0x56, 0x01, 0x00])
+    # the same geometry for writing: all mapped bits 1, the unmapped ones keep their value
+    send(chain, Datagram(C.APWR, 0, 0x0F81, b"\x00\x00"))
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu[:11] + b"\x02" + fmmu[12:]))
+    assert one(chain, Datagram.logical(C.LWR, 0x00010010, b"\x00\xff\xff\xff\x00")).wkc == 1
+    assert one(chain, Datagram(C.APRD, 0, 0x0F81, bytes(2))).data == b"\xfe\x7f"
+
+
+def test_lower_numbered_fmmu_wins_a_logical_byte() -> None:
+    chain = bare_chain()
+    send(chain, Datagram(C.APWR, 0, 0x0F80, b"\x11\x22\x33\x44"))
+    send(
+        chain, Datagram(C.APWR, 0, 0x0600, struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0x0F80, 0, 1, 1))
+    )
+    send(
+        chain, Datagram(C.APWR, 0, 0x0610, struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0x0F82, 0, 1, 1))
+    )
+    assert one(chain, Datagram.logical(C.LRD, 0, bytes(2))).data == b"\x11\x22"
