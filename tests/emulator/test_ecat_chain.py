@@ -1,0 +1,159 @@
+"""The frame-processing chain: agreement with the timing emulator's EscChain, the effect() view,
+and the independent mini master's scan run against it in process."""
+
+from __future__ import annotations
+
+import mini_master
+import numpy as np
+import numpy.typing as npt
+import pytest
+
+from emulator.ecat_chain import EcatChain, configure_frames
+from emulator.ecat_cycle import frames_for
+from emulator.errors import TopologyError
+from emulator.esc import DatagramEffect, EscChain
+from emulator.sii import SlaveInfo
+from skinframes import ethercat, taxel
+from skinframes.ethercat import Command as C  # noqa: N817
+from skinframes.ethercat import Datagram
+
+N, B = 10, 96
+
+
+def returned_data(d: Datagram, eff: DatagramEffect, image: npt.NDArray[np.uint8]) -> bytes:
+    """The data of ``d`` after the chain: constants, then each slave's input bytes."""
+    data = bytearray(d.data)
+    for off, value in eff.constant:
+        data[off : off + len(value)] = value
+    flat = image.reshape(-1)
+    for c in eff.copies:
+        src = c.slave * image.shape[1] + c.src
+        data[c.dst : c.dst + c.length] = flat[src : src + c.length].tobytes()
+    return bytes(data)
+
+
+# Datagrams both models handle: registers the timing model knows (0x0000 type, 0x0010 station,
+# 0x0130 AL status, the DC area it returns as zeros), and logical access on slave boundaries.
+AGREEING = [
+    Datagram(C.APRD, (-2) & 0xFFFF, 0x0130, bytes(2)),
+    Datagram(C.APRD, (-9) & 0xFFFF, 0x0010, bytes(2)),
+    Datagram(C.APRD, (-10) & 0xFFFF, 0x0010, bytes(2)),  # behind the last slave
+    Datagram(C.APWR, 0, 0x0400, bytes(2)),
+    Datagram(C.FPRD, 0x1003, 0x0130, bytes(2)),
+    Datagram(C.FPRD, 0x1003, 0x0010, bytes(2)),
+    Datagram(C.FPRD, 0x2000, 0x0130, bytes(2)),
+    Datagram(C.FPWR, 0x1005, 0x0400, b"\x01\x02"),
+    Datagram(C.BRD, 0, 0x0130, bytes(2)),
+    Datagram(C.BRD, 7, 0x0000, bytes(1)),
+    Datagram(C.BWR, 0, 0x0400, b"\x09\x09"),
+    Datagram(C.FRMW, 0x1001, 0x0910, bytes(8)),
+    Datagram(C.FRMW, 0x3000, 0x0910, bytes(8)),  # nobody addressed: every slave writes
+    Datagram(C.ARMW, (-4) & 0xFFFF, 0x0910, bytes(8)),
+    Datagram(C.ARMW, 0x2000, 0x0910, bytes(8)),
+    Datagram.logical(C.LRD, 0, bytes(N * B)),
+    Datagram.logical(C.LRD, 96, bytes(288)),  # slaves 1-3
+    Datagram.logical(C.LRD, 0, bytes(1486)),  # past the image: the rest stays untouched
+    Datagram.logical(C.LRW, 0, bytes(96)),
+    Datagram.logical(C.LRW, 192, b"\xff" * 192),
+    Datagram.logical(C.LWR, 0, bytes(192)),  # inputs only: nobody writes, WKC 0
+    Datagram(C.NOP, 0, 0, bytes(2)),
+]
+
+
+@pytest.mark.parametrize("d", AGREEING, ids=lambda d: f"{C(d.cmd).name}-{d.adp:x}-{d.ado:x}")
+def test_chain_agrees_with_the_timing_emulators_esc_model(d: Datagram) -> None:
+    image = taxel.sample_payloads(N, 1, B, seed=11)[0]
+    ours = EcatChain.configured(N, B)
+    ours.publish(image)
+    theirs = EscChain(N, B)
+    a, b = ours.effect(d), theirs.effect(d)
+    assert (a.adp, a.wkc_increment, a.slaves) == (b.adp, b.wkc_increment, b.slaves)
+    assert returned_data(d, a, image) == returned_data(d, b, image)
+
+
+def test_the_logical_layout_of_the_timing_emulator_through_the_chain() -> None:
+    # ecat_cycle's "logical" layout splits the image at 1486 bytes, inside slave 7's buffer
+    # (1486 = 7 x 192 + 142): the SyncManager buffer opened in frame 1 is finished in frame 2
+    n, size = 12, 192
+    image = taxel.sample_payloads(n, 1, size, seed=12)[0]
+    ours = EcatChain.configured(n, size)
+    ours.publish(image)
+    theirs = EscChain(n, size)
+    got = b""
+    for f in frames_for(n, size, "logical"):
+        (d,) = f.datagrams
+        a, b = ours.effect(d), theirs.effect(d)
+        assert (a.wkc_increment, a.slaves) == (b.wkc_increment, b.slaves)
+        got += returned_data(d, a, image)
+    assert got == image.tobytes()
+
+
+def test_a_read_that_starts_inside_a_buffer_is_denied() -> None:
+    """Where the models differ: a real ESC's SyncManager denies a read that does not begin at
+    the buffer's start address (datasheet I 8); the stateless timing model counts slave 1."""
+    image = taxel.sample_payloads(N, 1, B, seed=13)[0]
+    ours = EcatChain.configured(N, B)
+    ours.publish(image)
+    d = Datagram.logical(C.LRD, 100, bytes(192))  # slave 1 from byte 4, slave 2, slave 3 start
+    a = ours.effect(d)
+    assert (a.wkc_increment, a.slaves) == (2, (2, 3))
+    assert returned_data(d, a, image)[:92] == bytes(92)
+
+
+def test_effect_reports_input_bytes_as_copies() -> None:
+    chain = EcatChain.configured(3, 16)
+    eff = chain.effect(Datagram.logical(C.LRD, 0, bytes(40)))  # slaves 0, 1 and 8 bytes of 2
+    copies = [(c.slave, c.src, c.dst, c.length) for c in eff.copies]
+    assert copies == [(0, 0, 0, 16), (1, 0, 16, 16), (2, 0, 32, 8)]
+    assert eff.constant == ()
+    assert chain.input_bytes == 16
+
+
+def test_configured_chain_state_and_frames() -> None:
+    chain = EcatChain.configured(5, 16, logical_base=0x1000, station_base=0x0100)
+    assert [dev.station for dev in chain.devices] == [0x100 + p for p in range(5)]
+    assert {dev.al_status for dev in chain.devices} == {0x08}
+    frames = configure_frames(SlaveInfo.skin_patch(16), 5)
+    assert len(frames) == 5 + 1 + 2 * 5 + 3
+
+
+def test_publish_checks_its_rows() -> None:
+    chain = EcatChain.skin(2, 16)
+    with pytest.raises(TopologyError):
+        chain.publish(np.zeros((3, 16), dtype=np.uint8))
+    with pytest.raises(ValueError):
+        chain.publish([bytes(16), bytes(15)])
+    with pytest.raises(TopologyError):
+        EcatChain.skin(0, 16)
+
+
+@pytest.mark.parametrize(("nodes", "size"), [(1, 192), (7, 192), (21, 192), (40, 16)])
+def test_independent_master_scan_in_process(nodes: int, size: int) -> None:
+    chain = EcatChain.skin(nodes, size)
+    rows = taxel.sample_payloads(nodes, 1, size, seed=nodes)[0]
+    chain.publish(rows)
+    r = mini_master.scan(chain.process_frame, nodes)
+    assert (r["count"], r["brd_adp"], r["esc_type"]) == (nodes, nodes, 0x11)
+    assert r["stations"] == [0x2000 + p for p in range(nodes)]
+    assert r["identity"] == [
+        (0x534B494E, 0x00010000 + size, 0x00010000, p + 1) for p in range(nodes)
+    ]
+    or_serials = 0
+    for p in range(nodes):
+        or_serials |= p + 1
+    assert (r["broadcast_serial_or"], r["broadcast_wkc"]) == (or_serials, nodes)
+    assert r["name"] == f"SkinPatch{size}"
+    assert r["input_bytes"] == size
+    assert r["sm"] == [0x1000, size, 0x20, 1, 4]  # ETG.2010 SYNCM: type 4 = process data inputs
+    assert (r["al_status_4"], r["al_status_8"], r["al_status_final"]) == ("0400", "0800", "0100")
+    per = 1486 // size
+    assert r["lrd_wkc"] == [min(per, nodes - i) for i in range(0, nodes, per)]
+    assert bytes.fromhex(r["inputs"]) == rows.tobytes()
+
+
+def test_every_returned_frame_has_the_request_length() -> None:
+    chain = EcatChain.skin(2, 16)
+    for f in frames_for(2, 16, "per-slave") + frames_for(2, 16, "logical"):
+        raw = ethercat.frame(f).to_bytes()
+        back = chain.process_frame(raw)
+        assert back is not None and len(back) == len(raw)
