@@ -5,8 +5,9 @@ Beckhoff ESC datasheet section I ("Working Counter"): each slave increments the 
 auto-increment and broadcast datagrams as they pass; position-addressed commands act on the slave that sees ADP 0, configured
 addresses on the slave whose station address equals ADP, broadcasts on all, and logical commands
 on every slave whose FMMU maps part of the datagram's logical range. A read adds 1 to the working
-counter, a write 1, a read-write 3 (1 read + 2 write); a logical read-write adds 1 for the input
-part and 2 for the output part, so input-only skin patches add 1 to LRD/LRW and 0 to LWR.
+counter, a write 1, a read-write 3 (1 read + 2 write); ARMW/FRMW add 1 at the addressed slave
+(it reads) and 1 at every other slave (it writes), also when no slave is addressed (datasheet I
+Table 7); a logical read-write adds 1 for the input part and 2 for the output part, so input-only skin patches add 1 to LRD/LRW and 0 to LWR.
 
 Each skin patch is an input-only slave: its taxel bytes are mapped by one FMMU at logical address
 ``logical_base + position * input_bytes``. Register reads return a small, realistic register image.
@@ -90,11 +91,13 @@ class EscChain:
         if cmd in POSITION_CMDS or cmd in STATION_CMDS:
             # position addressing: the slave at position p sees ADP + p == 0
             p = (-d.adp) & 0xFFFF if cmd in POSITION_CMDS else d.adp - STATION_BASE
-            if not 0 <= p < n:
-                return DatagramEffect(adp_back, 0, (), (), ())
             if cmd in (Command.ARMW, Command.FRMW):  # addressed slave reads, all others write
+                if not 0 <= p < n:  # nobody reads, so every slave writes (+1 each)
+                    return DatagramEffect(adp_back, n, (), (), tuple(range(n)))
                 data = self.register(p, d.ado, length)
                 return DatagramEffect(adp_back, n, (), ((0, data),), tuple(range(n)))
+            if not 0 <= p < n:
+                return DatagramEffect(adp_back, 0, (), (), ())
             inc = 1 if cmd in READS | WRITES else 3
             read = ((0, self.register(p, d.ado, length)),) if cmd not in WRITES else ()
             return DatagramEffect(adp_back, inc, (), read, (p,))
