@@ -7,12 +7,12 @@ import sys
 from collections.abc import Sequence
 from typing import Final
 
-from skinframes.cli import can, check, compare, decode, demo, plan, plot, simulate, tables
+from skinframes.cli import can, check, compare, decode, demo, plan, plot, serve, simulate, tables
 from skinframes.errors import SkinframesError
 
 __all__ = ["main"]
 
-COMMANDS: Final = (demo, tables, simulate, plan, plot, decode, check, can, compare)
+COMMANDS: Final = (demo, tables, simulate, plan, plot, decode, check, can, compare, serve)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -1,0 +1,379 @@
+"""The emulated chain on a live Linux network interface, for any EtherCAT master.
+
+* :class:`RawSocket`: an AF_PACKET raw socket bound to one interface and EtherType 0x88A4 (what
+  SOEM opens on the master side, ``nicdrv.c``); it needs root or CAP_NET_RAW.
+* :func:`veth_netns`: a private network namespace holding a veth pair (master end, slave end),
+  with unique names per run, always deleted again: on normal exit, on exceptions, on SIGINT and
+  (in the main thread) on SIGTERM.
+* :func:`netns_socket`: open a :class:`RawSocket` inside a named namespace from this thread.
+* :class:`TaxelFeed` and :func:`serve`: answer every EtherCAT frame with the chain's processed
+  frame and, between frames, let the patches publish new taxel samples (seeded contact
+  patterns from :func:`skinframes.taxel.sample_payloads`), until a stop event is set.
+
+The recipe it automates, by hand::
+
+    ip netns add ecat && ip -n ecat link add ecm0 type veth peer name ecs0
+    ip -n ecat link set lo up && ip -n ecat link set ecm0 up && ip -n ecat link set ecs0 up
+    ip netns exec ecat skinframes serve ecat --iface ecs0 --nodes 21 --bytes 192 &
+    ip netns exec ecat <your master> ecm0
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import errno
+import os
+import secrets
+import select
+import signal
+import socket
+import subprocess
+import threading
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from types import FrameType
+from typing import Final
+
+from emulator.ecat_chain import EcatChain
+from emulator.errors import EmulatorError
+from skinframes import taxel
+
+__all__ = [
+    "ETH_P_ECAT",
+    "LinkError",
+    "RawSocket",
+    "ServeStats",
+    "TaxelFeed",
+    "VethPair",
+    "netns_socket",
+    "serve",
+    "veth_netns",
+]
+
+ETH_P_ECAT: Final = 0x88A4
+MAX_FRAME_BYTES: Final = 1522  # VLAN-tagged maximum without FCS
+PACKET_OUTGOING: Final = 4  # linux/if_packet.h: a frame this host sent
+CLONE_NEWNET: Final = 0x40000000
+SOCKET_BUFFER_BYTES: Final = 1 << 22
+
+
+class LinkError(EmulatorError):
+    """The live link cannot be set up: no such interface, no privileges, ``ip`` failed."""
+
+
+# --- raw socket ----------------------------------------------------------------------------------
+class RawSocket:
+    """An AF_PACKET socket for EtherType 0x88A4 on one interface (frames without FCS).
+
+    Raises:
+        LinkError: no such interface, or not root / no CAP_NET_RAW.
+    """
+
+    def __init__(self, iface: str) -> None:
+        self.iface = iface
+        try:
+            sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETH_P_ECAT))
+        except PermissionError as exc:
+            raise LinkError(
+                f"opening a raw socket on {iface!r} needs root or CAP_NET_RAW ({exc.strerror})"
+            ) from exc
+        try:
+            sock.bind((iface, ETH_P_ECAT))
+        except OSError as exc:
+            sock.close()
+            if exc.errno in (errno.ENODEV, errno.ENXIO):
+                raise LinkError(f"no network interface {iface!r}") from exc
+            raise LinkError(f"cannot bind a raw socket to {iface!r}: {exc.strerror}") from exc
+        for opt in (socket.SO_RCVBUF, socket.SO_SNDBUF):
+            with contextlib.suppress(OSError):
+                sock.setsockopt(socket.SOL_SOCKET, opt, SOCKET_BUFFER_BYTES)
+        sock.setblocking(False)
+        self.sock = sock
+
+    def fileno(self) -> int:
+        """The socket's file descriptor (for select)."""
+        return self.sock.fileno()
+
+    def recv(self) -> bytes | None:
+        """One received frame, None when nothing is waiting (frames this host sent skipped)."""
+        while True:
+            try:
+                data, addr = self.sock.recvfrom(MAX_FRAME_BYTES + 64)
+            except BlockingIOError:
+                return None
+            if addr[2] != PACKET_OUTGOING:
+                return data
+
+    def send(self, frame: bytes) -> None:
+        """Transmit one frame."""
+        self.sock.send(frame)
+
+    def close(self) -> None:
+        """Close the socket."""
+        self.sock.close()
+
+    def __enter__(self) -> RawSocket:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.close()
+
+
+# --- network namespaces ------------------------------------------------------------------------
+def _ip(*args: str) -> str:
+    try:
+        done = subprocess.run(
+            ["ip", *args], capture_output=True, text=True, timeout=30, check=False
+        )
+    except FileNotFoundError as exc:
+        raise LinkError("the 'ip' command (iproute2) is not installed") from exc
+    if done.returncode:
+        msg = done.stderr.strip() or f"exit {done.returncode}"
+        if "Operation not permitted" in msg or "Permission denied" in msg:
+            raise LinkError(f"ip {' '.join(args)}: needs root or CAP_NET_ADMIN ({msg})")
+        raise LinkError(f"ip {' '.join(args)}: {msg}")
+    return done.stdout
+
+
+@dataclass(frozen=True, slots=True)
+class VethPair:
+    """A private namespace and the two ends of its veth pair."""
+
+    netns: str
+    master: str
+    slave: str
+
+
+@contextlib.contextmanager
+def _signals_as_exceptions() -> Iterator[None]:
+    """In the main thread, turn a default SIGTERM into SystemExit so ``finally`` blocks run."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    previous = signal.getsignal(signal.SIGTERM)
+    if previous is not signal.SIG_DFL:
+        yield
+        return
+
+    def terminate(signum: int, frame: FrameType | None) -> None:
+        raise SystemExit(128 + signum)
+
+    signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+@contextlib.contextmanager
+def _signals_blocked() -> Iterator[None]:
+    """Hold SIGINT/SIGTERM back while cleaning up; they are delivered afterwards."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+    blocked = {signal.SIGINT, signal.SIGTERM}
+    old = signal.pthread_sigmask(signal.SIG_BLOCK, blocked)
+    try:
+        yield
+    finally:
+        signal.pthread_sigmask(signal.SIG_SETMASK, old)
+
+
+def _alive(pid: int) -> bool:
+    """True while ``pid`` runs (a zombie waiting for its parent counts as ended)."""
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii", errors="replace") as f:
+            return f.read().rpartition(")")[2].split()[0] != "Z"
+    except (OSError, IndexError):
+        return False
+
+
+def _stop_namespace_processes(netns: str, grace_s: float = 2.0) -> None:
+    """End what still runs inside our private namespace (started by us), then wait."""
+    try:
+        pids = [int(p) for p in _ip("netns", "pids", netns).split()]
+    except LinkError:
+        return
+    pids = [p for p in pids if p != os.getpid()]
+    for sig in (signal.SIGTERM, signal.SIGKILL):
+        for pid in pids:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(pid, sig)
+        deadline = time.monotonic() + grace_s
+        while pids and time.monotonic() < deadline:
+            pids = [p for p in pids if _alive(p)]
+            time.sleep(0.02)
+        if not pids:
+            return
+
+
+@contextlib.contextmanager
+def veth_netns(
+    *, master: str = "ecm0", slave: str = "ecs0", prefix: str = "skinframes"
+) -> Iterator[VethPair]:
+    """A private network namespace with a veth pair, deleted on every way out.
+
+    The namespace name is unique per run (``prefix-pid-random``); the veth pair is created
+    inside it, so nothing appears in the caller's namespace. IPv6 is switched off inside so that
+    captures hold only the EtherCAT traffic. On exit, processes still running in the namespace
+    are terminated and the namespace (with its veth pair) is deleted.
+
+    Raises:
+        LinkError: ``ip`` is missing or not permitted (root or CAP_SYS_ADMIN is needed).
+    """
+    name = f"{prefix}-{os.getpid()}-{secrets.token_hex(3)}"
+    with _signals_as_exceptions():
+        _ip("netns", "add", name)
+        try:
+            _ip("-n", name, "link", "add", master, "type", "veth", "peer", "name", slave)
+            for dev in ("lo", master, slave):
+                _ip("-n", name, "link", "set", dev, "up")
+            with contextlib.suppress(LinkError):
+                _ip("netns", "exec", name, "sysctl", "-q", "-w", "net.ipv6.conf.all.disable_ipv6=1")
+            yield VethPair(name, master, slave)
+        finally:
+            with _signals_blocked():
+                _stop_namespace_processes(name)
+                for _ in range(5):
+                    try:
+                        _ip("netns", "del", name)
+                        break
+                    except LinkError:
+                        time.sleep(0.1)
+
+
+@contextlib.contextmanager
+def _in_netns(netns: str) -> Iterator[None]:
+    """Switch this thread into ``netns`` (setns(2) acts on the calling thread only)."""
+    libc = ctypes.CDLL(None, use_errno=True)
+    own = os.open("/proc/thread-self/ns/net", os.O_RDONLY)
+    try:
+        try:
+            target = os.open(f"/run/netns/{netns}", os.O_RDONLY)
+        except FileNotFoundError as exc:
+            raise LinkError(f"no network namespace {netns!r}") from exc
+        try:
+            if libc.setns(target, CLONE_NEWNET) != 0:
+                err = ctypes.get_errno()
+                raise LinkError(f"cannot enter network namespace {netns!r}: {os.strerror(err)}")
+        finally:
+            os.close(target)
+        try:
+            yield
+        finally:
+            if libc.setns(own, CLONE_NEWNET) != 0:  # pragma: no cover - would leave us inside
+                raise LinkError("cannot return to the original network namespace")
+    finally:
+        os.close(own)
+
+
+def netns_socket(iface: str, netns: str | None = None) -> RawSocket:
+    """A :class:`RawSocket` on ``iface``, created inside ``netns`` when given.
+
+    A socket stays in the namespace it was created in, so the caller keeps working in its own.
+    """
+    if netns is None:
+        return RawSocket(iface)
+    with _in_netns(netns):
+        return RawSocket(iface)
+
+
+# --- serving -----------------------------------------------------------------------------------
+class TaxelFeed:
+    """Changing taxel patterns: sample ``k`` of ``taxel.sample_payloads(nodes, samples, B, seed)``.
+
+    Every ``period_s`` the next sample (cycling through ``samples``) is published to all patches
+    at once, between two frames.
+    """
+
+    def __init__(
+        self,
+        nodes: int,
+        input_bytes: int,
+        *,
+        samples: int = 64,
+        seed: int = 0,
+        period_s: float = 0.001,
+    ) -> None:
+        self.payloads = taxel.sample_payloads(nodes, samples, input_bytes, seed=seed)
+        self.period_s = period_s
+        self.published = 0  # how many samples were published so far
+        self._next = 0.0
+
+    def sample_index(self, published: int | None = None) -> int:
+        """Which sample the ``published``-th publication (default: the last one) used."""
+        count = self.published if published is None else published
+        return (count - 1) % len(self.payloads)
+
+    def publish(self, chain: EcatChain, now: float) -> bool:
+        """Publish the next sample if the period has passed; True if it did."""
+        if now < self._next:
+            return False
+        chain.publish(self.payloads[self.published % len(self.payloads)])
+        self.published += 1
+        self._next = now + self.period_s
+        return True
+
+
+@dataclass
+class ServeStats:
+    """What :func:`serve` did, with the processing time per frame in microseconds."""
+
+    frames_in: int = 0
+    frames_out: int = 0
+    dropped: int = 0
+    publications: int = 0
+    process_us: list[float] = field(default_factory=list)
+
+    def summary(self) -> dict[str, float | int]:
+        """Counts and processing-time percentiles (us)."""
+        times = sorted(self.process_us)
+
+        def pct(q: float) -> float:
+            return round(times[min(len(times) - 1, int(q * len(times)))], 1) if times else 0.0
+
+        return {
+            "frames_in": self.frames_in,
+            "frames_out": self.frames_out,
+            "dropped": self.dropped,
+            "publications": self.publications,
+            "process_us_median": pct(0.5),
+            "process_us_p99": pct(0.99),
+            "process_us_max": round(times[-1], 1) if times else 0.0,
+        }
+
+
+def serve(
+    chain: EcatChain,
+    sock: RawSocket,
+    stop: threading.Event,
+    *,
+    feed: TaxelFeed | None = None,
+    poll_s: float = 0.05,
+    keep_times: int = 200_000,
+) -> ServeStats:
+    """Answer frames until ``stop`` is set; publish taxels from ``feed`` between frames."""
+    stats = ServeStats()
+    fd = sock.fileno()
+    clock = time.perf_counter
+    while not stop.is_set():
+        if feed is not None and feed.publish(chain, time.monotonic()):
+            stats.publications += 1
+        timeout = poll_s if feed is None else min(poll_s, feed.period_s)
+        readable, _, _ = select.select([fd], [], [], timeout)
+        if not readable:
+            continue
+        while (frame := sock.recv()) is not None:
+            stats.frames_in += 1
+            t0 = clock()
+            back = chain.process_frame(frame)
+            if back is None:
+                stats.dropped += 1
+                continue
+            sock.send(back)
+            stats.frames_out += 1
+            if len(stats.process_us) < keep_times:
+                stats.process_us.append((clock() - t0) * 1e6)
+    return stats

@@ -1,0 +1,99 @@
+"""``skinframes serve ecat``: the emulated ESC chain on a live interface, for any master."""
+
+from __future__ import annotations
+
+import argparse
+import json
+import signal
+import sys
+import threading
+from types import FrameType
+from typing import Any
+
+from skinframes.errors import SkinframesError
+
+MAX_NODES = 1024  # each emulated ESC holds its own 64 KiB address space
+
+
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "serve",
+        help="serve emulated EtherCAT slaves on a network interface until SIGINT/SIGTERM",
+        description="Answer EtherCAT frames on IFACE as a line of emulated skin patches (ESCs "
+        "with SII, AL state machine, SyncManagers and FMMUs). Point any master at the other end "
+        "of the link, e.g. a veth pair in a network namespace (see the README). Needs root or "
+        "CAP_NET_RAW. Runs until SIGINT or SIGTERM, then prints what it served.",
+    )
+    p.add_argument("protocol", choices=["ecat"])
+    p.add_argument("--iface", required=True, help="network interface the master is wired to")
+    p.add_argument("--nodes", type=int, required=True, help=f"slaves (patches), 1..{MAX_NODES}")
+    p.add_argument("--bytes", type=int, required=True, help="taxel bytes per slave, 1..1486")
+    p.add_argument("--seed", type=int, default=0, help="seed of the taxel contact patterns")
+    p.add_argument(
+        "--samples", type=int, default=64, help="distinct taxel samples, cycled (default 64)"
+    )
+    p.add_argument(
+        "--period-ms",
+        type=float,
+        default=1.0,
+        help="time between two taxel samples in ms (default 1)",
+    )
+    p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Serve until a signal arrives."""
+    from emulator.ecat_chain import EcatChain
+    from emulator.live import RawSocket, TaxelFeed, serve
+
+    if not 1 <= args.nodes <= MAX_NODES:
+        raise SkinframesError(f"--nodes {args.nodes}: 1..{MAX_NODES}")
+    if not 1 <= args.bytes <= 1486:
+        raise SkinframesError(f"--bytes {args.bytes}: 1..1486")
+    if args.samples < 1 or args.period_ms <= 0:
+        raise SkinframesError("--samples must be >= 1 and --period-ms > 0")
+    chain = EcatChain.skin(args.nodes, args.bytes)
+    feed = TaxelFeed(
+        args.nodes,
+        args.bytes,
+        samples=args.samples,
+        seed=args.seed,
+        period_s=args.period_ms / 1000.0,
+    )
+    stop = threading.Event()
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with RawSocket(args.iface) as sock:
+            print(
+                f"serving {args.nodes} EtherCAT slaves x {args.bytes} bytes on {args.iface} "
+                "(SIGINT/SIGTERM to stop)",
+                file=sys.stderr,
+                flush=True,
+            )
+            stats = serve(chain, sock, stop, feed=feed)
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    summary: dict[str, Any] = {
+        "protocol": "ecat",
+        "iface": args.iface,
+        "nodes": args.nodes,
+        "bytes": args.bytes,
+        **stats.summary(),
+    }
+    if args.json:
+        print(json.dumps(summary))
+    else:
+        print(
+            f"served {summary['frames_out']} of {summary['frames_in']} frames "
+            f"({summary['dropped']} dropped), {summary['publications']} taxel samples; "
+            f"processing median {summary['process_us_median']} us, "
+            f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us"
+        )
+    return 0

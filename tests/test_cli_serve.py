@@ -1,0 +1,73 @@
+"""``skinframes serve ecat``: argument checks and error lines (no root needed; the live runs are
+in tests/emulator/test_live_soem.py)."""
+
+from __future__ import annotations
+
+import errno
+import socket
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from skinframes.cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
+
+
+class FakeSocket:
+    """Stands in for AF_PACKET: ``bind`` fails like the kernel does for a missing interface."""
+
+    def __init__(self, *args: object) -> None:
+        pass
+
+    def bind(self, addr: object) -> None:
+        raise OSError(errno.ENODEV, "No such device")
+
+    def close(self) -> None:
+        pass
+
+
+def denied(*args: object) -> None:
+    raise PermissionError(errno.EPERM, "Operation not permitted")
+
+
+@pytest.mark.parametrize(
+    ("fake", "message"),
+    [
+        (FakeSocket, "no network interface 'ecs9'"),
+        (denied, "opening a raw socket on 'ecs9' needs root or CAP_NET_RAW"),
+    ],
+)
+def test_link_problems_are_one_error_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], fake: object, message: str
+) -> None:
+    monkeypatch.setattr(socket, "socket", fake)
+    code = main(["serve", "ecat", "--iface", "ecs9", "--nodes", "3", "--bytes", "192"])
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.startswith(f"skinframes: error: {message}")
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    "args",
+    [
+        ["--nodes", "0", "--bytes", "16"],
+        ["--nodes", "1025", "--bytes", "16"],
+        ["--nodes", "2", "--bytes", "1487"],
+        ["--nodes", "2", "--bytes", "16", "--period-ms", "0"],
+    ],
+)
+def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str]) -> None:
+    assert main(["serve", "ecat", "--iface", "lo", *args]) == 2
+    assert capsys.readouterr().err.startswith("skinframes: error: --")
+
+
+def test_cli_imports_the_emulator_only_when_serving() -> None:
+    code = "import sys, skinframes.cli.serve; print('emulator' in sys.modules)"
+    out = subprocess.run(
+        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
+    )
+    assert out.stdout.strip() == "False"
