@@ -1,0 +1,385 @@
+"""Live: real masters drive ``skinframes serve ecat`` over a veth pair in a private netns.
+
+* pysoem (SOEM 1.4, an unmodified binary wheel) scans, maps, reaches OP and runs 1,000 cycles:
+  21 patches x 192 bytes (4,032 bytes: pysoem's 4,096-byte IO map) and 160 x 16 bytes. Every
+  cycle must return the expected working counter and the taxel bytes the emulated patches
+  published (``skinframes.taxel.sample_payloads`` with the server's seed), whole samples per
+  frame, moving forward in time;
+* an independent minimal master (tests/mini_master.py: its own frames, its own SII walk);
+* dumpcap records the veth traffic and tshark must find no malformed frame.
+
+These tests need root (or CAP_NET_RAW, CAP_NET_ADMIN and CAP_SYS_ADMIN), iproute2, dumpcap,
+tshark and pysoem. Without them they skip with the reason; under CI=true they fail instead.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import importlib.util
+import itertools
+import json
+import os
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+import tshark_util
+
+from emulator.live import VethPair, veth_netns
+from skinframes import taxel
+
+ROOT = Path(__file__).resolve().parents[2]
+TESTS = ROOT / "tests"
+IN_CI = os.environ.get("CI") == "true"
+CAP_NET_ADMIN, CAP_NET_RAW, CAP_SYS_ADMIN = 12, 13, 21
+SEED, SAMPLES, PERIOD_MS = 20260, 64, 2.0
+GROUP_SOURCE_WARNING = "Source MAC must not be a group address"  # SOEM sends from 01:01:...
+ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
+
+pytestmark = pytest.mark.tshark
+
+
+def missing_requirement() -> str | None:
+    """Why the live tests cannot run here, or None."""
+    if not sys.platform.startswith("linux"):
+        return "live EtherCAT tests need Linux (AF_PACKET, network namespaces)"
+    cap_eff = 0
+    with open("/proc/self/status", encoding="ascii") as f:
+        for line in f:
+            if line.startswith("CapEff:"):
+                cap_eff = int(line.split()[1], 16)
+    needed = (CAP_NET_RAW, CAP_NET_ADMIN, CAP_SYS_ADMIN)
+    if os.geteuid() != 0 and not all(cap_eff >> c & 1 for c in needed):
+        return "needs root or CAP_NET_RAW + CAP_NET_ADMIN + CAP_SYS_ADMIN (raw sockets, netns)"
+    for tool in ("ip", "dumpcap"):
+        if shutil.which(tool) is None:
+            return f"'{tool}' is not installed"
+    if importlib.util.find_spec("pysoem") is None:
+        return "pysoem is not installed (pip install pysoem; it is in the test extra)"
+    return None
+
+
+@pytest.fixture(scope="module")
+def live() -> None:
+    reason = missing_requirement()
+    if reason is not None:
+        if IN_CI:
+            pytest.fail("CI=true: " + reason)
+        pytest.skip(reason)
+
+
+def netns_names() -> set[str]:
+    out = subprocess.run(["ip", "netns", "list"], capture_output=True, text=True, check=True)
+    return {line.split()[0] for line in out.stdout.splitlines() if line.strip()}
+
+
+@pytest.fixture(scope="module")
+def net(live: None) -> Iterator[VethPair]:
+    with veth_netns() as pair:
+        assert pair.netns in netns_names()
+        yield pair
+    assert pair.netns not in netns_names()
+
+
+def read_line(stream: Any, needle: str, timeout_s: float) -> str:
+    """Read lines until one contains ``needle`` (fails after ``timeout_s``)."""
+    deadline = time.monotonic() + timeout_s
+    seen = []
+    while time.monotonic() < deadline:
+        if select.select([stream], [], [], 0.1)[0]:
+            line = stream.readline()
+            if not line:
+                break
+            seen.append(line)
+            if needle in line:
+                return str(line)
+    pytest.fail(f"no line with {needle!r} within {timeout_s} s: {seen}")
+
+
+@contextlib.contextmanager
+def serving(net: VethPair, nodes: int, size: int) -> Iterator[dict[str, Any]]:
+    """``skinframes serve ecat`` on the slave end; stopped with SIGINT, its summary kept."""
+    cmd = [
+        *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve", "ecat"),
+        *("--iface", net.slave, "--nodes", str(nodes), "--bytes", str(size), "--json"),
+        *("--seed", str(SEED), "--samples", str(SAMPLES), "--period-ms", str(PERIOD_MS)),
+    ]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    result: dict[str, Any] = {}
+    try:
+        read_line(proc.stderr, "serving", 60)
+        yield result
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+        result["rc"], result["stderr"] = proc.returncode, err
+        if proc.returncode == 0:
+            result["summary"] = json.loads(out)
+
+
+@contextlib.contextmanager
+def capturing(net: VethPair, path: Path) -> Iterator[None]:
+    proc = subprocess.Popen(
+        ["ip", "netns", "exec", net.netns, "dumpcap", "-q", "-i", net.master, "-w", str(path)],
+        stdout=subprocess.DEVNULL,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        read_line(proc.stderr, "Capturing on", 30)
+        yield
+    finally:
+        time.sleep(0.2)
+        proc.send_signal(signal.SIGINT)
+        proc.communicate(timeout=60)
+
+
+def run_soem(net: VethPair, inputs: Path, cycles: int = 1000) -> dict[str, Any]:
+    done = subprocess.run(
+        [
+            *("ip", "netns", "exec", net.netns, sys.executable, str(TESTS / "soem_master.py")),
+            *(net.master, "--cycles", str(cycles), "--inputs-out", str(inputs)),
+        ],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=240,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    doc: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
+    return doc
+
+
+def sample_of_rows(rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8]) -> list[int]:
+    """For each slave's row, the index k of the published sample it equals (fails if none)."""
+    ks = []
+    for p, row in enumerate(rows):
+        hits = np.flatnonzero((payloads[:, p, :] == row).all(axis=1))
+        assert hits.size == 1, f"slave {p}: {row.tobytes().hex()} is no published sample"
+        ks.append(int(hits[0]))
+    return ks
+
+
+def check_taxels(inputs: npt.NDArray[np.uint8], nodes: int, size: int) -> int:
+    """Every cycle holds whole published samples, in time order; returns the samples seen."""
+    payloads = taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED)
+    for p in range(nodes):  # each slave's samples are distinct, so matching is unambiguous
+        assert len({payloads[k, p].tobytes() for k in range(SAMPLES)}) == SAMPLES
+    seen: set[int] = set()
+    previous = None
+    for cycle in inputs.reshape(-1, nodes, size):
+        ks = sample_of_rows(cycle, payloads)
+        steps = [(b - a) % SAMPLES for a, b in itertools.pairwise(ks)]
+        # publications happen between frames: inside a cycle the sample only moves forward,
+        # at most once per frame of the cycle (a few), never backwards
+        assert all(s < SAMPLES // 2 for s in steps), ks
+        assert sum(1 for s in steps if s) <= 3, ks
+        if previous is not None:
+            assert (ks[0] - previous) % SAMPLES < SAMPLES // 2
+        previous = ks[-1]
+        seen.update(ks)
+    return len(seen)
+
+
+def check_capture(tshark: str, path: Path) -> int:
+    """tshark's verdict on the capture: no malformed frame, no expert item but SOEM's source."""
+    malformed = tshark_util.run(
+        tshark, path, "-Y", "_ws.malformed", "-T", "fields", "-e", "frame.number"
+    )
+    assert malformed.strip() == ""
+    expert = tshark_util.run(
+        tshark,
+        path,
+        *("-Y", "_ws.malformed || _ws.expert.severity >= warning"),
+        *("-T", "fields", "-E", "aggregator=|", "-e", "frame.number", "-e", "_ws.expert.message"),
+    )
+    for line in expert.splitlines():
+        _, _, messages = line.partition("\t")
+        assert all(m.startswith(GROUP_SOURCE_WARNING) for m in messages.split("|")), line
+    stacks = tshark_util.run(tshark, path, "-T", "fields", "-e", "frame.protocols").split()
+    assert stacks and set(stacks) == {"eth:ethertype:ecatf:ecat"}
+    return len(stacks)
+
+
+@pytest.mark.parametrize(("nodes", "size"), [(21, 192), (160, 16)])
+def test_pysoem_runs_the_emulated_skin(
+    net: VethPair, tshark: str, tmp_path: Path, nodes: int, size: int
+) -> None:
+    inputs = tmp_path / "inputs.bin"
+    pcap = tmp_path / "veth.pcapng"
+    with serving(net, nodes, size) as server, capturing(net, pcap):
+        doc = run_soem(net, inputs)
+    assert server["rc"] == 0, server["stderr"]
+    assert doc["config_init"] == nodes
+    for s in doc["slaves"]:  # the identity pysoem read from each SII
+        assert (s["man"], s["id"], s["rev"]) == (0x534B494E, 0x00010000 + size, 0x00010000)
+        assert s["name"] == f"SkinPatch{size}"
+    assert doc["serials"] == list(range(1, nodes + 1))
+    assert doc["eeprom_word_0x20"] == "efbe"
+    assert doc["iomap_bytes"] == nodes * size
+    assert doc["expected_wkc"] == nodes  # one input FMMU per slave
+    assert (doc["safeop"], doc["op"], doc["states"]) == (4, 8, [8])
+    assert doc["al_status_codes"] == [0]
+    assert doc["wkc"] == [nodes] * 1000
+    assert doc["init"] == 1
+    data = np.fromfile(inputs, dtype=np.uint8)
+    assert data.size == 1000 * nodes * size
+    distinct = check_taxels(data, nodes, size)
+    assert distinct > 1  # the patterns changed while the master watched
+    frames = check_capture(tshark, pcap)
+    summary = server["summary"]
+    assert summary["frames_in"] == summary["frames_out"] > 2000
+    assert frames == 2 * summary["frames_in"]  # every request and every reply on ecm0
+    print(
+        f"\n{nodes} x {size} B: config_init {doc['config_init_s']} s, config_map "
+        f"{doc['config_map_s']} s, cycle {doc['cycle_us']} us, {distinct} samples seen, "
+        f"{frames} frames captured, chain processing {summary['process_us_median']} us median"
+    )
+
+
+def test_independent_master_over_the_wire(net: VethPair) -> None:
+    nodes, size = 5, 192
+    with serving(net, nodes, size) as server:
+        done = subprocess.run(
+            [
+                *("ip", "netns", "exec", net.netns, sys.executable),
+                *(str(TESTS / "mini_master.py"), net.master, str(nodes)),
+            ],
+            cwd=ROOT,
+            capture_output=True,
+            text=True,
+            timeout=120,
+            check=False,
+        )
+    assert server["rc"] == 0
+    assert done.returncode == 0, done.stderr[-3000:]
+    r = json.loads(done.stdout)
+    assert (r["count"], r["esc_type"], r["name"]) == (nodes, 0x11, "SkinPatch192")
+    assert r["identity"] == [[0x534B494E, 0x000100C0, 0x00010000, p + 1] for p in range(nodes)]
+    assert (r["broadcast_serial_or"], r["broadcast_wkc"]) == (1 | 2 | 3 | 4 | 5, nodes)
+    assert r["sm"] == [0x1000, size, 0x20, 1, 4]
+    assert (r["al_status_4"], r["al_status_8"], r["al_status_final"]) == ("0400", "0800", "0100")
+    assert r["lrd_wkc"] == [nodes]
+    payloads = taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED)
+    rows = np.frombuffer(bytes.fromhex(r["inputs"]), dtype=np.uint8).reshape(nodes, size)
+    assert len(set(sample_of_rows(rows, payloads))) == 1  # one LRD frame: one sample
+
+
+def test_serve_stops_cleanly_on_sigterm(net: VethPair) -> None:
+    proc = subprocess.Popen(
+        [
+            *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve"),
+            *("ecat", "--iface", net.slave, "--nodes", "2", "--bytes", "16"),
+        ],
+        cwd=ROOT,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    read_line(proc.stderr, "serving", 60)
+    proc.send_signal(signal.SIGTERM)
+    out, _ = proc.communicate(timeout=60)
+    assert proc.returncode == 0
+    assert out.startswith("served 0 of 0 frames")
+
+
+def test_serve_reports_a_missing_interface_and_missing_privileges(live: None) -> None:
+    done = subprocess.run(
+        [
+            *(sys.executable, "-m", "skinframes", "serve", "ecat", "--iface", "skf-none0"),
+            *("--nodes", "2", "--bytes", "16"),
+        ],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2
+    assert done.stderr == "skinframes: error: no network interface 'skf-none0'\n"
+    if os.geteuid() != 0 or shutil.which("setpriv") is None:
+        return
+    done = subprocess.run(
+        [
+            *("setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "--inh-caps=-all"),
+            *(sys.executable, "-m", "skinframes", "serve", "ecat", "--iface", "lo"),
+            *("--nodes", "2", "--bytes", "16"),
+        ],
+        cwd=ROOT,
+        env={**ENV, "PYTHONDONTWRITEBYTECODE": "1"},
+        capture_output=True,
+        text=True,
+        timeout=60,
+        check=False,
+    )
+    assert done.returncode == 2, done.stderr
+    assert done.stderr.startswith("skinframes: error: opening a raw socket on 'lo' needs root")
+    assert done.stderr.count("\n") == 1
+
+
+NETNS_SCRIPT = """
+import subprocess, sys, time
+sys.path.insert(0, {root!r})
+from emulator.live import veth_netns
+with veth_netns() as net:
+    child = subprocess.Popen(["ip", "netns", "exec", net.netns, "sleep", "300"])
+    print(net.netns, child.pid, flush=True)
+    {body}
+"""
+
+
+def start_netns_script(body: str) -> tuple[subprocess.Popen[str], str, int]:
+    proc = subprocess.Popen(
+        [sys.executable, "-c", NETNS_SCRIPT.format(root=str(ROOT), body=body)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    line = read_line(proc.stdout, "skinframes-", 30).split()
+    return proc, line[0], int(line[1])
+
+
+def gone(pid: int) -> bool:
+    try:
+        with open(f"/proc/{pid}/stat", encoding="ascii") as f:
+            return f.read().rpartition(")")[2].split()[0] == "Z"
+    except OSError:
+        return True
+
+
+@pytest.mark.parametrize("how", ["sigint", "sigterm", "exception"])
+def test_netns_is_always_removed(live: None, how: str) -> None:
+    body = "raise RuntimeError('boom')" if how == "exception" else "time.sleep(300)"
+    proc, name, child = start_netns_script(body)
+    assert name in netns_names() or how == "exception"
+    if how != "exception":
+        proc.send_signal(signal.SIGINT if how == "sigint" else signal.SIGTERM)
+    _, err = proc.communicate(timeout=60)
+    expected = {"sigint": "KeyboardInterrupt", "sigterm": "", "exception": "RuntimeError: boom"}
+    assert expected[how] in err
+    # SystemExit(143) from the SIGTERM handler; Python re-raises SIGINT after KeyboardInterrupt
+    assert proc.returncode == {"sigint": -signal.SIGINT, "sigterm": 143, "exception": 1}[how]
+    assert name not in netns_names()
+    assert gone(child)  # the process left inside the namespace was ended
+
+
+def test_netns_names_are_unique(live: None) -> None:
+    with veth_netns() as a, veth_netns() as b:
+        assert a.netns != b.netns
+        assert {a.netns, b.netns} <= netns_names()
+    assert not {a.netns, b.netns} & netns_names()
