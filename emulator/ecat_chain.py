@@ -188,8 +188,8 @@ class EcatChain:
                 if irq:
                     buf[irq_at] |= irq & 0xFF
                     buf[irq_at + 1] |= irq >> 8
-            mac_bit = mac_bit or dev.changes_source_mac
-            onward = dev.forwards()  # loop changes wait for the end of the frame (II 2.4.1)
+            mac_bit = mac_bit or dev.sets_mac
+            onward = dev.onward  # loop changes wait for the end of the frame (II 2.4.1)
             dev.end_frame()
             if onward is None:
                 self._drop(malformed=False)

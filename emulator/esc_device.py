@@ -242,6 +242,8 @@ class EscDevice:
         self._masks = _write_masks(self.config)
         self.position = 0  # set by the chain; used in traces
         self.port1_link = False  # set by the chain: a neighbour on port 1
+        self.onward: bool | None = False  # cached forwards()
+        self.sets_mac = True  # cached changes_source_mac
         self.trace: list[TraceCopy] | None = None
         self.mem = bytearray(ADDRESS_SPACE)
         self.sii = bytearray(self._sii_image)  # non-volatile: survives an ESC reset
@@ -251,7 +253,7 @@ class EscDevice:
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: list[tuple[int, ...]] = []
-        self._irq = 0
+        self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
         self._power_on()
@@ -342,11 +344,6 @@ class EscDevice:
         return self.mem[REG_AL_CODE] | self.mem[REG_AL_CODE + 1] << 8
 
     @property
-    def irq(self) -> int:
-        """ECAT event request (0x0210) masked by 0x0200: what this ESC ORs into IRQ fields."""
-        return self._irq
-
-    @property
     def changes_source_mac(self) -> bool:
         """DL control bit 0 = 1: the processing unit sets SOURCE_MAC[1] (datasheet II 2.4.1)."""
         return bool(self.mem[REG_DL_CONTROL] & 0x01)
@@ -358,6 +355,9 @@ class EscDevice:
             True: out of port 1 to the next ESC; False: the loop is closed and the frame returns
             towards the master; None: port 1 is forced open without a link, the frame is lost.
         """
+        return self.onward
+
+    def _forwarding(self) -> bool | None:
         setting = (self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03
         if setting == 0x03:  # closed
             return False
@@ -399,7 +399,7 @@ class EscDevice:
         self.mem[addr : addr + len(data)] = data
         for sm in self._active:
             if sm.start == addr and sm.length == len(data) and not sm.ecat_writes:
-                sm.latest = bytes(data)
+                sm.latest = data if isinstance(data, bytes) else bytes(data)
                 st = REG_SM + SM_BYTES * sm.index + 5
                 if sm.mailbox:
                     sm.full = True
@@ -423,6 +423,11 @@ class EscDevice:
     # --- frame processing -----------------------------------------------------------------------
     def end_frame(self) -> None:
         """The frame has passed: shadow registers take effect, buffers change (datasheet I 3.4)."""
+        if not (self._pending or self._completed or self._reset_written is not None):
+            if self._reset_progress:  # a frame that does not continue 'R','E','S' cancels it
+                self._reset_progress = 0
+                self.mem[REG_RESET_ECAT] = 0
+            return
         if self._pending:
             self._commit_registers()
         if self._completed:
@@ -900,7 +905,13 @@ class EscDevice:
         self._active = sorted(active + locked, key=lambda s: s.start)
 
     def _update_dl_status(self) -> None:
-        """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2)."""
+        """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).
+
+        Also caches what the chain asks for every frame: the port 1 forwarding decision and
+        whether the source MAC is marked (both change only with DL control or a link).
+        """
+        self.onward = self._forwarding()
+        self.sets_mac = self.changes_source_mac
         value = 0x0003 if self.pdi_operational else 0  # PDI operational, PDI watchdog reloaded
         value |= 0x0010 | 0x0200  # port 0: link, open, communication established
         setting = (self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03
@@ -928,7 +939,7 @@ class EscDevice:
     def _update_irq(self) -> None:
         mem = self.mem
         events = mem[REG_ECAT_EVENT] | mem[REG_ECAT_EVENT + 1] << 8
-        self._irq = events & (mem[REG_ECAT_EVENT_MASK] | mem[REG_ECAT_EVENT_MASK + 1] << 8)
+        self.irq = events & (mem[REG_ECAT_EVENT_MASK] | mem[REG_ECAT_EVENT_MASK + 1] << 8)
 
     def count_frame_error(self) -> None:
         """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""

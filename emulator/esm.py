@@ -126,13 +126,17 @@ class SkinPatchApplication:
 
     def __init__(self, info: SlaveInfo) -> None:
         self.info = info
-        self.inputs = bytes(info.input_bytes)
+        self._input_bytes = info.input_bytes
+        self.inputs = bytes(self._input_bytes)
         self._pd_sms = [
             (i, sm)
             for i, sm in enumerate(info.sync_managers)
             if sm.type in (SyncManagerType.INPUTS, SyncManagerType.OUTPUTS)
         ]
         self._input_sm = info.sm_of_type(SyncManagerType.INPUTS)
+        self._input_start = (
+            None if self._input_sm is None else info.sync_managers[self._input_sm].start
+        )
 
     # --- the PDI application protocol ------------------------------------------------------
     def power_on(self, device: EscDevice) -> None:
@@ -162,11 +166,10 @@ class SkinPatchApplication:
     # --- inputs ------------------------------------------------------------------------------
     def publish(self, device: EscDevice, data: bytes) -> None:
         """Write a complete input buffer through the PDI (a buffer exchange of SM inputs)."""
-        if len(data) != self.info.input_bytes or self._input_sm is None:
-            raise ValueError(f"inputs: {len(data)} bytes, the PDO has {self.info.input_bytes}")
+        if len(data) != self._input_bytes or self._input_start is None:
+            raise ValueError(f"inputs: {len(data)} bytes, the PDO has {self._input_bytes}")
         self.inputs = bytes(data)
-        sm = self.info.sync_managers[self._input_sm]
-        device.pdi_write(sm.start, self.inputs)
+        device.pdi_write(self._input_start, self.inputs)
 
     # --- transitions --------------------------------------------------------------------------
     def _enter(self, device: EscDevice, current: int, requested: int) -> AlStatusCode:
