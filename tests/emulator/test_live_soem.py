@@ -41,11 +41,9 @@ ROOT = Path(__file__).resolve().parents[2]
 TESTS = ROOT / "tests"
 IN_CI = os.environ.get("CI") == "true"
 CAP_NET_ADMIN, CAP_NET_RAW, CAP_SYS_ADMIN = 12, 13, 21
-SEED, SAMPLES, PERIOD_MS = 20260, 64, 2.0
+SEED, SAMPLES, PERIOD_MS = 20260, 256, 2.0
 GROUP_SOURCE_WARNING = "Source MAC must not be a group address"  # SOEM sends from 01:01:...
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
-
-pytestmark = pytest.mark.tshark
 
 
 def missing_requirement() -> str | None:
@@ -131,7 +129,10 @@ def serving(net: VethPair, nodes: int, size: int) -> Iterator[dict[str, Any]]:
 @contextlib.contextmanager
 def capturing(net: VethPair, path: Path) -> Iterator[None]:
     proc = subprocess.Popen(
-        ["ip", "netns", "exec", net.netns, "dumpcap", "-q", "-i", net.master, "-w", str(path)],
+        [
+            *("ip", "netns", "exec", net.netns, "dumpcap", "-q", "-B", "32"),
+            *("-i", net.master, "-w", str(path)),
+        ],
         stdout=subprocess.DEVNULL,
         stderr=subprocess.PIPE,
         text=True,
@@ -214,6 +215,7 @@ def check_capture(tshark: str, path: Path) -> int:
     return len(stacks)
 
 
+@pytest.mark.tshark
 @pytest.mark.parametrize(("nodes", "size"), [(21, 192), (160, 16)])
 def test_pysoem_runs_the_emulated_skin(
     net: VethPair, tshark: str, tmp_path: Path, nodes: int, size: int
@@ -337,7 +339,13 @@ import subprocess, sys, time
 sys.path.insert(0, {root!r})
 from emulator.live import veth_netns
 with veth_netns() as net:
-    child = subprocess.Popen(["ip", "netns", "exec", net.netns, "sleep", "300"])
+    child = subprocess.Popen(
+        ["ip", "netns", "exec", net.netns, "sleep", "300"],
+        stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL,
+    )
+    where = ["ip", "netns", "identify", str(child.pid)]
+    while subprocess.run(where, capture_output=True, text=True).stdout.strip() != net.netns:
+        time.sleep(0.01)  # until the child runs inside the namespace
     print(net.netns, child.pid, flush=True)
     {body}
 """
