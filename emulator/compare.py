@@ -29,6 +29,7 @@ from emulator.errors import TopologyError
 from emulator.limits import MAX_SLAVES
 from emulator.params import TimingParams
 from emulator.result import SimResult
+from emulator.trace import CycleTrace
 from emulator.units import PS_PER_NS, PS_PER_US
 from skinframes import canbus, ethernet, powerlink, taxel
 from skinframes.cantrace import Trace
@@ -103,6 +104,7 @@ def samples_of(trace: Trace) -> SkinSamples:
 
 
 def _ethernet_wire_bytes(r: SimResult, outbound_only: bool) -> int:
+    assert isinstance(r.trace, CycleTrace)  # a fault-free run
     lengths = r.trace.lengths[r.trace.outbound] if outbound_only else r.trace.lengths
     return int(sum(ethernet.wire_bytes(int(n)) for n in lengths))
 

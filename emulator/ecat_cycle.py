@@ -74,6 +74,17 @@ def path_latency_ps(nodes: int, params: TimingParams, redundant: bool) -> int:
     )
 
 
+def forwarding_latency_ps(nodes: int, params: TimingParams) -> int:
+    """Closed ring: a frame from the master's second port through every ESC in forwarding
+    direction (port 1 -> 0) back to the first port."""
+    return (nodes + 1) * params.cable_ps + nodes * params.ecat_forwarding_ps
+
+
+def second_port_copy(frame: bytes) -> bytes:
+    """The copy of a frame a redundancy master sends out of its second port (its own MAC)."""
+    return frame[:6] + ethercat.MASTER_MAC_SECOND + frame[12:]
+
+
 def simulate_ecat(
     nodes: int,
     data_bytes: int,
@@ -90,8 +101,14 @@ def simulate_ecat(
     ``payloads`` (cycles, nodes, data_bytes) uint8 are the taxel bytes the slaves publish (e.g.
     the samples of a CAN trace); seeded contact patterns when None.
 
+    In the closed ring the master runs cable redundancy (ETG.1000.4, as TwinCAT and SOEM do): it
+    sends each frame out of both ports. The frame from the first port passes every ESC in
+    processing direction and arrives at the second port; the copy from the second port passes
+    them in forwarding direction, unprocessed, and arrives at the first. If the ring breaks, both
+    come back processed by the slaves on their side (see :mod:`emulator.ecat_faults`).
+
     Returns:
-        The result, whose trace holds every frame at the master's port (sent and returned).
+        The result, whose trace holds every frame at the master's port(s) (sent and returned).
     """
     check_cycles(cycles)
     sent_frames = frames_for(nodes, data_bytes, layout)
@@ -109,33 +126,40 @@ def simulate_ecat(
         returned.append(ethercat.frame(back, returned=True).to_bytes())
         gather.append(copies)
 
-    # timing at the master's port (integer ps)
+    # timing at the master's port(s) (integer ps)
     wire = np.array([params.frame_ps(len(b)) for b in sent], dtype=np.int64)
     tx = np.concatenate(([0], np.cumsum(wire + params.ifg_ps)[:-1]))
     rx = tx + path_latency_ps(nodes, params, redundant)
-    cycle_ps = int(rx[-1] + wire[-1] + params.ifg_ps)
+    # one record: (time, port, outbound, bytes, taxel runs to fill in or None)
+    recs: list[tuple[int, int, bool, bytes, list[tuple[int, int, int]] | None]] = []
+    for k in range(len(sent)):
+        recs.append((int(tx[k]), 0, True, sent[k], None))
+        recs.append((int(rx[k]), 1 if redundant else 0, False, returned[k], gather[k]))
+    if redundant:  # cable redundancy: the master also sends each frame out of its second port
+        back_tx = tx + forwarding_latency_ps(nodes, params)
+        for k, frame_bytes in enumerate(sent):
+            copy = second_port_copy(frame_bytes)
+            recs.append((int(tx[k]), 1, True, copy, None))
+            recs.append((int(back_tx[k]), 0, False, copy, None))
+    recs.sort(key=lambda r: (r[0], r[1], not r[2]))
+    cycle_ps = max(r[0] + params.frame_ps(len(r[3])) for r in recs) + params.ifg_ps
 
-    # records of one cycle in time order: (time, is_returned, frame index)
-    order = sorted(
-        [(int(t), 0, k) for k, t in enumerate(tx)] + [(int(t), 1, k) for k, t in enumerate(rx)]
-    )
-    rel = np.array([t for t, _, _ in order], dtype=np.int64)
-    lengths = np.array([len(sent[k]) for _, _, k in order], dtype=np.int64)
-    outbound = np.array([is_back == 0 for _, is_back, _ in order], dtype=bool)
-    rec_wire = np.array([wire[k] for _, _, k in order], dtype=np.int64)
+    rel = np.array([r[0] for r in recs], dtype=np.int64)
+    lengths = np.array([len(r[3]) for r in recs], dtype=np.int64)
+    outbound = np.array([r[2] for r in recs], dtype=bool)
+    port = np.array([r[1] for r in recs], dtype=np.int64)
+    rec_wire = np.array([params.frame_ps(len(r[3])) for r in recs], dtype=np.int64)
 
     data = np.empty((cycles, int(lengths.sum())), dtype=np.uint8)
     col = 0
-    for _, is_back, k in order:
-        frame_bytes = returned[k] if is_back else sent[k]
+    for _, _, _, frame_bytes, runs in recs:
         data[:, col : col + len(frame_bytes)] = np.frombuffer(frame_bytes, dtype=np.uint8)
-        if is_back:
-            for dst, src, n in gather[k]:  # each slave's bytes: one contiguous run
-                data[:, col + dst : col + dst + n] = taxels[:, src : src + n]
+        for dst, src, n in runs or ():  # each slave's bytes: one contiguous run
+            data[:, col + dst : col + dst + n] = taxels[:, src : src + n]
         col += len(frame_bytes)
 
     starts = np.arange(cycles, dtype=np.int64) * cycle_ps
-    trace = CycleTrace(starts[:, None] + rel[None, :], lengths, data, rec_wire, outbound)
+    trace = CycleTrace(starts[:, None] + rel[None, :], lengths, data, rec_wire, outbound, port)
     details = [
         CycleDetail(c, int(starts[c]), cycle_ps, expected_wkc, expected_wkc) for c in range(cycles)
     ]

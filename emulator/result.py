@@ -9,6 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.records import RecordTrace
 from emulator.trace import CycleTrace
 from emulator.units import PS_PER_NS, PS_PER_US
 from skinframes import taxel
@@ -52,7 +53,7 @@ class SimResult:
     preset: str
     layout: str
     details: list[CycleDetail]
-    trace: CycleTrace
+    trace: CycleTrace | RecordTrace
     pcap: str | None = None
     recovery_us: float | None = None
     diagnosis: list[str] = field(default_factory=list)

@@ -15,6 +15,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import ScheduleError
+from emulator.records import RecordTrace
 from emulator.units import PS_PER_NS
 from skinframes.pcap import LINKTYPE_ETHERNET, NS_PER_S, pcap_header
 
@@ -33,6 +34,7 @@ class CycleTrace:
         data: (C, sum(lengths)) frame bytes, records concatenated in order.
         wire_ps: (R,) wire time of each frame (preamble, padding, FCS).
         outbound: (R,) True for frames the master sends, False for frames it receives.
+        port: (R,) the master's port (1 = the second port of a closed EtherCAT ring); None = 0.
     """
 
     times_ps: npt.NDArray[np.int64]
@@ -40,6 +42,7 @@ class CycleTrace:
     data: npt.NDArray[np.uint8]
     wire_ps: npt.NDArray[np.int64]
     outbound: npt.NDArray[np.bool_]
+    port: npt.NDArray[np.int64] | None = None
 
     @property
     def cycles(self) -> int:
@@ -50,6 +53,13 @@ class CycleTrace:
     def frames(self) -> int:
         """Number of frames in the whole trace."""
         return int(self.times_ps.size)
+
+    @property
+    def frames_sent_per_cycle(self) -> int:
+        """Distinct frames the master sends per cycle (the first port's; the second port of a
+        closed ring sends copies of the same frames)."""
+        port = np.zeros_like(self.lengths) if self.port is None else self.port
+        return int((self.outbound & (port == 0)).sum())
 
     def frame(self, cycle: int, record: int) -> bytes:
         """The bytes of one record."""
@@ -62,8 +72,9 @@ class CycleTrace:
         Args:
             gap_ps: the least idle time required between two frames of one direction.
         """
-        for direction in (True, False):
-            cols = np.flatnonzero(self.outbound == direction)
+        port = np.zeros_like(self.lengths) if self.port is None else self.port
+        for direction, p in ((d, p) for d in (True, False) for p in np.unique(port)):
+            cols = np.flatnonzero((self.outbound == direction) & (port == p))
             if len(cols) == 0:
                 continue
             start = self.times_ps[:, cols].ravel()
@@ -101,6 +112,24 @@ class CycleTrace:
             src += n
         return pcap_header(LINKTYPE_ETHERNET) + out.tobytes()
 
+    def to_records(self) -> RecordTrace:
+        """The same frames as a :class:`~emulator.records.RecordTrace`."""
+        out = RecordTrace()
+        port = np.zeros_like(self.lengths) if self.port is None else self.port
+        for c in range(self.cycles):
+            for r in range(len(self.lengths)):
+                out.add(
+                    int(self.times_ps[c, r]),
+                    self.frame(c, r),
+                    int(self.wire_ps[r]),
+                    bool(self.outbound[r]),
+                    int(port[r]),
+                )
+        return out
+
     def write_pcap(self, path: str | Path) -> None:
-        """Write :meth:`pcap_bytes` to ``path``."""
+        """Write :meth:`pcap_bytes` to ``path``; a pcapng (with direction flags) for .pcapng."""
+        if Path(path).suffix.lower() == ".pcapng":
+            self.to_records().write_pcap(path)
+            return
         Path(path).write_bytes(self.pcap_bytes())

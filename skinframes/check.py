@@ -19,6 +19,7 @@ from skinframes.pcap import LINKTYPE_ETHERNET, Capture
 __all__ = ["CaptureReport", "FrameFinding", "check_capture"]
 
 MN = powerlink.MN_NODE_ID
+CORRUPTED_MARK = "skinframes: corrupted"  # how the emulator's fault injection marks a frame
 BROADCAST = powerlink.BROADCAST_NODE_ID
 
 
@@ -149,6 +150,7 @@ def check_capture(capture: Capture) -> CaptureReport:
         proto = protocol_of(frame)
         report.counts[proto] += 1
         found = list(frame.findings)
+        found += [error("eth.corrupted", c) for c in rec.comments if c.startswith(CORRUPTED_MARK)]
         if proto == "epl":
             m = frame.payload
             assert not isinstance(m, bytes | bytearray)

@@ -37,6 +37,7 @@ __all__ = [
     "FRAME_HEADER_BYTES",
     "LOGICAL_COMMANDS",
     "MASTER_MAC",
+    "MASTER_MAC_SECOND",
     "MAX_DATAGRAM_DATA_BYTES",
     "Command",
     "Datagram",
@@ -65,6 +66,7 @@ MAX_DATAGRAM_DATA_BYTES: Final = (
 # The master's source MAC: RFC 7042 2.1.2's documentation range (unicast). Its first octet has bit
 # 0x02 clear, so the bit an ESC sets in a processed frame (RETURNED_MAC_BIT) is visible.
 MASTER_MAC: Final = bytes.fromhex("00005e005301")
+MASTER_MAC_SECOND: Final = bytes.fromhex("00005e005302")  # the master's second (redundancy) port
 BROADCAST_MAC: Final = b"\xff" * 6
 RETURNED_MAC_BIT: Final = 0x02  # set by ESCs in the first source-MAC octet of a processed frame
 

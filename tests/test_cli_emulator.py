@@ -71,10 +71,10 @@ def test_simulate_json_keys_and_pcap(capsys: pytest.CaptureFixture[str], tmp_pat
         "ecat",
         "closed",
         3,
-        24,
+        48,  # 4 frames out of each port and back, 3 cycles (cable redundancy: both ports)
     )
     assert doc["pcap"] == str(pcap)
-    assert len(list(read_capture(pcap))) == 24  # 4 frames out and 4 back per cycle
+    assert len(list(read_capture(pcap))) == 48
     detail = doc["cycles_detail"]
     assert [d["cycle"] for d in detail] == [0, 1, 2]
     assert all(d["wkc"] == d["expected_wkc"] == 23 for d in detail)

@@ -42,7 +42,11 @@ def add_parser(sub: Any) -> None:
         metavar="US",
         help="EPL: the MN's PRes timeout; rejected if a CN cannot meet it",
     )
-    p.add_argument("--pcap", help="write the frames at the master's port to this pcap")
+    p.add_argument(
+        "--pcap",
+        help="write the frames at the master's port to this pcap "
+        "(.pcapng: with direction flags, and marks on deliberately corrupted frames)",
+    )
     p.add_argument(
         "--fault",
         action="append",
@@ -57,28 +61,37 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Emulate and report."""
+    from emulator.faults import FAULT_HELP, parse_fault
     from emulator.model import simulate
     from emulator.params import preset
 
-    if args.fault:
-        if args.fault == ["help"]:
-            print(
-                "No fault kinds are implemented yet; cable breaks (cable:K@C), power loss, "
-                "bit errors, frame drops and late CNs are planned."
-            )
-            return 0
-        raise SkinframesError(
-            f"--fault {args.fault[0]!r}: fault injection is not implemented yet ('--fault help')"
-        )
+    if "help" in args.fault:
+        print(FAULT_HELP)
+        return 0
+    faults = tuple(parse_fault(spec) for spec in args.fault)
     if args.protocol == "epl" and args.redundant:
         raise SkinframesError("--redundant applies to EtherCAT only")
     if args.protocol == "ecat" and (args.asnd or args.pres_timeout_us is not None):
         raise SkinframesError("--asnd and --pres-timeout-us apply to EPL only")
+    if faults and args.asnd:
+        raise SkinframesError("--asnd cannot be combined with --fault yet")
     params = preset(args.preset)
-    if args.protocol == "epl":
+    timeout = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1e6)
+    if args.protocol == "epl" and faults:
+        from emulator.epl_faults import simulate_epl_faults
+
+        result = simulate_epl_faults(
+            args.nodes,
+            args.bytes,
+            params,
+            faults,
+            cycles=args.cycles,
+            seed=args.seed,
+            pres_timeout_ps=timeout,
+        )
+    elif args.protocol == "epl":
         from emulator.epl_cycle import simulate_epl
 
-        timeout = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1e6)
         result = simulate_epl(
             args.nodes,
             args.bytes,
@@ -87,6 +100,19 @@ def run(args: argparse.Namespace) -> int:
             seed=args.seed,
             asnd=args.asnd,
             pres_timeout_ps=timeout,
+        )
+    elif faults:
+        from emulator.ecat_faults import simulate_ecat_faults
+
+        result = simulate_ecat_faults(
+            args.nodes,
+            args.bytes,
+            params,
+            faults,
+            redundant=args.redundant,
+            layout=args.layout,
+            cycles=args.cycles,
+            seed=args.seed,
         )
     else:
         table = "ecat_redundant" if args.redundant else "ecat"
@@ -115,6 +141,13 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"  cycle time: min {c['min']:.3f} us, median {c['median']:.3f} us, max {c['max']:.3f} us"
     )
+    if faults:
+        wkc = ", ".join(f"{d.wkc}/{d.expected_wkc}" for d in result.details)
+        print(f"  working counter per cycle (got/expected): {wkc}")
+        if result.recovery_us is not None:
+            print(f"  recovery: {result.recovery_us:g} us")
+        for line in result.diagnosis:
+            print(f"  diagnosis: {line}")
     if result.pcap:
         print(f"  pcap: {result.pcap}")
     return 0
