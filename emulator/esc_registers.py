@@ -1,0 +1,181 @@
+"""The ESC register map: addresses, bits, reset identity and ECAT write masks.
+
+Beckhoff ESC datasheet section II ("register description"), chapter 2, for the registers the
+emulated ESC (:mod:`emulator.esc_device`) implements; section I 1.1 for the address space
+(registers and user RAM 0x0000-0x0FFF, process RAM from 0x1000, 64 KiB in all).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Final
+
+from emulator.errors import TopologyError
+
+__all__ = [
+    "ADDRESS_SPACE",
+    "EE_ACK_ERROR",
+    "EE_CHECKSUM_ERROR",
+    "EE_CMD_READ",
+    "EE_CMD_RELOAD",
+    "EE_CMD_WRITE",
+    "EE_NOT_LOADED",
+    "EE_READ_8_BYTES",
+    "EE_TWO_ADDRESS_BYTES",
+    "EE_WRITE_ENABLE",
+    "EE_WRITE_ENABLE_ERROR",
+    "EVENT_AL_STATUS",
+    "EVENT_DL_STATUS",
+    "FMMU_BYTES",
+    "PROCESS_RAM",
+    "REGISTER_END",
+    "REG_ALIAS",
+    "REG_AL_CODE",
+    "REG_AL_CONTROL",
+    "REG_AL_STATUS",
+    "REG_DL_CONTROL",
+    "REG_DL_STATUS",
+    "REG_ECAT_EVENT",
+    "REG_ECAT_EVENT_MASK",
+    "REG_EEPROM_ADDRESS",
+    "REG_EEPROM_CONFIG",
+    "REG_EEPROM_CONTROL",
+    "REG_EEPROM_DATA",
+    "REG_EEPROM_PDI",
+    "REG_ERROR_COUNTERS",
+    "REG_FMMU",
+    "REG_PDI_CONTROL",
+    "REG_PU_ERRORS",
+    "REG_RESET_ECAT",
+    "REG_RW_OFFSET",
+    "REG_SM",
+    "REG_STATION",
+    "REG_TYPE",
+    "REG_WD_DIVIDER",
+    "REG_WD_PD",
+    "REG_WD_PDI",
+    "REG_WD_STATUS",
+    "SM_BYTES",
+    "SM_IRQ_READ",
+    "SM_IRQ_WRITE",
+    "SM_MAILBOX_FULL",
+    "SM_NO_BUFFER",
+    "SM_READ_OPEN",
+    "SM_WRITE_OPEN",
+    "EscConfig",
+    "write_masks",
+]
+
+ADDRESS_SPACE: Final = 0x10000
+REGISTER_END: Final = 0x0F80  # registers 0x0000-0x0F7F have shadow buffers (datasheet I 3.4)
+PROCESS_RAM: Final = 0x1000
+
+# register addresses (datasheet II chapter 2)
+REG_TYPE: Final = 0x0000
+REG_STATION: Final = 0x0010
+REG_ALIAS: Final = 0x0012
+REG_RESET_ECAT: Final = 0x0040
+REG_DL_CONTROL: Final = 0x0100
+REG_RW_OFFSET: Final = 0x0108
+REG_DL_STATUS: Final = 0x0110
+REG_AL_CONTROL: Final = 0x0120
+REG_AL_STATUS: Final = 0x0130
+REG_AL_CODE: Final = 0x0134
+REG_PDI_CONTROL: Final = 0x0140
+REG_ECAT_EVENT_MASK: Final = 0x0200
+REG_ECAT_EVENT: Final = 0x0210
+REG_ERROR_COUNTERS: Final = 0x0300
+REG_PU_ERRORS: Final = 0x030C  # ECAT processing unit error counter
+REG_WD_DIVIDER: Final = 0x0400
+REG_WD_PDI: Final = 0x0410
+REG_WD_PD: Final = 0x0420
+REG_WD_STATUS: Final = 0x0440
+REG_EEPROM_CONFIG: Final = 0x0500
+REG_EEPROM_PDI: Final = 0x0501
+REG_EEPROM_CONTROL: Final = 0x0502
+REG_EEPROM_ADDRESS: Final = 0x0504
+REG_EEPROM_DATA: Final = 0x0508
+REG_FMMU: Final = 0x0600
+REG_SM: Final = 0x0800
+FMMU_BYTES: Final = 16
+SM_BYTES: Final = 8
+
+# EEPROM control/status 0x0502 (datasheet I Table 45, II 2.11.3)
+EE_WRITE_ENABLE: Final = 0x0001
+EE_READ_8_BYTES: Final = 0x0040
+EE_TWO_ADDRESS_BYTES: Final = 0x0080  # EEPROMs above 16 Kibit
+EE_CHECKSUM_ERROR: Final = 0x0800
+EE_NOT_LOADED: Final = 0x1000
+EE_ACK_ERROR: Final = 0x2000  # missing acknowledge or invalid command
+EE_WRITE_ENABLE_ERROR: Final = 0x4000
+EE_CMD_READ: Final = 1
+EE_CMD_WRITE: Final = 2
+EE_CMD_RELOAD: Final = 4
+
+# ECAT event request 0x0210 (datasheet II 2.7)
+EVENT_DL_STATUS: Final = 0x0004
+EVENT_AL_STATUS: Final = 0x0008
+
+# SyncManager status 0x0805 bits (datasheet II 2.14.4)
+SM_IRQ_WRITE: Final = 0x01
+SM_IRQ_READ: Final = 0x02
+SM_MAILBOX_FULL: Final = 0x08
+SM_NO_BUFFER: Final = 0x30
+SM_READ_OPEN: Final = 0x40
+SM_WRITE_OPEN: Final = 0x80
+
+
+@dataclass(frozen=True, slots=True)
+class EscConfig:
+    """The ESC's identity registers 0x0000-0x0009 (datasheet II 2.1).
+
+    Defaults: an ET1100-type register set (type 0x11, revision 0, 8 FMMUs, 8 SyncManagers) with
+    the full 60 KiB of process RAM the address space allows, two MII ports (port descriptor
+    0x0F) and feature bits all 0: bit-oriented FMMUs, no distributed clocks, LRW and the
+    read-write commands supported.
+    """
+
+    esc_type: int = 0x11
+    revision: int = 0x00
+    build: int = 0x0000
+    fmmus: int = 8
+    syncmanagers: int = 8
+    ram_kib: int = 60
+    port_descriptor: int = 0x0F
+    features: int = 0x0000
+
+    def __post_init__(self) -> None:
+        if not 1 <= self.fmmus <= 16 or not 1 <= self.syncmanagers <= 16:
+            raise TopologyError("ESC: 1..16 FMMUs and SyncManagers (0x0600-0x06FF, 0x0800-0x087F)")
+
+
+def write_masks(cfg: EscConfig) -> bytes:
+    """Bits of each register byte an ECAT write may change (datasheet II, "ECAT" column).
+
+    Read-only and reserved bits keep their value on a write; the access still counts.
+    """
+    m = bytearray(REGISTER_END)
+
+    def put(addr: int, *masks: int) -> None:
+        m[addr : addr + len(masks)] = bytes(masks)
+
+    put(REG_STATION, 0xFF, 0xFF)
+    put(REG_DL_CONTROL, 0x03, 0xFF, 0x4F, 0x01)  # bits 0-1, 8-15, 16-19, 22, 24
+    put(REG_RW_OFFSET, 0xFF, 0xFF)
+    put(REG_AL_CONTROL, 0x7F, 0x00)  # state, ack, device identification, warning ack
+    put(0x0138, 0x1F, 0x1F)  # RUN/ERR LED override
+    put(REG_ECAT_EVENT_MASK, 0xFF, 0xFF)
+    put(REG_WD_DIVIDER, 0xFF, 0xFF)
+    put(REG_WD_PDI, 0xFF, 0xFF)
+    put(REG_WD_PD, 0xFF, 0xFF)
+    put(REG_EEPROM_CONFIG, 0x03)
+    put(REG_EEPROM_CONTROL, 0x01, 0x07)  # write enable, command bits 8-10
+    put(REG_EEPROM_ADDRESS, *(0xFF,) * 4)
+    put(REG_EEPROM_DATA, *(0xFF,) * 8)
+    fmmu = (0xFF,) * 6 + (0x07, 0x07, 0xFF, 0xFF, 0x07, 0x03, 0x01, 0, 0, 0)
+    for y in range(cfg.fmmus):
+        put(REG_FMMU + FMMU_BYTES * y, *fmmu)
+    for y in range(cfg.syncmanagers):
+        # start, length, control (bit 7 sequential mode not supported), activate bits 0,1,6,7
+        put(REG_SM + SM_BYTES * y, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F, 0x00, 0xC3, 0x00)
+    return bytes(m)
