@@ -24,6 +24,7 @@ import shutil
 import signal
 import subprocess
 import sys
+import threading
 import time
 from collections.abc import Iterator
 from pathlib import Path
@@ -34,7 +35,8 @@ import numpy.typing as npt
 import pytest
 import tshark_util
 
-from emulator.live import VethPair, veth_netns
+from emulator.ecat_chain import EcatChain
+from emulator.live import ServeStats, TaxelFeed, VethPair, netns_socket, serve, veth_netns
 from skinframes import taxel
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -278,6 +280,38 @@ def test_independent_master_over_the_wire(net: VethPair) -> None:
     payloads = taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED)
     rows = np.frombuffer(bytes.fromhex(r["inputs"]), dtype=np.uint8).reshape(nodes, size)
     assert len(set(sample_of_rows(rows, payloads))) == 1  # one LRD frame: one sample
+
+
+def test_serve_in_process_on_a_socket_opened_inside_the_namespace(net: VethPair) -> None:
+    nodes, size = 3, 192
+    chain = EcatChain.skin(nodes, size)
+    feed = TaxelFeed(nodes, size, samples=8, seed=5, period_s=0.002)
+    stop = threading.Event()
+    stats: list[ServeStats] = []
+    with netns_socket(net.slave, net.netns) as sock:
+        worker = threading.Thread(target=lambda: stats.append(serve(chain, sock, stop, feed=feed)))
+        worker.start()
+        try:
+            done = subprocess.run(
+                [
+                    *("ip", "netns", "exec", net.netns, sys.executable),
+                    *(str(TESTS / "mini_master.py"), net.master, str(nodes)),
+                ],
+                cwd=ROOT,
+                capture_output=True,
+                text=True,
+                timeout=120,
+                check=False,
+            )
+        finally:
+            stop.set()
+            worker.join(30)
+    assert done.returncode == 0, done.stderr[-3000:]
+    rows = np.frombuffer(bytes.fromhex(json.loads(done.stdout)["inputs"]), dtype=np.uint8)
+    k = sample_of_rows(rows.reshape(nodes, size), feed.payloads)
+    assert len(set(k)) == 1
+    (st,) = stats
+    assert st.frames_in == st.frames_out > 50 and st.dropped == 0 and st.publications > 1
 
 
 def test_serve_stops_cleanly_on_sigterm(net: VethPair) -> None:
