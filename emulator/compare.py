@@ -137,6 +137,19 @@ def compare(s: SkinSamples, params: TimingParams) -> dict[str, Any]:
     sched = arbitrate(bus, canbus.BITRATE_BPS)
     k_of = np.array([b.release_ps // s.period_ps for b in bus], dtype=np.int64)
     emulated = [int(sched.end_ps[k_of == k].max()) - k * s.period_ps for k in range(s.samples)]
+    node_of = np.array([b.node for b in bus], dtype=np.int64)
+    latency = {  # per board: from the period start until its last frame of the sample is through
+        str(board): float(
+            np.median(
+                [
+                    int(sched.end_ps[(k_of == k) & (node_of == board)].max()) - k * s.period_ps
+                    for k in range(s.samples)
+                ]
+            )
+        )
+        / PS_PER_US
+        for board in s.boards
+    }
     horizon = s.samples * s.period_ps
     mean_bits = float(np.mean([f.bits() for frames in s.frames for f in frames]))
     per_board_us = canbus.FRAMES_PER_BOARD * mean_bits * bit / PS_PER_US  # a full 16-triangle patch
@@ -176,6 +189,7 @@ def compare(s: SkinSamples, params: TimingParams) -> dict[str, Any]:
             "emulated": {
                 "cycle_us": float(np.median(emulated)) / PS_PER_US,
                 "bus_load": sched.load(0, horizon),
+                "latency_us": latency,
             },
         },
     }

@@ -51,6 +51,7 @@ def comparison(trace_path: str, preset_name: str) -> dict[str, Any]:
 def _rows(doc: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
     can = dict(doc["can"])
     emulated = dict(can.pop("emulated"))
+    emulated.pop("latency_us", None)
     emulated.update(
         {k: can[k] for k in ("wire_bytes_per_sample", "max_patches_1ms", "max_patches_5ms")}
     )
