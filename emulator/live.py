@@ -37,7 +37,7 @@ from types import FrameType
 from typing import Final
 
 from emulator.ecat_chain import EcatChain
-from emulator.errors import EmulatorError
+from emulator.errors import LinkError
 from skinframes import taxel
 
 __all__ = [
@@ -57,10 +57,6 @@ MAX_FRAME_BYTES: Final = 1522  # VLAN-tagged maximum without FCS
 PACKET_OUTGOING: Final = 4  # linux/if_packet.h: a frame this host sent
 CLONE_NEWNET: Final = 0x40000000
 SOCKET_BUFFER_BYTES: Final = 1 << 22
-
-
-class LinkError(EmulatorError):
-    """The live link cannot be set up: no such interface, no privileges, ``ip`` failed."""
 
 
 # --- raw socket ----------------------------------------------------------------------------------

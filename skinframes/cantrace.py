@@ -42,7 +42,12 @@ from skinframes.canbus import (
     TimedSample,
 )
 from skinframes.canwire import MAX_DATA_BYTES, MAX_DLC
-from skinframes.errors import DecodeError, EncodeError, FieldRangeError
+from skinframes.errors import (
+    DecodeError,
+    FieldRangeError,
+    TraceFormatError,
+    UnsupportedFormatError,
+)
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, PcapWriter, Skipped, read_capture
 
 __all__ = [
@@ -72,14 +77,6 @@ _LOSSY: Final = {
     ".csv": ("fd",),  # no FD column: comes back as a classic frame with > 8 bytes
     ".db": ("fd",),
 }
-
-
-class TraceFormatError(DecodeError):
-    """A file is not a readable CAN trace: unknown suffix, unreadable, or damaged from the start."""
-
-
-class UnsupportedFormatError(EncodeError):
-    """A trace format cannot be written, or cannot hold a frame as given (see :func:`write_trace`)."""
 
 
 @dataclass(frozen=True, slots=True)

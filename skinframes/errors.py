@@ -9,10 +9,13 @@ Every error the library raises on bad input comes from here::
     │   ├── LengthMismatchError         a length field disagrees with the buffer; leftover bytes
     │   ├── ChecksumError               FCS / CRC
     │   ├── UnknownProtocolError        unregistered EtherType / link type
-    │   └── PcapFormatError             bad magic, version, truncated record
+    │   ├── PcapFormatError             bad magic, version, truncated record
+    │   └── TraceFormatError            not a readable CAN trace (unknown suffix, damaged)
     └── EncodeError(…, ValueError)      model -> bytes
         ├── FieldRangeError             a value does not fit its field (11-bit length > 2047, node id > 255)
-        └── FrameTooLargeError          > 1500-byte payload, too many datagrams
+        ├── FrameTooLargeError          > 1500-byte payload, too many datagrams
+        └── UnsupportedFormatError      a CAN trace format that cannot hold a frame as given
+    (emulator.errors.EmulatorError continues the tree: TopologyError, ScheduleError, LinkError)
 
 Wrong argument *types* stay ``TypeError``. construct's and python-can's exceptions never escape:
 :func:`decoding` and :func:`encoding` re-raise them as ours, chained with ``from``.
@@ -36,8 +39,10 @@ __all__ = [
     "LengthMismatchError",
     "PcapFormatError",
     "SkinframesError",
+    "TraceFormatError",
     "TruncatedError",
     "UnknownProtocolError",
+    "UnsupportedFormatError",
     "decoding",
     "encoding",
 ]
@@ -86,6 +91,10 @@ class PcapFormatError(DecodeError):
     """A capture file is not a readable pcap / pcapng (magic, version, record header)."""
 
 
+class TraceFormatError(DecodeError):
+    """A file is not a readable CAN trace: unknown suffix, unreadable, or damaged from the start."""
+
+
 class EncodeError(SkinframesError, ValueError):
     """A model could not be turned into bytes."""
 
@@ -96,6 +105,10 @@ class FieldRangeError(EncodeError):
 
 class FrameTooLargeError(EncodeError):
     """The encoded frame exceeds the protocol's maximum size."""
+
+
+class UnsupportedFormatError(EncodeError):
+    """A trace format cannot be written, or cannot hold a frame as given."""
 
 
 @contextmanager
