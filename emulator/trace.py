@@ -88,6 +88,10 @@ class CycleTrace:
 
     def pcap_bytes(self) -> bytes:
         """The trace as a nanosecond pcap (LINKTYPE_ETHERNET), byte-deterministic."""
+        return pcap_header(LINKTYPE_ETHERNET) + self._records_image().tobytes()
+
+    def _records_image(self) -> npt.NDArray[np.uint8]:
+        """(C, bytes per cycle): every record of a cycle, header and frame, as the pcap holds it."""
         c, r = self.times_ps.shape
         lengths = self.lengths.astype(np.int64)
         rec_sizes = lengths + _RECORD_HEADER_BYTES
@@ -110,7 +114,7 @@ class CycleTrace:
                 :, src : src + n
             ]
             src += n
-        return pcap_header(LINKTYPE_ETHERNET) + out.tobytes()
+        return out
 
     def to_records(self) -> RecordTrace:
         """The same frames as a :class:`~emulator.records.RecordTrace`."""
@@ -132,4 +136,7 @@ class CycleTrace:
         if Path(path).suffix.lower() == ".pcapng":
             self.to_records().write_pcap(path)
             return
-        Path(path).write_bytes(self.pcap_bytes())
+        image = self._records_image()
+        with open(path, "wb") as f:  # header, then the image without another copy
+            f.write(pcap_header(LINKTYPE_ETHERNET))
+            f.write(image.data)
