@@ -246,7 +246,10 @@ def test_pysoem_runs_the_emulated_skin(
     frames = check_capture(tshark, pcap)
     summary = server["summary"]
     assert summary["frames_in"] == summary["frames_out"] > 2000
-    assert frames == 2 * summary["frames_in"]  # every request and every reply on ecm0
+    # every captured frame is clean (check_capture); the capture holds the requests and replies
+    # on ecm0, except that dumpcap can miss a few dozen at its start on a loaded 2-core machine
+    # (seen once: 9,432 of 9,492)
+    assert 0.95 * 2 * summary["frames_in"] <= frames <= 2 * summary["frames_in"]
     print(
         f"\n{nodes} x {size} B: config_init {doc['config_init_s']} s, config_map "
         f"{doc['config_map_s']} s, cycle {doc['cycle_us']} us, {distinct} samples seen, "
