@@ -28,7 +28,7 @@ from emulator.trace import CycleTrace
 from skinframes import ethercat, ethernet
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
-__all__ = ["LAYOUTS", "frames_for", "path_latency_ps", "simulate_ecat"]
+__all__ = ["LAYOUTS", "frames_for", "path_latency_ps", "returned_frame", "simulate_ecat"]
 
 LAYOUTS: Final = ("per-slave", "logical")
 
@@ -121,7 +121,7 @@ def simulate_ecat(
     expected_wkc = 0
     for f in sent_frames:
         sent.append(ethercat.frame(f).to_bytes())
-        back, copies = _returned(f, chain)
+        back, copies = returned_frame(f, chain)
         expected_wkc += sum(d.wkc for d in back.datagrams)
         returned.append(ethercat.frame(back, returned=True).to_bytes())
         gather.append(copies)
@@ -175,7 +175,7 @@ def simulate_ecat(
     )
 
 
-def _returned(f: EcatFrame, chain: EscChain) -> tuple[EcatFrame, list[tuple[int, int, int]]]:
+def returned_frame(f: EcatFrame, chain: EscChain) -> tuple[EcatFrame, list[tuple[int, int, int]]]:
     """The frame as it comes back (constant part), and where each slave's taxel bytes go.
 
     Returns:

@@ -27,9 +27,9 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.ecat_cycle import (
-    _returned,
     frames_for,
     path_latency_ps,
+    returned_frame,
     second_port_copy,
 )
 from emulator.esc import BROADCAST_CMDS, POSITION_CMDS, DatagramEffect, EscChain
@@ -206,7 +206,9 @@ def simulate_ecat_faults(
             offs.append(pos)
             pos += d.size_bytes
         offsets.append(offs)
-    expected = sum(sum(d.wkc for d in _returned(f, chain_rules)[0].datagrams) for f in sent_frames)
+    expected = sum(
+        sum(d.wkc for d in returned_frame(f, chain_rules)[0].datagrams) for f in sent_frames
+    )
     wire = [params.frame_ps(len(b)) for b in sent]
     nominal = path_latency_ps(nodes, params, redundant)
 

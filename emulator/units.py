@@ -22,8 +22,3 @@ def byte_time_ps(n_bytes: int, rate_bps: int) -> int:
     if num % rate_bps:
         raise TopologyError(f"{rate_bps} bit/s does not give a whole number of ps per byte")
     return num // rate_bps
-
-
-def ps_to_us(ps: int | float) -> float:
-    """Picoseconds to microseconds (for reports only)."""
-    return ps / PS_PER_US
