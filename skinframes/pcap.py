@@ -1,4 +1,5 @@
-"""Capture files: a deterministic nanosecond pcap writer and a reader for pcap, pcapng and gzip.
+"""Capture files: a reader for pcap, pcapng and gzip; the writers (re-exported here) live in
+:mod:`skinframes.capture_writer`.
 
 Formats: classic pcap (tcpdump.org, "draft-ietf-opsawg-pcap"): magic 0xA1B2C3D4 (microseconds) or
 0xA1B23C4D (nanoseconds), in either byte order; pcapng ("draft-ietf-opsawg-pcapng") is read with
@@ -16,41 +17,57 @@ import io
 import logging
 import struct
 import zlib
-from collections.abc import Iterable, Iterator
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from types import TracebackType
-from typing import Any, BinaryIO, Final
+from typing import Any, Final
 
+from skinframes.capture_writer import (
+    EPB_CRC_ERROR,
+    EPB_INBOUND,
+    EPB_OUTBOUND,
+    LINKTYPE_CAN_SOCKETCAN,
+    LINKTYPE_ETHERNET,
+    MAGIC_NS,
+    MAGIC_US,
+    NS_PER_S,
+    PCAP_HEADER_BYTES,
+    SNAPLEN,
+    MarkedRecord,
+    PcapWriter,
+    pcap_bytes,
+    pcap_header,
+    pcapng_bytes,
+    record_header,
+    write_pcap,
+)
 from skinframes.errors import PcapFormatError
 
 __all__ = [
+    "EPB_CRC_ERROR",
+    "EPB_INBOUND",
+    "EPB_OUTBOUND",
     "LINKTYPE_CAN_SOCKETCAN",
     "LINKTYPE_ETHERNET",
+    "NS_PER_S",
     "Capture",
     "MarkedRecord",
     "PcapWriter",
     "Record",
     "Skipped",
+    "parse_capture",
     "pcap_bytes",
+    "pcap_header",
     "pcapng_bytes",
     "read_capture",
+    "record_header",
     "write_pcap",
 ]
 
 logger = logging.getLogger(__name__)
 
-LINKTYPE_ETHERNET: Final = 1  # IEEE 802.3, no FCS
-LINKTYPE_CAN_SOCKETCAN: Final = 227  # Linux SocketCAN header + data
-
-MAGIC_US: Final = 0xA1B2C3D4
-MAGIC_NS: Final = 0xA1B23C4D
 PCAPNG_MAGIC: Final = b"\x0a\x0d\x0d\x0a"
 GZIP_MAGIC: Final = b"\x1f\x8b"
-SNAPLEN: Final = 262144  # Wireshark's default and its largest accepted record
-_GLOBAL = struct.Struct("<IHHiIII")
-_RECORD = struct.Struct("<IIII")
-NS_PER_S: Final = 1_000_000_000
 
 
 @dataclass(frozen=True, slots=True)
@@ -106,128 +123,6 @@ class Capture:
         return len(self.records)
 
 
-# --- writing ---------------------------------------------------------------------------------------
-def pcap_header(linktype: int = LINKTYPE_ETHERNET, snaplen: int = SNAPLEN) -> bytes:
-    """The 24-byte global header: little-endian, nanosecond magic, version 2.4."""
-    return _GLOBAL.pack(MAGIC_NS, 2, 4, 0, 0, snaplen, linktype)
-
-
-def record_header(time_ns: int, length: int, orig_len: int | None = None) -> bytes:
-    """The 16-byte record header for a nanosecond pcap."""
-    if time_ns < 0:
-        raise PcapFormatError(f"pcap: negative timestamp {time_ns} ns")
-    sec, nsec = divmod(time_ns, NS_PER_S)
-    if sec > 0xFFFFFFFF:
-        raise PcapFormatError(f"pcap: timestamp {time_ns} ns does not fit 32-bit seconds")
-    return _RECORD.pack(sec, nsec, length, length if orig_len is None else orig_len)
-
-
-class PcapWriter:
-    """Write a nanosecond, little-endian pcap: byte-deterministic for the same records.
-
-    Use as a context manager; ``write(time_ns, data)`` appends one record.
-    """
-
-    def __init__(self, target: str | Path | BinaryIO, linktype: int = LINKTYPE_ETHERNET):
-        self._own = isinstance(target, str | Path)
-        self._f: BinaryIO = open(target, "wb") if isinstance(target, str | Path) else target  # noqa: SIM115
-        self._f.write(pcap_header(linktype))
-        self.count = 0
-
-    def write(self, time_ns: int, data: bytes) -> None:
-        """Append one record stamped ``time_ns`` (nanoseconds)."""
-        self._f.write(record_header(time_ns, len(data)))
-        self._f.write(data)
-        self.count += 1
-
-    def close(self) -> None:
-        """Flush, and close the file if this writer opened it."""
-        if self._own:
-            self._f.close()
-        else:
-            self._f.flush()
-
-    def __enter__(self) -> PcapWriter:
-        return self
-
-    def __exit__(
-        self, t: type[BaseException] | None, e: BaseException | None, tb: TracebackType | None
-    ) -> None:
-        self.close()
-
-
-def pcap_bytes(records: Iterable[tuple[int, bytes]], linktype: int = LINKTYPE_ETHERNET) -> bytes:
-    """A whole pcap file in memory from ``(time_ns, data)`` pairs."""
-    buf = io.BytesIO()
-    w = PcapWriter(buf, linktype)
-    for t, d in records:
-        w.write(t, d)
-    return buf.getvalue()
-
-
-# --- pcapng (draft-ietf-opsawg-pcapng): for captures that carry marks ------------------------------
-EPB_INBOUND: Final = 0x1  # epb_flags bits 0-1: direction
-EPB_OUTBOUND: Final = 0x2
-EPB_CRC_ERROR: Final = 1 << 24  # epb_flags link-layer error bits 16-31: bit 24 = CRC error
-
-
-def _option(code: int, value: bytes) -> bytes:
-    return struct.pack("<HH", code, len(value)) + value + bytes(-len(value) % 4)
-
-
-def _block(kind: int, body: bytes) -> bytes:
-    size = 12 + len(body)
-    return struct.pack("<II", kind, size) + body + struct.pack("<I", size)
-
-
-@dataclass(frozen=True, slots=True)
-class MarkedRecord:
-    """A record for :func:`pcapng_bytes`: a frame, its time, and optionally flags and a comment."""
-
-    time_ns: int
-    data: bytes
-    flags: int | None = None  # epb_flags: direction, CRC error, ...
-    comment: str | None = None
-
-
-def pcapng_bytes(records: Iterable[MarkedRecord], linktype: int = LINKTYPE_ETHERNET) -> bytes:
-    """A whole pcapng file: one section, one interface (nanosecond timestamps), one enhanced
-    packet block per record with its flags and comment. Byte-deterministic."""
-    out = [
-        _block(0x0A0D0D0A, struct.pack("<IHHq", 0x1A2B3C4D, 1, 0, -1) + struct.pack("<HH", 0, 0)),
-        _block(
-            1,
-            struct.pack("<HHI", linktype, 0, SNAPLEN)
-            + _option(9, bytes([9]))
-            + struct.pack("<HH", 0, 0),
-        ),
-    ]
-    for r in records:
-        if r.time_ns < 0:
-            raise PcapFormatError(f"pcapng: negative timestamp {r.time_ns} ns")
-        opts = b""
-        if r.comment is not None:
-            opts += _option(1, r.comment.encode("utf-8"))
-        if r.flags is not None:
-            opts += _option(2, struct.pack("<I", r.flags))
-        if opts:
-            opts += struct.pack("<HH", 0, 0)
-        n = len(r.data)
-        head = struct.pack("<IIIII", 0, r.time_ns >> 32, r.time_ns & 0xFFFFFFFF, n, n)
-        out.append(_block(6, head + r.data + bytes(-n % 4) + opts))
-    return b"".join(out)
-
-
-def write_pcap(
-    path: str | Path, records: Iterable[tuple[int, bytes]], linktype: int = LINKTYPE_ETHERNET
-) -> int:
-    """Write ``(time_ns, data)`` pairs to ``path``; returns the number of records."""
-    with PcapWriter(path, linktype) as w:
-        for t, d in records:
-            w.write(t, d)
-        return w.count
-
-
 # --- reading ---------------------------------------------------------------------------------------
 def read_capture(path: str | Path) -> Capture:
     """Read every record of a pcap or pcapng file, gzip-compressed or not.
@@ -279,7 +174,7 @@ def _gunzip(raw: bytes) -> tuple[bytes, str]:
 
 
 def _read_pcap(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
-    if len(raw) < _GLOBAL.size:
+    if len(raw) < PCAP_HEADER_BYTES:
         raise PcapFormatError(f"{name}: {len(raw)} bytes, the pcap header needs 24")
     magic_le = struct.unpack_from("<I", raw)[0]
     magic_be = struct.unpack_from(">I", raw)[0]
@@ -300,7 +195,7 @@ def _read_pcap(raw: bytes, name: str) -> tuple[list[Record], list[Skipped]]:
     limit = max(snaplen, SNAPLEN)
     records: list[Record] = []
     skipped: list[Skipped] = []
-    pos = _GLOBAL.size
+    pos = PCAP_HEADER_BYTES
     index = 0
     while pos < len(raw):
         if len(raw) - pos < rec.size:
