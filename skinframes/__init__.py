@@ -13,12 +13,13 @@ from skinframes.errors import DecodeError, EncodeError, SkinframesError
 from skinframes.ethercat import Command, Datagram, EcatFrame
 from skinframes.ethernet import EthernetFrame
 from skinframes.findings import Finding, Severity
-from skinframes.pcap import Capture, PcapWriter, Record, read_capture, write_pcap
+from skinframes.pcap import Capture, CaptureWriter, PcapWriter, Record, read_capture, write_pcap
 
 __version__ = "0.1.0"
 
 __all__ = [
     "Capture",
+    "CaptureWriter",
     "Command",
     "Datagram",
     "DecodeError",

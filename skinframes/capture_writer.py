@@ -1,4 +1,4 @@
-"""Writing capture files: classic pcap and pcapng.
+"""Writing capture files: classic pcap and pcapng, in memory or streamed atomically to disk.
 
 Formats (the ones :mod:`skinframes.pcap` reads back):
 
@@ -10,28 +10,44 @@ Formats (the ones :mod:`skinframes.pcap` reads back):
   with its ``epb_flags`` (direction, CRC error; section 4.3.1) and ``opt_comment``.
 
 Each header is built in one place: :func:`pcap_header`, :func:`record_header`, and the block
-builders ``_shb``, ``_idb`` and ``_epb``.
+builders ``_shb``, ``_idb`` and ``_epb``. :meth:`CaptureWriter.write_block` copies each
+column's record header from them once into an image it reuses, and then writes only the
+timestamps and frames of each block into it, with numpy.
 """
 
 from __future__ import annotations
 
+import contextlib
 import io
+import operator
+import os
+import secrets
 import struct
-from collections.abc import Iterable
+from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
 from typing import BinaryIO, Final
 
-from skinframes.errors import FieldRangeError, PcapFormatError
+import numpy as np
+import numpy.typing as npt
+
+from skinframes.errors import (
+    CaptureError,
+    FieldRangeError,
+    FrameTooLargeError,
+    PcapFormatError,
+)
 
 __all__ = [
+    "CAPTURE_SNAPLEN",
     "EPB_CRC_ERROR",
     "EPB_INBOUND",
     "EPB_OUTBOUND",
     "LINKTYPE_CAN_SOCKETCAN",
     "LINKTYPE_ETHERNET",
     "NS_PER_S",
+    "CaptureWriter",
     "MarkedRecord",
     "PcapWriter",
     "pcap_bytes",
@@ -47,11 +63,14 @@ LINKTYPE_CAN_SOCKETCAN: Final = 227  # Linux SocketCAN header + data
 MAGIC_US: Final = 0xA1B2C3D4
 MAGIC_NS: Final = 0xA1B23C4D
 SNAPLEN: Final = 262144  # Wireshark's default and its largest accepted record
+CAPTURE_SNAPLEN: Final = 65535  # CaptureWriter's snaplen: any Ethernet frame, jumbo included
 NS_PER_S: Final = 1_000_000_000
 _GLOBAL = struct.Struct("<IHHiIII")  # magic, major, minor, thiszone, sigfigs, snaplen, linktype
 _RECORD = struct.Struct("<IIII")  # seconds, fraction, captured length, original length
 PCAP_HEADER_BYTES: Final = _GLOBAL.size  # 24
 PCAP_RECORD_HEADER_BYTES: Final = _RECORD.size  # 16
+_PCAP_TIME_OFFSET: Final = 0  # seconds and nanoseconds: the first two u32 of a record header
+_PCAP_MAX_TIME_NS: Final = (1 << 32) * NS_PER_S - 1  # the latest stamp u32 seconds hold
 
 
 # --- classic pcap ----------------------------------------------------------------------------------
@@ -73,7 +92,8 @@ def record_header(time_ns: int, length: int, orig_len: int | None = None) -> byt
 class PcapWriter:
     """Write a nanosecond, little-endian pcap: byte-deterministic for the same records.
 
-    Use as a context manager; ``write(time_ns, data)`` appends one record.
+    Use as a context manager; ``write(time_ns, data)`` appends one record. It writes straight
+    to ``target``; :class:`CaptureWriter` writes atomically, pcapng too, and whole blocks fast.
     """
 
     def __init__(self, target: str | Path | BinaryIO, linktype: int = LINKTYPE_ETHERNET):
@@ -139,6 +159,7 @@ EPB_OUTBOUND: Final = 0x2
 EPB_CRC_ERROR: Final = 1 << 24  # epb_flags link-layer error bits 16-31: bit 24 = CRC error
 _EPB_HEAD = struct.Struct("<IIIIIII")  # type, length, interface, ts high, ts low, caplen, origlen
 EPB_HEADER_BYTES: Final = _EPB_HEAD.size  # 28
+_EPB_TIME_OFFSET: Final = 12  # ts high, ts low: two u32 after type, length and interface id
 
 
 def _option(code: int, value: bytes) -> bytes:
@@ -186,6 +207,14 @@ def _epb(
     return b"".join((head, data, bytes(-n % 4), opts, struct.pack("<I", size)))
 
 
+def _epb_flags(outbound: bool | None, crc_error: bool) -> int | None:
+    """``epb_flags`` for a direction (None: unknown) and a CRC mark; None when neither is set."""
+    if outbound is None and not crc_error:
+        return None
+    flags = 0 if outbound is None else EPB_OUTBOUND if outbound else EPB_INBOUND
+    return flags | EPB_CRC_ERROR if crc_error else flags
+
+
 @dataclass(frozen=True, slots=True)
 class MarkedRecord:
     """A record for :func:`pcapng_bytes`: a frame, its time, and optionally flags and a comment."""
@@ -202,3 +231,413 @@ def pcapng_bytes(records: Iterable[MarkedRecord], linktype: int = LINKTYPE_ETHER
     out = [_shb(), _idb(linktype, SNAPLEN)]
     out += [_epb(0, r.time_ns, r.data, r.flags, r.comment) for r in records]
     return b"".join(out)
+
+
+# --- streaming, atomic -----------------------------------------------------------------------------
+FORMATS: Final = ("pcap", "pcapng")
+_BUFFER_BYTES: Final = 1 << 20  # for write(); write_block() hands its chunks to the OS whole
+_CHUNK_BYTES: Final = 4 << 20  # write_block's image: rows of records that stay in the CPU cache
+
+
+@dataclass(frozen=True, slots=True)
+class _Layout:
+    """One row of records as the file holds it, and the reused image a block is assembled in.
+
+    ``image`` holds as many rows as fit :data:`_CHUNK_BYTES`. The constant bytes between two
+    frames (the previous record's tail, then this record's header) are filled in once, so a
+    chunk of rows only writes its timestamps (at ``stamp_index``, the flat byte positions of
+    every record's two u32 time words, row by row) and its frames (``frames``: image offset,
+    data offset and length of each).
+    """
+
+    key: tuple[bytes, bytes, bytes | None]
+    data_bytes: int
+    frames: tuple[tuple[int, int, int], ...]
+    image: npt.NDArray[np.uint8]
+    stamp_index: npt.NDArray[np.intp]
+
+
+class CaptureWriter:
+    """Stream records into a pcap or pcapng file that appears at ``path`` only when complete.
+
+    The records go to a temporary file beside ``path`` (``.NAME.XXXXXXXX.tmp``), which replaces
+    ``path`` on :meth:`close`; an exception inside the ``with`` block (KeyboardInterrupt too)
+    removes it and leaves any previous file at ``path`` as it was. The file gets the mode a
+    plain ``open(path, "w")`` would give a new file (0o666 minus the umask). Atomic against
+    exceptions and interruption, not against a power cut (no fsync).
+
+    Formats: ``"pcap"``: nanosecond stamps, LINKTYPE_ETHERNET, little endian, snaplen 65535;
+    it cannot carry ports, directions or marks, so ``port`` and ``outbound`` are not written
+    (a port is still checked against ``ports``, so that a program runs alike with either format)
+    and a record with ``crc_error`` or ``comment`` raises. ``"pcapng"``: one interface per port
+    (LINKTYPE_ETHERNET, nanoseconds, ``if_name`` from ``port_names`` or ``"port N"``), direction
+    and CRC error in ``epb_flags`` and the comment in ``opt_comment`` of each Enhanced Packet
+    Block (draft-ietf-opsawg-pcapng 4.2, 4.3). ``fmt=None`` takes pcapng for a ``.pcapng``
+    suffix, classic pcap otherwise.
+
+    Args:
+        path: the capture file to create or replace.
+        fmt: ``"pcap"``, ``"pcapng"`` or None (from the suffix).
+        ports: interfaces the records come from (pcapng interface ids 0 .. ports-1).
+        port_names: one ``if_name`` per port (pcapng).
+
+    Raises:
+        CaptureError: ``path`` is a symbolic link, a directory or not a regular file, its
+            directory does not exist or is not writable, an unknown ``fmt``, or ``port_names``
+            of another length than ``ports``. Nothing is written then.
+    """
+
+    def __init__(
+        self,
+        path: str | os.PathLike[str],
+        *,
+        fmt: str | None = None,
+        ports: int = 1,
+        port_names: Sequence[str] | None = None,
+    ) -> None:
+        self._file: BinaryIO | None = None
+        self._tmp: Path | None = None
+        target = Path(os.fspath(path))
+        if fmt is None:
+            fmt = "pcapng" if target.suffix.lower() == ".pcapng" else "pcap"
+        if fmt not in FORMATS:
+            raise CaptureError(f"capture format {fmt!r}: expected one of {', '.join(FORMATS)}")
+        ports = operator.index(ports)
+        if ports < 1:
+            raise CaptureError(f"capture: {ports} ports, need at least 1")
+        names = [f"port {i}" for i in range(ports)] if port_names is None else list(port_names)
+        if len(names) != ports:
+            raise CaptureError(f"capture: {len(names)} port names for {ports} ports")
+        if fmt == "pcap":
+            header = pcap_header(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN)
+        else:
+            header = _shb() + b"".join(_idb(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN, n) for n in names)
+        _refuse_path(target)
+        self._path = target
+        self._fmt = fmt
+        self._ports = ports
+        self._records = 0
+        self._bytes = 0
+        self._layout: _Layout | None = None
+        self._tmp, fd = _create_temp(target)
+        try:
+            self._file = open(fd, "wb", buffering=_BUFFER_BYTES)  # noqa: SIM115  # closed in close()
+            self._file.write(header)
+        except BaseException:
+            self._abort()
+            raise
+        self._bytes = len(header)
+
+    # --- properties ---
+    @property
+    def path(self) -> Path:
+        """The file that appears on a successful :meth:`close`."""
+        return self._path
+
+    @property
+    def fmt(self) -> str:
+        """``"pcap"`` or ``"pcapng"``."""
+        return self._fmt
+
+    @property
+    def records(self) -> int:
+        """Records written so far."""
+        return self._records
+
+    @property
+    def bytes_written(self) -> int:
+        """Bytes written so far, file header included (the file's size once closed)."""
+        return self._bytes
+
+    # --- writing ---
+    def write(
+        self,
+        time_ns: int,
+        frame: bytes,
+        *,
+        port: int = 0,
+        outbound: bool | None = None,
+        crc_error: bool = False,
+        comment: str | None = None,
+    ) -> None:
+        """Append one record.
+
+        Args:
+            time_ns: the timestamp, nanoseconds (>= 0; classic pcap: seconds fit 32 bits).
+            frame: the frame as captured (no FCS), at most 65535 bytes.
+            port: the interface it was captured on (pcapng interface id).
+            outbound: the direction (pcapng ``epb_flags``); None: not recorded.
+            crc_error: mark the frame as received with a bad FCS (pcapng only).
+            comment: a packet comment (pcapng only).
+
+        Raises:
+            CaptureError: ``crc_error`` or ``comment`` in a classic pcap; the writer is closed.
+            FieldRangeError: a timestamp or port out of range.
+            FrameTooLargeError: a frame longer than the snaplen (65535).
+        """
+        f = self._open_file()
+        t = operator.index(time_ns)
+        self._check_time(t, t)
+        self._check_port(operator.index(port))
+        if len(frame) > CAPTURE_SNAPLEN:
+            raise FrameTooLargeError(
+                f"capture: frame of {len(frame)} bytes exceeds the snaplen {CAPTURE_SNAPLEN}"
+            )
+        record = self._record(t, frame, port, outbound, crc_error, comment)
+        f.write(record)
+        self._records += 1
+        self._bytes += len(record)
+
+    def write_block(
+        self,
+        times_ns: npt.NDArray[np.integer],
+        lengths: npt.NDArray[np.integer],
+        data: npt.NDArray[np.uint8],
+        *,
+        ports: npt.NDArray[np.integer] | None = None,
+        outbound: npt.NDArray[np.bool_] | None = None,
+    ) -> None:
+        """Append k rows ("cycles") of R records with the same layout, vectorised.
+
+        The records are written row by row (row 0's R records, then row 1's ...), byte for byte
+        as R*k calls of :meth:`write` would write them. Rows are assembled with numpy in an image
+        of about 4 MiB that is reused from block to block (headers filled in once per layout;
+        per chunk of rows one scatter of the timestamps and one slice copy per record column,
+        never a Python call per record) and handed to the OS with one write per chunk. The
+        extra memory is that image, whatever k is.
+
+        Args:
+            times_ns: (k, R) integer timestamps, nanoseconds.
+            lengths: (R,) frame lengths.
+            data: (k, sum(lengths)) uint8: each row the R frames concatenated in record order.
+            ports: (R,) the port of each record column; None: port 0.
+            outbound: (R,) bool, the direction of each record column; None: not recorded.
+
+        Raises:
+            CaptureError: the arrays' shapes disagree; the writer is closed.
+            FieldRangeError: a timestamp or port out of range.
+            FrameTooLargeError: a length over the snaplen (65535).
+        """
+        f = self._open_file()
+        times = _integers("times_ns", times_ns, 2)
+        k, r = times.shape
+        layout = self._layout_for(lengths, ports, outbound, r)
+        data = np.asarray(data)
+        if data.dtype != np.uint8:
+            raise TypeError(f"data must be uint8, not {data.dtype}")
+        if data.shape != (k, layout.data_bytes):
+            raise CaptureError(
+                f"capture block: data of shape {data.shape}, expected {(k, layout.data_bytes)}"
+            )
+        if k == 0 or r == 0:
+            return
+        self._check_time(int(times.min()), int(times.max()))
+        image, flat, frames = layout.image, layout.image.reshape(-1), layout.frames
+        for start in range(0, k, len(image)):
+            rows = min(len(image), k - start)
+            part = image[:rows]
+            words = np.empty((rows, r, 2), dtype="<u4")  # the two u32 time words of each record
+            t = times[start : start + rows]
+            if self._fmt == "pcap":
+                sec, nsec = np.divmod(t, NS_PER_S)
+                words[:, :, 0] = sec
+                words[:, :, 1] = nsec
+            else:
+                words[:, :, 0] = t >> 32
+                words[:, :, 1] = t & 0xFFFFFFFF
+            flat[layout.stamp_index[: words.nbytes]] = words.view(np.uint8).reshape(-1)
+            rows_data = data[start : start + rows]
+            for at, src, n in frames:
+                part[:, at : at + n] = rows_data[:, src : src + n]
+            f.write(part.data)
+            self._records += rows * r
+            self._bytes += part.nbytes
+
+    # --- closing ---
+    def close(self) -> None:
+        """Finish the file and move it onto ``path``; a second call does nothing."""
+        f, self._file = self._file, None
+        if f is None:
+            return
+        try:
+            f.close()
+            assert self._tmp is not None
+            os.replace(self._tmp, self._path)
+        except BaseException:
+            self._remove_temp()
+            raise
+        self._tmp = None
+
+    def __enter__(self) -> CaptureWriter:
+        return self
+
+    def __exit__(
+        self, t: type[BaseException] | None, e: BaseException | None, tb: TracebackType | None
+    ) -> None:
+        if t is None:
+            self.close()
+        else:
+            self._abort()
+
+    def __del__(self) -> None:
+        # an unclosed writer leaves no temporary file behind (and no file at path)
+        if getattr(self, "_file", None) is not None:
+            with contextlib.suppress(Exception):
+                self._abort()
+
+    # --- internals ---
+    def _open_file(self) -> BinaryIO:
+        if self._file is None:
+            raise CaptureError(f"{self._path}: the capture writer is closed")
+        return self._file
+
+    def _abort(self) -> None:
+        f, self._file = self._file, None
+        if f is not None:
+            with contextlib.suppress(OSError):
+                f.close()
+        self._remove_temp()
+
+    def _remove_temp(self) -> None:
+        tmp, self._tmp = self._tmp, None
+        if tmp is not None:
+            with contextlib.suppress(FileNotFoundError):
+                os.unlink(tmp)
+
+    def _check_time(self, first_ns: int, last_ns: int) -> None:
+        """Raise unless every stamp in ``first_ns .. last_ns`` fits the format."""
+        limit = _PCAP_MAX_TIME_NS if self._fmt == "pcap" else (1 << 64) - 1
+        if first_ns < 0:
+            raise FieldRangeError(f"{self._fmt}: negative timestamp {first_ns} ns", field="time_ns")
+        if last_ns > limit:
+            what = "32-bit seconds" if self._fmt == "pcap" else "64 bits"
+            raise FieldRangeError(
+                f"{self._fmt}: timestamp {last_ns} ns does not fit {what}", field="time_ns"
+            )
+
+    def _check_port(self, port: int) -> None:
+        if not 0 <= port < self._ports:
+            raise FieldRangeError(
+                f"capture: port {port} outside 0..{self._ports - 1}", field="port"
+            )
+
+    def _record(
+        self,
+        time_ns: int,
+        frame: bytes,
+        port: int,
+        outbound: bool | None,
+        crc_error: bool,
+        comment: str | None,
+    ) -> bytes:
+        """One record as the file holds it (the single encoder of write and write_block)."""
+        if self._fmt == "pcap":
+            if crc_error or comment is not None:
+                raise CaptureError(
+                    f"{self._path}: classic pcap cannot carry CRC marks or comments; "
+                    "name the file .pcapng"
+                )
+            return record_header(time_ns, len(frame)) + frame
+        return _epb(port, time_ns, frame, _epb_flags(outbound, crc_error), comment)
+
+    def _layout_for(
+        self,
+        lengths: npt.NDArray[np.integer],
+        ports: npt.NDArray[np.integer] | None,
+        outbound: npt.NDArray[np.bool_] | None,
+        r: int,
+    ) -> _Layout:
+        """The row layout of a block: built once from :meth:`_record`, reused while it holds."""
+        lens = _integers("lengths", lengths, 1)
+        if lens.shape != (r,):
+            raise CaptureError(f"capture block: {lens.shape[0]} lengths for {r} records per row")
+        if r and (int(lens.min()) < 0 or int(lens.max()) > CAPTURE_SNAPLEN):
+            raise FrameTooLargeError(
+                f"capture block: frame lengths must be 0..{CAPTURE_SNAPLEN}", field="lengths"
+            )
+        port = np.zeros(r, np.int64) if ports is None else _integers("ports", ports, 1)
+        if port.shape != (r,):
+            raise CaptureError(f"capture block: {port.shape[0]} ports for {r} records per row")
+        if r:
+            self._check_port(int(port.min()))
+            self._check_port(int(port.max()))
+        out = None if outbound is None else np.asarray(outbound)
+        if out is not None:
+            if out.dtype != np.bool_:
+                raise TypeError(f"outbound must be a bool array, not {out.dtype}")
+            if out.shape != (r,):
+                raise CaptureError(f"capture block: {out.shape} outbound flags for {r} records")
+        key = (lens.tobytes(), port.tobytes(), None if out is None else out.tobytes())
+        if self._layout is not None and self._layout.key == key:
+            return self._layout
+        gaps: list[tuple[int, bytes]] = []
+        stamps: list[int] = []
+        frames: list[tuple[int, int, int]] = []
+        head_bytes = PCAP_RECORD_HEADER_BYTES if self._fmt == "pcap" else EPB_HEADER_BYTES
+        time_offset = _PCAP_TIME_OFFSET if self._fmt == "pcap" else _EPB_TIME_OFFSET
+        pending = b""  # the previous record's tail, joined to this record's header
+        at = src = 0
+        for j, n in enumerate(lens.tolist()):
+            direction = None if out is None else bool(out[j])
+            record = self._record(0, bytes(n), int(port[j]), direction, False, None)
+            gap = pending + record[:head_bytes]
+            gaps.append((at, gap))
+            stamps.append(at + len(pending) + time_offset)
+            frames.append((at + len(gap), src, n))
+            at += len(gap) + n
+            src += n
+            pending = record[head_bytes + n :]
+        gaps.append((at, pending))
+        row_bytes = at + len(pending)
+        chunk_rows = max(1, _CHUNK_BYTES // row_bytes) if row_bytes else 1
+        image = np.zeros((chunk_rows, row_bytes), dtype=np.uint8)
+        for at, gap in gaps:
+            image[:, at : at + len(gap)] = np.frombuffer(gap, dtype=np.uint8)
+        rows = np.arange(len(image), dtype=np.intp)[:, None, None] * row_bytes
+        stamp_index = (rows + np.array(stamps, dtype=np.intp)[:, None] + np.arange(8)).reshape(-1)
+        self._layout = _Layout(key, src, tuple(frames), image, stamp_index)
+        return self._layout
+
+
+def _integers(name: str, values: npt.ArrayLike, ndim: int) -> npt.NDArray[np.int64]:
+    """``values`` as an int64 array of ``ndim`` dimensions (TypeError for another dtype)."""
+    arr = np.asarray(values)
+    if arr.dtype.kind not in "iu":
+        raise TypeError(f"{name} must be an integer array, not {arr.dtype}")
+    if arr.ndim != ndim:
+        raise CaptureError(f"capture block: {name} has {arr.ndim} dimensions, expected {ndim}")
+    if arr.dtype == np.uint64 and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
+        raise FieldRangeError(f"capture block: {name} does not fit int64", field=name)
+    return arr.astype(np.int64, copy=False)
+
+
+def _refuse_path(target: Path) -> None:
+    """Raise CaptureError for a path the writer must not replace, or cannot create."""
+    if target.is_symlink():
+        raise CaptureError(f"{target}: is a symbolic link; refusing to replace it")
+    if target.is_dir():
+        raise CaptureError(f"{target}: is a directory")
+    if target.exists() and not target.is_file():
+        raise CaptureError(f"{target}: exists and is not a regular file")
+    if not target.parent.is_dir():
+        raise CaptureError(f"{target}: directory {target.parent} does not exist")
+
+
+def _create_temp(target: Path) -> tuple[Path, int]:
+    """A new, empty file beside ``target``: its path and an open descriptor.
+
+    ``os.open`` with O_EXCL and mode 0o666 lets the umask decide the permissions, as a plain
+    ``open()`` would (``tempfile.mkstemp`` forces 0o600).
+    """
+    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
+    for _ in range(100):
+        tmp = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
+        try:
+            return tmp, os.open(tmp, flags, 0o666)
+        except FileExistsError:
+            continue
+        except OSError as exc:
+            raise CaptureError(
+                f"{target}: cannot create a file in {target.parent} ({exc.strerror or exc})"
+            ) from exc
+    raise CaptureError(f"{target}: no free temporary name in {target.parent}")

@@ -14,7 +14,9 @@ Every error the library raises on bad input comes from here::
     └── EncodeError(…, ValueError)      model -> bytes
         ├── FieldRangeError             a value does not fit its field (11-bit length > 2047, node id > 255)
         ├── FrameTooLargeError          > 1500-byte payload, too many datagrams
-        └── UnsupportedFormatError      a CAN trace format that cannot hold a frame as given
+        ├── UnsupportedFormatError      a CAN trace format that cannot hold a frame as given
+        └── CaptureError                a capture file that cannot be written as asked (path
+                                        refused, a mark classic pcap cannot carry, arrays disagree)
     (emulator.errors.EmulatorError continues the tree: TopologyError, ScheduleError, LinkError)
 
 Wrong argument *types* stay ``TypeError``. construct's and python-can's exceptions never escape:
@@ -30,6 +32,7 @@ from contextlib import contextmanager
 import construct as cs
 
 __all__ = [
+    "CaptureError",
     "ChecksumError",
     "DecodeError",
     "EncodeError",
@@ -109,6 +112,14 @@ class FrameTooLargeError(EncodeError):
 
 class UnsupportedFormatError(EncodeError):
     """A trace format cannot be written, or cannot hold a frame as given."""
+
+
+class CaptureError(EncodeError):
+    """A capture file cannot be written as asked.
+
+    The path is refused (a symlink, a directory, a missing directory), a record carries what the
+    format cannot hold (a comment or CRC mark in classic pcap), or the arrays of a block disagree.
+    """
 
 
 @contextmanager

@@ -23,6 +23,7 @@ from pathlib import Path
 from typing import Any, Final
 
 from skinframes.capture_writer import (
+    CAPTURE_SNAPLEN,
     EPB_CRC_ERROR,
     EPB_INBOUND,
     EPB_OUTBOUND,
@@ -33,6 +34,7 @@ from skinframes.capture_writer import (
     NS_PER_S,
     PCAP_HEADER_BYTES,
     SNAPLEN,
+    CaptureWriter,
     MarkedRecord,
     PcapWriter,
     pcap_bytes,
@@ -44,6 +46,7 @@ from skinframes.capture_writer import (
 from skinframes.errors import PcapFormatError
 
 __all__ = [
+    "CAPTURE_SNAPLEN",
     "EPB_CRC_ERROR",
     "EPB_INBOUND",
     "EPB_OUTBOUND",
@@ -51,6 +54,7 @@ __all__ = [
     "LINKTYPE_ETHERNET",
     "NS_PER_S",
     "Capture",
+    "CaptureWriter",
     "MarkedRecord",
     "PcapWriter",
     "Record",
