@@ -31,6 +31,7 @@ __all__ = [
     "EthernetFrame",
     "Payload",
     "fcs",
+    "flip_bit",
     "format_mac",
     "mac",
     "padding_for",
@@ -92,6 +93,25 @@ def padding_for(frame_bytes: int) -> int:
 def fcs(frame: bytes) -> bytes:
     """The 4-byte frame check sequence (CRC-32, 802.3 3.2.9) as it follows the frame on the wire."""
     return struct.pack("<I", zlib.crc32(frame) & 0xFFFFFFFF)
+
+
+def flip_bit(frame: bytes, bit: int) -> bytes:
+    """``frame`` with bit number ``bit`` inverted: a bit error on the link.
+
+    Bit 0 is the least significant bit of byte 0, bit 8 that of byte 1, and so on; as octets go
+    on the wire least significant bit first (IEEE 802.3-2018 3.3), bit ``n`` is also the n-th
+    bit sent after the SFD. The FCS of the result no longer matches the frame's.
+
+    Raises:
+        FieldRangeError: ``bit`` outside 0 .. 8 * len(frame) - 1.
+    """
+    if not 0 <= bit < 8 * len(frame):
+        raise FieldRangeError(
+            f"bit {bit} is outside the frame's {8 * len(frame)} bits", field="bit", offset=bit // 8
+        )
+    out = bytearray(frame)
+    out[bit >> 3] ^= 1 << (bit & 7)
+    return bytes(out)
 
 
 def wire_bytes(frame_bytes: int) -> int:

@@ -195,3 +195,38 @@ def test_a_vlan_tagged_full_size_frame_survives_capture_decoding() -> None:
     assert protocol_of(frame) == "other"
     assert frame.ethertype == 0x8100
     assert frame.to_bytes() == raw
+
+
+# --- bit errors ------------------------------------------------------------------------------------
+@pytest.mark.parametrize(
+    ("frame", "bit", "expected"),
+    [
+        ("0000", 0, "0100"),  # bit 0: least significant bit of byte 0
+        ("0000", 7, "8000"),
+        ("0000", 8, "0001"),  # bit 8: least significant bit of byte 1
+        ("0000", 15, "0080"),
+        ("ffff", 9, "fffd"),
+        ("a5", 3, "ad"),  # 1010 0101 -> 1010 1101
+    ],
+)
+def test_flip_bit_by_hand(frame: str, bit: int, expected: str) -> None:
+    assert ethernet.flip_bit(bytes.fromhex(frame), bit) == bytes.fromhex(expected)
+
+
+@given(sized_binary(1, 1514), st.data())
+def test_flip_bit_changes_one_bit_and_the_fcs(frame: bytes, data: st.DataObject) -> None:
+    bit = data.draw(st.integers(0, 8 * len(frame) - 1))
+    flipped = ethernet.flip_bit(frame, bit)
+    assert len(flipped) == len(frame)
+    diff = int.from_bytes(frame, "little") ^ int.from_bytes(flipped, "little")
+    assert diff == 1 << bit
+    assert ethernet.fcs(flipped) != ethernet.fcs(frame)  # CRC-32 detects every 1-bit error
+    assert ethernet.flip_bit(flipped, bit) == frame
+
+
+@pytest.mark.parametrize(
+    ("frame", "bit"), [(b"", 0), (b"\x00", -1), (b"\x00", 8), (bytes(60), 480)]
+)
+def test_flip_bit_out_of_range(frame: bytes, bit: int) -> None:
+    with pytest.raises(FieldRangeError):
+        ethernet.flip_bit(frame, bit)
