@@ -1153,3 +1153,80 @@ def unpack_pres_frames(
     if ethernet.HEADER_BYTES + PDO_HEADER_BYTES + size > frames.shape[1]:
         raise TruncatedError(f"EPL PRes batch: Size {size} runs past the frame", field="size")
     return frames[:, 16], frames[:, 24 : 24 + size]
+
+
+# --- fast path: SoC with numpy, byte-identical to frame(SoC(...)) -------------------------------
+def pack_soc_frames(
+    net_time_s: npt.ArrayLike, net_time_ns: npt.ArrayLike, relative_time_us: npt.ArrayLike
+) -> npt.NDArray[np.uint8]:
+    """Build k complete SoC Ethernet frames at once (batch fast path, DS 301 4.6.1.1.1).
+
+    Args:
+        net_time_s: k NetTime seconds (u32); a scalar applies to every frame.
+        net_time_ns: k NetTime nanoseconds (u32).
+        relative_time_us: k RelativeTime values, microseconds (u64).
+
+    Returns:
+        uint8 array of shape (k, 60): each row a frame as ``frame(SoC(net_time_s=...,
+        net_time_ns=..., relative_time_us=...)).to_bytes()`` encodes it (destination
+        01:11:1e:00:00:01, source ``node_mac(240)``, dest 255, src 240, flags 0, zero padding).
+
+    Raises:
+        FieldRangeError: a value does not fit its field, or the lengths disagree.
+    """
+    fields = [
+        _unsigned("net_time_s", net_time_s, 32),
+        _unsigned("net_time_ns", net_time_ns, 32),
+        _unsigned("relative_time_us", relative_time_us, 64),
+    ]
+    try:
+        seconds, nanoseconds, relative = np.broadcast_arrays(*fields)
+    except ValueError as exc:
+        sizes = ", ".join(str(f.size) for f in fields)
+        raise FieldRangeError(f"EPL SoC batch: {sizes} values do not line up") from exc
+    head = ethernet.HEADER_BYTES
+    length = max(head + SOC_BYTES, ethernet.MIN_FRAME_BYTES)
+    template = np.zeros(length, dtype=np.uint8)
+    template[: head + 6] = np.frombuffer(
+        MAC_SOC
+        + node_mac(MN_NODE_ID)
+        + struct.pack(">H", ethernet.ETHERTYPE_EPL)
+        + struct.pack("<BBBBBB", MessageType.SOC, BROADCAST_NODE_ID, MN_NODE_ID, 0, 0, 0),
+        dtype=np.uint8,
+    )
+    k = seconds.shape[0]
+    out = np.empty((k, length), dtype=np.uint8)
+    out[:] = template
+    # NetTime seconds, NetTime nanoseconds, RelativeTime: EPL bytes 6-9, 10-13, 14-21
+    out[:, head + 6 : head + 10] = seconds.astype("<u4").view(np.uint8).reshape(k, 4)
+    out[:, head + 10 : head + 14] = nanoseconds.astype("<u4").view(np.uint8).reshape(k, 4)
+    out[:, head + 14 : head + 22] = relative.astype("<u8").view(np.uint8).reshape(k, 8)
+    return out
+
+
+def _unsigned(name: str, values: npt.ArrayLike, bits: int) -> npt.NDArray[np.uint64]:
+    """``values`` as a 1-D uint64 array, each checked to fit ``bits`` (numpy would wrap)."""
+    # Python ints stay Python ints: np.asarray([0, 2**63]) would round them through float64
+    numeric = isinstance(values, np.ndarray | np.generic)
+    arr = np.atleast_1d(values if numeric else np.asarray(values, dtype=object))
+    if arr.ndim != 1:
+        raise FieldRangeError(f"EPL SoC batch: {name} must be 1-D, not {arr.shape}", field=name)
+    if arr.size == 0:
+        return np.zeros(0, dtype=np.uint64)
+    if arr.dtype == object:
+        items = arr.tolist()
+        if not all(isinstance(v, int | np.integer) and not isinstance(v, bool) for v in items):
+            raise TypeError(f"{name} must be integers")
+        low, high = int(min(items)), int(max(items))
+    elif arr.dtype.kind in "iu":
+        low, high = int(arr.min()), int(arr.max())
+    else:
+        raise TypeError(f"{name} must be integers, not {arr.dtype}")
+    if low < 0 or high >= 1 << bits:
+        raise FieldRangeError(
+            f"EPL SoC batch: {name} values must be 0..2**{bits}-1, found {low}..{high}",
+            field=name,
+        )
+    if arr.dtype == object:
+        return np.array([int(v) for v in arr.tolist()], dtype=np.uint64)
+    return arr.astype(np.uint64)
