@@ -1,78 +1,131 @@
-"""Emulator speed: simulated seconds per wall second, pcap output included.
+"""Emulator speed and memory, measured against references in the same run (printed, never asserted).
 
-Runs the 160-patch x 192-byte skin over EtherCAT (closed and open ring) and EPL for about one
-simulated second each, writing the pcap to a temporary file, and prints the real-time factor
-(simulated time / wall time, start-up of the run included: frame building, ESC resolution,
-taxel generation, pcap assembly and write). Median of several rounds. Printed, never asserted.
+1. With a pcap: ``simulate`` of the 160-patch x 192-byte skin (EtherCAT closed ring and EPL, wire
+   preset) writing its pcap, against one sequential write of the same number of bytes into a
+   file in the same directory (equal 8 MiB buffers): the ratio emulator / raw write (issue goal:
+   at most 2), and the peak RSS of the emulating process (goal: at most 256 MB).
+2. Timing only (no pcap): ``simulate ecat --redundant`` of a million cycles: simulated seconds per
+   wall second, whole process (goal: at least 1,000), and its peak RSS.
 
-    python benchmarks/bench_emulator.py [--quick]
+Each run is a fresh process (``python -m skinframes_cli`` or ``skinframes`` of this checkout), so
+start-up and peak memory are its own.
+
+    python benchmarks/bench_emulator.py [--cycles 20000] [--timing-cycles 1000000] [--dir DIR]
 """
 
 from __future__ import annotations
 
 import argparse
-import gc
-import statistics
+import json
+import os
+import subprocess
 import sys
 import tempfile
 import time
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
-sys.path.insert(0, str(ROOT))
+NODES, BYTES = "160", "192"
+CHILD = """
+import resource, sys, time
+from skinframes.cli import main
+t = time.perf_counter()
+code = main(sys.argv[1:])
+wall = time.perf_counter() - t
+print("BENCH", wall, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, code, file=sys.stderr)
+"""
 
-from emulator.ecat_cycle import simulate_ecat  # noqa: E402
-from emulator.epl_cycle import simulate_epl  # noqa: E402
-from emulator.params import WIRE  # noqa: E402
 
-NODES, BYTES = 160, 192
-GOALS = {"ecat closed ring": (50, 200), "ecat open ring": (50, 200), "epl": (20, 50)}
-
-
-def run(name: str, cycles: int, path: Path) -> tuple[float, float, int]:
-    """One run: (simulated s, wall s, pcap bytes)."""
-    gc.collect()
+def emulate(argv: list[str]) -> tuple[float, float, str]:
+    """Run the CLI in a fresh process: (wall s of the whole process, peak RSS MB, stdout)."""
     t0 = time.perf_counter()
-    if name == "epl":
-        r = simulate_epl(NODES, BYTES, WIRE, cycles=cycles, seed=1)
-    else:
-        r = simulate_ecat(
-            NODES, BYTES, WIRE, redundant=name.endswith("closed ring"), cycles=cycles, seed=1
-        )
-    r.trace.write_pcap(path)
+    done = subprocess.run(
+        [sys.executable, "-c", CHILD, *argv], capture_output=True, text=True, check=True, cwd=ROOT
+    )
     wall = time.perf_counter() - t0
-    last = r.details[-1]
-    return (last.start_ps + last.cycle_ps) / 1e12, wall, path.stat().st_size
+    line = next(x for x in done.stderr.splitlines() if x.startswith("BENCH"))
+    rss_mb = int(line.split()[2]) / 1024
+    return wall, rss_mb, done.stdout
+
+
+def raw_write(path: Path, size: int) -> float:
+    """One sequential write of ``size`` bytes (8 MiB buffers), flushed to the page cache."""
+    buf = b"\x5a" * (8 << 20)
+    t0 = time.perf_counter()
+    with open(path, "wb") as f:
+        left = size
+        while left > 0:
+            f.write(buf[: min(left, len(buf))])
+            left -= len(buf)
+    wall = time.perf_counter() - t0
+    path.unlink()
+    return wall
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--quick", action="store_true", help="fewer rounds, ~0.25 s simulated")
+    ap.add_argument("--cycles", type=int, default=20_000, help="cycles of the pcap runs")
+    ap.add_argument("--timing-cycles", type=int, default=1_000_000)
+    ap.add_argument("--dir", default=None, help="where the pcaps go (default: a temp dir)")
     args = ap.parse_args()
-    rounds = 3 if args.quick else 7
-    target_s = 0.25 if args.quick else 1.0
-    print(
-        f"{NODES} patches x {BYTES} bytes, wire preset, pcap written to a temp dir; "
-        f"median of {rounds} rounds\n"
-    )
-    print(
-        f"{'network':<18}{'cycles':>8}{'sim s':>8}{'wall s':>9}{'x real time':>13}"
-        f"{'pcap MB':>9}   goal / stretch"
-    )
-    with tempfile.TemporaryDirectory() as tmp:
-        for name, (goal, stretch) in GOALS.items():
-            probe_sim, _, _ = run(name, 2, Path(tmp) / "probe.pcap")
-            cycles = max(2, round(target_s / (probe_sim / 2)))
-            results = [run(name, cycles, Path(tmp) / "bench.pcap") for _ in range(rounds)]
-            sim = results[0][0]
-            wall = statistics.median(r[1] for r in results)
-            factor = sim / wall
-            verdict = "MET" if factor >= goal else "NOT MET"
-            verdict += ", stretch MET" if factor >= stretch else ""
-            print(
-                f"{name:<18}{cycles:>8}{sim:>8.3f}{wall:>9.3f}{factor:>13.1f}"
-                f"{results[0][2] / 1e6:>9.1f}   {goal}x / {stretch}x: {verdict}"
+    with tempfile.TemporaryDirectory(dir=args.dir) as tmp:
+        print(f"{NODES} patches x {BYTES} bytes, wire preset; pcaps in {tmp}\n")
+        print(
+            f"{'with a pcap':<22}{'cycles':>9}{'GB':>7}{'emulator s':>12}{'raw write s':>13}"
+            f"{'ratio':>7}{'peak MB':>9}"
+        )
+        for name, extra in (("ecat closed ring", ["ecat", "--redundant"]), ("epl", ["epl"])):
+            pcap = Path(tmp) / "bench.pcap"
+            wall, rss, _ = emulate(
+                [
+                    "simulate",
+                    *extra,
+                    "--nodes",
+                    NODES,
+                    "--bytes",
+                    BYTES,
+                    "--preset",
+                    "wire",
+                    "--cycles",
+                    str(args.cycles),
+                    "--pcap",
+                    str(pcap),
+                ]
             )
+            size = pcap.stat().st_size
+            pcap.unlink()
+            raw = raw_write(Path(tmp) / "raw.bin", size)
+            print(
+                f"{name:<22}{args.cycles:>9}{size / 1e9:>7.2f}{wall:>12.2f}{raw:>13.2f}"
+                f"{wall / raw:>7.2f}{rss:>9.0f}"
+            )
+        print(
+            f"\n{'timing only':<22}{'cycles':>9}{'sim s':>9}{'wall s':>9}{'x real time':>13}"
+            f"{'peak MB':>9}"
+        )
+        wall, rss, out = emulate(
+            [
+                "simulate",
+                "ecat",
+                "--redundant",
+                "--nodes",
+                NODES,
+                "--bytes",
+                BYTES,
+                "--preset",
+                "wire",
+                "--cycles",
+                str(args.timing_cycles),
+                "--json",
+            ]
+        )
+        doc = json.loads(out)
+        sim = doc["cycles"] * doc["cycle_us"]["median"] / 1e6
+        print(
+            f"{'ecat closed ring':<22}{args.timing_cycles:>9}{sim:>9.0f}{wall:>9.2f}"
+            f"{sim / wall:>13.0f}{rss:>9.0f}"
+        )
+    os.sync()
 
 
 if __name__ == "__main__":

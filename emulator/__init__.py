@@ -1,1 +1,31 @@
-"""emulator: the time of robot-skin fieldbus frames (cycle-time model and virtual daisy chain)."""
+"""emulator: the time of robot-skin fieldbus frames (cycle-time model and virtual daisy chain).
+
+The names here are the stable Python interface (docs/interface.md); module paths inside the
+package may move while the project is 0.x.
+"""
+
+from emulator import analytic
+from emulator.errors import EmulatorError, LinkError, ScheduleError, TopologyError
+from emulator.faults import Fault, parse_fault
+from emulator.net import simulate_ecat, simulate_epl
+from emulator.params import PAPER, PRESETS, WIRE, TimingParams, preset
+from emulator.result import CycleDetail, SimResult
+
+__all__ = [
+    "PAPER",
+    "PRESETS",
+    "WIRE",
+    "CycleDetail",
+    "EmulatorError",
+    "Fault",
+    "LinkError",
+    "ScheduleError",
+    "SimResult",
+    "TimingParams",
+    "TopologyError",
+    "analytic",
+    "parse_fault",
+    "preset",
+    "simulate_ecat",
+    "simulate_epl",
+]

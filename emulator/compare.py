@@ -23,15 +23,13 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.can_bus import BusFrame, arbitrate, bit_time_ps
-from emulator.ecat_cycle import simulate_ecat
-from emulator.epl_cycle import simulate_epl
 from emulator.errors import TopologyError
 from emulator.limits import MAX_SLAVES
+from emulator.net import simulate_ecat, simulate_epl
 from emulator.params import TimingParams
 from emulator.result import SimResult
-from emulator.trace import CycleTrace
 from emulator.units import PS_PER_NS, PS_PER_US
-from skinframes import canbus, ethernet, powerlink, taxel
+from skinframes import canbus, powerlink, taxel
 from skinframes.cantrace import Trace
 
 __all__ = ["SkinSamples", "compare", "samples_of"]
@@ -104,9 +102,7 @@ def samples_of(trace: Trace) -> SkinSamples:
 
 
 def _ethernet_wire_bytes(r: SimResult, outbound_only: bool) -> int:
-    assert isinstance(r.trace, CycleTrace)  # a fault-free run
-    lengths = r.trace.lengths[r.trace.outbound] if outbound_only else r.trace.lengths
-    return int(sum(ethernet.wire_bytes(int(n)) for n in lengths))
+    return r.wire_bytes_sent_per_cycle if outbound_only else r.wire_bytes_per_cycle
 
 
 def _largest(fits: Any, hi: int) -> int:

@@ -13,21 +13,21 @@ processing unit sets bit 0x02 of the first source-MAC octet when DL control bit 
 processing writes the data, ADP, IRQ and WKC fields in place.
 
 One model serves two users: the live transport (:mod:`emulator.live`) feeds it frames from a
-raw socket, and the timing emulator can ask :meth:`EcatChain.effect` what a datagram does, in
-the :class:`emulator.esc.DatagramEffect` form that :mod:`emulator.ecat_cycle` consumes.
+raw socket, and the timing engine (:mod:`emulator.net.ecat`) asks :meth:`EcatChain.frame_effect`
+once per frame of a cycle what each ESC does to it, and applies that to the ESCs a frame reaches.
 """
 
 from __future__ import annotations
 
 import struct
-from collections.abc import Iterable, Sequence
+from collections.abc import Container, Iterable, Sequence
+from dataclasses import dataclass, replace
 from typing import Final
 
 import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.esc import STATION_BASE, ByteCopy, DatagramEffect
 from emulator.esc_device import EscConfig, EscDevice, TraceCopy
 from emulator.esm import AlState, SkinPatchApplication
 from emulator.sii import SlaveInfo
@@ -35,7 +35,18 @@ from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
-__all__ = ["MAX_SLAVES", "EcatChain", "configure_frames"]
+__all__ = [
+    "MAX_SLAVES",
+    "STATION_BASE",
+    "EcatChain",
+    "FrameEffect",
+    "SlaveEffect",
+    "configure_frames",
+]
+
+STATION_BASE: Final = (
+    0x1001  # configured station address of position 0 (SOEM/ethercrab use 0x1001+)
+)
 
 MAX_SLAVES: Final = 0xFFFF  # auto-increment addresses are 16 bits
 _VLAN_TPID: Final = 0x8100
@@ -144,50 +155,15 @@ class EcatChain:
     def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
         self.frames += 1
         buf = bytearray(frame)
-        if len(buf) < _ETH_HEADER + ethercat.FRAME_HEADER_BYTES:
+        parsed = self._parse(buf)
+        if parsed is None:
+            return self._non_ecat(buf)
+        if not parsed:
             self._drop(malformed=True)
             return None
-        at = 12
-        ethertype = buf[at] << 8 | buf[at + 1]
-        if ethertype == _VLAN_TPID:  # ESCs process VLAN-tagged frames, tag untouched
-            at += 4
-            ethertype = buf[at] << 8 | buf[at + 1]
-        if ethertype != ethernet.ETHERTYPE_ECAT:
-            return self._non_ecat(buf)
-        payload_at = at + 2
-        try:
-            ecat, _, _ = ethercat.decode(bytes(buf[payload_at:]), strict=False)
-        except DecodeError:
-            self._drop(malformed=True)
-            return None
-        if ecat.frame_type != ethercat.FrameType.ECAT:
-            return self._non_ecat(buf)
-        layout = []
-        pos = payload_at + ethercat.FRAME_HEADER_BYTES
-        for d in ecat.datagrams:
-            n = len(d.data)
-            layout.append((int(d.cmd), pos + 2, d.ado, pos + 10, n, pos + 8))
-            pos += ethercat.DATAGRAM_OVERHEAD_BYTES + n
         mac_bit = False
         for dev in self.devices:
-            process = dev.process
-            for cmd, adp_at, ado, data_at, n, irq_at in layout:
-                adp = buf[adp_at] | buf[adp_at + 1] << 8
-                new_adp, inc = process(cmd, adp, ado, buf, data_at, n)
-                if new_adp != adp:
-                    buf[adp_at] = new_adp & 0xFF
-                    buf[adp_at + 1] = new_adp >> 8
-                if inc:
-                    if acted is not None:
-                        acted.append(dev.position)
-                    wkc_at = data_at + n
-                    wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + inc
-                    buf[wkc_at] = wkc & 0xFF
-                    buf[wkc_at + 1] = (wkc >> 8) & 0xFF
-                irq = dev.irq
-                if irq:
-                    buf[irq_at] |= irq & 0xFF
-                    buf[irq_at + 1] |= irq >> 8
+            self._pass(dev, buf, parsed, acted)
             mac_bit = mac_bit or dev.sets_mac
             onward = dev.onward  # loop changes wait for the end of the frame (II 2.4.1)
             dev.end_frame()
@@ -199,6 +175,61 @@ class EcatChain:
         if mac_bit:
             buf[6] |= ethercat.RETURNED_MAC_BIT
         return bytes(buf)
+
+    @staticmethod
+    def _parse(buf: bytearray) -> list[tuple[int, int, int, int, int, int]] | None:
+        """Where the ESC finds each datagram's fields: (cmd, ADP at, ADO, data at, length, IRQ
+        at). None for a non-EtherCAT frame; an empty list for a malformed one."""
+        if len(buf) < _ETH_HEADER + ethercat.FRAME_HEADER_BYTES:
+            return []
+        at = 12
+        ethertype = buf[at] << 8 | buf[at + 1]
+        if ethertype == _VLAN_TPID:  # ESCs process VLAN-tagged frames, tag untouched
+            at += 4
+            ethertype = buf[at] << 8 | buf[at + 1]
+        if ethertype != ethernet.ETHERTYPE_ECAT:
+            return None
+        payload_at = at + 2
+        try:
+            ecat, _, _ = ethercat.decode(bytes(buf[payload_at:]), strict=False)
+        except DecodeError:
+            return []
+        if ecat.frame_type != ethercat.FrameType.ECAT:
+            return None
+        layout = []
+        pos = payload_at + ethercat.FRAME_HEADER_BYTES
+        for d in ecat.datagrams:
+            n = len(d.data)
+            layout.append((int(d.cmd), pos + 2, d.ado, pos + 10, n, pos + 8))
+            pos += ethercat.DATAGRAM_OVERHEAD_BYTES + n
+        return layout
+
+    @staticmethod
+    def _pass(
+        dev: EscDevice,
+        buf: bytearray,
+        layout: list[tuple[int, int, int, int, int, int]],
+        acted: list[int] | None,
+    ) -> None:
+        """One ESC's processing unit executes every datagram of the frame in ``buf``, in place."""
+        process = dev.process
+        for cmd, adp_at, ado, data_at, n, irq_at in layout:
+            adp = buf[adp_at] | buf[adp_at + 1] << 8
+            new_adp, inc = process(cmd, adp, ado, buf, data_at, n)
+            if new_adp != adp:
+                buf[adp_at] = new_adp & 0xFF
+                buf[adp_at + 1] = new_adp >> 8
+            if inc:
+                if acted is not None:
+                    acted.append(dev.position)
+                wkc_at = data_at + n
+                wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + inc
+                buf[wkc_at] = wkc & 0xFF
+                buf[wkc_at + 1] = (wkc >> 8) & 0xFF
+            irq = dev.irq
+            if irq:
+                buf[irq_at] |= irq & 0xFF
+                buf[irq_at + 1] |= irq >> 8
 
     def _non_ecat(self, buf: bytearray) -> bytes | None:
         for dev in self.devices:
@@ -216,41 +247,154 @@ class EcatChain:
         return None
 
     # --- the timing emulator's view -----------------------------------------------------------
-    def effect(self, d: Datagram) -> DatagramEffect:
-        """What the chain does to datagram ``d`` sent alone in a frame (processed for real).
+    def frame_effect(self, ecat: EcatFrame) -> FrameEffect:
+        """What each ESC does to ``ecat`` as it passes in processing direction (processed for
+        real, ESC by ESC, with end-of-frame effects): the form the timing engine caches.
 
-        The result has the form of :meth:`emulator.esc.EscChain.effect`: the returned ADP, the
-        working-counter increment, each slave's input bytes as :class:`ByteCopy` runs (source:
-        offset in the slave's input SyncManager buffer), the other data the chain wrote, and the
-        positions that executed the datagram.
+        The chain's state moves on as for any frame (a skin patch's LRD changes nothing that a
+        later LRD would see).
         """
-        frame = ethercat.frame(EcatFrame((d,))).to_bytes()
-        traces: list[TraceCopy] = []
+        frame = ethercat.frame(ecat).to_bytes()
+        buf = bytearray(frame)
+        layout = self._parse(buf)
+        if not layout:
+            raise TopologyError("EtherCAT chain: not a well-formed EtherCAT frame")
+        data_at = ethercat.data_offsets(ecat)
+        slaves: list[SlaveEffect] = []
         for dev in self.devices:
-            dev.trace = traces
-        acted: list[int] = []
-        try:
-            back = self._run(frame, acted)
-        finally:
-            for dev in self.devices:
+            copies: list[TraceCopy] = []
+            dev.trace = copies
+            before = bytes(buf)
+            try:
+                self._pass(dev, buf, layout, None)
+            finally:
                 dev.trace = None
-        if back is None:
-            raise TopologyError("EtherCAT chain: the frame was lost")
-        ecat, _, _ = ethercat.decode(back[_ETH_HEADER:], strict=False)
-        out = ecat.datagrams[0]
-        data_at = _ETH_HEADER + ethercat.FRAME_HEADER_BYTES + ethercat.DATAGRAM_HEADER_BYTES
-        copies = tuple(
-            ByteCopy(t.position, t.src, t.dst - data_at, t.length) for t in traces if t.sm >= 0
+            onward = dev.onward
+            dev.end_frame()
+            effect = _slave_effect(dev, ecat, data_at, before, buf, copies)
+            if effect is not None:
+                slaves.append(effect)
+            if not onward:
+                break
+        return FrameEffect(ecat, tuple(slaves), self.input_bytes)
+
+    def count(self, register: int, position: int, times: int = 1) -> None:
+        """An error counter of the ESC at ``position`` counts ``times`` (saturating at 0xFF;
+        datasheet II 2.6: 0x0300 + 2 x port invalid frames, 0x0308 + port forwarded errors,
+        0x0310 + port lost links)."""
+        self.devices[position].count_error(register, times)
+
+    def counter(self, register: int, position: int) -> int:
+        """The value of an 8-bit error counter register of the ESC at ``position``."""
+        return self.devices[position].registers(register, 1)[0]
+
+
+@dataclass(frozen=True, slots=True)
+class SlaveEffect:
+    """What one ESC writes into a passing frame (datagram index ``d`` of the frame)."""
+
+    position: int
+    wkc: tuple[int, ...]  # working-counter increment per datagram
+    adp: tuple[int, ...]  # ADP increment per datagram (auto-increment and broadcast commands)
+    copies: tuple[tuple[int, int, int, int], ...]  # (d, offset in d's data, input offset, bytes)
+    constant: tuple[tuple[int, int, bytes], ...]  # (d, offset in d's data, bytes) from registers
+    sets_mac: bool  # the processing unit marks the source MAC (DL control bit 0)
+
+
+@dataclass(frozen=True, slots=True)
+class FrameEffect:
+    """A frame and what every ESC of the chain does to it in processing direction."""
+
+    sent: EcatFrame
+    slaves: tuple[SlaveEffect, ...]
+    input_bytes: int
+
+    def wkc(self, acting: Container[int]) -> int:
+        """The sum of the returned working counters when the ESCs in ``acting`` process it."""
+        return sum(d.wkc for d in self.sent.datagrams) + sum(
+            sum(s.wkc) for s in self.slaves if s.position in acting
         )
-        constant = bytearray(out.data)
+
+    def returned(
+        self, acting: Container[int], taxels: npt.NDArray[np.uint8] | None
+    ) -> tuple[EcatFrame, bool]:
+        """The frame after the ESCs in ``acting`` processed it, and whether one marked its
+        source MAC. ``taxels``: the chain's input image (position x input_bytes), or None to
+        leave the input bytes as sent."""
+        dgs = self.sent.datagrams
+        data = [bytearray(d.data) for d in dgs]
+        wkc = [d.wkc for d in dgs]
+        adp = [d.adp for d in dgs]
+        mac = False
+        for s in self.slaves:
+            if s.position not in acting:
+                continue
+            mac = mac or s.sets_mac
+            for k in range(len(dgs)):
+                wkc[k] += s.wkc[k]
+                adp[k] += s.adp[k]
+            for k, off, value in s.constant:
+                data[k][off : off + len(value)] = value
+            if taxels is not None:
+                base = s.position * self.input_bytes
+                for k, off, src, n in s.copies:
+                    data[k][off : off + n] = taxels[base + src : base + src + n].tobytes()
+        back = tuple(
+            replace(d, data=bytes(data[k]), wkc=wkc[k] & 0xFFFF, adp=adp[k] & 0xFFFF)
+            for k, d in enumerate(dgs)
+        )
+        return EcatFrame(back, self.sent.frame_type), mac
+
+    def taxel_runs(self, acting: Container[int]) -> list[tuple[int, int, int]]:
+        """Where the input bytes go in the returned Ethernet frame: (offset in the frame,
+        offset in the chain's input image, bytes)."""
+        at = ethercat.data_offsets(self.sent)
+        return [
+            (at[k] + off, s.position * self.input_bytes + src, n)
+            for s in self.slaves
+            if s.position in acting
+            for k, off, src, n in s.copies
+        ]
+
+
+def _slave_effect(
+    dev: EscDevice,
+    ecat: EcatFrame,
+    data_at: tuple[int, ...],
+    before: bytes,
+    after: bytearray,
+    copies: list[TraceCopy],
+) -> SlaveEffect | None:
+    """The difference one ESC made to a frame, datagram by datagram."""
+    wkc: list[int] = []
+    adp: list[int] = []
+    const: list[tuple[int, int, bytes]] = []
+    runs: list[tuple[int, int, int, int]] = []
+    for k, d in enumerate(ecat.datagrams):
+        lo, n = data_at[k], len(d.data)
+        adp_at = lo - ethercat.DATAGRAM_HEADER_BYTES + 2
+        wkc.append(
+            (_U16.unpack_from(after, lo + n)[0] - _U16.unpack_from(before, lo + n)[0]) & 0xFFFF
+        )
+        adp.append(
+            (_U16.unpack_from(after, adp_at)[0] - _U16.unpack_from(before, adp_at)[0]) & 0xFFFF
+        )
+        copied = bytearray(n)
         for c in copies:
-            constant[c.dst : c.dst + c.length] = d.data[c.dst : c.dst + c.length]
-        const: tuple[tuple[int, bytes], ...] = ()
-        if bytes(constant) != d.data:
-            const = ((0, bytes(constant)),)
-        return DatagramEffect(
-            out.adp, (out.wkc - d.wkc) & 0xFFFF, copies, const, tuple(sorted(set(acted)))
-        )
+            if c.sm >= 0 and lo <= c.dst < lo + n:
+                runs.append((k, c.dst - lo, c.src, c.length))
+                copied[c.dst - lo : c.dst - lo + c.length] = b"\x01" * c.length
+        if after[lo : lo + n] != before[lo : lo + n]:
+            diff = np.frombuffer(after, np.uint8, n, lo) != np.frombuffer(before, np.uint8, n, lo)
+            changed = np.flatnonzero(diff & (np.frombuffer(bytes(copied), np.uint8) == 0))
+            if len(changed):  # register data the ESC wrote: one run, first to last change
+                a, b = int(changed[0]), int(changed[-1]) + 1
+                const.append((k, a, bytes(after[lo + a : lo + b])))
+    if not any(wkc) and not any(adp) and not const and not runs and not dev.sets_mac:
+        return None
+    return SlaveEffect(
+        dev.position, tuple(wkc), tuple(adp), tuple(runs), tuple(const), dev.sets_mac
+    )
 
 
 def configure_frames(

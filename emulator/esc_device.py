@@ -887,3 +887,11 @@ class EscDevice:
         """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""
         if self.mem[REG_PU_ERRORS] < 0xFF:
             self.mem[REG_PU_ERRORS] += 1
+
+    def count_error(self, register: int, times: int = 1) -> None:
+        """An 8-bit error counter in 0x0300-0x0313 counts ``times`` (saturating at 0xFF):
+        invalid frames 0x0300 + 2 x port, forwarded errors 0x0308 + port, lost links
+        0x0310 + port (datasheet II 2.6)."""
+        if not REG_ERROR_COUNTERS <= register < 0x0314:
+            raise TopologyError(f"{register:#06x} is not an ESC error counter")
+        self.mem[register] = min(0xFF, self.mem[register] + times)

@@ -22,7 +22,8 @@ FAULT_HELP: Final = """Fault SPECs (repeat --fault for several; nodes count from
   biterr:J:P    every frame crossing link J (node J..J+1) is corrupted with probability P
                 (FCS mismatch; the receiving port's CRC error counter counts it)
   drop:J:P      every frame crossing link J is lost with probability P
-  late:K:US     EPL: CN K answers every PReq US microseconds late
+  late:K:US     node K answers late: an EPL CN starts each PRes, an EtherCAT slave passes
+                each frame on, US microseconds late (beyond the receive timeout: a loss)
 Probabilities use --seed. Examples: --fault cable:80@2  --fault biterr:5:0.1  --fault late:3:20"""
 
 _PATTERNS: Final = {
@@ -88,5 +89,3 @@ def check_faults(faults: tuple[Fault, ...], nodes: int, links: int, protocol: st
             raise TopologyError(f"fault {f}: link {f.where} does not exist (0..{links - 1})")
         if f.kind in ("power", "late") and not 1 <= f.where <= nodes:
             raise TopologyError(f"fault {f}: node {f.where} does not exist (1..{nodes})")
-        if f.kind == "late" and protocol != "epl":
-            raise TopologyError(f"fault {f}: late answers are an EPL fault")

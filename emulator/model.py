@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
+import os
 from typing import Final
 
 from emulator import analytic
-from emulator.ecat_cycle import simulate_ecat
-from emulator.epl_cycle import simulate_epl
 from emulator.errors import TopologyError
 from emulator.limits import check_ecat, check_epl
+from emulator.net import simulate_ecat, simulate_epl
 from emulator.params import TimingParams
 from emulator.result import SimResult
 
@@ -27,19 +27,22 @@ def simulate(
     layout: str = "per-slave",
     cycles: int = 2,
     seed: int = 0,
+    pcap: str | os.PathLike[str] | None = None,
 ) -> SimResult:
-    """Emulate one configuration named as the paper's tables name them."""
+    """Emulate one configuration named as the paper's tables name them (``pcap``: write the
+    frames there as they come)."""
     if table == "epl":
-        return simulate_epl(nodes, data_bytes, params, cycles=cycles, seed=seed)
+        return simulate_epl(nodes, data_bytes, params, cycles=cycles, seed=seed, pcap=pcap)
     if table in ("ecat", "ecat_redundant"):
         return simulate_ecat(
             nodes,
             data_bytes,
             params,
-            redundant=table == "ecat_redundant",
+            closed_ring=table == "ecat_redundant",
             layout=layout,
             cycles=cycles,
             seed=seed,
+            pcap=pcap,
         )
     raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
 

@@ -1,20 +1,18 @@
-"""The outcome of an emulation run, and its JSON form (INTERFACE.md, ``simulate --json``)."""
+"""The outcome of an emulation run, and its JSON form (docs/interface.md, ``simulate --json``).
+
+Kept online while the engine runs: a histogram of cycle durations (integer ps), the number of
+frames, and the cycles worth listing, so that a result's size does not grow with the run.
+"""
 
 from __future__ import annotations
 
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
-
-from emulator.errors import TopologyError
-from emulator.records import RecordTrace
-from emulator.trace import CycleTrace
 from emulator.units import PS_PER_NS, PS_PER_US
-from skinframes import taxel
 
-__all__ = ["CycleDetail", "SimResult", "node_payloads"]
+__all__ = ["CycleDetail", "SimResult"]
 
 
 @dataclass(frozen=True, slots=True)
@@ -32,7 +30,7 @@ class CycleDetail:
     expected_wkc: int
 
     def to_json(self) -> dict[str, Any]:
-        """The INTERFACE.md ``cycles_detail`` entry."""
+        """The ``cycles_detail`` entry."""
         return {
             "cycle": self.cycle,
             "start_ns": self.start_ps // PS_PER_NS,
@@ -44,7 +42,13 @@ class CycleDetail:
 
 @dataclass
 class SimResult:
-    """Everything ``simulate`` reports."""
+    """Everything ``simulate`` reports.
+
+    ``details`` lists the first steady-state period (one cycle; EPL with ASnd: one per CN) and
+    every later cycle whose duration, working counter or expected working counter differs from
+    the cycle one period earlier (faults, recovery), at most ``MAX_LISTED`` of them
+    (``details_omitted`` counts the rest).
+    """
 
     protocol: str
     topology: str
@@ -52,33 +56,62 @@ class SimResult:
     bytes: int
     preset: str
     layout: str
-    details: list[CycleDetail]
-    trace: CycleTrace | RecordTrace
+    durations: Counter[int] = field(default_factory=Counter)  # cycle_ps -> cycles
+    frames: int = 0
+    frames_sent_per_cycle: int = 0  # cycle 0: distinct frames the master sends (its first port)
+    wire_bytes_per_cycle: int = 0  # cycle 0: preamble + frame + FCS of every frame at the ports
+    wire_bytes_sent_per_cycle: int = 0  # the same for the frames the master sends
+    details: list[CycleDetail] = field(default_factory=list)
+    details_omitted: int = 0
     pcap: str | None = None
     recovery_us: float | None = None
     diagnosis: list[str] = field(default_factory=list)
 
+    def add_cycles(self, cycle_ps: int, frames: int, times: int) -> None:
+        """Count ``times`` cycles of ``cycle_ps`` with ``frames`` frames each."""
+        self.durations[cycle_ps] += times
+        self.frames += frames * times
+
+    def list_detail(self, detail: CycleDetail, limit: int) -> None:
+        """List one cycle (or count it as omitted beyond ``limit``)."""
+        if len(self.details) < limit:
+            self.details.append(detail)
+        else:
+            self.details_omitted += 1
+
     @property
     def cycles(self) -> int:
         """Number of cycles emulated."""
-        return len(self.details)
+        return sum(self.durations.values())
 
     @property
-    def frames(self) -> int:
-        """Frames at the master's port, both directions."""
-        return self.trace.frames
+    def duration_ps(self) -> int:
+        """The whole run: the sum of its cycles."""
+        return sum(ps * n for ps, n in self.durations.items())
 
     def cycle_us(self) -> dict[str, float]:
         """min / median / max cycle time in us, measured from the frames' timestamps."""
-        values = np.array([d.cycle_ps for d in self.details], dtype=np.float64) / PS_PER_US
+        values = sorted(self.durations)
+        total = self.cycles
+        lo_rank, hi_rank = (total - 1) // 2, total // 2  # the median's ranks (numpy's rule)
+        lo = hi = None
+        seen = 0
+        for v in values:
+            seen += self.durations[v]
+            if lo is None and seen > lo_rank:
+                lo = v
+            if seen > hi_rank:
+                hi = v
+                break
+        assert lo is not None and hi is not None
         return {
-            "min": float(values.min()),
-            "median": float(np.median(values)),
-            "max": float(values.max()),
+            "min": values[0] / PS_PER_US,
+            "median": (lo + hi) / 2 / PS_PER_US,
+            "max": values[-1] / PS_PER_US,
         }
 
     def to_json(self) -> dict[str, Any]:
-        """The INTERFACE.md ``simulate --json`` document."""
+        """The ``simulate --json`` document."""
         return {
             "protocol": self.protocol,
             "topology": self.topology,
@@ -90,24 +123,8 @@ class SimResult:
             "frames": self.frames,
             "cycle_us": self.cycle_us(),
             "cycles_detail": [d.to_json() for d in self.details],
+            "cycles_detail_omitted": self.details_omitted,
             "recovery_us": self.recovery_us,
             "diagnosis": list(self.diagnosis),
             "pcap": self.pcap,
         }
-
-
-def node_payloads(
-    payloads: npt.NDArray[np.uint8] | None, cycles: int, nodes: int, data_bytes: int, seed: int
-) -> npt.NDArray[np.uint8]:
-    """The (cycles, nodes, data_bytes) taxel bytes a run carries: given, or seeded patterns.
-
-    Given payloads (e.g. the samples of a CAN trace) must have exactly that shape and dtype uint8.
-    """
-    if payloads is None:
-        return taxel.sample_payloads(nodes, cycles, data_bytes, seed=seed)
-    arr = np.asarray(payloads)
-    if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
-        raise TopologyError(
-            f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
-        )
-    return np.ascontiguousarray(arr)

@@ -43,6 +43,7 @@ __all__ = [
     "Datagram",
     "EcatFrame",
     "FrameType",
+    "data_offsets",
     "datagrams_per_frame",
     "decode",
     "frame",
@@ -431,6 +432,18 @@ def pack_datagrams(
     if current:
         frames.append(EcatFrame(tuple(current)))
     return frames
+
+
+def data_offsets(ecat: EcatFrame) -> tuple[int, ...]:
+    """Where each datagram's data starts in the Ethernet frame :func:`frame` builds for ``ecat``
+    (untagged; ETG.1000.4 Table 12/13: frame header, then per datagram a 10-byte header, the
+    data and the working counter)."""
+    at = ethernet.HEADER_BYTES + FRAME_HEADER_BYTES
+    out = []
+    for d in ecat.datagrams:
+        out.append(at + DATAGRAM_HEADER_BYTES)
+        at += d.size_bytes
+    return tuple(out)
 
 
 def returned_mac(src: bytes) -> bytes:

@@ -27,8 +27,7 @@ def add_convert(sub: Any) -> None:
 def run_convert(args: argparse.Namespace) -> int:
     """Convert and report."""
     from emulator.compare import samples_of
-    from emulator.ecat_cycle import simulate_ecat
-    from emulator.epl_cycle import simulate_epl
+    from emulator.net import simulate_ecat, simulate_epl
     from emulator.params import preset
     from skinframes.cantrace import read_trace
     from skinframes.errors import SkinframesError
@@ -39,13 +38,17 @@ def run_convert(args: argparse.Namespace) -> int:
     params = preset(args.preset)
     n, size, cycles = len(s.boards), s.data_bytes, s.samples
     if args.target == "epl":
-        r = simulate_epl(n, size, params, cycles=cycles, payloads=s.taxels)
+        r = simulate_epl(n, size, params, cycles=cycles, payloads=s.taxels, pcap=args.pcap)
     else:
         r = simulate_ecat(
-            n, size, params, redundant=args.redundant, cycles=cycles, payloads=s.taxels
+            n,
+            size,
+            params,
+            closed_ring=args.redundant,
+            cycles=cycles,
+            payloads=s.taxels,
+            pcap=args.pcap,
         )
-    r.trace.check_no_overlap()
-    r.trace.write_pcap(args.pcap)
     print(
         f"{cycles} samples of {n} boards ({', '.join(map(str, s.boards))}) x {size} bytes -> "
         f"{r.frames} frames, {r.protocol} {r.topology}, cycle {r.cycle_us()['median']:.2f} us "

@@ -59,10 +59,8 @@ def run(args: argparse.Namespace) -> int:
     for table, name in RUNS:
         cycle = {}
         for pname, params in PRESETS.items():
-            r = simulate(table, NODES, BYTES, params, cycles=3, seed=1)
-            r.trace.check_no_overlap()
             path = out / f"{table}_{NODES}x{BYTES}_{pname}.pcap"
-            r.trace.write_pcap(path)
+            r = simulate(table, NODES, BYTES, params, cycles=3, seed=1, pcap=path)
             files.append((path, f"{name}, {pname} preset, {r.cycles} cycles, {r.frames} frames"))
             cycle[pname] = r.cycle_us()["median"]
         worst = max(cycle.values())

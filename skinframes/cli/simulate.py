@@ -4,8 +4,10 @@ from __future__ import annotations
 
 import argparse
 import json
+import math
 from typing import Any
 
+from skinframes.cli.progress import progress_bar
 from skinframes.errors import SkinframesError
 
 
@@ -62,7 +64,7 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Emulate and report."""
     from emulator.faults import FAULT_HELP, parse_fault
-    from emulator.model import simulate
+    from emulator.net import simulate_ecat, simulate_epl
     from emulator.params import preset
 
     if "help" in args.fault:
@@ -73,62 +75,41 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError("--redundant applies to EtherCAT only")
     if args.protocol == "ecat" and (args.asnd or args.pres_timeout_us is not None):
         raise SkinframesError("--asnd and --pres-timeout-us apply to EPL only")
-    if faults and args.asnd:
-        raise SkinframesError("--asnd cannot be combined with --fault yet")
     params = preset(args.preset)
-    timeout = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1e6)
-    if args.protocol == "epl" and faults:
-        from emulator.epl_faults import simulate_epl_faults
-
-        result = simulate_epl_faults(
-            args.nodes,
-            args.bytes,
-            params,
-            faults,
-            cycles=args.cycles,
-            seed=args.seed,
-            pres_timeout_ps=timeout,
-        )
-    elif args.protocol == "epl":
-        from emulator.epl_cycle import simulate_epl
-
-        result = simulate_epl(
-            args.nodes,
-            args.bytes,
-            params,
-            cycles=args.cycles,
-            seed=args.seed,
-            asnd=args.asnd,
-            pres_timeout_ps=timeout,
-        )
-    elif faults:
-        from emulator.ecat_faults import simulate_ecat_faults
-
-        result = simulate_ecat_faults(
-            args.nodes,
-            args.bytes,
-            params,
-            faults,
-            redundant=args.redundant,
-            layout=args.layout,
-            cycles=args.cycles,
-            seed=args.seed,
-        )
-    else:
-        table = "ecat_redundant" if args.redundant else "ecat"
-        result = simulate(
-            table,
-            args.nodes,
-            args.bytes,
-            params,
-            layout=args.layout,
-            cycles=args.cycles,
-            seed=args.seed,
-        )
-    result.trace.check_no_overlap()
-    if args.pcap:
-        result.trace.write_pcap(args.pcap)
-        result.pcap = args.pcap
+    timeout = None
+    if args.pres_timeout_us is not None:
+        if not math.isfinite(args.pres_timeout_us) or not 0 <= args.pres_timeout_us <= 1e9:
+            raise SkinframesError(f"--pres-timeout-us {args.pres_timeout_us}: 0..1e9 us")
+        timeout = round(args.pres_timeout_us * 1e6)
+    if args.pcap == "":
+        raise SkinframesError("--pcap: an empty file name")
+    with progress_bar(args.cycles, "cycles") as bar:
+        if args.protocol == "epl":
+            result = simulate_epl(
+                args.nodes,
+                args.bytes,
+                params,
+                cycles=args.cycles,
+                seed=args.seed,
+                asnd=args.asnd,
+                pres_timeout_ps=timeout,
+                faults=faults,
+                pcap=args.pcap,
+                progress=bar,
+            )
+        else:
+            result = simulate_ecat(
+                args.nodes,
+                args.bytes,
+                params,
+                closed_ring=args.redundant,
+                layout=args.layout,
+                cycles=args.cycles,
+                seed=args.seed,
+                faults=faults,
+                pcap=args.pcap,
+                progress=bar,
+            )
     if args.json:
         print(json.dumps(result.to_json(), indent=2))
         return 0
@@ -142,8 +123,8 @@ def run(args: argparse.Namespace) -> int:
         f"  cycle time: min {c['min']:.3f} us, median {c['median']:.3f} us, max {c['max']:.3f} us"
     )
     if faults:
-        wkc = ", ".join(f"{d.wkc}/{d.expected_wkc}" for d in result.details)
-        print(f"  working counter per cycle (got/expected): {wkc}")
+        wkc = ", ".join(f"{d.cycle}: {d.wkc}/{d.expected_wkc}" for d in result.details)
+        print(f"  working counter (got/expected) from cycle on: {wkc}")
         if result.recovery_us is not None:
             print(f"  recovery: {result.recovery_us:g} us")
         for line in result.diagnosis:

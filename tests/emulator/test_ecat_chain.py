@@ -1,5 +1,5 @@
-"""The frame-processing chain: agreement with the timing emulator's EscChain, the effect() view,
-and the independent mini master's scan run against it in process."""
+"""The frame-processing chain: its cached per-ESC effects (the timing engine's view) against
+processing the frame for real, and the independent mini master's scan run against it in process."""
 
 from __future__ import annotations
 
@@ -9,9 +9,8 @@ import numpy.typing as npt
 import pytest
 
 from emulator.ecat_chain import EcatChain, configure_frames
-from emulator.ecat_cycle import frames_for
 from emulator.errors import TopologyError
-from emulator.esc import DatagramEffect, EscChain
+from emulator.net.ecat import frames_for
 from emulator.sii import SlaveInfo
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command as C  # noqa: N817
@@ -20,21 +19,8 @@ from skinframes.ethercat import Datagram
 N, B = 10, 96
 
 
-def returned_data(d: Datagram, eff: DatagramEffect, image: npt.NDArray[np.uint8]) -> bytes:
-    """The data of ``d`` after the chain: constants, then each slave's input bytes."""
-    data = bytearray(d.data)
-    for off, value in eff.constant:
-        data[off : off + len(value)] = value
-    flat = image.reshape(-1)
-    for c in eff.copies:
-        src = c.slave * image.shape[1] + c.src
-        data[c.dst : c.dst + c.length] = flat[src : src + c.length].tobytes()
-    return bytes(data)
-
-
-# Datagrams both models handle: registers the timing model knows (0x0000 type, 0x0010 station,
-# 0x0130 AL status, the DC area it returns as zeros), and logical access on slave boundaries.
-AGREEING = [
+# Register and logical access of every kind, on and off slave boundaries.
+DATAGRAMS = [
     Datagram(C.APRD, (-2) & 0xFFFF, 0x0130, bytes(2)),
     Datagram(C.APRD, (-9) & 0xFFFF, 0x0010, bytes(2)),
     Datagram(C.APRD, (-10) & 0xFFFF, 0x0010, bytes(2)),  # behind the last slave
@@ -60,52 +46,62 @@ AGREEING = [
 ]
 
 
-@pytest.mark.parametrize("d", AGREEING, ids=lambda d: f"{C(d.cmd).name}-{d.adp:x}-{d.ado:x}")
-def test_chain_agrees_with_the_timing_emulators_esc_model(d: Datagram) -> None:
+def _returned(chain: EcatChain, f: ethercat.EcatFrame, image: npt.NDArray[np.uint8]) -> bytes:
+    """The frame as the timing engine rebuilds it from the cached per-ESC effects."""
+    eff = chain.frame_effect(f)
+    back, mac = eff.returned(range(len(chain)), image.reshape(-1))
+    return ethercat.frame(back, returned=mac).to_bytes()
+
+
+@pytest.mark.parametrize("d", DATAGRAMS, ids=lambda d: f"{C(d.cmd).name}-{d.adp:x}-{d.ado:x}")
+def test_cached_effects_equal_processing_the_frame(d: Datagram) -> None:
+    """Two views of one ESC model: what the timing engine rebuilds from the effects it cached
+    equals the frame the chain returns when it processes the same frame for real."""
     image = taxel.sample_payloads(N, 1, B, seed=11)[0]
-    ours = EcatChain.configured(N, B)
-    ours.publish(image)
-    theirs = EscChain(N, B)
-    a, b = ours.effect(d), theirs.effect(d)
-    assert (a.adp, a.wkc_increment, a.slaves) == (b.adp, b.wkc_increment, b.slaves)
-    assert returned_data(d, a, image) == returned_data(d, b, image)
+    cached, real = EcatChain.configured(N, B), EcatChain.configured(N, B)
+    cached.publish(image)
+    real.publish(image)
+    f = ethercat.EcatFrame((d,))
+    assert _returned(cached, f, image) == real.process_frame(ethercat.frame(f).to_bytes())
 
 
-def test_the_logical_layout_of_the_timing_emulator_through_the_chain() -> None:
-    # ecat_cycle's "logical" layout splits the image at 1486 bytes, inside slave 7's buffer
+def test_the_logical_layout_through_the_chain() -> None:
+    # the "logical" layout splits the image at 1486 bytes, inside slave 7's buffer
     # (1486 = 7 x 192 + 142): the SyncManager buffer opened in frame 1 is finished in frame 2
     n, size = 12, 192
     image = taxel.sample_payloads(n, 1, size, seed=12)[0]
-    ours = EcatChain.configured(n, size)
-    ours.publish(image)
-    theirs = EscChain(n, size)
+    chain = EcatChain.configured(n, size)
+    chain.publish(image)
     got = b""
     for f in frames_for(n, size, "logical"):
-        (d,) = f.datagrams
-        a, b = ours.effect(d), theirs.effect(d)
-        assert (a.wkc_increment, a.slaves) == (b.wkc_increment, b.slaves)
-        got += returned_data(d, a, image)
+        eff = chain.frame_effect(f)
+        back, _ = eff.returned(range(n), image.reshape(-1))
+        assert eff.wkc(range(n)) == len({s.position for s in eff.slaves if any(s.wkc)})
+        got += back.datagrams[0].data
     assert got == image.tobytes()
 
 
 def test_a_read_that_starts_inside_a_buffer_is_denied() -> None:
-    """Where the models differ: a real ESC's SyncManager denies a read that does not begin at
-    the buffer's start address (datasheet I 8); the stateless timing model counts slave 1."""
+    """A real ESC's SyncManager denies a read that does not begin at the buffer's start
+    address (datasheet I 8): slave 1 is not read, slaves 2 and 3 are."""
     image = taxel.sample_payloads(N, 1, B, seed=13)[0]
-    ours = EcatChain.configured(N, B)
-    ours.publish(image)
+    chain = EcatChain.configured(N, B)
+    chain.publish(image)
     d = Datagram.logical(C.LRD, 100, bytes(192))  # slave 1 from byte 4, slave 2, slave 3 start
-    a = ours.effect(d)
-    assert (a.wkc_increment, a.slaves) == (2, (2, 3))
-    assert returned_data(d, a, image)[:92] == bytes(92)
+    eff = chain.frame_effect(ethercat.EcatFrame((d,)))
+    assert eff.wkc(range(N)) == 2
+    assert [s.position for s in eff.slaves if any(s.wkc)] == [2, 3]
+    back, _ = eff.returned(range(N), image.reshape(-1))
+    assert back.datagrams[0].data[:92] == bytes(92)
 
 
-def test_effect_reports_input_bytes_as_copies() -> None:
+def test_effects_report_input_bytes_as_runs() -> None:
     chain = EcatChain.configured(3, 16)
-    eff = chain.effect(Datagram.logical(C.LRD, 0, bytes(40)))  # slaves 0, 1 and 8 bytes of 2
-    copies = [(c.slave, c.src, c.dst, c.length) for c in eff.copies]
-    assert copies == [(0, 0, 0, 16), (1, 0, 16, 16), (2, 0, 32, 8)]
-    assert eff.constant == ()
+    f = ethercat.EcatFrame((Datagram.logical(C.LRD, 0, bytes(40)),))  # slaves 0, 1, 8 bytes of 2
+    eff = chain.frame_effect(f)
+    at = ethercat.data_offsets(f)[0]
+    assert eff.taxel_runs(range(3)) == [(at, 0, 16), (at + 16, 16, 16), (at + 32, 32, 8)]
+    assert all(s.constant == () for s in eff.slaves)
     assert chain.input_bytes == 16
 
 

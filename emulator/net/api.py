@@ -1,0 +1,209 @@
+"""``simulate_ecat`` and ``simulate_epl``: one call from a network description to a result and,
+optionally, a capture written as the cycles come."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Callable
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from emulator.errors import TopologyError
+from emulator.faults import Fault
+from emulator.net.ecat import EcatEngine
+from emulator.net.epl import EplEngine
+from emulator.net.run import Engine, Sink, run
+from emulator.params import TimingParams
+from emulator.result import SimResult
+from emulator.units import PS_PER_NS, PS_PER_US
+from skinframes.pcap import CaptureWriter
+
+__all__ = ["CaptureSink", "simulate_ecat", "simulate_epl"]
+
+
+class CaptureSink:
+    """A :class:`emulator.net.run.Sink` onto a ``skinframes`` capture writer (ps -> ns)."""
+
+    def __init__(self, writer: CaptureWriter) -> None:
+        self.writer = writer
+
+    def write(
+        self, time_ps: int, frame: bytes, *, port: int, outbound: bool, comment: str | None
+    ) -> None:
+        self.writer.write(
+            time_ps // PS_PER_NS,
+            frame,
+            port=port,
+            outbound=outbound,
+            crc_error=comment is not None,
+            comment=comment,
+        )
+
+    def write_block(
+        self,
+        times_ps: npt.NDArray[np.int64],
+        lengths: npt.NDArray[np.int64],
+        data: npt.NDArray[np.uint8],
+        *,
+        ports: npt.NDArray[np.int64],
+        outbound: npt.NDArray[np.bool_],
+    ) -> None:
+        self.writer.write_block(
+            times_ps // PS_PER_NS, lengths, data, ports=ports, outbound=outbound
+        )
+
+
+def _execute(
+    engine: Engine,
+    params: TimingParams,
+    cycles: int,
+    *,
+    seed: int,
+    payloads: npt.NDArray[np.uint8] | None,
+    pcap: str | os.PathLike[str] | None,
+    sink: Sink | None,
+    progress: Callable[[int], None] | None,
+    fast: bool,
+    every_cycle: bool,
+    ports: int,
+) -> tuple[SimResult, Any]:
+    if pcap is not None and sink is not None:
+        raise TopologyError("give a pcap path or a sink, not both")
+    if pcap is None:
+        return run(
+            engine,
+            cycles,
+            params_name=params.name,
+            sink=sink,
+            seed=seed,
+            payloads=payloads,
+            progress=progress,
+            fast=fast,
+            every_cycle=every_cycle,
+        )
+    names = ["master port 0", "master port 1"][:ports]
+    with CaptureWriter(pcap, ports=ports, port_names=names) as writer:
+        result, events = run(
+            engine,
+            cycles,
+            params_name=params.name,
+            sink=CaptureSink(writer),
+            seed=seed,
+            payloads=payloads,
+            progress=progress,
+            fast=fast,
+            every_cycle=every_cycle,
+        )
+    result.pcap = os.fspath(pcap)
+    return result, events
+
+
+def simulate_ecat(
+    nodes: int,
+    data_bytes: int,
+    params: TimingParams,
+    *,
+    closed_ring: bool | None = None,
+    redundant: bool | None = None,
+    layout: str = "per-slave",
+    cycles: int = 4,
+    seed: int = 0,
+    payloads: npt.NDArray[np.uint8] | None = None,
+    faults: tuple[Fault, ...] = (),
+    pcap: str | os.PathLike[str] | None = None,
+    sink: Sink | None = None,
+    progress: Callable[[int], None] | None = None,
+    fast: bool = True,
+    every_cycle: bool = False,
+) -> SimResult:
+    """Emulate ``cycles`` EtherCAT cycles reading ``data_bytes`` of taxels from each of
+    ``nodes`` skin patches (see :mod:`emulator.net.ecat`).
+
+    Args:
+        closed_ring: the master's second port closes the ring (``redundant`` is its old name).
+        layout: ``per-slave`` (one LRD per slave, the paper's) or ``logical``.
+        payloads: (cycles, nodes, data_bytes) uint8 taxels to carry (e.g. a CAN trace's
+            samples); seeded contact patterns when None.
+        faults: the fault plan.
+        pcap: write the frames at the master's port(s) to this capture as they come (pcap, or
+            pcapng by its suffix: ports as interfaces, direction flags, marked bit errors).
+        sink: receive the frames instead (e.g. :class:`emulator.net.run.MemorySink`).
+        progress: called with the number of cycles done since the last call.
+        fast: repeat steady cycles instead of walking each (the same bytes; a test proves it).
+        every_cycle: list every cycle in ``details`` (walking each), not only the changes.
+    """
+    if closed_ring is not None and redundant is not None and closed_ring != redundant:
+        raise TopologyError("closed_ring and its old name redundant disagree")
+    ring = bool(closed_ring if closed_ring is not None else redundant)
+    engine = EcatEngine(
+        nodes, data_bytes, params, closed_ring=ring, layout=layout, faults=faults, seed=seed
+    )
+    result, events = _execute(
+        engine,
+        params,
+        cycles,
+        seed=seed,
+        payloads=payloads,
+        pcap=pcap,
+        sink=sink,
+        progress=progress,
+        fast=fast,
+        every_cycle=every_cycle,
+        ports=2 if ring else 1,
+    )
+    if ring and engine.break_ps:
+        result.recovery_us = params.ecat_link_loss_ps / PS_PER_US
+    result.diagnosis = engine.diagnosis(events)
+    return result
+
+
+def simulate_epl(
+    nodes: int,
+    data_bytes: int,
+    params: TimingParams,
+    *,
+    cycles: int = 4,
+    seed: int = 0,
+    payloads: npt.NDArray[np.uint8] | None = None,
+    asnd: bool = False,
+    pres_timeout_ps: int | None = None,
+    faults: tuple[Fault, ...] = (),
+    pcap: str | os.PathLike[str] | None = None,
+    sink: Sink | None = None,
+    progress: Callable[[int], None] | None = None,
+    fast: bool = True,
+    every_cycle: bool = False,
+) -> SimResult:
+    """Emulate ``cycles`` EPL cycles: ``nodes`` CNs each answering with ``data_bytes`` of
+    taxels (see :mod:`emulator.net.epl`; the other arguments as for :func:`simulate_ecat`).
+
+    Args:
+        asnd: each SoA invites one CN in turn, which answers with a StatusResponse.
+        pres_timeout_ps: the MN's PRes timeout; a CN that cannot meet it loses its PRes.
+    """
+    engine = EplEngine(
+        nodes,
+        data_bytes,
+        params,
+        asnd=asnd,
+        pres_timeout_ps=pres_timeout_ps,
+        faults=faults,
+        seed=seed,
+    )
+    result, events = _execute(
+        engine,
+        params,
+        cycles,
+        seed=seed,
+        payloads=payloads,
+        pcap=pcap,
+        sink=sink,
+        progress=progress,
+        fast=fast,
+        every_cycle=every_cycle,
+        ports=1,
+    )
+    result.diagnosis = engine.diagnosis(events, result.cycles)
+    return result

@@ -1,0 +1,304 @@
+"""The EPL engine: an MN and n CNs in a daisy chain of hubs, poll by poll.
+
+Each node has a hub in front of it (the MN too, as the paper's eq. 8 counts), joined by cables;
+link j is the cable between node j and j + 1 (node 0 = the MN), so a frame between the MN and CN
+i crosses links 0..i-1 and i + 1 hubs each way. Per cycle (DS 301 4.2.4.1 and paper eqs. 3-11):
+
+* SoC, then one IFG before the first PReq (eq. 4);
+* a CN answers ``epl_cn_delay_ps`` after the end of its PReq (D_CN), the MN sends its next frame
+  ``epl_mn_delay_ps`` after the end of a PRes (D_MN) -- at least an IFG in the wire preset;
+* a PRes that does not start within the CN's PRes timeout after the end of its PReq is a loss
+  the MN counts (its loss-of-PRes counter, DS 301 4.2.4.1.2), and the MN polls the next CN when
+  the timeout expires; a PRes with a CRC error is discarded and counted likewise;
+* SoA, one IFG, and the idle period before the next SoC (eq. 10, T_id);
+* optionally (``asnd``) an ASnd in the asynchronous phase: each SoA invites one CN in turn with a
+  StatusRequest and the cycle closes after its StatusResponse (or the same timeout). The paper's
+  eq. (11) charges only the ASnd's bytes; the engine also charges the CN's turnaround and hubs.
+
+Hubs have no loop-back: a failed cable or a dead CN cuts off what is behind it. A CN that answers
+after its timeout would collide with the MN's next frame on the shared hub network; collisions
+are not modelled, so such a PRes is counted as a loss and left out of the capture.
+"""
+
+from __future__ import annotations
+
+import random
+from collections import Counter
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+
+from emulator.faults import Fault, check_faults
+from emulator.limits import check_epl
+from emulator.net.cycle import FILL_FRAME, FILL_NONE, Cycle, Record
+from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS
+from emulator.params import TimingParams
+from emulator.units import PS_PER_NS, PS_PER_US
+from skinframes import ethernet, powerlink
+from skinframes.pcap import NS_PER_S
+from skinframes.powerlink import RequestedService
+
+__all__ = ["EPOCH_S", "EplEngine", "hops_to", "soc_frame"]
+
+EPOCH_S: Final = 1_700_000_000  # NetTime of cycle 0 in the SoC (a fixed, reproducible epoch)
+
+
+def hops_to(cn: int) -> int:
+    """Hubs (and cables) between the MN and CN number ``cn`` (1-based): the MN's own and CNs 1..cn."""
+    return cn + 1
+
+
+def soc_frame(start_ps: int) -> bytes:
+    """The SoC of a cycle starting at ``start_ps``: NetTime and RelativeTime of that instant."""
+    ns = start_ps // PS_PER_NS
+    soc = powerlink.SoC(
+        net_time_s=EPOCH_S + ns // NS_PER_S,
+        net_time_ns=ns % NS_PER_S,
+        relative_time_us=start_ps // PS_PER_US,
+    )
+    return powerlink.frame(soc).to_bytes()
+
+
+def soc_frames(starts_ps: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
+    """(k, SoC length) uint8: the SoCs of cycles starting at ``starts_ps`` (as :func:`soc_frame`)."""
+    ns = starts_ps // PS_PER_NS
+    return powerlink.pack_soc_frames(
+        EPOCH_S + ns // NS_PER_S, ns % NS_PER_S, starts_ps // PS_PER_US
+    )
+
+
+class EplEngine:
+    """EPL cycles of ``nodes`` CNs answering with ``data_bytes`` of taxels each.
+
+    Args:
+        asnd: fill the asynchronous phase (each SoA invites one CN in turn).
+        pres_timeout_ps: the MN's PRes timeout for every CN, from the end of a PReq to the start
+            of the PRes at the MN (DS 301 NMT_MNCNPResTimeout); by default each CN's round trip
+            plus ``DEFAULT_TIMEOUT_MARGIN_PS``. A CN that cannot meet it loses every PRes.
+        faults: the fault plan (:mod:`emulator.faults`).
+        seed: the random faults' seed.
+    """
+
+    protocol: Final = "epl"
+    topology: Final = "daisy"
+    layout: Final = "per-slave"
+
+    def __init__(
+        self,
+        nodes: int,
+        data_bytes: int,
+        params: TimingParams,
+        *,
+        asnd: bool = False,
+        pres_timeout_ps: int | None = None,
+        faults: tuple[Fault, ...] = (),
+        seed: int = 0,
+    ) -> None:
+        check_epl(nodes, data_bytes)
+        check_faults(faults, nodes, nodes, "epl")
+        if pres_timeout_ps is not None and pres_timeout_ps < 0:
+            from emulator.errors import TopologyError
+
+            raise TopologyError(f"EPL: a PRes timeout of {pres_timeout_ps} ps")
+        p = params
+        self.nodes, self.data_bytes, self.params, self.asnd = nodes, data_bytes, params, asnd
+        self.faults = faults
+        self.period = nodes if asnd else 1
+        self.expected_wkc = nodes
+        self.rng = random.Random(seed)
+        self.preq = [powerlink.frame(powerlink.PReq(i)).to_bytes() for i in range(1, nodes + 1)]
+        self.soa_plain = powerlink.frame(powerlink.SoA()).to_bytes()
+        self.soa_invite = [
+            powerlink.frame(powerlink.SoA(RequestedService.STATUS_REQUEST, i)).to_bytes()
+            for i in range(1, nodes + 1)
+        ]
+        self.status = [
+            powerlink.frame(powerlink.ASnd(powerlink.StatusResponse(), src=i)).to_bytes()
+            for i in range(1, nodes + 1)
+        ]
+        self.soc_len = len(soc_frame(0))
+        self.pres_len = len(powerlink.frame(powerlink.PRes(1, bytes(data_bytes))).to_bytes())
+        self.needed = [
+            2 * hops_to(i) * p.hop_ps + p.gap_ps(p.epl_cn_delay_ps) for i in range(1, nodes + 1)
+        ]
+        self.timeout = [
+            pres_timeout_ps if pres_timeout_ps is not None else t + DEFAULT_TIMEOUT_MARGIN_PS
+            for t in self.needed
+        ]
+        self.late_ps = {f.where: round(f.value * PS_PER_US) for f in faults if f.kind == "late"}
+        self.chance = tuple(f for f in faults if f.kind in ("biterr", "drop") and f.value > 0)
+        self.broken: dict[int, int] = {}  # link -> the cycle it broke
+        self.dead: dict[int, int] = {}  # CN -> the cycle it lost power
+
+    def event_at(self, cycle: int) -> bool:
+        """Does the fault plan change the network at the start of ``cycle``?"""
+        return any(f.cycle == cycle and f.kind in ("cable", "power") for f in self.faults)
+
+    def next_event(self, cycle: int) -> int | None:
+        """The first cycle after ``cycle`` at whose start the fault plan changes the network."""
+        later = [f.cycle for f in self.faults if f.kind in ("cable", "power") and f.cycle > cycle]
+        return min(later) if later else None
+
+    def rebuild(
+        self, record: Record, starts_ps: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
+    ) -> npt.NDArray[np.uint8]:
+        """(k, length) uint8: a FILL_FRAME record's frame in k cycles starting at ``starts_ps``
+        with ``taxels`` (k, nodes, data_bytes): the SoC (node -1) or CN node + 1's PRes."""
+        if record.node < 0:
+            return soc_frames(starts_ps)
+        cn = np.full(len(starts_ps), record.node + 1)
+        return powerlink.pack_pres_frames(np.ascontiguousarray(taxels[:, record.node, :]), cn)
+
+    def cycle(self, c: int, start_ps: int, taxels: npt.NDArray[np.uint8] | None) -> Cycle:
+        """Walk cycle ``c`` starting at ``start_ps``; ``taxels`` (nodes x data_bytes) to build
+        the frames' bytes, None for timing only."""
+        p, n = self.params, self.nodes
+        bytes_on = taxels is not None
+        for f in self.faults:
+            if f.kind == "cable" and f.cycle == c:
+                self.broken.setdefault(f.where, c)
+            if f.kind == "power" and f.cycle == c:
+                self.dead.setdefault(f.where, c)
+        events: Counter[tuple[object, ...]] = Counter()
+        recs: list[Record] = []
+
+        def add(
+            t: int,
+            frame: bytes,
+            length: int,
+            out: bool,
+            fill: int = FILL_NONE,
+            node: int = -1,
+            mark: str | None = None,
+        ) -> None:
+            data = frame if bytes_on else None
+            recs.append(
+                Record(t - start_ps, 0, out, length, p.frame_ps(length), data, fill, (), node, mark)
+            )
+
+        add(start_ps, soc_frame(start_ps) if bytes_on else b"", self.soc_len, True, fill=FILL_FRAME)
+        t = start_ps + p.frame_ps(self.soc_len) + p.ifg_ps
+        received = 0
+        pres = (
+            powerlink.pack_pres_frames(taxels, np.arange(1, n + 1)) if taxels is not None else None
+        )
+        for i in range(1, n + 1):
+            add(t, self.preq[i - 1], len(self.preq[i - 1]), True)
+            preq_end = t + p.frame_ps(len(self.preq[i - 1]))
+            answer = self._answer(i, preq_end, events)
+            if answer is None:
+                t = preq_end + self.timeout[i - 1] + p.gap_ps(p.epl_mn_delay_ps)
+                continue
+            at, bit = answer
+            frame = pres[i - 1].tobytes() if pres is not None else b""
+            if bit is None:
+                received += 1
+                add(at, frame, self.pres_len, False, fill=FILL_FRAME, node=i - 1)
+            else:
+                add(
+                    at,
+                    self._corrupt(frame, self.data_bytes),
+                    self.pres_len,
+                    False,
+                    mark=self._mark(bit),
+                )
+            t = at + p.frame_ps(self.pres_len) + p.gap_ps(p.epl_mn_delay_ps)
+        target = c % n + 1
+        soa = self.soa_invite[target - 1] if self.asnd else self.soa_plain
+        add(t, soa, len(soa), True)
+        end = t + p.frame_ps(len(soa))
+        if self.asnd:
+            answer = self._answer(target, end, events, asnd=True)
+            status = self.status[target - 1]
+            if answer is None:
+                end += self.timeout[target - 1]
+            else:
+                at, bit = answer
+                if bit is None:
+                    add(at, status, len(status), False)
+                else:
+                    add(at, self._corrupt(status, 0), len(status), False, mark=self._mark(bit))
+                end = at + p.frame_ps(len(status))
+        end += p.ifg_ps + p.epl_cycle_idle_ps
+        return Cycle(tuple(recs), end - start_ps, received, n, events, steady=not self.chance)
+
+    def _answer(
+        self, i: int, request_end: int, events: Counter[tuple[object, ...]], *, asnd: bool = False
+    ) -> tuple[int, tuple[int, int] | None] | None:
+        """When CN ``i``'s answer to a request ending at ``request_end`` starts at the MN, and the
+        (link, bit) of a bit error on its way back; None when the MN gets no answer in time."""
+        reachable = all(j not in self.dead for j in range(1, i + 1)) and all(
+            j not in self.broken for j in range(i)
+        )
+        kind = "asnd" if asnd else "pres"
+        if not reachable or self._cross(range(i)) is not None:  # request lost or corrupted
+            events[("loss", kind, i)] += 1
+            return None
+        back = self._cross(range(i - 1, -1, -1))
+        if back is not None and back[0] == "drop":
+            events[("loss", kind, i)] += 1
+            return None
+        at = request_end + self.needed[i - 1] + self.late_ps.get(i, 0)
+        if at - request_end > self.timeout[i - 1]:
+            events[("loss", kind, i)] += 1
+            events[("late", kind, i)] += 1
+            return None
+        if back is not None:
+            events[("loss", kind, i)] += 1
+            events[("crc", kind, i)] += 1
+            return at, (back[1], -1)
+        return at, None
+
+    def _cross(self, links: range) -> tuple[str, int] | None:
+        """Cross these links once: None, or ('drop' | 'biterr', link) for what happened."""
+        for j in links:
+            for f in self.chance:
+                if f.where == j and self.rng.random() < f.value:
+                    return f.kind, j
+        return None
+
+    def _corrupt(self, frame: bytes, data_bytes: int) -> bytes:
+        """A bit error flips one bit of the frame's data (the ``data_bytes`` after the EPL
+        header, or its padding when it carries none), drawn at random, so that Wireshark still
+        dissects the frame."""
+        lo = ethernet.HEADER_BYTES + powerlink.PDO_HEADER_BYTES
+        hi = lo + data_bytes if data_bytes else ethernet.MIN_FRAME_BYTES
+        bit = self.rng.randrange(8 * lo, 8 * hi)  # drawn in timing-only runs too: same chances
+        return ethernet.flip_bit(frame, bit) if frame else frame
+
+    @staticmethod
+    def _mark(bit: tuple[int, int]) -> str:
+        j = bit[0]
+        return f"skinframes: corrupted on link {j}..{j + 1} (injected bit error; FCS mismatch)"
+
+    def account(self, cyc: Cycle, times: int) -> None:
+        """The MN's counters live in the events; nothing else to update."""
+
+    def diagnosis(self, events: Counter[tuple[object, ...]], cycles: int) -> list[str]:
+        """What the MN's counters tell about the run, in words."""
+        n = self.nodes
+        out = []
+        for link, c in sorted(self.broken.items()):
+            first = link + 1
+            who = f"CNs {first}..{n}" if first < n else f"CN {n}"
+            out.append(
+                f"link {link}..{link + 1} down at cycle {c}: {who} no longer answer (PRes timeouts)"
+            )
+        for cn, c in sorted(self.dead.items()):
+            out.append(f"CN {cn} lost power at cycle {c}; CNs behind it are cut off too")
+        for cn in range(1, n + 1):
+            losses = events[("loss", "pres", cn)]
+            if losses:
+                text = f"CN {cn}: {losses} of {cycles} PRes lost (the MN's loss-of-PRes counter)"
+                if events[("crc", "pres", cn)]:
+                    text += f", {events[('crc', 'pres', cn)]} of them with CRC errors"
+                if events[("late", "pres", cn)]:
+                    text += (
+                        f", {events[('late', 'pres', cn)]} answered after the PRes timeout (on a "
+                        "hub network they would collide with the MN's next frame; not in the trace)"
+                    )
+                out.append(text)
+            if events[("loss", "asnd", cn)]:
+                out.append(f"CN {cn}: {events[('loss', 'asnd', cn)]} StatusResponses (ASnd) lost")
+        return out

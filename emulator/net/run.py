@@ -1,0 +1,330 @@
+"""The driver: runs an engine cycle by cycle and streams what it produces.
+
+Every cycle comes from the engine's walk (:meth:`cycle`), faults or not. When the network is in
+a steady state -- no chance faults, no transition under way, no fault scheduled before cycle
+``e`` -- a later cycle is an earlier one shifted in time, with only its taxels (and the EPL SoC
+time) changed: the periodic fast path repeats the last walked period up to ``e`` and fills those
+parts with numpy, block by block, instead of walking again (``fast=False`` walks every cycle; a
+test proves both give the same bytes). Frames go to a sink as they come (a capture writer, or a
+list in tests); statistics are kept online (a histogram of cycle durations in integer ps), so
+memory does not grow with the number of cycles.
+"""
+
+from __future__ import annotations
+
+from collections import Counter, deque
+from collections.abc import Callable, Iterator
+from dataclasses import dataclass
+from typing import Final, Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from emulator.errors import ScheduleError, TopologyError
+from emulator.limits import check_cycles
+from emulator.net.cycle import FILL_FRAME, FILL_TAXELS, Cycle, Record
+from emulator.result import CycleDetail, SimResult
+from skinframes import ethernet, taxel
+
+__all__ = ["BLOCK_BYTES", "MAX_LISTED", "Engine", "MemorySink", "Sink", "TaxelSource", "run"]
+
+BLOCK_BYTES: Final = 32 << 20  # frame bytes the fast path assembles at once
+MAX_LISTED: Final = 10_000  # cycles_detail entries at most (the rest are counted)
+
+
+class Engine(Protocol):
+    """What the driver needs from a protocol engine (EtherCAT, EPL)."""
+
+    @property
+    def protocol(self) -> str: ...
+    @property
+    def topology(self) -> str: ...
+    @property
+    def layout(self) -> str: ...
+    @property
+    def nodes(self) -> int: ...
+    @property
+    def data_bytes(self) -> int: ...
+    @property
+    def period(self) -> int: ...
+
+    def event_at(self, cycle: int) -> bool: ...
+    def next_event(self, cycle: int) -> int | None: ...
+    def cycle(self, c: int, start_ps: int, taxels: npt.NDArray[np.uint8] | None) -> Cycle: ...
+    def account(self, cyc: Cycle, times: int) -> None: ...
+
+
+class Sink(Protocol):
+    """Where frames go: one by one (walked cycles) or as blocks of repeated cycles."""
+
+    def write(
+        self, time_ps: int, frame: bytes, *, port: int, outbound: bool, comment: str | None
+    ) -> None: ...
+
+    def write_block(
+        self,
+        times_ps: npt.NDArray[np.int64],
+        lengths: npt.NDArray[np.int64],
+        data: npt.NDArray[np.uint8],
+        *,
+        ports: npt.NDArray[np.int64],
+        outbound: npt.NDArray[np.bool_],
+    ) -> None: ...
+
+
+@dataclass
+class MemorySink:
+    """Keeps every record (for tests and small runs): (time_ps, port, outbound, bytes, comment)."""
+
+    records: list[tuple[int, int, bool, bytes, str | None]]
+
+    def __init__(self) -> None:
+        self.records = []
+
+    def write(
+        self, time_ps: int, frame: bytes, *, port: int, outbound: bool, comment: str | None
+    ) -> None:
+        self.records.append((time_ps, port, outbound, frame, comment))
+
+    def write_block(
+        self,
+        times_ps: npt.NDArray[np.int64],
+        lengths: npt.NDArray[np.int64],
+        data: npt.NDArray[np.uint8],
+        *,
+        ports: npt.NDArray[np.int64],
+        outbound: npt.NDArray[np.bool_],
+    ) -> None:
+        ends = np.cumsum(lengths)
+        for row in range(times_ps.shape[0]):
+            raw = data[row].tobytes()
+            for r, end in enumerate(ends.tolist()):
+                start = end - int(lengths[r])
+                self.records.append(
+                    (int(times_ps[row, r]), int(ports[r]), bool(outbound[r]), raw[start:end], None)
+                )
+
+
+class TaxelSource:
+    """The taxel bytes of consecutive cycles: given (e.g. a CAN trace's samples) or seeded."""
+
+    def __init__(
+        self,
+        nodes: int,
+        data_bytes: int,
+        cycles: int,
+        *,
+        seed: int = 0,
+        payloads: npt.NDArray[np.uint8] | None = None,
+    ) -> None:
+        self.shape = (nodes, data_bytes)
+        if payloads is not None:
+            arr = np.asarray(payloads)
+            if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
+                raise TopologyError(
+                    f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
+                )
+            self._chunks: Iterator[npt.NDArray[np.uint8]] = iter((arr,))
+        else:
+            self._chunks = iter_payloads(nodes, cycles, data_bytes, seed)
+        self._buf = np.empty((0, nodes, data_bytes), np.uint8)
+
+    def take(self, count: int) -> npt.NDArray[np.uint8]:
+        """The next ``count`` cycles' taxels, (count, nodes, data_bytes)."""
+        parts = [self._buf]
+        have = len(self._buf)
+        while have < count:
+            chunk = next(self._chunks)
+            parts.append(chunk)
+            have += len(chunk)
+        whole = parts[0] if len(parts) == 1 else np.concatenate(parts)
+        self._buf = whole[count:]
+        return whole[:count]
+
+
+def iter_payloads(
+    nodes: int, cycles: int, data_bytes: int, seed: int
+) -> Iterator[npt.NDArray[np.uint8]]:
+    """Seeded contact patterns of ``cycles`` samples, in chunks."""
+    stream = getattr(taxel, "iter_sample_payloads", None)
+    if stream is not None:
+        yield from stream(nodes, cycles, data_bytes, seed=seed)
+    else:
+        yield taxel.sample_payloads(nodes, cycles, data_bytes, seed=seed)
+
+
+class _Overlap:
+    """No two frames on one direction of one master port may overlap (ScheduleError)."""
+
+    def __init__(self) -> None:
+        self.end: dict[tuple[int, bool], int] = {}
+
+    def see(self, t_ps: int, rec: Record) -> None:
+        key = (rec.port, rec.outbound)
+        if t_ps < self.end.get(key, -1):
+            direction = "outbound" if rec.outbound else "inbound"
+            raise ScheduleError(f"two {direction} frames overlap at port {rec.port} at {t_ps} ps")
+        self.end[key] = t_ps + rec.wire_ps
+
+
+def run(
+    engine: Engine,
+    cycles: int,
+    *,
+    params_name: str,
+    sink: Sink | None = None,
+    seed: int = 0,
+    payloads: npt.NDArray[np.uint8] | None = None,
+    progress: Callable[[int], None] | None = None,
+    fast: bool = True,
+    every_cycle: bool = False,
+) -> tuple[SimResult, Counter[tuple[object, ...]]]:
+    """Run ``cycles`` cycles of ``engine``; frames to ``sink`` (None: timing only).
+
+    ``every_cycle`` lists every cycle in the result's details (and walks every cycle), not only
+    those that differ from the cycle one period earlier.
+
+    Returns:
+        The result and the events the engine counted over the run.
+    """
+    check_cycles(cycles)
+    source = (
+        TaxelSource(engine.nodes, engine.data_bytes, cycles, seed=seed, payloads=payloads)
+        if sink is not None
+        else None
+    )
+    period_len = engine.period
+    result = SimResult(
+        engine.protocol,
+        engine.topology,
+        engine.nodes,
+        engine.data_bytes,
+        params_name,
+        engine.layout,
+    )
+    events: Counter[tuple[object, ...]] = Counter()
+    history: deque[Cycle] = deque(maxlen=period_len)
+    last: deque[tuple[int, int, int]] = deque(
+        maxlen=period_len
+    )  # (cycle_ps, wkc, expected) of the last P
+    overlap = _Overlap()
+    c, start = 0, 0
+
+    def note(cyc: Cycle, c: int, start: int) -> None:
+        key = (cyc.cycle_ps, cyc.wkc, cyc.expected_wkc)
+        if c < period_len or last[0] != key or every_cycle:
+            result.list_detail(
+                CycleDetail(c, start, cyc.cycle_ps, cyc.wkc, cyc.expected_wkc), MAX_LISTED
+            )
+        last.append(key)
+
+    while c < cycles:
+        if engine.event_at(c):
+            history.clear()
+        taxels = source.take(1)[0] if source is not None else None
+        cyc = engine.cycle(c, start, taxels)
+        for rec in cyc.records:
+            overlap.see(start + rec.rel_ps, rec)
+            if sink is not None:
+                assert rec.frame is not None
+                sink.write(
+                    start + rec.rel_ps,
+                    rec.frame,
+                    port=rec.port,
+                    outbound=rec.outbound,
+                    comment=rec.mark,
+                )
+        if c == 0:
+            _first_cycle(result, cyc)
+        note(cyc, c, start)
+        result.add_cycles(cyc.cycle_ps, len(cyc.records), 1)
+        events.update(cyc.events)
+        engine.account(cyc, 1)
+        start += cyc.cycle_ps
+        c += 1
+        if progress is not None:
+            progress(1)
+        if not (fast and cyc.steady and not every_cycle):
+            history.clear()
+            continue
+        history.append(cyc)
+        if len(history) < period_len:
+            continue
+        nxt = engine.next_event(c - 1)
+        stop = min(cycles, nxt) if nxt is not None else cycles
+        q = (stop - c) // period_len
+        if q <= 0:
+            continue
+        period = list(history)
+        period_ps = sum(h.cycle_ps for h in period)
+        if sink is not None and source is not None:
+            _repeat(engine, period, start, q, sink, source, overlap, progress)
+        for h in period:
+            result.add_cycles(h.cycle_ps, len(h.records), q)
+            for key, n in h.events.items():
+                events[key] += n * q
+            engine.account(h, q)
+        if sink is None and progress is not None:
+            progress(q * period_len)
+        start += q * period_ps
+        c += q * period_len
+    return result, events
+
+
+def _first_cycle(result: SimResult, cyc: Cycle) -> None:
+    """What one cycle puts on the wire (for plans and comparisons)."""
+    sent = [r for r in cyc.records if r.outbound]
+    result.frames_sent_per_cycle = sum(r.port == 0 for r in sent)
+    result.wire_bytes_per_cycle = sum(ethernet.wire_bytes(r.length) for r in cyc.records)
+    result.wire_bytes_sent_per_cycle = sum(ethernet.wire_bytes(r.length) for r in sent)
+
+
+def _repeat(
+    engine: Engine,
+    period: list[Cycle],
+    start: int,
+    q: int,
+    sink: Sink,
+    source: TaxelSource,
+    overlap: _Overlap,
+    progress: Callable[[int], None] | None,
+) -> None:
+    """Write ``q`` repetitions of ``period`` (walked cycles) from ``start`` (the fast path)."""
+    period_len = len(period)
+    offsets = np.concatenate(([0], np.cumsum([h.cycle_ps for h in period])))
+    period_ps = int(offsets[-1])
+    cols: list[tuple[int, Record]] = [(i, r) for i, h in enumerate(period) for r in h.records]
+    rel = np.array([int(offsets[i]) + r.rel_ps for i, r in cols], dtype=np.int64)
+    lengths = np.array([r.length for _, r in cols], dtype=np.int64)
+    ports = np.array([r.port for _, r in cols], dtype=np.int64)
+    outbound = np.array([r.outbound for _, r in cols], dtype=bool)
+    at = np.concatenate(([0], np.cumsum(lengths)))
+    row_bytes = int(at[-1])
+    template = np.frombuffer(b"".join(r.frame or b"" for _, r in cols), np.uint8)
+    for rep in (0, 1):  # two periods in a row obey the link rules, so all of them do
+        for (_, r), t in zip(cols, rel.tolist(), strict=True):
+            overlap.see(start + rep * period_ps + t, r)
+    overlap.end = {k: v + (q - 2) * period_ps for k, v in overlap.end.items()}
+    per_block = max(1, BLOCK_BYTES // max(1, row_bytes))
+    done = 0
+    while done < q:
+        k = min(per_block, q - done)
+        starts = start + (done + np.arange(k, dtype=np.int64)) * period_ps
+        data = np.empty((k, row_bytes), np.uint8)
+        data[:] = template
+        taxels = source.take(k * period_len).reshape(k, period_len, *source.shape)
+        for col, (i, r) in enumerate(cols):
+            lo = int(at[col])
+            if r.fill == FILL_TAXELS:
+                image = taxels[:, i].reshape(k, -1)
+                for dst, src, n in r.runs:
+                    data[:, lo + dst : lo + dst + n] = image[:, src : src + n]
+            elif r.fill == FILL_FRAME:
+                rebuild = engine.rebuild  # type: ignore[attr-defined]
+                data[:, lo : lo + r.length] = rebuild(r, starts + int(offsets[i]), taxels[:, i])
+        sink.write_block(
+            starts[:, None] + rel[None, :], lengths, data, ports=ports, outbound=outbound
+        )
+        done += k
+        if progress is not None:
+            progress(k * period_len)

@@ -1,0 +1,31 @@
+"""A progress bar on stderr for long runs, only when stderr is a terminal."""
+
+from __future__ import annotations
+
+import sys
+from collections.abc import Callable, Iterator
+from contextlib import contextmanager
+
+from tqdm import tqdm
+
+__all__ = ["progress_bar"]
+
+
+@contextmanager
+def progress_bar(total: int, unit: str) -> Iterator[Callable[[int], None]]:
+    """A callback that advances a bar by n; the bar shows itself after a second, and only on
+    a terminal (tqdm's ``delay``), so short runs and pipes stay quiet."""
+    with tqdm(
+        total=total,
+        unit=f" {unit}",
+        unit_scale=True,
+        delay=1.0,
+        disable=not sys.stderr.isatty(),
+        file=sys.stderr,
+        leave=False,
+    ) as bar:
+
+        def advance(n: int) -> None:
+            bar.update(n)
+
+        yield advance
