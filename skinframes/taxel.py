@@ -10,6 +10,7 @@ triangle-major: byte ``12 * t + k`` is taxel k of triangle t, as the host reasse
 
 from __future__ import annotations
 
+from collections.abc import Iterator
 from dataclasses import dataclass
 from typing import Final
 
@@ -28,6 +29,8 @@ __all__ = [
     "BodyLayout",
     "Region",
     "contact_pattern",
+    "iter_contact_pattern",
+    "iter_sample_payloads",
     "pack_patches",
     "patch_from_bytes",
     "patch_to_bytes",
@@ -141,7 +144,38 @@ def contact_pattern(
     sample slide along the skin (taxels numbered patch-major, as if unfolded to a line) and lower
     the values under them, deepest at the centre, as pressure does on the iCub skin. Integer
     arithmetic and numpy's frozen legacy generator (RandomState) make the bytes the same on
-    every machine and numpy version.
+    every machine and numpy version. :func:`iter_contact_pattern` yields the same samples in
+    chunks, in memory that does not grow with ``samples``.
+    """
+    (whole,) = iter_contact_pattern(
+        patches,
+        samples,
+        seed=seed,
+        contacts=contacts,
+        no_load=no_load,
+        triangles=triangles,
+        chunk=max(samples, 1),
+    )
+    return whole
+
+
+def iter_contact_pattern(
+    patches: int,
+    samples: int = 1,
+    *,
+    seed: int = 0,
+    contacts: int = 3,
+    no_load: int = NO_LOAD,
+    triangles: int = TRIANGLES_PER_PATCH,
+    chunk: int = 256,
+) -> Iterator[npt.NDArray[np.uint8]]:
+    """:func:`contact_pattern` in consecutive (m <= chunk, patches, triangles, 12) pieces.
+
+    The pieces concatenate to ``contact_pattern(...)`` byte for byte. The generator draws all
+    the noise first (``samples`` x taxels bytes) and the contacts after it; with more than one
+    chunk a second generator skips the noise to draw the contacts up front, and the first one
+    yields the noise chunk by chunk. Both steps consume whole 32-bit words (a sample has
+    12 * triangles * patches bytes, a multiple of 4), so the stream is the one drawn at once.
     """
     if patches < 1 or samples < 1 or contacts < 0 or not 1 <= triangles <= TRIANGLES_PER_PATCH:
         raise FieldRangeError(
@@ -151,34 +185,91 @@ def contact_pattern(
         raise FieldRangeError("contact_pattern: no_load must be 0..255")
     if not 0 <= seed <= 0xFFFFFFFF:
         raise FieldRangeError(f"contact_pattern: seed {seed} outside 0..2**32-1")
+    if chunk < 1:
+        raise FieldRangeError(f"contact_pattern: chunk of {chunk} samples, need >= 1")
+    return _contact_chunks(patches, samples, seed, contacts, no_load, triangles, chunk)
+
+
+def _contact_chunks(
+    patches: int, samples: int, seed: int, contacts: int, no_load: int, triangles: int, chunk: int
+) -> Iterator[npt.NDArray[np.uint8]]:
+    """The one implementation of the pattern (arguments checked by the callers)."""
     rng = np.random.RandomState(seed)
-    length = patches * triangles * TAXELS_PER_TRIANGLE
-    noise = np.frombuffer(rng.bytes(samples * length), dtype=np.uint8) % 5  # 0..4 -> -2..+2
-    if 2 <= no_load <= 0xFF - 2:  # no wrap-around possible: stay in uint8
-        values = noise + np.uint8(no_load - 2)
-    else:
-        values = np.clip(noise.astype(np.int16) + (no_load - 2), 0, 0xFF).astype(np.uint8)
-    if contacts:
-        # per contact: start, speed (taxels per sample), half-width (1..4 triangles), depth
+    length = patches * triangles * TAXELS_PER_TRIANGLE  # taxels (= bytes) per sample
+    blobs: _Contacts | None = None
+    if contacts and samples > chunk:
+        blobs = _Contacts.draw(_skip_words(seed, samples * length // 4), contacts, length, no_load)
+    for first in range(0, samples, chunk):
+        m = min(chunk, samples - first)
+        noise = np.frombuffer(rng.bytes(m * length), dtype=np.uint8) % 5  # 0..4 -> -2..+2
+        if 2 <= no_load <= 0xFF - 2:  # no wrap-around possible: stay in uint8, in place
+            values = noise
+            values += np.uint8(no_load - 2)
+        else:
+            values = np.clip(noise.astype(np.int16) + (no_load - 2), 0, 0xFF).astype(np.uint8)
+        if contacts:
+            if blobs is None:  # one chunk: rng has just drawn all the noise
+                blobs = _Contacts.draw(rng, contacts, length, no_load)
+            blobs.press(values, first, m)
+        yield values.reshape(m, patches, triangles, TAXELS_PER_TRIANGLE)
+
+
+def _skip_words(seed: int, words: int) -> np.random.RandomState:
+    """``RandomState(seed)`` after ``words`` 32-bit outputs, as ``bytes(4 * words)`` leaves it.
+
+    MT19937's ``random_raw`` yields one 32-bit output per value; ``output=False`` discards them
+    without storing them (2.5x faster than drawing the bytes).
+    """
+    rng = np.random.RandomState(seed)
+    state = rng.get_state(legacy=False)["state"]  # the MT19937 key and position
+    bits = np.random.MT19937()
+    bits.state = {"bit_generator": "MT19937", "state": {"key": state["key"], "pos": state["pos"]}}
+    step = 1 << 24
+    for done in range(0, words, step):
+        bits.random_raw(min(step, words - done), output=False)
+    rng.set_state({"bit_generator": "MT19937", "state": bits.state["state"]})
+    return rng
+
+
+@dataclass(frozen=True, slots=True)
+class _Contacts:
+    """Pressure blobs: start taxel, speed (taxels per sample), half-width (taxels), depth."""
+
+    start: npt.NDArray[np.int64]
+    speed: npt.NDArray[np.int64]
+    half: npt.NDArray[np.int64]
+    depth: npt.NDArray[np.int64]
+    length: int
+
+    @classmethod
+    def draw(
+        cls, rng: np.random.RandomState, contacts: int, length: int, no_load: int
+    ) -> _Contacts:
+        """Draw the blobs, in this order, from ``rng`` (past the noise)."""
         start = rng.randint(0, length, size=contacts)
         speed = rng.randint(-3, 4, size=contacts)
         half = rng.randint(TAXELS_PER_TRIANGLE, 4 * TAXELS_PER_TRIANGLE + 1, size=contacts)
         depth = rng.randint(80, max(81, no_load + 1), size=contacts)
+        return cls(start, speed, half, depth, length)
+
+    def press(self, values: npt.NDArray[np.uint8], first: int, samples: int) -> None:
+        """Lower ``values`` (samples x length, from sample ``first``) under the blobs, in place."""
+        length = self.length
         offsets = np.arange(-4 * TAXELS_PER_TRIANGLE, 4 * TAXELS_PER_TRIANGLE + 1)
-        t = np.arange(samples)[:, None, None]
-        centre = (start[None, :, None] + speed[None, :, None] * t) % length
+        t = np.arange(first, first + samples)[:, None, None]  # the absolute sample index
+        centre = (self.start[None, :, None] + self.speed[None, :, None] * t) % length
         idx = centre + offsets[None, None, :]
         dist = np.abs(offsets)[None, None, :]
-        inside = (dist < half[None, :, None]) & (idx >= 0) & (idx < length)
-        press = np.broadcast_to(
-            depth[None, :, None] * (half[None, :, None] - dist) // half[None, :, None], idx.shape
-        )[inside]
+        half = self.half[None, :, None]
+        inside = (dist < half) & (idx >= 0) & (idx < length)
+        press = np.broadcast_to(self.depth[None, :, None] * (half - dist) // half, idx.shape)[
+            inside
+        ]
         # sum overlapping blobs per taxel, then press only the touched taxels (sparse)
-        flat, inverse = np.unique((t * length + idx)[inside], return_inverse=True)
+        flat, inverse = np.unique(((t - first) * length + idx)[inside], return_inverse=True)
         total = np.bincount(inverse, weights=press).astype(np.int64)
         touched = values.reshape(-1)
         touched[flat] = np.clip(touched[flat].astype(np.int64) - total, 0, 0xFF)
-    return values.reshape(samples, patches, triangles, TAXELS_PER_TRIANGLE)
 
 
 def sample_payloads(
@@ -188,11 +279,30 @@ def sample_payloads(
 
     ``data_bytes`` up to 192 takes the first bytes of the patch (a partial patch: whole
     triangles first); more than 192 repeats the patch's bytes (for payload sweeps beyond one
-    patch).
+    patch). :func:`iter_sample_payloads` yields the same rows in chunks.
+    """
+    (whole,) = iter_sample_payloads(patches, samples, data_bytes, seed=seed, chunk=max(samples, 1))
+    return whole
+
+
+def iter_sample_payloads(
+    patches: int, samples: int, data_bytes: int, *, seed: int = 0, chunk: int = 256
+) -> Iterator[npt.NDArray[np.uint8]]:
+    """:func:`sample_payloads` in consecutive (m <= chunk, patches, data_bytes) uint8 pieces.
+
+    The pieces concatenate to ``sample_payloads(...)`` byte for byte; the memory used is that of
+    one chunk, whatever ``samples`` is.
     """
     if data_bytes < 0:
         raise FieldRangeError(f"payload of {data_bytes} bytes")
-    flat = contact_pattern(patches, samples, seed=seed).reshape(samples, patches, PATCH_BYTES)
+    pieces = iter_contact_pattern(patches, samples, seed=seed, chunk=chunk)
+    return (_payload_rows(piece, data_bytes) for piece in pieces)
+
+
+def _payload_rows(taxels: npt.NDArray[np.uint8], data_bytes: int) -> npt.NDArray[np.uint8]:
+    """(m, patches, 16, 12) taxels -> (m, patches, data_bytes) payload rows."""
+    m, patches = taxels.shape[:2]
+    flat = taxels.reshape(m, patches, PATCH_BYTES)
     if data_bytes <= PATCH_BYTES:
         return np.ascontiguousarray(flat[:, :, :data_bytes])
     reps = -(-data_bytes // PATCH_BYTES)

@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import hashlib
+
 import numpy as np
 import pytest
 from hypothesis import given
@@ -195,3 +197,101 @@ def test_contact_pattern_bad_arguments(kwargs: dict[str, int]) -> None:
     args = {"patches": 1, **kwargs}
     with pytest.raises(FieldRangeError):
         taxel.contact_pattern(**args)
+
+
+# --- streaming: chunks equal the whole -------------------------------------------------------------
+# sha256 of the arrays as the implementation before streaming (commit be6919d) produced them: the
+# shared implementation must keep every byte.
+PINNED = [
+    ("contact_pattern", (1, 1), {"seed": 0}, (1, 1, 16, 12),
+     "00764dec4d9b8907922dd622371f3553e233f3b2fd06b1de18c0dd8ac493fea3"),
+    ("contact_pattern", (7, 13), {"seed": 3}, (13, 7, 16, 12),
+     "11ae861dd9043525d6f5241b025c5ba4ba9a2dbf9611e2409b6c4c2514f4b7db"),
+    ("contact_pattern", (160, 40), {"seed": 2**32 - 1}, (40, 160, 16, 12),
+     "d3e4e68842d285a83ec9003e05298fb1917ee137d6cbdddd7088b3c6d230c8ea"),
+    ("contact_pattern", (5, 9), {"seed": 11, "contacts": 7, "no_load": 1, "triangles": 3},
+     (9, 5, 3, 12), "1d4e4aa2cbf9afe31d8dd7a493b0223e9fcf3268a8bf373b7daf74eff15aeb10"),
+    ("contact_pattern", (4, 6), {"seed": 8, "contacts": 0, "no_load": 255}, (6, 4, 16, 12),
+     "53d96871610a4ae412112373ee12dd68909ab13b7bf6f82a1dfa646836781ec8"),
+    ("sample_payloads", (3, 17, 100), {"seed": 4}, (17, 3, 100),
+     "c878fca552df1aa36e48ce4b1debeede526d0a4e7af73c6ea4788f7163362cc3"),
+    ("sample_payloads", (2, 5, 500), {"seed": 6}, (5, 2, 500),
+     "6511a5583d84c879a794d0cef289c6e04976ab0e03e173273686c2a825a4aa90"),
+    ("sample_payloads", (21, 30, 192), {"seed": 0}, (30, 21, 192),
+     "3939fc2d443f92d53a45d4e5dcbbeba5e7a79af6d516ad506ca47091f73a6ac0"),
+    ("sample_payloads", (6, 4, 0), {"seed": 1}, (4, 6, 0),
+     "e3b0c44298fc1c149afbf4c8996fb92427ae41e4649b934ca495991b7852b855"),
+]  # fmt: skip
+
+
+@pytest.mark.parametrize(("function", "args", "kwargs", "shape", "digest"), PINNED)
+def test_patterns_keep_their_bytes(
+    function: str,
+    args: tuple[int, ...],
+    kwargs: dict[str, int],
+    shape: tuple[int, ...],
+    digest: str,
+) -> None:
+    whole = getattr(taxel, function)(*args, **kwargs)
+    assert whole.shape == shape
+    assert hashlib.sha256(whole.tobytes()).hexdigest() == digest
+    iterate = (
+        taxel.iter_contact_pattern if function == "contact_pattern" else taxel.iter_sample_payloads
+    )
+    for chunk in (1, 2, 7):
+        pieces = list(iterate(*args, **kwargs, chunk=chunk))
+        assert hashlib.sha256(np.concatenate(pieces).tobytes()).hexdigest() == digest
+
+
+@pytest.mark.parametrize(
+    ("patches", "samples", "chunk", "seed", "data_bytes"),
+    [
+        (1, 1, 1, 0, 192),
+        (3, 10, 3, 1, 192),
+        (3, 10, 10, 1, 192),
+        (3, 10, 11, 1, 192),
+        (5, 33, 8, 2**32 - 1, 12),  # a partial patch (< 192)
+        (2, 20, 6, 7, 0),
+        (4, 25, 4, 9, 500),  # more than a patch (> 192): the patch repeated
+        (160, 12, 5, 3, 192),
+        (16, 300, 64, 5, 1490),
+    ],
+)
+def test_iter_sample_payloads_equals_sample_payloads(
+    patches: int, samples: int, chunk: int, seed: int, data_bytes: int
+) -> None:
+    whole = taxel.sample_payloads(patches, samples, data_bytes, seed=seed)
+    pieces = list(taxel.iter_sample_payloads(patches, samples, data_bytes, seed=seed, chunk=chunk))
+    sizes = [len(p) for p in pieces]
+    assert sizes == [chunk] * (samples // chunk) + ([samples % chunk] if samples % chunk else [])
+    assert all(p.dtype == np.uint8 and p.shape[1:] == (patches, data_bytes) for p in pieces)
+    assert np.concatenate(pieces).tobytes() == whole.tobytes()
+
+
+@given(
+    st.integers(1, 5),
+    st.integers(1, 12),
+    st.integers(1, 13),
+    st.integers(0, 2**32 - 1),
+    st.integers(0, 5),
+    st.sampled_from([0, 1, 2, 128, 253, 254, 255]),
+    st.integers(1, 16),
+)
+def test_iter_contact_pattern_equals_contact_pattern(
+    patches: int, samples: int, chunk: int, seed: int, contacts: int, no_load: int, triangles: int
+) -> None:
+    kwargs = {"seed": seed, "contacts": contacts, "no_load": no_load, "triangles": triangles}
+    whole = taxel.contact_pattern(patches, samples, **kwargs)  # type: ignore[arg-type]
+    pieces = taxel.iter_contact_pattern(patches, samples, chunk=chunk, **kwargs)  # type: ignore[arg-type]
+    assert np.concatenate(list(pieces)).tobytes() == whole.tobytes()
+
+
+def test_iterators_check_their_arguments_when_called() -> None:
+    with pytest.raises(FieldRangeError):
+        taxel.iter_sample_payloads(2, 3, 16, chunk=0)
+    with pytest.raises(FieldRangeError):
+        taxel.iter_sample_payloads(2, 3, -1)
+    with pytest.raises(FieldRangeError):
+        taxel.iter_contact_pattern(0, 3)
+    with pytest.raises(FieldRangeError):
+        taxel.iter_contact_pattern(1, 3, seed=2**32)
