@@ -35,7 +35,7 @@ from skinframes.errors import (
 from skinframes.taxel import NO_LOAD, TAXELS_PER_TRIANGLE, TRIANGLES_PER_PATCH
 
 
-# --- one board's sample, frame by frame ---------------------------------------------------------
+# --- one board's sample, frame by frame ----------------------------------------------------------
 def encode_board(
     board: int,
     taxels: npt.ArrayLike,

@@ -42,7 +42,7 @@ from skinframes.errors import (
 )
 from skinframes.taxel import TAXELS_PER_TRIANGLE, TRIANGLES_PER_PATCH
 
-# --- skin protocol constants (can.md 1.1-1.5) ------------------------------------------------------
+# --- skin protocol constants (can.md 1.1-1.5) ----------------------------------------------------
 SKIN_CLASS: Final = 4  # ICUBCANPROTO_CLASS_PERIODIC_SKIN, iCubCanProto_classes.h L53
 LEGACY_SKIN_CLASS: Final = 3  # ICUBCANPROTO_CLASS_PERIODIC_ANALOGSENSOR (legacy 0x4C config)
 MAX_CLASS: Final = 7  # 3-bit class field
@@ -77,7 +77,7 @@ class SensorError(IntFlag):
     NOT_CONNECTED = 2
 
 
-# --- construct schemas: the reference layout ------------------------------------------------------
+# --- construct schemas: the reference layout -----------------------------------------------------
 _head_schema = cs.Struct(
     "marker" / cs.Const(HEAD_MARKER, cs.Int8ub),
     "taxels" / cs.Array(HEAD_TAXELS, cs.Int8ub),  # P0..P6
@@ -93,7 +93,7 @@ _tail_schema = cs.Struct(
 )
 
 
-# --- identifiers -----------------------------------------------------------------------------------
+# --- identifiers ---------------------------------------------------------------------------------
 def skin_id(board: int, triangle: int, skin_class: int = SKIN_CLASS) -> int:
     """The 11-bit identifier ``class << 8 | board << 4 | triangle`` (board 1, triangle 0 -> 0x410).
 
@@ -151,7 +151,7 @@ def _taxel_tuple(values: Iterable[int], count: int, what: str) -> tuple[int, ...
     return out
 
 
-# --- messages --------------------------------------------------------------------------------------
+# --- messages ------------------------------------------------------------------------------------
 @dataclass(frozen=True, slots=True)
 class SkinFrame:
     """One skin CAN frame: the head (taxels 0-6) or the tail (taxels 7-11 + status) of a triangle.

@@ -9,7 +9,7 @@ from __future__ import annotations
 from enum import IntEnum, IntFlag
 from typing import Final
 
-# --- node ids (DS 301 4.2.5.1.1; openPOWERLINK oplkdefs.h) -----------------------------------------
+# --- node ids (DS 301 4.2.5.1.1; openPOWERLINK oplkdefs.h) ---------------------------------------
 MN_NODE_ID: Final = 240  # C_ADR_MN_DEF_NODE_ID
 BROADCAST_NODE_ID: Final = 255  # C_ADR_BROADCAST
 MIN_CN_NODE_ID: Final = 1

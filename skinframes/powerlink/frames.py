@@ -26,7 +26,7 @@ from skinframes.powerlink.messages import (
 )
 from skinframes.powerlink.schemas import HEADER_BYTES
 
-# --- MAC addresses (DS 301 4.2.5.1.1; openPOWERLINK oplkdefs.h) ------------------------------------
+# --- MAC addresses (DS 301 4.2.5.1.1; openPOWERLINK oplkdefs.h) ----------------------------------
 MAC_SOC: Final = bytes.fromhex("01111e000001")  # C_DLL_MULTICAST_SOC
 MAC_PRES: Final = bytes.fromhex("01111e000002")  # C_DLL_MULTICAST_PRES
 MAC_SOA: Final = bytes.fromhex("01111e000003")  # C_DLL_MULTICAST_SOA

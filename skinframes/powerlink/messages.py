@@ -1,11 +1,14 @@
 """The EPL messages (DS 301 4.6.1.1): SoC, PReq, PRes, SoA, ASnd and RawMessage.
 
-Each class writes its bytes in ``to_bytes`` and reads them in ``_decode``, and nowhere else: with
-its schema of record (:mod:`.schemas`), except the PRes, whose bytes :func:`pack_pres` writes with
-one ``struct`` call (tests prove it equal to ``pres_schema``). ``_decode`` takes the EPL bytes
-(the message plus any Ethernet padding) and returns the message and how many bytes it occupies;
-:func:`skinframes.powerlink.decode` picks the class by MessageType. The ASnd services are in
-:mod:`.services`.
+Each class writes its bytes in ``to_bytes`` and reads them in ``_decode``: SoC, PReq and SoA with
+their schemas of record (:mod:`.schemas`), ASnd's 4-byte header and RawMessage as plain bytes.
+The PRes, sent by every CN in every cycle, uses one ``struct`` call both ways (:func:`pack_pres`,
+``PRES_HEAD``; tests prove them equal to ``pres_schema``).
+
+``_decode`` takes the EPL bytes (the message plus any Ethernet padding) and returns the message
+and how many bytes it occupies; :func:`skinframes.powerlink.decode` picks the class by
+MessageType. The ASnd services are in :mod:`.services`; the numpy batch (:mod:`.batch`) copies a
+frame encoded here and writes only the columns that differ.
 """
 
 from __future__ import annotations
@@ -326,7 +329,7 @@ class RawMessage:
 EplMessage = SoC | PReq | PRes | SoA | ASnd | RawMessage
 
 
-# --- helpers of the encoders and decoders --------------------------------------------------
+# --- helpers of the encoders and decoders --------------------------------------------------------
 def check_node(name: str, value: int) -> None:
     """Raise :class:`FieldRangeError` when a node id does not fit its byte."""
     if not 0 <= value <= 0xFF:

@@ -94,7 +94,7 @@ soa_schema = cs.Struct(
     "sync_request" / cs.If(cs.this.requested_service == 6, cs.Bytes(SYNC_REQUEST_BYTES)),
 )
 
-# --- ASnd services: the bytes after the 4-byte ASnd header -----------------------------------------
+# --- ASnd services: the bytes after the 4-byte ASnd header ---------------------------------------
 ident_response_schema = cs.Struct(
     "flags1" / cs.Int8ul,  # EN 0x10, EC 0x08
     "flags2" / cs.Int8ul,  # PR, RS
@@ -175,7 +175,7 @@ sync_response_schema = cs.Struct(
 )
 
 
-# --- between schemas and dataclasses (the field names are the same)  -------------------------------
+# --- between schemas and dataclasses (the field names are the same) ------------------------------
 def init_kwargs(cls: type[Any], container: Any, skip: tuple[str, ...] = ()) -> dict[str, Any]:
     """Dataclass keyword arguments from a parsed construct container (same names)."""
     names = {f.name for f in fields(cls) if f.init}

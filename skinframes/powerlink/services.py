@@ -1,7 +1,8 @@
 """The ASnd services (DS 301 7.3, 6.3.2; DS 302-B): the bytes after the 4-byte ASnd header.
 
 Each service class writes its bytes in ``to_bytes`` and reads them in ``_decode``, both with its
-schema of record (:mod:`.schemas`). :func:`decode_service` picks the class for a ServiceID.
+schema of record (:mod:`.schemas`); NMTRequest and NMTCommand (two command bytes, then data) by
+hand, RawService as plain bytes. :func:`decode_service` picks the class for a ServiceID.
 """
 
 from __future__ import annotations
