@@ -207,7 +207,12 @@ sdo_commands = st.builds(
     flags_reserved=st.integers(0, 15),
     reserved_8=u8,
     reserved_14=u16,
-).filter(lambda c: c.command_id != 0 or c.abort)  # else Wireshark and we see no command layer
+).filter(
+    # command 0 without abort: Wireshark and we see no command layer; 0x31/0x32 (multiple
+    # parameter read/write) are checked entry by entry and have tests of their own: random data
+    # that is not a whole number of entries rightly gets a finding, which a round trip forbids
+    lambda c: (c.command_id != 0 or c.abort) and c.command_id not in (0x31, 0x32)
+)
 sdos = st.builds(
     Sdo,
     receive_sequence=st.integers(0, 63),
