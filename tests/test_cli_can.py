@@ -15,7 +15,7 @@ import pytest
 
 from skinframes.canbus import CanFrame, TimedSample, TriangleSample, sample_frames
 from skinframes.cantrace import write_trace
-from skinframes.cli import main
+from skinframes_cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLE_KEYS = {"time_ns", "board", "triangle", "taxels", "error", "out_of_range"}

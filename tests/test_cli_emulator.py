@@ -9,7 +9,7 @@ import pytest
 from data.paper_tables import PAPER_TABLES
 
 from skinframes import read_capture
-from skinframes.cli import main
+from skinframes_cli import main
 
 
 def run_json(capsys: pytest.CaptureFixture[str], *argv: str) -> dict:

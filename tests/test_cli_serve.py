@@ -5,15 +5,10 @@ from __future__ import annotations
 
 import errno
 import socket
-import subprocess
-import sys
-from pathlib import Path
 
 import pytest
 
-from skinframes.cli import main
-
-ROOT = Path(__file__).resolve().parent.parent
+from skinframes_cli import main
 
 
 class FakeSocket:
@@ -63,11 +58,3 @@ def test_link_problems_are_one_error_line(
 def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str]) -> None:
     assert main(["serve", "ecat", "--iface", "lo", *args]) == 2
     assert capsys.readouterr().err.startswith("skinframes: error: --")
-
-
-def test_cli_imports_the_emulator_only_when_serving() -> None:
-    code = "import sys, skinframes.cli.serve; print('emulator' in sys.modules)"
-    out = subprocess.run(
-        [sys.executable, "-c", code], cwd=ROOT, capture_output=True, text=True, check=True
-    )
-    assert out.stdout.strip() == "False"

@@ -7,7 +7,7 @@ import json
 import sys
 from typing import Any
 
-from skinframes.cli.options import int_list
+from skinframes_cli.options import int_list
 
 TITLES = {
     "epl": "Table I: Ethernet POWERLINK cycle time [us]",

@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     """Emulate, write and report."""
     from emulator.model import simulate
     from emulator.params import PRESETS
-    from skinframes.cli.plot import make_plot
+    from skinframes_cli.plot import make_plot
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -100,7 +100,7 @@ def _can_comparison(out: Path) -> list[tuple[Path, str]]:
     from emulator.params import WIRE
     from skinframes.canbus import DEFAULT_PERIOD_MS, MAX_BOARD
     from skinframes.cantrace import read_trace, write_trace
-    from skinframes.cli.compare import plot, print_table
+    from skinframes_cli.compare import plot, print_table
 
     taxels = taxel.contact_pattern(len(CAN_BOARDS), CAN_SAMPLES, seed=2)
     frames, _ = skin_bus(CAN_BOARDS, taxels, DEFAULT_PERIOD_MS * 1_000_000_000)
