@@ -6,6 +6,11 @@ import argparse
 import json
 from typing import Any
 
+from emulator.params import PRESETS, preset
+from emulator.plan import plan
+
+NAMES = {"epl": "EPL", "ecat": "EtherCAT open ring", "ecat_redundant": "EtherCAT closed ring"}
+
 
 def add_parser(sub: Any) -> None:
     """Register the subcommand."""
@@ -19,7 +24,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--bytes", type=int, required=True)
     p.add_argument(
         "--preset",
-        choices=["paper", "wire"],
+        choices=list(PRESETS),
         default="wire",
         help="timing constants (default: wire)",
     )
@@ -27,66 +32,22 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(run=run)
 
 
-def plan(nodes: int, data_bytes: int, preset_name: str) -> dict[str, Any]:
-    """The plan document (also the JSON output)."""
-    from emulator.model import simulate, validate
-    from emulator.params import preset
-    from emulator.trace import CycleTrace
-
-    params = preset(preset_name)
-    limit_us = nodes * data_bytes * params.byte_ps / 1e6
-    doc: dict[str, Any] = {
-        "nodes": nodes,
-        "bytes": data_bytes,
-        "preset": preset_name,
-        "limit_us": limit_us,
-    }
-    for table, layouts in (
-        ("epl", ("per-slave",)),
-        ("ecat", ("per-slave", "logical")),
-        ("ecat_redundant", ("per-slave", "logical")),
-    ):
-        validate(table, nodes, data_bytes)
-        options: list[dict[str, Any]] = []
-        for layout in layouts:
-            r = simulate(table, nodes, data_bytes, params, layout=layout, cycles=1)
-            assert isinstance(r.trace, CycleTrace)  # fault-free runs keep the per-cycle layout
-            options.append(
-                {
-                    "layout": layout,
-                    "cycle_us": r.cycle_us()["median"],
-                    "frames_per_cycle": r.trace.frames_sent_per_cycle
-                    if table != "epl"
-                    else r.frames // r.cycles,
-                }
-            )
-        best = min(options, key=lambda o: float(o["cycle_us"]))
-        doc[table] = {
-            **best,
-            "overhead_us": best["cycle_us"] - limit_us,
-            "efficiency": limit_us / best["cycle_us"],
-            "alternatives": options,
-        }
-    return doc
-
-
 def run(args: argparse.Namespace) -> int:
     """Print the plan."""
-    doc = plan(args.nodes, args.bytes, args.preset)
+    result = plan(args.nodes, args.bytes, preset(args.preset))
     if args.json:
-        print(json.dumps(doc, indent=2))
+        print(json.dumps(result.to_json(), indent=2))
         return 0
     print(
         f"{args.nodes} nodes x {args.bytes} bytes, preset {args.preset}: physical limit "
-        f"{doc['limit_us']:.2f} us (N x B bytes at 100 Mbit/s)"
+        f"{result.limit_us:.2f} us (N x B bytes at 100 Mbit/s)"
     )
-    names = {"epl": "EPL", "ecat": "EtherCAT open ring", "ecat_redundant": "EtherCAT closed ring"}
-    for table, name in names.items():
-        d = doc[table]
-        others = ", ".join(f"{o['layout']} {o['cycle_us']:.2f} us" for o in d["alternatives"])
+    for table, network in result.networks.items():
+        best = network.best
+        others = ", ".join(f"{o.layout} {o.cycle_us:.2f} us" for o in network.alternatives)
         print(
-            f"  {name:<22} best {d['layout']:<9} {d['cycle_us']:>10.2f} us "
-            f"({d['frames_per_cycle']} frames per cycle, {100 * d['efficiency']:.1f} % of the limit)"
-            f"   [{others}]"
+            f"  {NAMES[table]:<22} best {best.layout:<9} {best.cycle_us:>10.2f} us "
+            f"({best.frames_per_cycle} frames per cycle, {100 * network.efficiency:.1f} % of the "
+            f"limit)   [{others}]"
         )
     return 0
