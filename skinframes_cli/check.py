@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.add_argument(
         "--min-severity",
-        choices=["info", "warning", "error"],
+        choices=[str(s) for s in Severity],
         default="info",
         help="hide findings below this severity in the listing (default: info)",
     )

@@ -24,8 +24,8 @@ def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
         "demo",
-        help="the main job: a 160-patch skin over EPL and EtherCAT",
-        description="Emulate a 160-patch skin (192 bytes each) over EPL, EtherCAT "
+        help=f"the main job: a {NODES}-patch skin over EPL and EtherCAT",
+        description=f"Emulate a {NODES}-patch skin ({BYTES} bytes each) over EPL, EtherCAT "
         "open ring and closed ring with both timing presets; write the pcaps, a "
         "plot and the reference captures under DIR; print the cycle times.",
     )

@@ -6,6 +6,8 @@ import argparse
 import json
 from typing import Any
 
+from emulator.ecat_cycle import LAYOUTS
+from emulator.params import PRESETS
 from skinframes.errors import SkinframesError
 
 
@@ -22,10 +24,10 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--nodes", type=int, required=True, help="CNs / slaves (patches)")
     p.add_argument("--bytes", type=int, required=True, help="taxel bytes per node (192 = a patch)")
     p.add_argument("--redundant", action="store_true", help="EtherCAT closed ring (Table III)")
-    p.add_argument("--preset", choices=["paper", "wire"], default="paper")
+    p.add_argument("--preset", choices=list(PRESETS), default="paper")
     p.add_argument(
         "--layout",
-        choices=["per-slave", "logical"],
+        choices=list(LAYOUTS),
         default="per-slave",
         help="EtherCAT: one LRD per slave (paper) or a contiguous logical image",
     )

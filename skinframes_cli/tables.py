@@ -7,6 +7,8 @@ import json
 import sys
 from typing import Any
 
+from emulator.model import MODELS
+from emulator.params import PRESETS
 from skinframes_cli.options import int_list
 
 TITLES = {
@@ -27,13 +29,13 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--model",
-        choices=["analytic", "emulated"],
+        choices=list(MODELS),
         default="analytic",
         help="the paper's formulas, or the frame-level emulator (default: analytic)",
     )
     p.add_argument(
         "--preset",
-        choices=["paper", "wire"],
+        choices=list(PRESETS),
         default="paper",
         help="timing constants (default: paper)",
     )

@@ -47,14 +47,18 @@ def test_link_problems_are_one_error_line(
 
 
 @pytest.mark.parametrize(
-    "args",
+    ("args", "message"),
     [
-        ["--nodes", "0", "--bytes", "16"],
-        ["--nodes", "1025", "--bytes", "16"],
-        ["--nodes", "2", "--bytes", "1487"],
-        ["--nodes", "2", "--bytes", "16", "--period-ms", "0"],
+        (["--nodes", "0", "--bytes", "16"], "served EtherCAT chain: 0 slaves (1..1024)"),
+        (["--nodes", "1025", "--bytes", "16"], "served EtherCAT chain: 1025 slaves (1..1024)"),
+        (["--nodes", "2", "--bytes", "1487"], "EtherCAT: 1487 bytes per slave (1..1486)"),
+        (["--nodes", "2", "--bytes", "16", "--samples", "0"], "taxel feed: 0 samples"),
+        (["--nodes", "2", "--bytes", "16", "--period-ms", "0"], "taxel feed: a period of 0.0 s"),
     ],
 )
-def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str]) -> None:
+def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
+    """The limits are emulator.limits.check_served_ecat's; the check runs before any socket."""
     assert main(["serve", "ecat", "--iface", "lo", *args]) == 2
-    assert capsys.readouterr().err.startswith("skinframes: error: --")
+    err = capsys.readouterr().err
+    assert err.startswith(f"skinframes: error: {message}")
+    assert err.count("\n") == 1
