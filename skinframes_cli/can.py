@@ -6,7 +6,7 @@ and ``set_defaults(run=...)``), listed explicitly in :data:`SUBCOMMANDS`, as the
 
 ``skinframes can decode TRACE [--json]``: JSON Lines, one object per (board, triangle) sample
 ``{"time_ns", "board", "triangle", "taxels", "error", "out_of_range"}``; frames that are not skin
-data are counted on stderr (INTERFACE.md).
+data are counted on stderr (docs/interface.md).
 """
 
 from __future__ import annotations

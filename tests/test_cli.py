@@ -1,4 +1,4 @@
-"""The ``skinframes`` command line as INTERFACE.md promises it.
+"""The ``skinframes`` command line as docs/interface.md promises it.
 
 Exit 0 ok, 1 ``check`` found an error, 2 bad input or usage: then exactly one stderr line starting
 with ``skinframes: error:`` and no traceback (unless ``--debug``). Results on stdout, diagnostics on

@@ -1,4 +1,4 @@
-"""The cycle-time commands: tables, simulate, plan, plot, demo (INTERFACE.md shapes)."""
+"""The cycle-time commands: tables, simulate, plan, plot, demo (docs/interface.md shapes)."""
 
 from __future__ import annotations
 
