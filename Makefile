@@ -30,7 +30,7 @@ test: $(STAMP) tshark
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 lint: $(STAMP)
-	$(BIN)/ruff check skinframes emulator tests benchmarks
+	$(BIN)/ruff check skinframes emulator skinframes_cli tests benchmarks
 	$(BIN)/mypy
 
 bench: $(STAMP)

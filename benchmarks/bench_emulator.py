@@ -28,7 +28,7 @@ ROOT = Path(__file__).resolve().parent.parent
 NODES, BYTES = "160", "192"
 CHILD = """
 import resource, sys, time
-from skinframes.cli import main
+from skinframes_cli import main
 t = time.perf_counter()
 code = main(sys.argv[1:])
 wall = time.perf_counter() - t

@@ -24,7 +24,7 @@ import numpy.typing as npt
 
 from emulator.can_bus import BusFrame, arbitrate, bit_time_ps
 from emulator.errors import TopologyError
-from emulator.limits import MAX_SLAVES
+from emulator.limits import MAX_EMULATED_SLAVES
 from emulator.net import simulate_ecat, simulate_epl
 from emulator.params import TimingParams
 from emulator.result import SimResult
@@ -191,7 +191,7 @@ def compare(s: SkinSamples, params: TimingParams) -> dict[str, Any]:
     }
     for name, r, fits, hi, outbound_only in (
         ("epl", epl, epl_fits, powerlink.MAX_CN_NODE_ID, False),
-        ("ecat", ecat, ecat_fits, min(MAX_SLAVES, 4096), True),
+        ("ecat", ecat, ecat_fits, MAX_EMULATED_SLAVES, True),
     ):
         cycle = r.cycle_us()["median"]
         doc[name] = {

@@ -7,9 +7,23 @@ from typing import Final
 from emulator.errors import TopologyError
 from skinframes import ethercat, powerlink
 
-__all__ = ["MAX_SLAVES", "check_cycles", "check_ecat", "check_epl"]
+__all__ = [
+    "MAX_EMULATED_SLAVES",
+    "MAX_SERVED_SLAVES",
+    "MAX_SLAVES",
+    "check_cycles",
+    "check_ecat",
+    "check_emulated_ecat",
+    "check_epl",
+    "check_served_ecat",
+]
 
 MAX_SLAVES: Final = 0xFFFF  # EtherCAT: 16-bit position addresses (ETG.1000.4)
+# An emulated chain (``simulate``, ``serve``): each emulated ESC is the register-level model with
+# its own 64 KiB address space, and the engine asks each one about each frame once: the bound is
+# memory and set-up time (about 2 s at 1024 slaves), not the protocol.
+MAX_EMULATED_SLAVES: Final = 1024
+MAX_SERVED_SLAVES: Final = MAX_EMULATED_SLAVES
 
 
 def check_epl(nodes: int, data_bytes: int) -> None:
@@ -29,6 +43,28 @@ def check_ecat(nodes: int, data_bytes: int) -> None:
     if not 1 <= data_bytes <= ethercat.MAX_DATAGRAM_DATA_BYTES:
         raise TopologyError(
             f"EtherCAT: {data_bytes} bytes per slave (1..{ethercat.MAX_DATAGRAM_DATA_BYTES})"
+        )
+
+
+def check_served_ecat(nodes: int, data_bytes: int, samples: int, period_s: float) -> None:
+    """A chain served on a live link: 1..1024 slaves of 1..1486 bytes, fed >= 1 taxel samples
+    at a period > 0 s."""
+    if not 1 <= nodes <= MAX_SERVED_SLAVES:
+        raise TopologyError(f"served EtherCAT chain: {nodes} slaves (1..{MAX_SERVED_SLAVES})")
+    check_ecat(nodes, data_bytes)
+    if samples < 1:
+        raise TopologyError(f"taxel feed: {samples} samples (at least 1)")
+    if not period_s > 0:
+        raise TopologyError(f"taxel feed: a period of {period_s} s (more than 0)")
+
+
+def check_emulated_ecat(nodes: int, data_bytes: int) -> None:
+    """An emulated EtherCAT chain: 1..1024 slaves of 1..1486 bytes."""
+    check_ecat(nodes, data_bytes)
+    if nodes > MAX_EMULATED_SLAVES:
+        raise TopologyError(
+            f"emulated EtherCAT chain: {nodes} slaves (1..{MAX_EMULATED_SLAVES}; the analytic "
+            "model takes up to 65535)"
         )
 
 

@@ -8,8 +8,18 @@ from __future__ import annotations
 
 from typing import Final
 
+from skinframes import powerlink
+
 BYTES: Final = (2, 32, 128, 256)
 NODES: Final = (130, 140, 150, 160, 170, 180, 190, 200)
+# The x-axis of Figs. 9-11: the paper's "maximum of 240 nodes" (II-A); EPL stops at its 239 CNs
+# (node 240 is the MN).
+PAPER_MAX_NODES: Final = 240
+FIGURE_MAX_NODES: Final = {
+    "epl": powerlink.MAX_CN_NODE_ID,
+    "ecat": PAPER_MAX_NODES,
+    "ecat_redundant": PAPER_MAX_NODES,
+}
 _ROWS: Final = {
     "epl": (
         (6967.65, 6967.65, 7924.45, 9255.65),

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
+from typing import Any
 
 from skinframes import powerlink
 from skinframes.dispatch import decode_frame, protocol_of
@@ -49,6 +50,25 @@ class CaptureReport:
     def warnings(self) -> int:
         """Number of WARNING findings."""
         return sum(f.finding.severity == Severity.WARNING for f in self.findings)
+
+    def at_least(self, floor: Severity) -> list[FrameFinding]:
+        """The findings of severity ``floor`` or worse, in capture order."""
+        return [f for f in self.findings if f.finding.severity >= floor]
+
+    def to_json(self, floor: Severity = Severity.INFO) -> dict[str, Any]:
+        """The ``skinframes check --json`` document.
+
+        ``findings`` lists those of severity ``floor`` or worse; ``errors`` and ``warnings``
+        count all of them.
+        """
+        return {
+            "path": self.path,
+            "records": self.total,
+            "counts": dict(self.counts),
+            "errors": self.errors,
+            "warnings": self.warnings,
+            "findings": [{"index": f.index, **f.finding.to_json()} for f in self.at_least(floor)],
+        }
 
 
 def _is_cn(node: int) -> bool:

@@ -1,4 +1,4 @@
-"""Human and JSON views of decoded frames, used by ``skinframes decode`` and ``check``.
+"""Human and JSON views of decoded frames and capture records, used by ``skinframes decode``.
 
 Field names in the JSON are skinframes' (snake_case spec names); ``tests/conformance/fields.py``
 maps them to tshark's.
@@ -10,9 +10,12 @@ from enum import IntEnum
 from typing import Any
 
 from skinframes import ethercat, ethernet, powerlink
-from skinframes.dispatch import protocol_of
+from skinframes.canwire import CanFrame
+from skinframes.dispatch import decode_frame, protocol_of
+from skinframes.errors import DecodeError, TruncatedError
+from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, Record
 
-__all__ = ["frame_fields", "summary"]
+__all__ = ["describe_record", "frame_fields", "summary"]
 
 
 def _name(value: int, enum: type[IntEnum]) -> str:
@@ -120,3 +123,59 @@ def summary(frame: ethernet.EthernetFrame) -> str:
     if "service" in f:
         text += f" ({f['service']})"
     return text
+
+
+def describe_record(rec: Record) -> tuple[dict[str, Any], str]:
+    """One capture record as the ``decode --json`` object and the text of its ``decode`` line.
+
+    The object: ``index``, ``time_ns``, ``length``, ``protocol`` (``epl``, ``ecat``, ``can``,
+    ``other``), the protocol's fields, and ``findings``. Ethernet frames are decoded in capture
+    mode; one too short for its header is ``other`` with an ``eth.truncated`` error finding.
+    """
+    obj: dict[str, Any] = {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
+    if rec.linktype == LINKTYPE_CAN_SOCKETCAN:
+        fields, text = _can_fields(rec.data)
+        obj.update(protocol="can", linktype=rec.linktype, **fields)
+    elif rec.linktype != LINKTYPE_ETHERNET:
+        obj.update(protocol="other", linktype=rec.linktype, findings=[])
+        text = f"linktype {rec.linktype}, {len(rec.data)} bytes"
+    else:
+        try:
+            frame = decode_frame(rec.data)
+        except DecodeError as exc:
+            obj.update(
+                protocol="other",
+                findings=[{"severity": "error", "code": "eth.truncated", "message": str(exc)}],
+            )
+            text = str(exc)
+        else:
+            obj["protocol"] = protocol_of(frame)
+            obj.update(frame_fields(frame))
+            obj["findings"] = [f.to_json() for f in frame.findings]
+            text = summary(frame)
+    return obj, text
+
+
+def _can_fields(data: bytes) -> tuple[dict[str, Any], str]:
+    """JSON fields and a text line for a SocketCAN record (LINKTYPE 227)."""
+    try:
+        f = CanFrame.from_socketcan(data)
+    except DecodeError as exc:
+        code = "can.truncated" if isinstance(exc, TruncatedError) else "can.invalid"
+        return {"findings": [{"severity": "error", "code": code, "message": str(exc)}]}, str(exc)
+    bits = None if f.error or f.fd else f.bits()
+    fields = {
+        "can_id": f.arbitration_id,
+        "extended": f.extended,
+        "remote": f.remote,
+        "error_frame": f.error,
+        "fd": f.fd,
+        "dlc": f.dlc_field,
+        "data": f.data.hex(),
+        "wire_bits": bits,
+        "findings": [],
+    }
+    kind = "error frame" if f.error else "remote" if f.remote else "FD" if f.fd else "data"
+    ident = f"{f.arbitration_id:08x}" if f.extended else f"{f.arbitration_id:03x}"
+    text = f"CAN {ident} {kind} [{f.dlc_field}] {f.data.hex(' ')}".rstrip()
+    return fields, text

@@ -1,4 +1,4 @@
-"""The ``skinframes`` command line as INTERFACE.md promises it.
+"""The ``skinframes`` command line as docs/interface.md promises it.
 
 Exit 0 ok, 1 ``check`` found an error, 2 bad input or usage: then exactly one stderr line starting
 with ``skinframes: error:`` and no traceback (unless ``--debug``). Results on stdout, diagnostics on
@@ -21,10 +21,10 @@ from pathlib import Path
 import pytest
 
 from skinframes import powerlink
-from skinframes.cli import build_parser, main
 from skinframes.errors import PcapFormatError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, pcap_bytes
 from skinframes.powerlink import PReq, PRes, SoA, SoC
+from skinframes_cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parent.parent
 PCAPS = ROOT / "pcaps"

@@ -1,4 +1,4 @@
-"""``skinframes can decode`` and the CAN records of ``skinframes decode`` (INTERFACE.md).
+"""``skinframes can decode`` and the CAN records of ``skinframes decode`` (docs/interface.md).
 
 Expected values: the samples we put into the traces, the frame counts of the third-party logs
 (can.md 3), and hand computation (a data frame of id 0 and DLC 0 is 47 + 6 stuff bits = 53).
@@ -15,7 +15,7 @@ import pytest
 
 from skinframes.canbus import CanFrame, TimedSample, TriangleSample, sample_frames
 from skinframes.cantrace import write_trace
-from skinframes.cli import main
+from skinframes_cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
 SAMPLE_KEYS = {"time_ns", "board", "triangle", "taxels", "error", "out_of_range"}

@@ -12,7 +12,7 @@ from emulator.can_bus import skin_bus
 from skinframes import decode_frame, ethercat, powerlink, read_capture, taxel
 from skinframes.cantrace import write_trace
 from skinframes.canwire import frame_bits
-from skinframes.cli import main
+from skinframes_cli import main
 
 BOARDS = [8, 9, 10]
 SAMPLES = 3

@@ -1,4 +1,4 @@
-"""The cycle-time commands: tables, simulate, plan, plot, demo (INTERFACE.md shapes)."""
+"""The cycle-time commands: tables, simulate, plan, plot, demo (docs/interface.md shapes)."""
 
 from __future__ import annotations
 
@@ -9,7 +9,7 @@ import pytest
 from data.paper_tables import PAPER_TABLES
 
 from skinframes import read_capture
-from skinframes.cli import main
+from skinframes_cli import main
 
 
 def run_json(capsys: pytest.CaptureFixture[str], *argv: str) -> dict:

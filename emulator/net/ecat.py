@@ -38,7 +38,7 @@ import numpy.typing as npt
 from emulator.ecat_chain import EcatChain, FrameEffect
 from emulator.errors import TopologyError
 from emulator.faults import Fault, check_faults
-from emulator.limits import check_ecat
+from emulator.limits import check_ecat, check_emulated_ecat
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
 from emulator.params import TimingParams
 from emulator.units import PS_PER_US
@@ -143,6 +143,7 @@ class EcatEngine:
         faults: tuple[Fault, ...] = (),
         seed: int = 0,
     ) -> None:
+        check_emulated_ecat(nodes, data_bytes)
         self.sent = frames_for(nodes, data_bytes, layout)
         self.nodes, self.data_bytes, self.params = nodes, data_bytes, params
         self.closed_ring, self.layout = closed_ring, layout

@@ -179,7 +179,7 @@ def test_faults_naming_missing_links_or_nodes() -> None:
 
 
 def test_fault_help_and_cli(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
-    from skinframes.cli import main
+    from skinframes_cli import main
 
     assert main(["simulate", "ecat", "--nodes", "4", "--bytes", "8", "--fault", "help"]) == 0
     assert "cable:K@C" in capsys.readouterr().out

@@ -297,6 +297,24 @@ def test_two_asnd_after_one_soa_is_only_information() -> None:
     assert found(report) == [(3, "epl.cycle.asnd_count")]
 
 
+def test_json_document_lists_findings_from_a_severity_on_and_counts_them_all() -> None:
+    frames = [epl(SoC()), epl(PReq(1)), epl(PRes(2)), epl(SoA())]
+    frames += [epl(ASnd(StatusResponse(), src=1)), epl(ASnd(StatusResponse(), src=2))]
+    report = check(frames)
+    doc = report.to_json()
+    assert list(doc) == ["path", "records", "counts", "errors", "warnings", "findings"]
+    assert (doc["path"], doc["records"], doc["counts"]) == ("hand-built", 6, {"epl": 6})
+    assert (doc["errors"], doc["warnings"]) == (0, 1)
+    assert [(f["index"], f["severity"], f["code"]) for f in doc["findings"]] == [
+        (2, "warning", "epl.cycle.unpolled"),
+        (5, "info", "epl.cycle.asnd_count"),
+    ]
+    only = report.to_json(Severity.WARNING)
+    assert [f["code"] for f in only["findings"]] == ["epl.cycle.unpolled"]
+    assert only["warnings"] == 1  # the counts are of every finding
+    assert report.at_least(Severity.ERROR) == []
+
+
 def test_before_the_first_soc_nothing_is_judged() -> None:
     # a capture may start anywhere in a cycle
     report = check([epl(PRes(1)), epl(ASnd(StatusResponse(), src=1)), epl(SoC())])

@@ -5,9 +5,14 @@ from __future__ import annotations
 import argparse
 import json
 import sys
+from collections.abc import Callable, Iterable
 from typing import Any
 
-from skinframes.cli.options import int_list
+from emulator.model import MODELS
+from emulator.paper_tables import paper_value
+from emulator.params import PRESETS, preset
+from emulator.tables import Cell, cycle_tables
+from skinframes_cli.options import int_list
 
 TITLES = {
     "epl": "Table I: Ethernet POWERLINK cycle time [us]",
@@ -27,13 +32,13 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--model",
-        choices=["analytic", "emulated"],
+        choices=list(MODELS),
         default="analytic",
         help="the paper's formulas, or the frame-level emulator (default: analytic)",
     )
     p.add_argument(
         "--preset",
-        choices=["paper", "wire"],
+        choices=list(PRESETS),
         default="paper",
         help="timing constants (default: paper)",
     )
@@ -53,29 +58,23 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(run=run)
 
 
-def compute(model: str, preset: str, nodes: list[int], sizes: list[int]) -> dict[str, Any]:
-    """The JSON document of INTERFACE.md for these parameters."""
-    from tqdm import tqdm
+def _progress(model: str) -> Callable[[list[Cell]], Iterable[Cell]]:
+    """A progress bar on a terminal when emulating many cells."""
 
-    from emulator.model import TABLES, cycle_us
-    from emulator.params import preset as get_preset
+    def wrap(cells: list[Cell]) -> Iterable[Cell]:
+        from tqdm import tqdm
 
-    params = get_preset(preset)
-    doc: dict[str, Any] = {"model": model, "preset": preset, "unit": "us"}
-    cells = [(t, n, b) for t in TABLES for n in nodes for b in sizes]
-    show = model == "emulated" and len(cells) > 50 and sys.stderr.isatty()
-    for table in TABLES:
-        doc[table] = {str(n): {} for n in nodes}
-    for table, n, b in tqdm(cells, desc="cycles", unit="cell", disable=not show):
-        doc[table][str(n)][str(b)] = round(cycle_us(table, n, b, params, model), 6)
-    return doc
+        show = model == "emulated" and len(cells) > 50 and sys.stderr.isatty()
+        return tqdm(cells, desc="cycles", unit="cell", disable=not show)
+
+    return wrap
 
 
 def run(args: argparse.Namespace) -> int:
     """Print the tables."""
-    from emulator.paper_tables import paper_value
-
-    doc = compute(args.model, args.preset, args.nodes, args.bytes)
+    doc = cycle_tables(
+        args.model, preset(args.preset), args.nodes, args.bytes, progress=_progress(args.model)
+    )
     if args.json:
         print(json.dumps(doc, indent=2))
         return 0

@@ -24,8 +24,8 @@ def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
         "demo",
-        help="the main job: a 160-patch skin over EPL and EtherCAT",
-        description="Emulate a 160-patch skin (192 bytes each) over EPL, EtherCAT "
+        help=f"the main job: a {NODES}-patch skin over EPL and EtherCAT",
+        description=f"Emulate a {NODES}-patch skin ({BYTES} bytes each) over EPL, EtherCAT "
         "open ring and closed ring with both timing presets; write the pcaps, a "
         "plot and the reference captures under DIR; print the cycle times.",
     )
@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     """Emulate, write and report."""
     from emulator.model import simulate
     from emulator.params import PRESETS
-    from skinframes.cli.plot import make_plot
+    from skinframes_cli.plot import make_plot
 
     out = Path(args.out)
     out.mkdir(parents=True, exist_ok=True)
@@ -98,7 +98,7 @@ def _can_comparison(out: Path) -> list[tuple[Path, str]]:
     from emulator.params import WIRE
     from skinframes.canbus import DEFAULT_PERIOD_MS, MAX_BOARD
     from skinframes.cantrace import read_trace, write_trace
-    from skinframes.cli.compare import plot, print_table
+    from skinframes_cli.compare import plot, print_table
 
     taxels = taxel.contact_pattern(len(CAN_BOARDS), CAN_SAMPLES, seed=2)
     frames, _ = skin_bus(CAN_BOARDS, taxels, DEFAULT_PERIOD_MS * 1_000_000_000)

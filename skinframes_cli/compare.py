@@ -7,6 +7,8 @@ import json
 from pathlib import Path
 from typing import Any
 
+from emulator.params import PRESETS
+from skinframes import taxel
 from skinframes.errors import SkinframesError
 
 ROWS = (
@@ -24,13 +26,13 @@ def add_parser(sub: Any) -> None:
         help="a CAN trace's taxels on CAN vs EPL vs EtherCAT, side by side",
         description="Read a skin CAN trace (any python-can format or a SocketCAN pcap) and report, "
         "for its boards and samples, the cycle time, bus load and wire bytes per sample on the "
-        "CAN bus (as recorded and as re-emulated), EPL and EtherCAT, and how many 192-byte "
-        "patches each bus serves within 1 ms and 5 ms.",
+        "CAN bus (as recorded and as re-emulated), EPL and EtherCAT, and how many "
+        f"{taxel.PATCH_BYTES}-byte patches each bus serves within 1 ms and 5 ms.",
     )
     p.add_argument("trace", help="CAN trace (.log .asc .blf .trc .csv, or a SocketCAN pcap)")
     p.add_argument(
         "--preset",
-        choices=["paper", "wire"],
+        choices=list(PRESETS),
         default="wire",
         help="Ethernet timing constants (default: wire)",
     )

@@ -6,7 +6,7 @@ and ``set_defaults(run=...)``), listed explicitly in :data:`SUBCOMMANDS`, as the
 
 ``skinframes can decode TRACE [--json]``: JSON Lines, one object per (board, triangle) sample
 ``{"time_ns", "board", "triangle", "taxels", "error", "out_of_range"}``; frames that are not skin
-data are counted on stderr (INTERFACE.md).
+data are counted on stderr (docs/interface.md).
 """
 
 from __future__ import annotations
@@ -19,8 +19,8 @@ from typing import Any, Final
 
 from skinframes.canbus import LEGACY_SKIN_CLASS, SKIN_CLASS, FrameCounts
 from skinframes.cantrace import PCAP_SUFFIXES, TRACE_SUFFIXES, Trace, read_trace
-from skinframes.cli.can_convert import add_convert
-from skinframes.cli.options import int_list
+from skinframes_cli.can_convert import add_convert
+from skinframes_cli.options import int_list
 
 __all__ = ["SUBCOMMANDS", "add_decode", "add_parser"]
 

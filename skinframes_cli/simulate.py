@@ -7,8 +7,10 @@ import json
 import math
 from typing import Any
 
-from skinframes.cli.progress import progress_bar
+from emulator.net.ecat import LAYOUTS
+from emulator.params import PRESETS
 from skinframes.errors import SkinframesError
+from skinframes_cli.progress import progress_bar
 
 
 def add_parser(sub: Any) -> None:
@@ -24,10 +26,10 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--nodes", type=int, required=True, help="CNs / slaves (patches)")
     p.add_argument("--bytes", type=int, required=True, help="taxel bytes per node (192 = a patch)")
     p.add_argument("--redundant", action="store_true", help="EtherCAT closed ring (Table III)")
-    p.add_argument("--preset", choices=["paper", "wire"], default="paper")
+    p.add_argument("--preset", choices=list(PRESETS), default="paper")
     p.add_argument(
         "--layout",
-        choices=["per-slave", "logical"],
+        choices=list(LAYOUTS),
         default="per-slave",
         help="EtherCAT: one LRD per slave (paper) or a contiguous logical image",
     )

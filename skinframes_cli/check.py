@@ -25,7 +25,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.add_argument(
         "--min-severity",
-        choices=["info", "warning", "error"],
+        choices=[str(s) for s in Severity],
         default="info",
         help="hide findings below this severity in the listing (default: info)",
     )
@@ -36,19 +36,10 @@ def run(args: argparse.Namespace) -> int:
     """Check and report."""
     report = check_capture(read_capture(args.path))
     floor = Severity[args.min_severity.upper()]
-    shown = [f for f in report.findings if f.finding.severity >= floor]
     if args.json:
-        doc = {
-            "path": report.path,
-            "records": report.total,
-            "counts": dict(report.counts),
-            "errors": report.errors,
-            "warnings": report.warnings,
-            "findings": [{"index": f.index, **f.finding.to_json()} for f in shown],
-        }
-        print(json.dumps(doc, indent=2))
+        print(json.dumps(report.to_json(floor), indent=2))
     else:
-        for f in shown:
+        for f in report.at_least(floor):
             print(
                 f"record {f.index:>6}  {f.finding.severity!s:<7} {f.finding.code:<22} "
                 f"{f.finding.message}"

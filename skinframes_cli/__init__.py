@@ -1,4 +1,9 @@
-"""The ``skinframes`` command: one module per subcommand, listed explicitly in COMMANDS."""
+"""The ``skinframes`` command: one module per subcommand, listed explicitly in COMMANDS.
+
+The top layer: it imports ``skinframes`` (bytes) and ``emulator`` (time); neither imports it
+(``tests/test_layering.py``). A command module parses arguments and formats output; what to
+compute, and every limit and name it checks against, comes from the libraries.
+"""
 
 from __future__ import annotations
 
@@ -7,8 +12,8 @@ import sys
 from collections.abc import Sequence
 from typing import Final
 
-from skinframes.cli import can, check, compare, decode, demo, plan, plot, serve, simulate, tables
 from skinframes.errors import SkinframesError
+from skinframes_cli import can, check, compare, decode, demo, plan, plot, serve, simulate, tables
 
 __all__ = ["main"]
 

@@ -10,9 +10,8 @@ import threading
 from types import FrameType
 from typing import Any
 
-from skinframes.errors import SkinframesError
-
-MAX_NODES = 1024  # each emulated ESC holds its own 64 KiB address space
+from emulator.limits import MAX_SERVED_SLAVES, check_served_ecat
+from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
 
 
 def add_parser(sub: Any) -> None:
@@ -27,8 +26,15 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("protocol", choices=["ecat"])
     p.add_argument("--iface", required=True, help="network interface the master is wired to")
-    p.add_argument("--nodes", type=int, required=True, help=f"slaves (patches), 1..{MAX_NODES}")
-    p.add_argument("--bytes", type=int, required=True, help="taxel bytes per slave, 1..1486")
+    p.add_argument(
+        "--nodes", type=int, required=True, help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}"
+    )
+    p.add_argument(
+        "--bytes",
+        type=int,
+        required=True,
+        help=f"taxel bytes per slave, 1..{MAX_DATAGRAM_DATA_BYTES}",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the taxel contact patterns")
     p.add_argument(
         "--samples", type=int, default=64, help="distinct taxel samples, cycled (default 64)"
@@ -48,19 +54,15 @@ def run(args: argparse.Namespace) -> int:
     from emulator.ecat_chain import EcatChain
     from emulator.live import RawSocket, TaxelFeed, serve
 
-    if not 1 <= args.nodes <= MAX_NODES:
-        raise SkinframesError(f"--nodes {args.nodes}: 1..{MAX_NODES}")
-    if not 1 <= args.bytes <= 1486:
-        raise SkinframesError(f"--bytes {args.bytes}: 1..1486")
-    if args.samples < 1 or args.period_ms <= 0:
-        raise SkinframesError("--samples must be >= 1 and --period-ms > 0")
+    period_s = args.period_ms / 1000.0
+    check_served_ecat(args.nodes, args.bytes, args.samples, period_s)
     chain = EcatChain.skin(args.nodes, args.bytes)
     feed = TaxelFeed(
         args.nodes,
         args.bytes,
         samples=args.samples,
         seed=args.seed,
-        period_s=args.period_ms / 1000.0,
+        period_s=period_s,
     )
     stop = threading.Event()
 

@@ -7,6 +7,9 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from emulator.paper_tables import FIGURE_MAX_NODES
+from emulator.params import PRESETS
+from skinframes import taxel
 from skinframes.errors import SkinframesError
 
 PAYLOADS = (2, 32, 128, 192, 256)
@@ -22,12 +25,13 @@ def add_parser(sub: Any) -> None:
     p = sub.add_parser(
         "plot",
         help="cycle time vs nodes, analytic and emulated overlaid (PNG or SVG)",
-        description="Plot cycle time against the number of nodes (1..239 for EPL, 1..240 for "
+        description="Plot cycle time against the number of nodes "
+        f"(1..{FIGURE_MAX_NODES['epl']} for EPL, 1..{FIGURE_MAX_NODES['ecat']} for "
         "EtherCAT) for several payloads: the analytic model as lines, the emulator as markers, "
         "and the paper's printed table cells.",
     )
     p.add_argument("--out", default="cycle_time.png", help="output file, .png or .svg")
-    p.add_argument("--preset", choices=["paper", "wire"], default="paper")
+    p.add_argument("--preset", choices=list(PRESETS), default="paper")
     p.add_argument("--step", type=int, default=20, help="nodes between emulated points")
     p.set_defaults(run=run)
 
@@ -56,14 +60,14 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
         (t, b, n)
         for t, _ in PANELS
         for b in PAYLOADS
-        for n in range(step, (239 if t == "epl" else 240) + 1, step)
+        for n in range(step, FIGURE_MAX_NODES[t] + 1, step)
     ]
     emulated: dict[tuple[str, int], list[tuple[int, float]]] = {}
     for t, b, n in tqdm(points, desc="emulating", unit="run", disable=not sys.stderr.isatty()):
         emulated.setdefault((t, b), []).append((n, cycle_us(t, n, b, params, "emulated")))
     colors = plt.get_cmap("viridis")(np.linspace(0, 0.9, len(PAYLOADS)))
     for ax, (table, title) in zip(axes, PANELS, strict=True):
-        nodes = np.arange(1, (239 if table == "epl" else 240) + 1)
+        nodes = np.arange(1, FIGURE_MAX_NODES[table] + 1)
         for b, color in zip(PAYLOADS, colors, strict=True):
             if table == "epl":
                 y = analytic.epl_cycle_us(nodes, b, params)
@@ -83,7 +87,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
             )
         for limit_ms, style in ((1.0, ":"), (5.0, "--")):
             ax.axhline(limit_ms, color="grey", ls=style, lw=0.8)
-        ax.axvline(160, color="firebrick", lw=0.6, alpha=0.5)
+        ax.axvline(taxel.BODY_PATCHES, color="firebrick", lw=0.6, alpha=0.5)
         ax.set_title(title)
         ax.set_xlabel("nodes (patches)")
         ax.set_ylabel("cycle time [ms]")
@@ -91,7 +95,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
     axes[0].legend(fontsize=8, title="o = emulated", title_fontsize=8)
     fig.suptitle(
         f"Cycle time vs nodes, preset '{preset_name}' (dotted: 1 ms, dashed: 5 ms; "
-        "red: 160 patches)"
+        f"red: {taxel.BODY_PATCHES} patches)"
     )
     out.parent.mkdir(parents=True, exist_ok=True)
     fig.savefig(out, dpi=110)

@@ -5,6 +5,8 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
+from emulator.params import PRESETS
+
 
 def add_convert(sub: Any) -> None:
     """Register ``can convert``."""
@@ -19,7 +21,7 @@ def add_convert(sub: Any) -> None:
     p.add_argument("trace", help="CAN trace (.log .asc .blf .trc .csv, or a SocketCAN pcap)")
     p.add_argument("--to", choices=["epl", "ecat"], required=True, dest="target")
     p.add_argument("--pcap", required=True, help="output pcap")
-    p.add_argument("--preset", choices=["paper", "wire"], default="wire")
+    p.add_argument("--preset", choices=list(PRESETS), default="wire")
     p.add_argument("--redundant", action="store_true", help="EtherCAT closed ring")
     p.set_defaults(run=run_convert)
 

@@ -1,0 +1,131 @@
+"""The fastest frame layout per network, and its distance to the physical limit (``skinframes plan``).
+
+For EPL (one layout: a PReq/PRes pair per CN) and EtherCAT in open and closed ring (one LRD per
+slave, or one contiguous logical process image), every layout is emulated for one cycle and the
+fastest is kept. The physical limit is the time the taxel bytes alone take on one 100 Mbit/s link,
+``nodes x data_bytes x byte time``: no protocol, no header, no gap.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from typing import Any, Final
+
+from emulator.model import TABLES, simulate, validate
+from emulator.net.ecat import LAYOUTS
+from emulator.params import WIRE, TimingParams
+from emulator.units import PS_PER_US
+
+__all__ = ["LayoutOption", "NetworkPlan", "Plan", "limit_us", "plan"]
+
+PER_SLAVE: Final = "per-slave"
+TABLE_LAYOUTS: Final[dict[str, tuple[str, ...]]] = {
+    "epl": (PER_SLAVE,),  # EPL has one layout: each CN answers its PReq with its own PRes
+    "ecat": LAYOUTS,
+    "ecat_redundant": LAYOUTS,
+}
+
+
+@dataclass(frozen=True, slots=True)
+class LayoutOption:
+    """One emulated layout: its cycle time and the frames the master sends per cycle."""
+
+    layout: str
+    cycle_us: float
+    frames_per_cycle: int
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"layout", "cycle_us", "frames_per_cycle"}``."""
+        return {
+            "layout": self.layout,
+            "cycle_us": self.cycle_us,
+            "frames_per_cycle": self.frames_per_cycle,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class NetworkPlan:
+    """The fastest layout of one network and how far it is from the physical limit.
+
+    Attributes:
+        best: the layout with the shortest cycle (the first one on a tie).
+        overhead_us: ``best.cycle_us - limit_us``: what the protocol costs beyond the taxels.
+        efficiency: ``limit_us / best.cycle_us`` (1.0 = the link carries nothing but taxels).
+        alternatives: every layout emulated, ``best`` among them, in the order tried.
+    """
+
+    best: LayoutOption
+    overhead_us: float
+    efficiency: float
+    alternatives: tuple[LayoutOption, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The best layout's fields, then ``overhead_us``, ``efficiency``, ``alternatives``."""
+        return {
+            **self.best.to_json(),
+            "overhead_us": self.overhead_us,
+            "efficiency": self.efficiency,
+            "alternatives": [o.to_json() for o in self.alternatives],
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class Plan:
+    """The plan for ``nodes`` x ``data_bytes`` under one preset.
+
+    Attributes:
+        networks: keyed by table name (``epl``, ``ecat``, ``ecat_redundant``), in that order.
+    """
+
+    nodes: int
+    data_bytes: int
+    preset: str
+    limit_us: float
+    networks: dict[str, NetworkPlan]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``skinframes plan --json`` document (docs/interface.md)."""
+        return {
+            "nodes": self.nodes,
+            "bytes": self.data_bytes,
+            "preset": self.preset,
+            "limit_us": self.limit_us,
+            **{table: n.to_json() for table, n in self.networks.items()},
+        }
+
+
+def limit_us(nodes: int, data_bytes: int, params: TimingParams) -> float:
+    """The physical limit: ``nodes x data_bytes`` taxel bytes back to back on one link, in us."""
+    return nodes * data_bytes * params.byte_ps / PS_PER_US
+
+
+def plan(nodes: int, data_bytes: int, params: TimingParams = WIRE) -> Plan:
+    """Emulate every layout of every network for one cycle and keep the fastest of each.
+
+    Raises:
+        TopologyError: a network cannot have ``nodes`` nodes of ``data_bytes`` (e.g. > 239 EPL CNs).
+    """
+    limit = limit_us(nodes, data_bytes, params)
+    networks: dict[str, NetworkPlan] = {}
+    for table in TABLES:
+        validate(table, nodes, data_bytes)
+        options = tuple(
+            _emulate(table, nodes, data_bytes, params, layout) for layout in TABLE_LAYOUTS[table]
+        )
+        best = min(options, key=lambda o: o.cycle_us)
+        networks[table] = NetworkPlan(
+            best=best,
+            overhead_us=best.cycle_us - limit,
+            efficiency=limit / best.cycle_us,
+            alternatives=options,
+        )
+    return Plan(nodes, data_bytes, params.name, limit, networks)
+
+
+def _emulate(
+    table: str, nodes: int, data_bytes: int, params: TimingParams, layout: str
+) -> LayoutOption:
+    """One fault-free cycle of ``table`` in ``layout``: its time and frames sent per cycle."""
+    r = simulate(table, nodes, data_bytes, params, layout=layout, cycles=1)
+    frames = r.frames_sent_per_cycle if table != "epl" else r.frames // r.cycles
+    return LayoutOption(layout, r.cycle_us()["median"], frames)

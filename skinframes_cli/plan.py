@@ -1,0 +1,53 @@
+"""``skinframes plan --nodes N --bytes B``: the fastest frame layout per protocol."""
+
+from __future__ import annotations
+
+import argparse
+import json
+from typing import Any
+
+from emulator.params import PRESETS, preset
+from emulator.plan import plan
+
+NAMES = {"epl": "EPL", "ecat": "EtherCAT open ring", "ecat_redundant": "EtherCAT closed ring"}
+
+
+def add_parser(sub: Any) -> None:
+    """Register the subcommand."""
+    p = sub.add_parser(
+        "plan",
+        help="the frame/datagram layout that minimises cycle time, per protocol",
+        description="For EPL and EtherCAT (open and closed ring), emulate each frame layout, "
+        "pick the fastest and compare it with the physical limit: N x B bytes at 100 Mbit/s.",
+    )
+    p.add_argument("--nodes", type=int, required=True)
+    p.add_argument("--bytes", type=int, required=True)
+    p.add_argument(
+        "--preset",
+        choices=list(PRESETS),
+        default="wire",
+        help="timing constants (default: wire)",
+    )
+    p.add_argument("--json", action="store_true", help="one JSON document")
+    p.set_defaults(run=run)
+
+
+def run(args: argparse.Namespace) -> int:
+    """Print the plan."""
+    result = plan(args.nodes, args.bytes, preset(args.preset))
+    if args.json:
+        print(json.dumps(result.to_json(), indent=2))
+        return 0
+    print(
+        f"{args.nodes} nodes x {args.bytes} bytes, preset {args.preset}: physical limit "
+        f"{result.limit_us:.2f} us (N x B bytes at 100 Mbit/s)"
+    )
+    for table, network in result.networks.items():
+        best = network.best
+        others = ", ".join(f"{o.layout} {o.cycle_us:.2f} us" for o in network.alternatives)
+        print(
+            f"  {NAMES[table]:<22} best {best.layout:<9} {best.cycle_us:>10.2f} us "
+            f"({best.frames_per_cycle} frames per cycle, {100 * network.efficiency:.1f} % of the "
+            f"limit)   [{others}]"
+        )
+    return 0

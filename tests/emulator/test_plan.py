@@ -1,0 +1,63 @@
+"""emulator.plan: the fastest layout per network and its distance to the physical limit."""
+
+from __future__ import annotations
+
+import pytest
+
+from emulator.errors import TopologyError
+from emulator.params import PAPER, WIRE
+from emulator.plan import Plan, limit_us, plan
+
+
+@pytest.fixture(scope="module")
+def small() -> Plan:
+    return plan(20, 64, WIRE)
+
+
+def test_limit_is_the_taxel_bytes_alone() -> None:
+    assert limit_us(160, 192, WIRE) == pytest.approx(160 * 192 * 0.08)  # 80 ns a byte
+    assert limit_us(1, 1, PAPER) == pytest.approx(0.08)
+
+
+def test_every_network_keeps_its_fastest_layout(small: Plan) -> None:
+    assert list(small.networks) == ["epl", "ecat", "ecat_redundant"]
+    for network in small.networks.values():
+        assert network.best in network.alternatives
+        assert network.best.cycle_us == min(o.cycle_us for o in network.alternatives)
+        assert network.overhead_us == pytest.approx(network.best.cycle_us - small.limit_us)
+        assert network.efficiency == pytest.approx(small.limit_us / network.best.cycle_us)
+        assert 0 < network.efficiency < 1
+    assert [o.layout for o in small.networks["epl"].alternatives] == ["per-slave"]
+    assert [o.layout for o in small.networks["ecat"].alternatives] == ["per-slave", "logical"]
+
+
+def test_frames_per_cycle(small: Plan) -> None:
+    epl = small.networks["epl"].best
+    assert epl.frames_per_cycle == 2 * 20 + 2  # SoC, a PReq and a PRes per CN, SoA
+    per_slave, logical = small.networks["ecat"].alternatives
+    assert per_slave.frames_per_cycle == 2  # 19 LRDs of 10 + 64 + 2 bytes fill 1498 bytes
+    assert logical.frames_per_cycle == 1  # one LRD of 20 x 64 bytes
+
+
+def test_json_document(small: Plan) -> None:
+    doc = small.to_json()
+    assert list(doc) == ["nodes", "bytes", "preset", "limit_us", "epl", "ecat", "ecat_redundant"]
+    assert (doc["nodes"], doc["bytes"], doc["preset"]) == (20, 64, "wire")
+    assert list(doc["ecat"]) == [
+        "layout",
+        "cycle_us",
+        "frames_per_cycle",
+        "overhead_us",
+        "efficiency",
+        "alternatives",
+    ]
+    assert doc["ecat"]["alternatives"][0] == {
+        "layout": "per-slave",
+        "cycle_us": small.networks["ecat"].alternatives[0].cycle_us,
+        "frames_per_cycle": 2,
+    }
+
+
+def test_impossible_network_raises() -> None:
+    with pytest.raises(TopologyError, match="240 CNs"):
+        plan(240, 8, PAPER)

@@ -1,0 +1,36 @@
+"""emulator.tables: the tables document, checked against the paper's cells (typed in by the tests)."""
+
+from __future__ import annotations
+
+import pytest
+from data.paper_tables import BYTES, NODES, PAPER_TABLES
+
+from emulator.params import PAPER, WIRE
+from emulator.tables import Cell, cycle_tables
+
+
+def test_analytic_paper_preset_is_the_papers_tables() -> None:
+    doc = cycle_tables("analytic", PAPER, NODES, BYTES)
+    assert list(doc) == ["model", "preset", "unit", "epl", "ecat", "ecat_redundant"]
+    assert (doc["model"], doc["preset"], doc["unit"]) == ("analytic", "paper", "us")
+    for table, rows in PAPER_TABLES.items():
+        assert list(doc[table]) == [str(n) for n in NODES]
+        for n, row in rows.items():
+            assert list(doc[table][str(n)]) == [str(b) for b in BYTES]
+            for b, printed in row.items():
+                assert doc[table][str(n)][str(b)] == pytest.approx(printed, abs=0.006)
+
+
+def test_progress_sees_every_cell_once() -> None:
+    seen: list[Cell] = []
+
+    def progress(cells: list[Cell]) -> list[Cell]:
+        seen.extend(cells)
+        return cells
+
+    doc = cycle_tables("emulated", WIRE, [3], [8, 16], progress=progress)
+    assert sorted(seen) == sorted(
+        (t, 3, b) for t in ("epl", "ecat", "ecat_redundant") for b in (8, 16)
+    )
+    assert doc["preset"] == "wire"
+    assert doc["ecat"]["3"]["16"] > doc["ecat"]["3"]["8"] > 0
