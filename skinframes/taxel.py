@@ -194,24 +194,37 @@ def _contact_chunks(
     patches: int, samples: int, seed: int, contacts: int, no_load: int, triangles: int, chunk: int
 ) -> Iterator[npt.NDArray[np.uint8]]:
     """The one implementation of the pattern (arguments checked by the callers)."""
-    rng = np.random.RandomState(seed)
+    bits = _mt19937(np.random.RandomState(seed))
     length = patches * triangles * TAXELS_PER_TRIANGLE  # taxels (= bytes) per sample
     blobs: _Contacts | None = None
     if contacts and samples > chunk:
         blobs = _Contacts.draw(_skip_words(seed, samples * length // 4), contacts, length, no_load)
     for first in range(0, samples, chunk):
         m = min(chunk, samples - first)
-        noise = np.frombuffer(rng.bytes(m * length), dtype=np.uint8) % 5  # 0..4 -> -2..+2
+        # RandomState.bytes(n): n // 4 32-bit outputs, little-endian (length is a multiple of
+        # 12); drawn from the bit generator directly, 1.5x faster, the same bytes
+        words = bits.random_raw(m * length // 4).astype("<u4")
+        noise = words.view(np.uint8) % 5  # 0..4 -> -2..+2
         if 2 <= no_load <= 0xFF - 2:  # no wrap-around possible: stay in uint8, in place
             values = noise
             values += np.uint8(no_load - 2)
         else:
             values = np.clip(noise.astype(np.int16) + (no_load - 2), 0, 0xFF).astype(np.uint8)
         if contacts:
-            if blobs is None:  # one chunk: rng has just drawn all the noise
+            if blobs is None:  # one chunk: the generator has just drawn all the noise
+                rng = np.random.RandomState()
+                rng.set_state({"bit_generator": "MT19937", "state": bits.state["state"]})
                 blobs = _Contacts.draw(rng, contacts, length, no_load)
             blobs.press(values, first, m)
         yield values.reshape(m, patches, triangles, TAXELS_PER_TRIANGLE)
+
+
+def _mt19937(rng: np.random.RandomState) -> np.random.MT19937:
+    """A bit generator in the state of ``rng`` (the MT19937 key and position)."""
+    state = rng.get_state(legacy=False)["state"]
+    bits = np.random.MT19937()
+    bits.state = {"bit_generator": "MT19937", "state": {"key": state["key"], "pos": state["pos"]}}
+    return bits
 
 
 def _skip_words(seed: int, words: int) -> np.random.RandomState:
@@ -221,9 +234,7 @@ def _skip_words(seed: int, words: int) -> np.random.RandomState:
     without storing them (2.5x faster than drawing the bytes).
     """
     rng = np.random.RandomState(seed)
-    state = rng.get_state(legacy=False)["state"]  # the MT19937 key and position
-    bits = np.random.MT19937()
-    bits.state = {"bit_generator": "MT19937", "state": {"key": state["key"], "pos": state["pos"]}}
+    bits = _mt19937(rng)
     step = 1 << 24
     for done in range(0, words, step):
         bits.random_raw(min(step, words - done), output=False)

@@ -145,12 +145,8 @@ class TaxelSource:
 def iter_payloads(
     nodes: int, cycles: int, data_bytes: int, seed: int
 ) -> Iterator[npt.NDArray[np.uint8]]:
-    """Seeded contact patterns of ``cycles`` samples, in chunks."""
-    stream = getattr(taxel, "iter_sample_payloads", None)
-    if stream is not None:
-        yield from stream(nodes, cycles, data_bytes, seed=seed)
-    else:
-        yield taxel.sample_payloads(nodes, cycles, data_bytes, seed=seed)
+    """Seeded contact patterns of ``cycles`` samples, in chunks (memory of one chunk)."""
+    return taxel.iter_sample_payloads(nodes, cycles, data_bytes, seed=seed)
 
 
 class _Overlap:
