@@ -1,0 +1,88 @@
+"""Every ``skinframes`` command line and the Python block of the README run as shown.
+
+Input files the README names (``capture.pcapng``, ``trace.asc``, ``trace.blf``, ``old.log``,
+``skin.pcap``) are made first, from the demo's CAN trace and an emulated capture; then each
+command runs in process in that directory. ``serve`` needs a live interface and root: its line is
+parsed here, and tests/emulator/test_live_soem.py runs it against real masters.
+"""
+
+from __future__ import annotations
+
+import os
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+from skinframes.cantrace import read_trace, write_trace
+from skinframes_cli import build_parser, main
+
+ROOT = Path(__file__).resolve().parent.parent
+README = (ROOT / "README.md").read_text()
+
+
+def _command_lines() -> list[str]:
+    blocks = re.findall(r"```sh\n(.*?)```", README, flags=re.S)
+    lines = [line.split(" #")[0].strip() for block in blocks for line in block.splitlines()]
+    return [line for line in lines if line.startswith("skinframes ")]
+
+
+COMMANDS = _command_lines()
+EXIT = {"check": 0}  # the README's capture is clean: check exits 0
+
+
+@pytest.fixture(scope="module")
+def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    d = tmp_path_factory.mktemp("readme")
+    old = Path.cwd()
+    os.chdir(d)
+    try:
+        assert main(["demo", "--out", "out", "--no-plot"]) == 0
+        frames = read_trace("out/skin_can.asc").frames
+        for name in ("trace.asc", "trace.blf", "old.log", "skin.pcap"):
+            write_trace(name, frames)
+        assert (
+            main(["simulate", "epl", "--nodes", "4", "--bytes", "192", "--pcap", "capture.pcapng"])
+            == 0
+        )
+    finally:
+        os.chdir(old)
+    return d
+
+
+def test_the_readme_names_commands() -> None:
+    assert len(COMMANDS) >= 20 and any(c.startswith("skinframes serve") for c in COMMANDS)
+
+
+@pytest.mark.parametrize("line", COMMANDS)
+def test_every_command_line_of_the_readme_runs(
+    line: str, workdir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    argv = shlex.split(line)[1:]
+    if argv[0] == "serve":
+        build_parser().parse_args(argv)  # runs only as root on a live link (test_live_soem)
+        return
+    old = Path.cwd()
+    os.chdir(workdir)
+    try:
+        code = main(argv)
+    finally:
+        os.chdir(old)
+    out, err = capsys.readouterr()
+    assert code == EXIT.get(argv[0], 0), err
+    assert "Traceback" not in err
+
+
+def test_the_python_blocks_of_the_readme_run(workdir: Path) -> None:
+    blocks = re.findall(r"```python\n(.*?)```", README, flags=re.S)
+    assert len(blocks) >= 2
+    old = Path.cwd()
+    os.chdir(workdir)
+    try:
+        Path("x.pcapng").write_bytes(Path("capture.pcapng").read_bytes())
+        names: dict[str, object] = {}  # one namespace: later blocks use earlier names (patch)
+        for block in blocks:
+            exec(compile(block, "README.md", "exec"), names)
+    finally:
+        os.chdir(old)
