@@ -69,7 +69,7 @@ def test_every_command_line_of_the_readme_runs(
         code = main(argv)
     finally:
         os.chdir(old)
-    out, err = capsys.readouterr()
+    _, err = capsys.readouterr()
     assert code == EXIT.get(argv[0], 0), err
     assert "Traceback" not in err
 
