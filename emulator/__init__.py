@@ -4,12 +4,12 @@ The names here are the stable Python interface (docs/interface.md); module paths
 package may move while the project is 0.x.
 """
 
-from emulator import analytic
 from emulator.errors import EmulatorError, LinkError, ScheduleError, TopologyError
-from emulator.faults import Fault, parse_fault
+from emulator.model import analytic
+from emulator.model.params import PAPER, PRESETS, WIRE, TimingParams, preset
 from emulator.net import simulate_ecat, simulate_epl
-from emulator.params import PAPER, PRESETS, WIRE, TimingParams, preset
-from emulator.result import CycleDetail, SimResult
+from emulator.net.faults import Fault, parse_fault
+from emulator.net.result import CycleDetail, SimResult
 
 __all__ = [
     "PAPER",
