@@ -32,7 +32,8 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
 Not modelled: distributed clocks (0x0008 bit 2 reads 0, 0x0900-0x09FF read 0 and ignore
 writes), watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
 circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI is a
-:class:`emulator.esc.state_machine.PdiApplication`; the skin patch's is :class:`SkinPatchApplication`.
+:class:`emulator.esc.state_machine.PdiApplication`; the skin patch's is
+:class:`SkinPatchApplication`.
 """
 
 from __future__ import annotations
