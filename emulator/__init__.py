@@ -1,15 +1,19 @@
 """emulator: the time of robot-skin fieldbus frames (cycle-time model and virtual daisy chain).
 
 The names here are the stable Python interface (docs/interface.md); module paths inside the
-package may move while the project is 0.x.
+package may move while the project is 0.x. The layout: :mod:`emulator.model` (constants, the
+paper's formulas, tables and plans), :mod:`emulator.esc` (the emulated EtherCAT slave controller),
+:mod:`emulator.net` (one engine per protocol, the fault plan and the run's result), and here
+:mod:`emulator.live` (serving an emulated chain on a real link), :mod:`emulator.compare` (one
+sample on CAN, EPL and EtherCAT) and :mod:`emulator.errors`.
 """
 
-from emulator import analytic
 from emulator.errors import EmulatorError, LinkError, ScheduleError, TopologyError
-from emulator.faults import Fault, parse_fault
+from emulator.model import analytic
+from emulator.model.params import PAPER, PRESETS, WIRE, TimingParams, preset
 from emulator.net import simulate_ecat, simulate_epl
-from emulator.params import PAPER, PRESETS, WIRE, TimingParams, preset
-from emulator.result import CycleDetail, SimResult
+from emulator.net.faults import Fault, parse_fault
+from emulator.net.result import CycleDetail, SimResult
 
 __all__ = [
     "PAPER",

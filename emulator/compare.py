@@ -5,7 +5,7 @@ A skin CAN trace gives boards, triangles, samples and their period. Per sample:
 * CAN as recorded: the exact wire time of the sample's frames (``skinframes.canwire``: stuff bits
   and intermission included) on the 1 Mbit/s bus, back to back;
 * CAN re-emulated: every board queues its frames at the start of the period and the bus
-  arbitrates them (:mod:`emulator.can_bus`); the time until the last frame is through;
+  arbitrates them (:mod:`emulator.net.can_bus`); the time until the last frame is through;
 * EPL and EtherCAT: the emulated cycle that carries the same samples, one node per board.
 
 ``bus_load`` is the share of the sample period the bus is busy moving the skin's data;
@@ -22,13 +22,13 @@ from typing import Any, Final
 import numpy as np
 import numpy.typing as npt
 
-from emulator.can_bus import BusFrame, arbitrate, bit_time_ps
 from emulator.errors import TopologyError
-from emulator.limits import MAX_EMULATED_SLAVES
+from emulator.model.limits import MAX_EMULATED_SLAVES
+from emulator.model.params import TimingParams
+from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net import simulate_ecat, simulate_epl
-from emulator.params import TimingParams
-from emulator.result import SimResult
-from emulator.units import PS_PER_NS, PS_PER_US
+from emulator.net.can_bus import BusFrame, arbitrate, bit_time_ps
+from emulator.net.result import SimResult
 from skinframes import canbus, powerlink, taxel
 from skinframes.cantrace import Trace
 

@@ -36,8 +36,8 @@ from dataclasses import dataclass, field
 from types import FrameType
 from typing import Final
 
-from emulator.ecat_chain import EcatChain
 from emulator.errors import LinkError
+from emulator.esc.chain import EcatChain
 from skinframes import taxel
 
 __all__ = [

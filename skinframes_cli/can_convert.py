@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from typing import Any
 
-from emulator.params import PRESETS
+from emulator.model.params import PRESETS
 
 
 def add_convert(sub: Any) -> None:
@@ -29,8 +29,8 @@ def add_convert(sub: Any) -> None:
 def run_convert(args: argparse.Namespace) -> int:
     """Convert and report."""
     from emulator.compare import samples_of
+    from emulator.model.params import preset
     from emulator.net import simulate_ecat, simulate_epl
-    from emulator.params import preset
     from skinframes.cantrace import read_trace
     from skinframes.errors import SkinframesError
 

@@ -7,7 +7,7 @@ import json
 from pathlib import Path
 from typing import Any
 
-from emulator.params import PRESETS
+from emulator.model.params import PRESETS
 from skinframes import taxel
 from skinframes.errors import SkinframesError
 
@@ -44,7 +44,7 @@ def add_parser(sub: Any) -> None:
 def comparison(trace_path: str, preset_name: str) -> dict[str, Any]:
     """The comparison document for a trace file."""
     from emulator.compare import compare, samples_of
-    from emulator.params import preset
+    from emulator.model.params import preset
     from skinframes.cantrace import read_trace
 
     return compare(samples_of(read_trace(trace_path)), preset(preset_name))

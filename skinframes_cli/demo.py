@@ -43,8 +43,8 @@ def _status(path: Path) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Emulate, write and report."""
-    from emulator.model import simulate
-    from emulator.params import PRESETS
+    from emulator.model.cycle_time import simulate
+    from emulator.model.params import PRESETS
     from skinframes_cli.plot import make_plot
 
     out = Path(args.out)
@@ -93,9 +93,9 @@ def _can_comparison(out: Path) -> list[tuple[Path, str]]:
     """Write a legacy skin CAN trace (7 boards, 50 ms period) and compare the buses on it."""
     import math
 
-    from emulator.can_bus import skin_bus
     from emulator.compare import compare, samples_of
-    from emulator.params import WIRE
+    from emulator.model.params import WIRE
+    from emulator.net.can_bus import skin_bus
     from skinframes.canbus import DEFAULT_PERIOD_MS, MAX_BOARD
     from skinframes.cantrace import read_trace, write_trace
     from skinframes_cli.compare import plot, print_table

@@ -6,8 +6,8 @@ import argparse
 import json
 from typing import Any
 
-from emulator.params import PRESETS, preset
-from emulator.plan import plan
+from emulator.model.params import PRESETS, preset
+from emulator.model.plan import plan
 
 NAMES = {"epl": "EPL", "ecat": "EtherCAT open ring", "ecat_redundant": "EtherCAT closed ring"}
 

@@ -7,8 +7,8 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from emulator.paper_tables import FIGURE_MAX_NODES
-from emulator.params import PRESETS
+from emulator.model.paper_tables import FIGURE_MAX_NODES
+from emulator.model.params import PRESETS
 from skinframes import taxel
 from skinframes.errors import SkinframesError
 
@@ -46,9 +46,9 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
     from tqdm import tqdm
 
     from emulator import analytic
-    from emulator.model import cycle_us
-    from emulator.paper_tables import BYTES, NODES, paper_value
-    from emulator.params import preset
+    from emulator.model.cycle_time import cycle_us
+    from emulator.model.paper_tables import BYTES, NODES, paper_value
+    from emulator.model.params import preset
 
     if out.suffix.lower() not in (".png", ".svg"):
         raise SkinframesError(f"{out}: the plot is written as .png or .svg")

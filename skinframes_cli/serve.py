@@ -10,7 +10,7 @@ import threading
 from types import FrameType
 from typing import Any
 
-from emulator.limits import MAX_SERVED_SLAVES, check_served_ecat
+from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
 
 
@@ -51,7 +51,7 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Serve until a signal arrives."""
-    from emulator.ecat_chain import EcatChain
+    from emulator.esc.chain import EcatChain
     from emulator.live import RawSocket, TaxelFeed, serve
 
     period_s = args.period_ms / 1000.0

@@ -7,8 +7,8 @@ import json
 import math
 from typing import Any
 
+from emulator.model.params import PRESETS
 from emulator.net.ecat import LAYOUTS
-from emulator.params import PRESETS
 from skinframes.errors import SkinframesError
 from skinframes_cli.progress import progress_bar
 
@@ -65,9 +65,9 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Emulate and report."""
-    from emulator.faults import FAULT_HELP, parse_fault
+    from emulator.model.params import preset
     from emulator.net import simulate_ecat, simulate_epl
-    from emulator.params import preset
+    from emulator.net.faults import FAULT_HELP, parse_fault
 
     if "help" in args.fault:
         print(FAULT_HELP)

@@ -8,10 +8,10 @@ import sys
 from collections.abc import Callable, Iterable
 from typing import Any
 
-from emulator.model import MODELS
-from emulator.paper_tables import paper_value
-from emulator.params import PRESETS, preset
-from emulator.tables import Cell, cycle_tables
+from emulator.model.cycle_time import MODELS
+from emulator.model.paper_tables import paper_value
+from emulator.model.params import PRESETS, preset
+from emulator.model.tables import Cell, cycle_tables
 from skinframes_cli.options import int_list
 
 TITLES = {

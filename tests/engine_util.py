@@ -5,9 +5,9 @@ from __future__ import annotations
 from collections.abc import Callable
 from typing import Any
 
+from emulator.model.params import TimingParams
+from emulator.net.result import SimResult
 from emulator.net.run import MemorySink
-from emulator.params import TimingParams
-from emulator.result import SimResult
 
 Rec = tuple[int, int, bool, bytes, str | None]  # time_ps, port, outbound, frame, comment
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from emulator.can_bus import skin_bus
+from emulator.net.can_bus import skin_bus
 from skinframes import decode_frame, ethercat, powerlink, read_capture, taxel
 from skinframes.cantrace import write_trace
 from skinframes.canwire import frame_bits

@@ -57,7 +57,7 @@ def test_link_problems_are_one_error_line(
     ],
 )
 def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
-    """The limits are emulator.limits.check_served_ecat's; the check runs before any socket."""
+    """The limits are emulator.model.limits.check_served_ecat's; the check runs before any socket."""
     assert main(["serve", "ecat", "--iface", "lo", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"skinframes: error: {message}")

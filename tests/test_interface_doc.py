@@ -16,8 +16,8 @@ from typing import Any
 
 import pytest
 
-from emulator.can_bus import skin_bus
 from emulator.live import ServeStats
+from emulator.net.can_bus import skin_bus
 from skinframes import taxel
 from skinframes.cantrace import write_trace
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, pcap_bytes

@@ -1,5 +1,8 @@
-"""The network, written once per protocol: engines that walk every cycle frame by frame, a fault
-plan as their input, and a driver that streams (:mod:`emulator.net.run`)."""
+"""The network, written once per protocol: engines that walk every cycle frame by frame
+(:mod:`.ecat`, :mod:`.epl`, their frames in :mod:`.cycle`), the fault plan as their input
+(:mod:`.faults`), a driver that streams (:mod:`.run`) into the run's result (:mod:`.result`), and
+the entry points (:mod:`.api`). :mod:`.can_bus` arbitrates the legacy CAN bus they are compared
+with."""
 
 from emulator.net.api import simulate_ecat, simulate_epl
 

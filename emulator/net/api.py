@@ -11,13 +11,13 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.faults import Fault
+from emulator.model.params import TimingParams
+from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net.ecat import EcatEngine
 from emulator.net.epl import EplEngine
+from emulator.net.faults import Fault
+from emulator.net.result import SimResult
 from emulator.net.run import Engine, Sink, run
-from emulator.params import TimingParams
-from emulator.result import SimResult
-from emulator.units import PS_PER_NS, PS_PER_US
 from skinframes.pcap import CaptureWriter
 
 __all__ = ["CaptureSink", "simulate_ecat", "simulate_epl"]

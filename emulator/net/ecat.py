@@ -19,7 +19,7 @@ control", "Error counters"; ETG.1000.4):
   master counts, as the EPL MN counts a late PRes; the master waits for a lost frame until then.
 
 What each ESC does to a frame comes from the register-level ESC model
-(:meth:`emulator.ecat_chain.EcatChain.frame_effect`), asked once per frame of the cycle; the
+(:meth:`emulator.esc.chain.EcatChain.frame_effect`), asked once per frame of the cycle; the
 frame that returns is rebuilt by ``skinframes`` from the datagrams the reached ESCs changed.
 The cycle ends when the last frame is back at the master plus one IFG (the paper's eq. 12 with
 the paper preset's constants).
@@ -35,13 +35,13 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
-from emulator.ecat_chain import EcatChain, FrameEffect
 from emulator.errors import TopologyError
-from emulator.faults import Fault, check_faults
-from emulator.limits import check_ecat, check_emulated_ecat
+from emulator.esc.chain import EcatChain, FrameEffect
+from emulator.model.limits import check_ecat, check_emulated_ecat
+from emulator.model.params import TimingParams
+from emulator.model.units import PS_PER_US
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
-from emulator.params import TimingParams
-from emulator.units import PS_PER_US
+from emulator.net.faults import Fault, check_faults
 from skinframes import ethercat, ethernet
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -125,7 +125,7 @@ class EcatEngine:
     Args:
         closed_ring: the master's second port closes the ring (cable redundancy).
         layout: ``per-slave`` or ``logical`` (see :func:`frames_for`).
-        faults: the fault plan (:mod:`emulator.faults`); empty for a healthy network.
+        faults: the fault plan (:mod:`emulator.net.faults`); empty for a healthy network.
         seed: the random faults' seed.
     """
 

@@ -29,12 +29,12 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
-from emulator.faults import Fault, check_faults
-from emulator.limits import check_epl
+from emulator.model.limits import check_epl
+from emulator.model.params import TimingParams
+from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net.cycle import FILL_FRAME, FILL_NONE, Cycle, Record
 from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS
-from emulator.params import TimingParams
-from emulator.units import PS_PER_NS, PS_PER_US
+from emulator.net.faults import Fault, check_faults
 from skinframes import ethernet, powerlink
 from skinframes.pcap import NS_PER_S
 from skinframes.powerlink import RequestedService
@@ -76,7 +76,7 @@ class EplEngine:
         pres_timeout_ps: the MN's PRes timeout for every CN, from the end of a PReq to the start
             of the PRes at the MN (DS 301 NMT_MNCNPResTimeout); by default each CN's round trip
             plus ``DEFAULT_TIMEOUT_MARGIN_PS``. A CN that cannot meet it loses every PRes.
-        faults: the fault plan (:mod:`emulator.faults`).
+        faults: the fault plan (:mod:`emulator.net.faults`).
         seed: the random faults' seed.
     """
 

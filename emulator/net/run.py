@@ -21,9 +21,9 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import ScheduleError, TopologyError
-from emulator.limits import check_cycles
+from emulator.model.limits import check_cycles
 from emulator.net.cycle import FILL_FRAME, FILL_TAXELS, Cycle, Record
-from emulator.result import CycleDetail, SimResult
+from emulator.net.result import CycleDetail, SimResult
 from skinframes import ethernet, taxel
 
 __all__ = ["BLOCK_BYTES", "MAX_LISTED", "Engine", "MemorySink", "Sink", "TaxelSource", "run"]

@@ -8,7 +8,7 @@ import pytest
 from data.paper_tables import BYTES, NODES, PAPER_TABLES
 
 from emulator import analytic
-from emulator.params import PAPER, WIRE
+from emulator.model.params import PAPER, WIRE
 
 CELLS = [(t, n, b) for t in PAPER_TABLES for n in NODES for b in BYTES]
 

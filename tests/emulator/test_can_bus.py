@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from emulator.can_bus import BusFrame, arbitrate, bit_time_ps
 from emulator.errors import ScheduleError
+from emulator.net.can_bus import BusFrame, arbitrate, bit_time_ps
 
 
 def test_lowest_identifier_wins_and_bits_take_time() -> None:

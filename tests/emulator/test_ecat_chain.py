@@ -8,10 +8,10 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 
-from emulator.ecat_chain import EcatChain, configure_frames
 from emulator.errors import TopologyError
+from emulator.esc.chain import EcatChain, configure_frames
+from emulator.esc.sii import SlaveInfo
 from emulator.net.ecat import frames_for
-from emulator.sii import SlaveInfo
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command as C  # noqa: N817
 from skinframes.ethercat import Datagram

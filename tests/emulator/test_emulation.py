@@ -11,11 +11,11 @@ import tshark_util
 from data.paper_tables import BYTES, NODES, PAPER_TABLES
 from engine_util import assert_gaps, by_cycle, records
 
-from emulator.ecat_chain import EcatChain
 from emulator.errors import TopologyError
+from emulator.esc.chain import EcatChain
+from emulator.model.params import PAPER, WIRE
 from emulator.net import simulate_ecat, simulate_epl
 from emulator.net.ecat import frames_for
-from emulator.params import PAPER, WIRE
 from skinframes import decode_frame, ethercat, ethernet, powerlink, read_capture, taxel
 from skinframes.ethercat import Command, Datagram
 

@@ -12,10 +12,10 @@ import struct
 
 import pytest
 
-from emulator.ecat_chain import EcatChain
-from emulator.esc_device import EscDevice
-from emulator.esm import AlStatusCode
-from emulator.sii import SlaveInfo, build_sii, crc8
+from emulator.esc.chain import EcatChain
+from emulator.esc.device import EscDevice
+from emulator.esc.sii import SlaveInfo, build_sii, crc8
+from emulator.esc.state_machine import AlStatusCode
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command as C  # noqa: N817 (short, the spec's table style)
 from skinframes.ethercat import Datagram, EcatFrame

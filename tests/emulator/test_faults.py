@@ -12,10 +12,10 @@ import tshark_util
 from engine_util import records
 
 from emulator.errors import TopologyError
-from emulator.faults import Fault, parse_fault
+from emulator.model.params import PAPER, WIRE
 from emulator.net import simulate_ecat, simulate_epl
 from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS
-from emulator.params import PAPER, WIRE
+from emulator.net.faults import Fault, parse_fault
 from skinframes import read_capture
 from skinframes.check import check_capture
 from skinframes.errors import SkinframesError

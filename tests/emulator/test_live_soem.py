@@ -35,7 +35,7 @@ import numpy.typing as npt
 import pytest
 import tshark_util
 
-from emulator.ecat_chain import EcatChain
+from emulator.esc.chain import EcatChain
 from emulator.live import ServeStats, TaxelFeed, VethPair, netns_socket, serve, veth_netns
 from skinframes import taxel
 

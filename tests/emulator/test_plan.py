@@ -1,12 +1,12 @@
-"""emulator.plan: the fastest layout per network and its distance to the physical limit."""
+"""emulator.model.plan: the fastest layout per network and its distance to the physical limit."""
 
 from __future__ import annotations
 
 import pytest
 
 from emulator.errors import TopologyError
-from emulator.params import PAPER, WIRE
-from emulator.plan import Plan, limit_us, plan
+from emulator.model.params import PAPER, WIRE
+from emulator.model.plan import Plan, limit_us, plan
 
 
 @pytest.fixture(scope="module")

@@ -9,7 +9,7 @@ import pytest
 from mini_master import categories, find_category
 
 from emulator.errors import TopologyError
-from emulator.sii import (
+from emulator.esc.sii import (
     DataType,
     FmmuUsage,
     SlaveInfo,

@@ -1,12 +1,12 @@
-"""emulator.tables: the tables document, checked against the paper's cells (typed in by the tests)."""
+"""emulator.model.tables: the tables document, checked against the paper's cells (typed in by the tests)."""
 
 from __future__ import annotations
 
 import pytest
 from data.paper_tables import BYTES, NODES, PAPER_TABLES
 
-from emulator.params import PAPER, WIRE
-from emulator.tables import Cell, cycle_tables
+from emulator.model.params import PAPER, WIRE
+from emulator.model.tables import Cell, cycle_tables
 
 
 def test_analytic_paper_preset_is_the_papers_tables() -> None:

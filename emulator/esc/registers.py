@@ -1,7 +1,7 @@
 """The ESC register map: addresses, bits, reset identity and ECAT write masks.
 
 Beckhoff ESC datasheet section II ("register description"), chapter 2, for the registers the
-emulated ESC (:mod:`emulator.esc_device`) implements; section I 1.1 for the address space
+emulated ESC (:mod:`emulator.esc.device`) implements; section I 1.1 for the address space
 (registers and user RAM 0x0000-0x0FFF, process RAM from 0x1000, 64 KiB in all).
 """
 

@@ -1,7 +1,7 @@
 """The paper's closed-form cycle-time model, eqs. (3)-(19), vectorised with numpy.
 
 Symbols follow the paper; every function takes ``n`` (nodes) and ``data`` (bytes per node) as
-scalars or arrays and returns microseconds. With :data:`emulator.params.PAPER` the functions
+scalars or arrays and returns microseconds. With :data:`emulator.model.params.PAPER` the functions
 reproduce all 96 cells of Tables I-III (tests/emulator/test_analytic.py). Where the printed
 equations and the tables disagree, the tables win and the function says so (docs/paper-notes.md).
 """
@@ -13,8 +13,8 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
-from emulator.params import TimingParams
-from emulator.units import PS_PER_US
+from emulator.model.params import TimingParams
+from emulator.model.units import PS_PER_US
 from skinframes import ethercat, ethernet, powerlink
 
 __all__ = [

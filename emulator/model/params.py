@@ -16,7 +16,7 @@ from dataclasses import dataclass, replace
 from typing import Final
 
 from emulator.errors import TopologyError
-from emulator.units import byte_time_ps
+from emulator.model.units import byte_time_ps
 from skinframes import ethernet
 
 __all__ = ["PAPER", "PRESETS", "WIRE", "TimingParams", "preset"]

@@ -32,7 +32,8 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
 Not modelled: distributed clocks (0x0008 bit 2 reads 0, 0x0900-0x09FF read 0 and ignore
 writes), watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
 circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI is a
-:class:`emulator.esm.PdiApplication`; the skin patch's is :class:`SkinPatchApplication`.
+:class:`emulator.esc.state_machine.PdiApplication`; the skin patch's is
+:class:`SkinPatchApplication`.
 """
 
 from __future__ import annotations
@@ -42,7 +43,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
-from emulator.esc_registers import (
+from emulator.esc.registers import (
     ADDRESS_SPACE,
     EE_ACK_ERROR,
     EE_CHECKSUM_ERROR,
@@ -95,8 +96,8 @@ from emulator.esc_registers import (
     EscConfig,
     write_masks,
 )
-from emulator.esm import PdiApplication, SkinPatchApplication
-from emulator.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
+from emulator.esc.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
+from emulator.esc.state_machine import PdiApplication, SkinPatchApplication
 
 __all__ = [
     "ADDRESS_SPACE",

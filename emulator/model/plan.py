@@ -11,10 +11,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Final
 
-from emulator.model import TABLES, simulate, validate
+from emulator.model.cycle_time import TABLES, simulate, validate
+from emulator.model.params import WIRE, TimingParams
+from emulator.model.units import PS_PER_US
 from emulator.net.ecat import LAYOUTS
-from emulator.params import WIRE, TimingParams
-from emulator.units import PS_PER_US
 
 __all__ = ["LayoutOption", "NetworkPlan", "Plan", "limit_us", "plan"]
 

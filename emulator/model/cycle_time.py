@@ -5,12 +5,12 @@ from __future__ import annotations
 import os
 from typing import Final
 
-from emulator import analytic
 from emulator.errors import TopologyError
-from emulator.limits import check_ecat, check_epl
+from emulator.model import analytic
+from emulator.model.limits import check_ecat, check_epl
+from emulator.model.params import TimingParams
 from emulator.net import simulate_ecat, simulate_epl
-from emulator.params import TimingParams
-from emulator.result import SimResult
+from emulator.net.result import SimResult
 
 __all__ = ["MODELS", "TABLES", "cycle_us", "simulate", "validate"]
 

@@ -20,10 +20,10 @@ from __future__ import annotations
 from enum import IntEnum
 from typing import TYPE_CHECKING, Final, Protocol
 
-from emulator.sii import SlaveInfo, SyncManagerType
+from emulator.esc.sii import SlaveInfo, SyncManagerType
 
 if TYPE_CHECKING:
-    from emulator.esc_device import EscDevice
+    from emulator.esc.device import EscDevice
 
 __all__ = [
     "ACK",

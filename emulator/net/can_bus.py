@@ -18,7 +18,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import ScheduleError, TopologyError
-from emulator.units import PS_PER_NS, PS_PER_S
+from emulator.model.units import PS_PER_NS, PS_PER_S
 from skinframes import canbus
 from skinframes.canwire import CanFrame
 

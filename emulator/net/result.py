@@ -10,7 +10,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-from emulator.units import PS_PER_NS, PS_PER_US
+from emulator.model.units import PS_PER_NS, PS_PER_US
 
 __all__ = ["CycleDetail", "SimResult"]
 

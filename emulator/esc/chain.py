@@ -28,9 +28,9 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.esc_device import EscConfig, EscDevice, TraceCopy
-from emulator.esm import AlState, SkinPatchApplication
-from emulator.sii import SlaveInfo
+from emulator.esc.device import EscConfig, EscDevice, TraceCopy
+from emulator.esc.sii import SlaveInfo
+from emulator.esc.state_machine import AlState, SkinPatchApplication
 from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
 from skinframes.ethercat import Command, Datagram, EcatFrame

@@ -9,8 +9,8 @@ from __future__ import annotations
 from collections.abc import Callable, Iterable, Sequence
 from typing import Any, Final
 
-from emulator.model import TABLES, cycle_us
-from emulator.params import TimingParams
+from emulator.model.cycle_time import TABLES, cycle_us
+from emulator.model.params import TimingParams
 
 __all__ = ["Cell", "cycle_tables"]
 
@@ -32,7 +32,7 @@ def cycle_tables(
     "ecat_redundant": ...}``, keys as strings in the order given.
 
     Args:
-        model: ``"analytic"`` or ``"emulated"`` (:data:`emulator.model.MODELS`).
+        model: ``"analytic"`` or ``"emulated"`` (:data:`emulator.model.cycle_time.MODELS`).
         progress: wraps the list of cells to compute, e.g. in a progress bar; it must yield
             every cell once.
 

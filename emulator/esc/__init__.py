@@ -1,0 +1,7 @@
+"""The emulated EtherCAT slave controller (ESC): :mod:`.registers` (the register map),
+:mod:`.sii` (the SII EEPROM image), :mod:`.state_machine` (the AL state machine and the PDI
+application), :mod:`.device` (one ESC) and :mod:`.chain` (a line of ESCs processing whole frames,
+for the live transport and the timing engine alike).
+
+This file imports nothing, so that importing one module does not load the others.
+"""
