@@ -32,7 +32,7 @@ import construct as cs
 import numpy as np
 import numpy.typing as npt
 
-from skinframes.canwire import MAX_SFF_ID
+from skinframes.canbus.wire import MAX_SFF_ID
 from skinframes.errors import (
     FieldRangeError,
     InvalidFieldError,

@@ -18,7 +18,7 @@ from skinframes.canbus.codec import (
     TriangleSample,
     check_range,
 )
-from skinframes.canwire import CanFrame
+from skinframes.canbus.wire import CanFrame
 
 
 @dataclass(frozen=True, slots=True)
