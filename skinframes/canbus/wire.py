@@ -81,7 +81,11 @@ CAN_ERR_DLC: Final = 8
 _SOCKETCAN = struct.Struct(">IBBBB")
 
 
-def _check_range(name: str, value: int, high: int, low: int = 0) -> None:
+def check_range(name: str, value: int, high: int, low: int = 0) -> None:
+    """Raise TypeError for a non-integer, :class:`FieldRangeError` outside ``low..high``.
+
+    The one range check of ``skinframes.canbus`` (codec, reassembly and dbc use it too).
+    """
     if not isinstance(value, int | np.integer):
         raise TypeError(f"{name} must be an int, not {type(value).__name__}")
     if not low <= value <= high:
@@ -155,11 +159,11 @@ def _header(arbitration_id: int, extended: bool, dlc: int, remote: bool) -> byte
     """SOF..DLC (19 or 39 bits), right-aligned in 3 or 5 bytes after 5 or 1 zero pad bits."""
     rtr = 1 if remote else 0
     if extended:
-        _check_range("arbitration_id", arbitration_id, MAX_EFF_ID)
+        check_range("arbitration_id", arbitration_id, MAX_EFF_ID)
         base, ext = arbitration_id >> 18, arbitration_id & 0x3FFFF
         # SOF 0 | base 11 | SRR 1 | IDE 1 | extension 18 | RTR | r1 0 | r0 0 | DLC 4
         return (base << 27 | 1 << 26 | 1 << 25 | ext << 7 | rtr << 6 | dlc).to_bytes(5, "big")
-    _check_range("arbitration_id", arbitration_id, MAX_SFF_ID)
+    check_range("arbitration_id", arbitration_id, MAX_SFF_ID)
     # SOF 0 | ID 11 | RTR | IDE 0 | r0 0 | DLC 4
     return (arbitration_id << 7 | rtr << 6 | dlc).to_bytes(3, "big")
 
@@ -171,7 +175,7 @@ def _wire_data(data: bytes, dlc: int | None, remote: bool) -> tuple[bytes, int]:
         raise FrameTooLargeError(f"classic CAN: {n} data bytes > 8 (CAN FD is not modelled)")
     if dlc is None:
         dlc = n
-    _check_range("dlc", dlc, MAX_DLC)
+    check_range("dlc", dlc, MAX_DLC)
     if remote:
         return b"", dlc
     if n != min(dlc, MAX_DATA_BYTES):
@@ -219,7 +223,7 @@ def unstuffed_bits(data_bytes: int, extended: bool = False) -> int:
 
     ``data_bytes`` is the number of bytes on the wire (0 for a remote frame).
     """
-    _check_range("data_bytes", data_bytes, MAX_DATA_BYTES)
+    check_range("data_bytes", data_bytes, MAX_DATA_BYTES)
     return (EFF_FIXED_BITS if extended else SFF_FIXED_BITS) + 8 * data_bytes
 
 
@@ -426,13 +430,13 @@ class CanFrame:
             FieldRangeError: identifier or DLC out of range, more data than the frame type holds.
         """
         if self.error:
-            _check_range("arbitration_id", self.arbitration_id, MAX_EFF_ID)  # error class bits
+            check_range("arbitration_id", self.arbitration_id, MAX_EFF_ID)  # error class bits
             if len(self.data) > CAN_ERR_DLC:
                 raise FrameTooLargeError(f"error frame: {len(self.data)} data bytes > 8")
             header = _SOCKETCAN.pack(CAN_ERR_FLAG | self.arbitration_id, CAN_ERR_DLC, 0, 0, 0)
             return header + self.data.ljust(CAN_ERR_DLC, b"\0")
         limit = MAX_SFF_ID if not self.extended else MAX_EFF_ID
-        _check_range("arbitration_id", self.arbitration_id, limit)
+        check_range("arbitration_id", self.arbitration_id, limit)
         can_id = self.arbitration_id | (CAN_EFF_FLAG if self.extended else 0)
         if self.fd:
             if len(self.data) > 64:
@@ -441,7 +445,7 @@ class CanFrame:
                 64, b"\0"
             )
         dlc = self.dlc_field
-        _check_range("dlc", dlc, MAX_DLC)
+        check_range("dlc", dlc, MAX_DLC)
         if self.remote:
             can_id |= CAN_RTR_FLAG
             length, payload = min(dlc, MAX_DATA_BYTES), b""
