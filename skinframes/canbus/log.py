@@ -1,4 +1,4 @@
-"""CAN trace files in and out: python-can's formats and SocketCAN pcap, accounted frame by frame.
+"""CAN log files in and out: python-can's formats and SocketCAN pcap, accounted frame by frame.
 
 Formats (can.md 4-5):
 
@@ -10,8 +10,8 @@ Formats (can.md 4-5):
   records, each a Linux ``struct can_frame`` with the CAN-id word big-endian
   (:meth:`skinframes.canbus.CanFrame.to_socketcan`); read with :func:`skinframes.pcap.read_capture`.
 
-Reading never crashes on a log that is not skin data: :func:`read_trace` decodes every frame it
-can and accounts for all of them, ``trace.total == trace.counts.frames + len(trace.skipped)``,
+Reading never crashes on a log that is not skin data: :func:`read_can_log` decodes every frame
+it can and accounts for all of them, ``log.total == log.counts.frames + len(log.skipped)``,
 with ``counts`` splitting the frames into samples, orphans, malformed skin frames, other frames
 and error frames. A file that cannot be read at all raises :class:`TraceFormatError`; damage after
 some good frames (a junk line that stops python-can's reader, a truncated BLF) becomes one
@@ -19,10 +19,15 @@ skipped entry with the reason, after the frames before it.
 
 What python-can's writers lose (checked with python-can 4.6.1): ``.trc`` drops CAN FD, remote and
 error frames; ``.log`` drops the DLC of remote frames; ``.csv`` and ``.db`` drop the CAN FD flag.
-:func:`write_trace` refuses such frames unless ``strict=False``. Timestamps: ``.asc`` comes back
+:func:`write_can_log` refuses such frames unless ``strict=False``. Timestamps: ``.asc`` comes back
 relative to the start of the measurement (python-can's default), ``.log``, ``.asc`` and ``.trc``
 keep microseconds only; ``.blf``, ``.csv`` and ``.db`` pass through float seconds (exact to the
 nanosecond near 0, to ~0.2 us for Unix-epoch times).
+
+Names: a CAN log is what CAN tools call a trace; skinframes keeps "trace" for the emulator's frame
+traces. The old names stay as aliases: ``Trace`` = :class:`CanLog`, ``read_trace`` =
+:func:`read_can_log`, ``write_trace`` = :func:`write_can_log`, ``trace_format`` =
+:func:`can_log_format`, ``TRACE_SUFFIXES`` = :data:`PYTHON_CAN_SUFFIXES`.
 """
 
 from __future__ import annotations
@@ -46,21 +51,26 @@ from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, PcapWriter, Skipped, read_ca
 
 __all__ = [
     "PCAP_SUFFIXES",
+    "PYTHON_CAN_SUFFIXES",
     "TRACE_SUFFIXES",
+    "CanLog",
     "Trace",
     "TraceFormatError",
     "UnsupportedFormatError",
+    "can_log_format",
     "from_message",
+    "read_can_log",
     "read_frames",
     "read_trace",
     "to_message",
     "trace_format",
+    "write_can_log",
     "write_trace",
 ]
 
 logger = logging.getLogger(__name__)
 
-TRACE_SUFFIXES: Final = (".asc", ".blf", ".csv", ".db", ".log", ".trc")  # python-can 4.6
+PYTHON_CAN_SUFFIXES: Final = (".asc", ".blf", ".csv", ".db", ".log", ".trc")  # python-can 4.6
 TEXT_SUFFIXES: Final = (".asc", ".csv", ".log", ".trc")  # python-can reads and writes them gzipped
 PCAP_SUFFIXES: Final = (".pcap", ".pcapng", ".cap")
 NS_PER_S: Final = 1_000_000_000
@@ -74,8 +84,8 @@ _LOSSY: Final = {
 
 
 @dataclass(frozen=True, slots=True)
-class Trace:
-    """Everything read from a CAN trace.
+class CanLog:
+    """Everything read from a CAN log file (what CAN tools call a trace).
 
     Attributes:
         path: the file.
@@ -101,7 +111,7 @@ class Trace:
         return self.counts.frames + len(self.skipped)
 
 
-def trace_format(path: str | Path) -> str:
+def can_log_format(path: str | Path) -> str:
     """The format suffix of ``path`` (``".asc"``, ``".asc.gz"``, ``".pcap"``, ...).
 
     Raises:
@@ -109,13 +119,13 @@ def trace_format(path: str | Path) -> str:
     """
     suffixes = [s.lower() for s in Path(path).suffixes]
     last = suffixes[-1] if suffixes else ""
-    if last in TRACE_SUFFIXES or last in PCAP_SUFFIXES:
+    if last in PYTHON_CAN_SUFFIXES or last in PCAP_SUFFIXES:
         return last
     if last == ".gz" and len(suffixes) >= 2:
         inner = suffixes[-2]
         if inner in TEXT_SUFFIXES or inner in PCAP_SUFFIXES:
             return inner + ".gz"
-    known = ", ".join([*TRACE_SUFFIXES, *PCAP_SUFFIXES])
+    known = ", ".join([*PYTHON_CAN_SUFFIXES, *PCAP_SUFFIXES])
     raise TraceFormatError(
         f"{path}: unknown trace format {''.join(suffixes[-2:]) or '(no suffix)'!r}; "
         f"known: {known} (text formats and pcaps also .gz)"
@@ -186,12 +196,12 @@ def to_message(frame: CanFrame) -> Any:
 
 # --- reading ---------------------------------------------------------------------------------------
 def read_frames(path: str | Path) -> tuple[str, list[CanFrame], list[Skipped]]:
-    """Every frame of a trace, without interpretation: ``(format, frames, skipped)``.
+    """Every frame of a CAN log file, without interpretation: ``(format, frames, skipped)``.
 
     Raises:
         TraceFormatError: unknown suffix, unreadable file, or nothing readable.
     """
-    fmt = trace_format(path)
+    fmt = can_log_format(path)
     if fmt.removesuffix(".gz") in PCAP_SUFFIXES:
         frames, skipped = _read_pcap(path)
     else:
@@ -199,17 +209,17 @@ def read_frames(path: str | Path) -> tuple[str, list[CanFrame], list[Skipped]]:
     return fmt, frames, skipped
 
 
-def read_trace(
+def read_can_log(
     path: str | Path,
     *,
     boards: Iterable[int] | None = None,
     skin_classes: Collection[int] = (SKIN_CLASS,),
-) -> Trace:
-    """Read a CAN trace and reassemble its skin samples.
+) -> CanLog:
+    """Read a CAN log file and reassemble its skin samples.
 
     Args:
-        path: a trace in one of :data:`TRACE_SUFFIXES` or :data:`PCAP_SUFFIXES` (text formats and
-            pcaps also gzipped).
+        path: a CAN log in one of :data:`PYTHON_CAN_SUFFIXES` or :data:`PCAP_SUFFIXES` (text
+            formats and pcaps also gzipped).
         boards: accept skin frames of these board addresses only (default: any).
         skin_classes: identifier classes that carry skin data (default 4; 3 for the legacy
             configuration, then give ``boards`` too).
@@ -221,7 +231,9 @@ def read_trace(
     r = Reassembler(boards=boards, skin_classes=skin_classes)
     samples = [s for s in map(r.feed, frames) if s is not None]
     counts = r.finish()
-    return Trace(str(path), fmt, tuple(frames), tuple(samples), counts, r.malformed, tuple(skipped))
+    return CanLog(
+        str(path), fmt, tuple(frames), tuple(samples), counts, r.malformed, tuple(skipped)
+    )
 
 
 def _read_pcap(path: str | Path) -> tuple[list[CanFrame], list[Skipped]]:
@@ -295,8 +307,8 @@ def _describe(exc: BaseException) -> str:
 
 
 # --- writing ---------------------------------------------------------------------------------------
-def write_trace(path: str | Path, frames: Iterable[CanFrame], *, strict: bool = True) -> int:
-    """Write ``frames`` (in the given order) to a trace; the format follows the suffix.
+def write_can_log(path: str | Path, frames: Iterable[CanFrame], *, strict: bool = True) -> int:
+    """Write ``frames`` (in the given order) to a CAN log file; the format follows the suffix.
 
     python-can formats go through ``can.Logger`` with messages created by :func:`to_message`;
     ``.pcap`` is a nanosecond SocketCAN pcap (LINKTYPE 227) from :class:`~skinframes.pcap.PcapWriter`.
@@ -317,7 +329,7 @@ def write_trace(path: str | Path, frames: Iterable[CanFrame], *, strict: bool = 
         FieldRangeError: a frame python-can or SocketCAN cannot hold.
     """
     try:
-        fmt = trace_format(path)
+        fmt = can_log_format(path)
     except TraceFormatError as exc:
         raise UnsupportedFormatError(str(exc)) from None
     base = fmt.removesuffix(".gz")
@@ -360,3 +372,11 @@ def _loss(frame: CanFrame, lossy: tuple[str, ...]) -> str:
     if frame.fd and "fd" in lossy:
         return "CAN FD frame"
     return ""
+
+
+# --- the old names: a CAN log was called a trace (users' scripts still use them) -----------------
+Trace = CanLog
+read_trace = read_can_log
+write_trace = write_can_log
+trace_format = can_log_format
+TRACE_SUFFIXES: Final = PYTHON_CAN_SUFFIXES
