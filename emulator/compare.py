@@ -30,7 +30,7 @@ from emulator.net import simulate_ecat, simulate_epl
 from emulator.net.can_bus import BusFrame, arbitrate, bit_time_ps
 from emulator.net.result import SimResult
 from skinframes import canbus, powerlink, taxel
-from skinframes.cantrace import Trace
+from skinframes.canbus.log import CanLog
 
 __all__ = ["SkinSamples", "compare", "samples_of"]
 
@@ -70,7 +70,7 @@ class SkinSamples:
         return int(self.taxels.shape[2])
 
 
-def samples_of(trace: Trace) -> SkinSamples:
+def samples_of(trace: CanLog) -> SkinSamples:
     """Group a trace's reassembled samples: the k-th sample of every (board, triangle) is sample k.
 
     Raises:

@@ -10,7 +10,7 @@ from enum import IntEnum
 from typing import Any
 
 from skinframes import ethercat, ethernet, powerlink
-from skinframes.canwire import CanFrame
+from skinframes.canbus import CanFrame
 from skinframes.dispatch import decode_frame, protocol_of
 from skinframes.errors import DecodeError, TruncatedError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, Record

@@ -18,7 +18,7 @@ from collections.abc import Callable
 from typing import Any, Final
 
 from skinframes.canbus import LEGACY_SKIN_CLASS, SKIN_CLASS, FrameCounts
-from skinframes.cantrace import PCAP_SUFFIXES, TRACE_SUFFIXES, Trace, read_trace
+from skinframes.canbus.log import PCAP_SUFFIXES, PYTHON_CAN_SUFFIXES, CanLog, read_can_log
 from skinframes_cli.can_convert import add_convert
 from skinframes_cli.options import int_list
 
@@ -33,7 +33,7 @@ def add_parser(sub: Any) -> None:
         "can",
         help="legacy CAN skin traces (decode, convert)",
         description="Legacy iCub skin CAN traces: any python-can format "
-        f"({' '.join(TRACE_SUFFIXES)}) or a SocketCAN pcap ({' '.join(PCAP_SUFFIXES)}).",
+        f"({' '.join(PYTHON_CAN_SUFFIXES)}) or a SocketCAN pcap ({' '.join(PCAP_SUFFIXES)}).",
     )
     can_sub = p.add_subparsers(dest="can_command", required=True, metavar="CAN_COMMAND")
     for add in SUBCOMMANDS:
@@ -70,9 +70,9 @@ def add_decode(sub: Any) -> None:
 
 def run_decode(args: argparse.Namespace) -> int:
     """Decode and print the samples; the accounting goes to stderr."""
-    trace = read_trace(args.trace, boards=args.boards, skin_classes=(args.skin_class,))
+    can_log = read_can_log(args.trace, boards=args.boards, skin_classes=(args.skin_class,))
     out = sys.stdout
-    for s in trace.samples:
+    for s in can_log.samples:
         if args.json:
             out.write(json.dumps(s.to_json()) + "\n")
         else:
@@ -82,17 +82,17 @@ def run_decode(args: argparse.Namespace) -> int:
                 f"{s.time_ns / 1e9:>18.9f}  board {t.board:>2} triangle {t.triangle:>2}  {taxels}"
                 f"  error {t.error} out_of_range {t.out_of_range:#05x}\n"
             )
-    _report(trace)
+    _report(can_log)
     return 0
 
 
-def _report(trace: Trace) -> None:
-    c: FrameCounts = trace.counts
+def _report(can_log: CanLog) -> None:
+    c: FrameCounts = can_log.counts
     err = sys.stderr
     print(
-        f"skinframes: {trace.total} frames: {c.samples} skin samples ({c.sample_frames} frames), "
+        f"skinframes: {can_log.total} frames: {c.samples} skin samples ({c.sample_frames} frames), "
         f"{c.other} not skin data, {c.error_frames} error frames, {c.orphan_heads} orphan heads, "
-        f"{c.orphan_tails} orphan tails, {c.malformed} malformed, {len(trace.skipped)} skipped",
+        f"{c.orphan_tails} orphan tails, {c.malformed} malformed, {len(can_log.skipped)} skipped",
         file=err,
     )
     if c.other_ids:
@@ -106,14 +106,14 @@ def _report(trace: Trace) -> None:
             + (f", ... {more} more" if more > 0 else ""),
             file=err,
         )
-    for m in trace.malformed[:MAX_LISTED]:
+    for m in can_log.malformed[:MAX_LISTED]:
         print(
             f"skinframes: malformed skin frame {m.index} ({m.arbitration_id:#05x}): {m.reason}",
             file=err,
         )
-    if len(trace.malformed) > MAX_LISTED:
-        print(f"skinframes: ... {len(trace.malformed) - MAX_LISTED} more malformed", file=err)
-    for s in trace.skipped:
+    if len(can_log.malformed) > MAX_LISTED:
+        print(f"skinframes: ... {len(can_log.malformed) - MAX_LISTED} more malformed", file=err)
+    for s in can_log.skipped:
         print(f"skinframes: skipped record {s.index}: {s.reason}", file=err)
 
 

@@ -31,12 +31,12 @@ def run_convert(args: argparse.Namespace) -> int:
     from emulator.compare import samples_of
     from emulator.model.params import preset
     from emulator.net import simulate_ecat, simulate_epl
-    from skinframes.cantrace import read_trace
+    from skinframes.canbus.log import read_can_log
     from skinframes.errors import SkinframesError
 
     if args.target == "epl" and args.redundant:
         raise SkinframesError("--redundant applies to EtherCAT only")
-    s = samples_of(read_trace(args.trace))
+    s = samples_of(read_can_log(args.trace))
     params = preset(args.preset)
     n, size, cycles = len(s.boards), s.data_bytes, s.samples
     if args.target == "epl":

@@ -45,9 +45,9 @@ def comparison(trace_path: str, preset_name: str) -> dict[str, Any]:
     """The comparison document for a trace file."""
     from emulator.compare import compare, samples_of
     from emulator.model.params import preset
-    from skinframes.cantrace import read_trace
+    from skinframes.canbus.log import read_can_log
 
-    return compare(samples_of(read_trace(trace_path)), preset(preset_name))
+    return compare(samples_of(read_can_log(trace_path)), preset(preset_name))
 
 
 def _rows(doc: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:

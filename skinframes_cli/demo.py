@@ -97,14 +97,14 @@ def _can_comparison(out: Path) -> list[tuple[Path, str]]:
     from emulator.model.params import WIRE
     from emulator.net.can_bus import skin_bus
     from skinframes.canbus import DEFAULT_PERIOD_MS, MAX_BOARD
-    from skinframes.cantrace import read_trace, write_trace
+    from skinframes.canbus.log import read_can_log, write_can_log
     from skinframes_cli.compare import plot, print_table
 
     taxels = taxel.contact_pattern(len(CAN_BOARDS), CAN_SAMPLES, seed=2)
     frames, _ = skin_bus(CAN_BOARDS, taxels, DEFAULT_PERIOD_MS * 1_000_000_000)
-    trace_path = out / "skin_can.asc"
-    write_trace(trace_path, frames)
-    doc = compare(samples_of(read_trace(trace_path)), WIRE)
+    can_log_path = out / "skin_can.asc"
+    write_can_log(can_log_path, frames)
+    doc = compare(samples_of(read_can_log(can_log_path)), WIRE)
     print(
         "\nThe legacy CAN bus against EPL and EtherCAT, on the same taxels (skinframes compare):\n"
     )
@@ -118,6 +118,6 @@ def _can_comparison(out: Path) -> list[tuple[Path, str]]:
     )
     png = plot(doc, out / "compare.png")
     return [
-        (trace_path, f"skin CAN trace: {len(CAN_BOARDS)} boards, {CAN_SAMPLES} samples"),
+        (can_log_path, f"skin CAN trace: {len(CAN_BOARDS)} boards, {CAN_SAMPLES} samples"),
         (png, "CAN vs EPL vs EtherCAT for that trace"),
     ]

@@ -14,7 +14,7 @@ from pathlib import Path
 import pytest
 
 from skinframes.canbus import CanFrame, TimedSample, TriangleSample, sample_frames
-from skinframes.cantrace import write_trace
+from skinframes.canbus.log import write_can_log
 from skinframes_cli import main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -48,7 +48,7 @@ def skin_trace(tmp_path: Path, suffix: str, extra: list[CanFrame] | None = None)
     frames = sample_frames(SAMPLES) + (extra or [])
     frames.sort(key=lambda f: f.time_ns)
     path = tmp_path / f"skin{suffix}"
-    write_trace(path, frames)
+    write_can_log(path, frames)
     return path
 
 
@@ -110,7 +110,7 @@ def test_can_decode_legacy_class_and_board_filter(
     legacy = [TimedSample(0, TriangleSample(9, 2, [1] * 12, skin_class=3), 130_000)]
     strain = CanFrame(0x3A0, bytes.fromhex("40 01 02 03 04 05 06 07"), time_ns=50_000)
     path = tmp_path / "legacy.log"
-    write_trace(path, sorted([*sample_frames(legacy), strain], key=lambda f: f.time_ns))
+    write_can_log(path, sorted([*sample_frames(legacy), strain], key=lambda f: f.time_ns))
     code, out, _ = run(["can", "decode", "--json", str(path)], capsys)
     assert (code, out) == (0, "")  # class 4 by default
     code, out, err = run(
@@ -132,7 +132,7 @@ def test_can_decode_reports_malformed_and_orphans(
         CanFrame(ident, head, time_ns=2),  # orphan head at the end
     ]
     path = tmp_path / "bad.log"
-    write_trace(path, frames)
+    write_can_log(path, frames)
     code, out, err = run(["can", "decode", str(path)], capsys)
     assert code == 0 and out == ""
     lines = err.splitlines()

@@ -10,8 +10,8 @@ import pytest
 
 from emulator.net.can_bus import skin_bus
 from skinframes import decode_frame, ethercat, powerlink, read_capture, taxel
-from skinframes.cantrace import write_trace
-from skinframes.canwire import frame_bits
+from skinframes.canbus import frame_bits
+from skinframes.canbus.log import write_can_log
 from skinframes_cli import main
 
 BOARDS = [8, 9, 10]
@@ -24,7 +24,7 @@ def skin_trace(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, np.ndarr
     taxels = taxel.contact_pattern(len(BOARDS), SAMPLES, seed=11)
     frames, _ = skin_bus(BOARDS, taxels, PERIOD_PS)
     path = tmp_path_factory.mktemp("can") / "skin.log"
-    write_trace(path, frames)
+    write_can_log(path, frames)
     return path, taxels
 
 
@@ -103,10 +103,10 @@ def test_compare_plot_and_text(
 def test_compare_without_skin_data_is_one_error_line(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from skinframes.canwire import CanFrame
+    from skinframes.canbus import CanFrame
 
     path = tmp_path / "other.log"
-    write_trace(path, [CanFrame(0x123, b"\x01\x02", time_ns=1000)])
+    write_can_log(path, [CanFrame(0x123, b"\x01\x02", time_ns=1000)])
     assert main(["compare", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("skinframes: error:")

@@ -19,7 +19,7 @@ import pytest
 from emulator.live import ServeStats
 from emulator.net.can_bus import skin_bus
 from skinframes import taxel
-from skinframes.cantrace import write_trace
+from skinframes.canbus.log import write_can_log
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, pcap_bytes
 from skinframes_cli import build_parser, main
 
@@ -116,7 +116,7 @@ def run_json(capsys: pytest.CaptureFixture[str], *argv: str) -> list[Any]:
 def can_trace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     frames, _ = skin_bus([8, 9], taxel.contact_pattern(2, 2, seed=3), 50_000_000_000)
     path = tmp_path_factory.mktemp("doc") / "skin.log"
-    write_trace(path, frames)
+    write_can_log(path, frames)
     return path
 
 

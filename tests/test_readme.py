@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from skinframes.cantrace import read_trace, write_trace
+from skinframes.canbus.log import read_can_log, write_can_log
 from skinframes_cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parent.parent
@@ -39,9 +39,9 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     os.chdir(d)
     try:
         assert main(["demo", "--out", "out", "--no-plot"]) == 0
-        frames = read_trace("out/skin_can.asc").frames
+        frames = read_can_log("out/skin_can.asc").frames
         for name in ("trace.asc", "trace.blf", "old.log", "skin.pcap"):
-            write_trace(name, frames)
+            write_can_log(name, frames)
         assert (
             main(["simulate", "epl", "--nodes", "4", "--bytes", "192", "--pcap", "capture.pcapng"])
             == 0

@@ -20,7 +20,7 @@ import numpy.typing as npt
 from emulator.errors import ScheduleError, TopologyError
 from emulator.model.units import PS_PER_NS, PS_PER_S
 from skinframes import canbus
-from skinframes.canwire import CanFrame
+from skinframes.canbus.wire import CanFrame
 
 __all__ = ["BusFrame", "CanSchedule", "arbitrate", "bit_time_ps", "skin_bus"]
 

@@ -3,19 +3,23 @@
 The public model is frozen dataclasses: :class:`SkinFrame` (one CAN frame, half a triangle),
 :class:`TriangleSample` (12 taxels + status of one triangle) and :class:`TimedSample`.
 :class:`Reassembler` pairs heads and tails from a stream of :class:`CanFrame` and counts (never
-raises on) what is not skin data. The exact length of any classic CAN frame on the wire
-(:func:`frame_bits`, :func:`worst_case_bits`, ...) and :class:`CanFrame` live in
-:mod:`skinframes.canwire` and are re-exported here. Trace files (python-can formats, SocketCAN
-pcap) are in :mod:`skinframes.cantrace`.
+raises on) what is not skin data.
 
-Where things are (every name is importable from ``skinframes.canbus``):
+Where things are (the names listed are importable from ``skinframes.canbus``, except ``log``'s):
 
+- ``wire``: any classic CAN frame on the wire, skin or not: :class:`CanFrame`, its exact length
+  (:func:`frame_bits`, :func:`worst_case_bits`, ...), CRC-15 and SocketCAN records.
 - ``codec``: constants, identifiers, :class:`SkinFrame` and :class:`TriangleSample` with the
   head/tail layout (construct schemas of record and the ``bytes`` fast path); sources cited there.
 - ``boards``: a board's sample as frames (:func:`encode_board`, :func:`decode_board`,
   :func:`idle_board`) and n samples at once with numpy (:func:`pack_frames`, :func:`unpack_frames`).
 - ``reassembly``: :class:`Reassembler`, :func:`reassemble`, :class:`TimedSample` and the counts.
 - ``dbc``: :func:`dbc_text`.
+- ``log``: CAN log files (python-can's formats, SocketCAN pcap) read and written frame by frame;
+  import it as ``skinframes.canbus.log`` (it is not re-exported here).
+
+``skinframes.canwire`` and ``skinframes.cantrace`` are the old paths of ``wire`` and ``log``;
+they still import.
 """
 
 from skinframes.canbus.boards import (
@@ -62,7 +66,7 @@ from skinframes.canbus.reassembly import (
     reassemble,
     sample_frames,
 )
-from skinframes.canwire import (
+from skinframes.canbus.wire import (
     CAN_EFF_FLAG,
     CAN_ERR_FLAG,
     CAN_RTR_FLAG,

@@ -32,7 +32,7 @@ import construct as cs
 import numpy as np
 import numpy.typing as npt
 
-from skinframes.canwire import MAX_SFF_ID
+from skinframes.canbus.wire import MAX_SFF_ID, check_range
 from skinframes.errors import (
     FieldRangeError,
     InvalidFieldError,
@@ -131,14 +131,6 @@ def _check_address(skin_class: int, board: int, triangle: int) -> None:
     check_range("skin_class", skin_class, MAX_CLASS)
     check_range("board", board, MAX_BOARD)
     check_range("triangle", triangle, TRIANGLES_PER_PATCH - 1)
-
-
-def check_range(name: str, value: int, high: int, low: int = 0) -> None:
-    """Raise TypeError for a non-integer, :class:`FieldRangeError` outside ``low..high``."""
-    if not isinstance(value, int | np.integer):
-        raise TypeError(f"{name} must be an int, not {type(value).__name__}")
-    if not low <= value <= high:
-        raise FieldRangeError(f"{name}={value} is outside {low}..{high}", field=name)
 
 
 def _taxel_tuple(values: Iterable[int], count: int, what: str) -> tuple[int, ...]:

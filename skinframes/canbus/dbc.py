@@ -10,9 +10,9 @@ from skinframes.canbus.codec import (
     MAX_CLASS,
     SKIN_CLASS,
     TAIL_MARKER,
-    check_range,
     skin_id,
 )
+from skinframes.canbus.wire import check_range
 from skinframes.errors import FieldRangeError
 from skinframes.taxel import TAXELS_PER_TRIANGLE, TRIANGLES_PER_PATCH
 

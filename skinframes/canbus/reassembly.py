@@ -16,9 +16,8 @@ from skinframes.canbus.codec import (
     SKIN_DLC,
     TAIL_MARKER,
     TriangleSample,
-    check_range,
 )
-from skinframes.canwire import CanFrame
+from skinframes.canbus.wire import CanFrame, check_range
 
 
 @dataclass(frozen=True, slots=True)

@@ -1,4 +1,4 @@
-"""The skin's CAN codec (skinframes.canbus) and the exact frame length (skinframes.canwire).
+"""The skin's CAN codec (skinframes.canbus) and the exact frame length (skinframes.canbus.wire).
 
 Expected values come from ../shared/reference/can.md (identifier and payload layout, worst-case
 formula), from Vector's ``BitCount`` in the ASC logs of ../shared/captures/can and of python-can's
@@ -10,6 +10,7 @@ register of ISO 11898-1, explicit stuff-bit insertion).
 from __future__ import annotations
 
 import contextlib
+import importlib
 import os
 import random
 import re
@@ -655,3 +656,19 @@ def test_cantools_decodes_and_encodes_like_the_codec(sample: TriangleSample) -> 
     }
     assert db.encode_message(ident, got_head) == head
     assert db.encode_message(ident, got_tail) == tail
+
+
+# --- the old module paths (users' scripts import them) --------------------------------------------
+@pytest.mark.parametrize(
+    ("old", "new"),
+    [
+        ("skinframes.canwire", "skinframes.canbus.wire"),
+        ("skinframes.cantrace", "skinframes.canbus.log"),
+    ],
+)
+def test_old_module_paths_re_export_the_same_objects(old: str, new: str) -> None:
+    old_module, new_module = importlib.import_module(old), importlib.import_module(new)
+    assert set(old_module.__all__) == set(new_module.__all__)
+    constants = {name for name in new_module.__annotations__ if not name.startswith("_")}  # Final
+    for name in {*new_module.__all__, *constants}:
+        assert getattr(old_module, name) is getattr(new_module, name), name

@@ -15,7 +15,7 @@ from collections.abc import Callable, Iterator
 
 import pytest
 
-from skinframes import canwire, decode_frame, ethercat, golden, powerlink, taxel
+from skinframes import canbus, decode_frame, ethercat, golden, powerlink, taxel
 from skinframes.errors import DecodeError
 from skinframes.ethernet import EthernetFrame
 from skinframes.pcap import parse_capture, pcap_bytes
@@ -65,7 +65,7 @@ DECODERS: dict[str, Callable[[bytes], object]] = {
     "powerlink.decode": _epl,
     "ethercat.decode": _ecat,
     "parse_capture": _capture,
-    "socketcan record": canwire.CanFrame.from_socketcan,
+    "socketcan record": canbus.CanFrame.from_socketcan,
     "patch_from_bytes": taxel.patch_from_bytes,
 }
 

@@ -1,4 +1,4 @@
-"""CAN trace files (skinframes.cantrace): python-can formats and SocketCAN pcap, in and out.
+"""CAN log files (skinframes.canbus.log): python-can formats and SocketCAN pcap, in and out.
 
 Expected values: the taxels we encoded, frame counts of the third-party logs from can.md 3
 (python-can's own reader agrees), tshark's dissection of our pcaps, cantools' candump parser with
@@ -27,16 +27,16 @@ from skinframes.canbus import (
     dbc_text,
     sample_frames,
 )
-from skinframes.cantrace import (
-    Trace,
+from skinframes.canbus.log import (
+    CanLog,
     TraceFormatError,
     UnsupportedFormatError,
+    can_log_format,
     from_message,
+    read_can_log,
     read_frames,
-    read_trace,
     to_message,
-    trace_format,
-    write_trace,
+    write_can_log,
 )
 from skinframes.errors import DecodeError, FieldRangeError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, pcap_bytes, read_capture
@@ -68,23 +68,23 @@ def skin_samples(periods: int = 3, seed: int = 1) -> list[TimedSample]:
 
 
 @pytest.mark.parametrize("suffix", FORMATS + GZIPPED)
-def test_skin_trace_round_trips_through_every_format(tmp_path: Path, suffix: str) -> None:
+def test_skin_log_round_trips_through_every_format(tmp_path: Path, suffix: str) -> None:
     samples = skin_samples()
     frames = sample_frames(samples)
     path = tmp_path / f"skin{suffix}"
-    assert write_trace(path, frames) == len(frames) == 2 * 3 * 16 * len(BOARDS)
-    trace = read_trace(path)
-    assert trace.format == suffix
-    assert [s.sample for s in trace.samples] == [s.sample for s in samples]
+    assert write_can_log(path, frames) == len(frames) == 2 * 3 * 16 * len(BOARDS)
+    can_log = read_can_log(path)
+    assert can_log.format == suffix
+    assert [s.sample for s in can_log.samples] == [s.sample for s in samples]
     # times come back relative to the first frame in .asc; .log/.asc/.trc keep microseconds and
     # the stamps here are whole microseconds, so every format gives them back exactly
-    t0 = trace.samples[0].time_ns
-    got = [(s.time_ns - t0, s.end_time_ns - t0) for s in trace.samples]
+    t0 = can_log.samples[0].time_ns
+    got = [(s.time_ns - t0, s.end_time_ns - t0) for s in can_log.samples]
     want = [(s.time_ns, s.end_time_ns) for s in samples]
     assert got == want
-    c = trace.counts
+    c = can_log.counts
     assert (c.frames, c.samples, c.other, c.orphan_heads, c.malformed) == (288, 144, 0, 0, 0)
-    assert c.accounted and trace.skipped == () and trace.total == 288
+    assert c.accounted and can_log.skipped == () and can_log.total == 288
     # python-can's reader sees the same number of messages
     if suffix != ".pcap":
         with can.LogReader(str(path)) as reader:
@@ -94,7 +94,7 @@ def test_skin_trace_round_trips_through_every_format(tmp_path: Path, suffix: str
 def test_candump_log_decodes_with_cantools_and_our_dbc(tmp_path: Path) -> None:
     samples = skin_samples(periods=1)
     path = tmp_path / "skin.log"
-    write_trace(path, sample_frames(samples))
+    write_can_log(path, sample_frames(samples))
     lines = path.read_text().splitlines()
     # candump -L style, as can.md 4 shows: "(1700000000.000000) vcan0 4E0#40F0EFEEEDECEBEA R"
     assert lines[0].startswith("(0.000000) vcan0 4E0#40")
@@ -122,7 +122,7 @@ def test_tshark_dissects_our_socketcan_pcap(tmp_path: Path, tshark: str) -> None
     frames = sample_frames(skin_samples(periods=1)) + MIXED
     frames.sort(key=lambda f: f.time_ns)
     path = tmp_path / "skin.pcap"
-    write_trace(path, frames)
+    write_can_log(path, frames)
     assert [r.linktype for r in read_capture(path)] == [LINKTYPE_CAN_SOCKETCAN] * len(frames)
     assert tshark_util.problems(tshark, path) == []
     names = ["frame.protocols", "can.id", "can.len", "can.flags.xtd", "can.flags.rtr", "data.data"]
@@ -155,21 +155,21 @@ THIRD_PARTY = {  # file: (frames, error frames, CAN FD frames)
 def test_third_party_logs_are_read_and_accounted(shared_captures: Path, name: str) -> None:
     path = shared_captures / "can" / name
     frames, errors, fd = THIRD_PARTY[name]
-    trace = read_trace(path)
-    assert trace.total == trace.counts.frames == frames
+    can_log = read_can_log(path)
+    assert can_log.total == can_log.counts.frames == frames
     with can.LogReader(str(path)) as reader:
         assert sum(1 for _ in reader) == frames
-    assert trace.samples == () and trace.skipped == () and trace.malformed == ()
-    assert trace.counts.accounted
-    assert trace.counts.error_frames == errors
-    assert trace.counts.other == frames - errors
-    assert sum(f.fd for f in trace.frames) == fd
-    assert sum(i.count for i in trace.counts.other_ids) == frames - errors
+    assert can_log.samples == () and can_log.skipped == () and can_log.malformed == ()
+    assert can_log.counts.accounted
+    assert can_log.counts.error_frames == errors
+    assert can_log.counts.other == frames - errors
+    assert sum(f.fd for f in can_log.frames) == fd
+    assert sum(i.count for i in can_log.counts.other_ids) == frames - errors
 
 
 def test_issue_1256_ids_are_counted(shared_captures: Path) -> None:
-    trace = read_trace(shared_captures / "can" / "issue_1256.asc")
-    ids = {i.arbitration_id: i.count for i in trace.counts.other_ids}
+    can_log = read_can_log(shared_captures / "can" / "issue_1256.asc")
+    ids = {i.arbitration_id: i.count for i in can_log.counts.other_ids}
     text = (shared_captures / "can" / "issue_1256.asc").read_text()
     # count the lines per ID column by hand: "<time> 1  64   Rx   d 4 ..."
     for ident in (0x64, 0x11, 0x12):
@@ -182,19 +182,19 @@ def test_unknown_suffix_and_missing_file(tmp_path: Path) -> None:
     (tmp_path / "x.txt").write_text("hello\n")
     for name in ("x.txt", "x", "x.blf.gz", "x.mf4"):
         with pytest.raises(TraceFormatError):
-            read_trace(tmp_path / name)
+            read_can_log(tmp_path / name)
     with pytest.raises(TraceFormatError, match="cannot read"):
-        read_trace(tmp_path / "missing.asc")
+        read_can_log(tmp_path / "missing.asc")
     with pytest.raises(UnsupportedFormatError):
-        write_trace(tmp_path / "out.txt", [])
+        write_can_log(tmp_path / "out.txt", [])
     with pytest.raises(UnsupportedFormatError):
-        write_trace(tmp_path / "out.pcapng", [])
-    assert trace_format("A.LOG.GZ") == ".log.gz"
+        write_can_log(tmp_path / "out.pcapng", [])
+    assert can_log_format("A.LOG.GZ") == ".log.gz"
 
 
 def _skin_file(tmp_path: Path, suffix: str) -> Path:
     path = tmp_path / f"skin{suffix}"
-    write_trace(path, sample_frames(skin_samples(periods=1)))
+    write_can_log(path, sample_frames(skin_samples(periods=1)))
     return path
 
 
@@ -202,38 +202,38 @@ def test_junk_line_stops_the_reader_and_is_reported(tmp_path: Path) -> None:
     path = _skin_file(tmp_path, ".log")
     lines = path.read_text().splitlines()
     path.write_text("\n".join([*lines[:10], "this is not candump", *lines[10:]]) + "\n")
-    trace = read_trace(path)
-    assert trace.counts.frames == 10 and trace.counts.samples == 5
-    (skipped,) = trace.skipped
+    can_log = read_can_log(path)
+    assert can_log.counts.frames == 10 and can_log.counts.samples == 5
+    (skipped,) = can_log.skipped
     assert skipped.index == 10 and "stopped after 10 frames" in skipped.reason
-    assert trace.total == 11
+    assert can_log.total == 11
     path.write_text("this is not candump\n" + "\n".join(lines) + "\n")
     with pytest.raises(TraceFormatError, match=r"not a readable \.log trace"):
-        read_trace(path)
+        read_can_log(path)
 
 
 def test_truncated_blf_is_reported(tmp_path: Path) -> None:
     path = _skin_file(tmp_path, ".blf")
     raw = path.read_bytes()
     path.write_bytes(raw[: len(raw) * 2 // 3])
-    trace = read_trace(path)
-    assert trace.counts.frames < 96
-    assert trace.skipped and "truncated BLF" in trace.skipped[-1].reason
-    assert "96 objects" in trace.skipped[-1].reason
+    can_log = read_can_log(path)
+    assert can_log.counts.frames < 96
+    assert can_log.skipped and "truncated BLF" in can_log.skipped[-1].reason
+    assert "96 objects" in can_log.skipped[-1].reason
     path.write_bytes(b"")
     with pytest.raises(TraceFormatError):
-        read_trace(path)
+        read_can_log(path)
 
 
 def test_truncated_gzip_is_reported(tmp_path: Path) -> None:
     path = _skin_file(tmp_path, ".asc.gz")
     raw = path.read_bytes()
     path.write_bytes(raw[: len(raw) // 2])
-    trace = read_trace(path)
-    assert 0 < trace.counts.frames < 96
-    (skipped,) = trace.skipped
+    can_log = read_can_log(path)
+    assert 0 < can_log.counts.frames < 96
+    (skipped,) = can_log.skipped
     assert "reader stopped" in skipped.reason and "EOFError" in skipped.reason
-    assert trace.total == trace.counts.frames + 1
+    assert can_log.total == can_log.counts.frames + 1
 
 
 def test_pcap_records_that_are_not_socketcan_are_skipped(tmp_path: Path) -> None:
@@ -241,14 +241,14 @@ def test_pcap_records_that_are_not_socketcan_are_skipped(tmp_path: Path) -> None
     path = tmp_path / "mixed.pcap"
     truncated = struct.pack(">IB3x", 0x410, 8) + bytes(3)
     path.write_bytes(pcap_bytes([(0, good), (1, truncated), (2, good)], LINKTYPE_CAN_SOCKETCAN))
-    trace = read_trace(path)
-    assert (trace.counts.frames, [s.index for s in trace.skipped], trace.total) == (2, [1], 3)
+    can_log = read_can_log(path)
+    assert (can_log.counts.frames, [s.index for s in can_log.skipped], can_log.total) == (2, [1], 3)
     path.write_bytes(pcap_bytes([(0, bytes(60))], LINKTYPE_ETHERNET))
-    trace = read_trace(path)
-    assert trace.counts.frames == 0 and "linktype 1" in trace.skipped[0].reason
+    can_log = read_can_log(path)
+    assert can_log.counts.frames == 0 and "linktype 1" in can_log.skipped[0].reason
     path.write_bytes(b"not a pcap at all")
     with pytest.raises(DecodeError):
-        read_trace(path)
+        read_can_log(path)
 
 
 @pytest.mark.parametrize("suffix", [*FORMATS, ".asc.gz"])
@@ -262,17 +262,17 @@ def test_damaged_files_raise_only_our_errors(
     path = tmp_path / f"bad{suffix}"
     if path.exists():
         path.unlink()
-    write_trace(path, sample_frames(skin_samples(periods=1))[:40])
+    write_can_log(path, sample_frames(skin_samples(periods=1))[:40])
     raw = path.read_bytes()
     at = int(len(raw) * cut)
     path.write_bytes(raw[:at] + junk + raw[at + len(junk) :])  # overwrite a stretch with junk
     try:
-        trace = read_trace(path)
+        can_log = read_can_log(path)
     except DecodeError:
         return
-    assert isinstance(trace, Trace)
-    assert trace.counts.accounted
-    assert trace.total == trace.counts.frames + len(trace.skipped)
+    assert isinstance(can_log, CanLog)
+    assert can_log.counts.accounted
+    assert can_log.total == can_log.counts.frames + len(can_log.skipped)
 
 
 def test_random_files_raise_only_our_errors(tmp_path: Path) -> None:
@@ -282,10 +282,10 @@ def test_random_files_raise_only_our_errors(tmp_path: Path) -> None:
             path = tmp_path / f"random{suffix}"
             path.write_bytes(bytes(rng.randrange(256) for _ in range(size)))
             try:
-                trace = read_trace(path)
+                can_log = read_can_log(path)
             except DecodeError:
                 continue
-            assert trace.counts.accounted
+            assert can_log.counts.accounted
 
 
 # --- writing ---------------------------------------------------------------------------------------
@@ -294,15 +294,15 @@ def test_writers_refuse_frames_they_would_lose(tmp_path: Path) -> None:
     fd = CanFrame(0x123, bytes(12), fd=True)
     for suffix, frame in ((".trc", remote), (".trc", error), (".trc", fd), (".log", remote)):
         with pytest.raises(UnsupportedFormatError):
-            write_trace(tmp_path / f"x{suffix}", [frame])
+            write_can_log(tmp_path / f"x{suffix}", [frame])
     for suffix in (".csv", ".db"):
         with pytest.raises(UnsupportedFormatError):
-            write_trace(tmp_path / f"x{suffix}", [fd])
+            write_can_log(tmp_path / f"x{suffix}", [fd])
     # strict=False: TRC drops them, the others write what they can
     base = CanFrame(0x410, bytes(8))
-    assert write_trace(tmp_path / "y.trc", [base, remote, error, fd], strict=False) == 1
-    assert read_trace(tmp_path / "y.trc").counts.frames == 1
-    assert write_trace(tmp_path / "y.log", [base, remote], strict=False) == 2
+    assert write_can_log(tmp_path / "y.trc", [base, remote, error, fd], strict=False) == 1
+    assert read_can_log(tmp_path / "y.trc").counts.frames == 1
+    assert write_can_log(tmp_path / "y.log", [base, remote], strict=False) == 2
     _, frames, _ = read_frames(tmp_path / "y.log")
     assert frames[1].remote and frames[1].dlc_field == 0  # candump keeps no DLC for remote frames
 
@@ -318,8 +318,10 @@ def test_formats_that_keep_every_kind_of_frame(tmp_path: Path, suffix: str) -> N
     frames = [CanFrame(0x410, bytes(8)), *MIXED]
     if suffix != ".pcap":  # python-can has no classic DLC 9..15
         frames = [f for f in frames if f.dlc_field <= 8]
-    write_trace(tmp_path / f"z{suffix}", frames)
-    assert [key(f) for f in read_trace(tmp_path / f"z{suffix}").frames] == [key(f) for f in frames]
+    write_can_log(tmp_path / f"z{suffix}", frames)
+    assert [key(f) for f in read_can_log(tmp_path / f"z{suffix}").frames] == [
+        key(f) for f in frames
+    ]
 
 
 def test_python_can_messages(tmp_path: Path) -> None:
@@ -338,17 +340,32 @@ def test_python_can_messages(tmp_path: Path) -> None:
     with pytest.raises(FieldRangeError):
         to_message(CanFrame(0x3FF, bytes(8), dlc=13))  # python-can has no classic DLC 9..15
     with pytest.raises(FieldRangeError):
-        write_trace(tmp_path / "neg.asc", [CanFrame(0x410, bytes(8), time_ns=-5)])
+        write_can_log(tmp_path / "neg.asc", [CanFrame(0x410, bytes(8), time_ns=-5)])
     # a classic frame with > 8 bytes (how .csv/.db return CAN FD frames) is CAN FD
     fd = can.Message(arbitration_id=0x1, is_extended_id=False, data=bytes(12), dlc=12)
     assert from_message(fd).fd
 
 
-def test_numpy_taxels_survive_a_trace(tmp_path: Path) -> None:
+def test_numpy_taxels_survive_a_can_log(tmp_path: Path) -> None:
     # a whole patch per board, as skinframes.taxel models it, through BLF
     taxels = contact_pattern(1, 1, seed=3)[0, 0]
     samples = [TimedSample(t * 250_000, TriangleSample(7, t, taxels[t]), t * 250_000 + 125_000)
                for t in range(16)]  # fmt: skip
-    write_trace(tmp_path / "p.blf", sample_frames(samples))
-    got = read_trace(tmp_path / "p.blf").samples
+    write_can_log(tmp_path / "p.blf", sample_frames(samples))
+    got = read_can_log(tmp_path / "p.blf").samples
     assert np.array_equal(np.array([s.sample.taxels for s in got], dtype=np.uint8), taxels)
+
+
+def test_the_old_trace_names_are_aliases_of_the_can_log_names() -> None:
+    from skinframes.canbus import log
+
+    aliases = {
+        "Trace": "CanLog",
+        "read_trace": "read_can_log",
+        "write_trace": "write_can_log",
+        "trace_format": "can_log_format",
+        "TRACE_SUFFIXES": "PYTHON_CAN_SUFFIXES",
+    }
+    for old, new in aliases.items():
+        assert getattr(log, old) is getattr(log, new), old
+        assert {old, new} <= set(log.__all__)
