@@ -22,7 +22,13 @@ def add_convert(sub: Any) -> None:
     p.add_argument("--to", choices=["epl", "ecat"], required=True, dest="target")
     p.add_argument("--pcap", required=True, help="output pcap")
     p.add_argument("--preset", choices=list(PRESETS), default="wire")
-    p.add_argument("--redundant", action="store_true", help="EtherCAT closed ring")
+    p.add_argument(
+        "--closed-ring",
+        "--redundant",
+        dest="redundant",
+        action="store_true",
+        help="EtherCAT closed ring (--redundant: its old name)",
+    )
     p.set_defaults(run=run_convert)
 
 
@@ -35,7 +41,7 @@ def run_convert(args: argparse.Namespace) -> int:
     from skinframes.errors import SkinframesError
 
     if args.target == "epl" and args.redundant:
-        raise SkinframesError("--redundant applies to EtherCAT only")
+        raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
     s = samples_of(read_can_log(args.trace))
     params = preset(args.preset)
     n, size, cycles = len(s.boards), s.data_bytes, s.samples

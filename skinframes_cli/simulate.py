@@ -25,7 +25,13 @@ def add_parser(sub: Any) -> None:
     p.add_argument("protocol", choices=["epl", "ecat"])
     p.add_argument("--nodes", type=int, required=True, help="CNs / slaves (patches)")
     p.add_argument("--bytes", type=int, required=True, help="taxel bytes per node (192 = a patch)")
-    p.add_argument("--redundant", action="store_true", help="EtherCAT closed ring (Table III)")
+    p.add_argument(
+        "--closed-ring",
+        "--redundant",
+        dest="redundant",
+        action="store_true",
+        help="EtherCAT closed ring, Table III (--redundant: its old name)",
+    )
     p.add_argument("--preset", choices=list(PRESETS), default="paper")
     p.add_argument(
         "--layout",
@@ -74,7 +80,7 @@ def run(args: argparse.Namespace) -> int:
         return 0
     faults = tuple(parse_fault(spec) for spec in args.fault)
     if args.protocol == "epl" and args.redundant:
-        raise SkinframesError("--redundant applies to EtherCAT only")
+        raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
     if args.protocol == "ecat" and (args.asnd or args.pres_timeout_us is not None):
         raise SkinframesError("--asnd and --pres-timeout-us apply to EPL only")
     params = preset(args.preset)
