@@ -300,7 +300,8 @@ def _repeat(
     for rep in (0, 1):  # two periods in a row obey the link rules, so all of them do
         for (_, r), t in zip(cols, rel.tolist(), strict=True):
             overlap.see(start + rep * period_ps + t, r)
-    overlap.end = {k: v + (q - 2) * period_ps for k, v in overlap.end.items()}
+    seen = {(r.port, r.outbound) for _, r in cols}  # the directions the period uses move on
+    overlap.end = {k: v + (q - 2) * period_ps if k in seen else v for k, v in overlap.end.items()}
     per_block = max(1, BLOCK_BYTES // max(1, row_bytes))
     done = 0
     while done < q:
