@@ -261,6 +261,7 @@ class EcatChain:
             raise TopologyError("EtherCAT chain: not a well-formed EtherCAT frame")
         data_at = ethercat.data_offsets(ecat)
         slaves: list[SlaveEffect] = []
+        marks: list[int] = []
         for dev in self.devices:
             copies: list[TraceCopy] = []
             dev.trace = copies
@@ -274,9 +275,11 @@ class EcatChain:
             effect = _slave_effect(dev, ecat, data_at, before, buf, copies)
             if effect is not None:
                 slaves.append(effect)
+            if dev.sets_mac:
+                marks.append(dev.position)
             if not onward:
                 break
-        return FrameEffect(ecat, tuple(slaves), self.input_bytes)
+        return FrameEffect(ecat, tuple(slaves), frozenset(marks), self.input_bytes)
 
     def count(self, register: int, position: int, times: int = 1) -> None:
         """An error counter of the ESC at ``position`` counts ``times`` (saturating at 0xFF;
@@ -298,15 +301,17 @@ class SlaveEffect:
     adp: tuple[int, ...]  # ADP increment per datagram (auto-increment and broadcast commands)
     copies: tuple[tuple[int, int, int, int], ...]  # (d, offset in d's data, input offset, bytes)
     constant: tuple[tuple[int, int, bytes], ...]  # (d, offset in d's data, bytes) from registers
-    sets_mac: bool  # the processing unit marks the source MAC (DL control bit 0)
 
 
 @dataclass(frozen=True, slots=True)
 class FrameEffect:
-    """A frame and what every ESC of the chain does to it in processing direction."""
+    """A frame and what every ESC of the chain does to it in processing direction: the ESCs
+    that change its datagrams (``slaves``) and those that mark its source MAC (DL control bit 0).
+    """
 
     sent: EcatFrame
     slaves: tuple[SlaveEffect, ...]
+    marks_mac: frozenset[int]
     input_bytes: int
 
     def wkc(self, acting: Container[int]) -> int:
@@ -325,11 +330,10 @@ class FrameEffect:
         data = [bytearray(d.data) for d in dgs]
         wkc = [d.wkc for d in dgs]
         adp = [d.adp for d in dgs]
-        mac = False
+        mac = any(p in acting for p in self.marks_mac)
         for s in self.slaves:
             if s.position not in acting:
                 continue
-            mac = mac or s.sets_mac
             for k in range(len(dgs)):
                 wkc[k] += s.wkc[k]
                 adp[k] += s.adp[k]
@@ -390,11 +394,9 @@ def _slave_effect(
             if len(changed):  # register data the ESC wrote: one run, first to last change
                 a, b = int(changed[0]), int(changed[-1]) + 1
                 const.append((k, a, bytes(after[lo + a : lo + b])))
-    if not any(wkc) and not any(adp) and not const and not runs and not dev.sets_mac:
+    if not any(wkc) and not any(adp) and not const and not runs:
         return None
-    return SlaveEffect(
-        dev.position, tuple(wkc), tuple(adp), tuple(runs), tuple(const), dev.sets_mac
-    )
+    return SlaveEffect(dev.position, tuple(wkc), tuple(adp), tuple(runs), tuple(const))
 
 
 def configure_frames(

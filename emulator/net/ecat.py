@@ -41,7 +41,7 @@ from emulator.model.limits import check_ecat, check_emulated_ecat
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
-from emulator.net.faults import Fault, check_faults
+from emulator.net.faults import Fault, check_faults, corruption_mark
 from skinframes import ethercat, ethernet
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -168,9 +168,7 @@ class EcatEngine:
         self.late_ps = {f.where - 1: round(f.value * PS_PER_US) for f in faults if f.kind == "late"}
         self.chance = tuple(f for f in faults if f.kind in ("biterr", "drop") and f.value > 0)
         self.break_ps: dict[int, int] = {}  # link -> the time it failed
-        self._returned: dict[
-            tuple[int, int, tuple[int, ...]], tuple[bytes, tuple[tuple[int, int, int], ...]]
-        ] = {}
+        self._runs: dict[tuple[int, frozenset[int]], tuple[tuple[int, int, int], ...]] = {}
 
     # --- what the driver asks -----------------------------------------------------------------
     def event_at(self, cycle: int) -> bool:
@@ -230,7 +228,7 @@ class EcatEngine:
                 if w.corrupted_link is not None:
                     events[("crc", w.corrupted_link)] += 1
                     j = w.corrupted_link
-                    mark = f"skinframes: corrupted on link {j}..{j + 1} (injected bit error; FCS mismatch)"
+                    mark = corruption_mark(j)
                     bit = self._data_bit(k)  # drawn in timing-only runs too: same chances
                     if back is not None:
                         back = ethernet.flip_bit(back, bit)
@@ -367,27 +365,21 @@ class EcatEngine:
     def _back(
         self, k: int, port: int, acting: tuple[int, ...], image: npt.NDArray[np.uint8] | None
     ) -> tuple[bytes | None, tuple[tuple[int, int, int], ...]]:
-        """Frame ``k`` as it returns after the ESCs ``acting`` processed it (sent by ``port``)."""
-        key = (k, port, tuple(sorted(acting)))
-        cached = self._returned.get(key)
-        if cached is None:
-            eff = self.effects[k]
-            done = frozenset(acting)
-            back, mac = eff.returned(done, None)
-            src = ethercat.MASTER_MAC if port == 0 else ethercat.MASTER_MAC_SECOND
-            frame = ethercat.frame(back, src=src, returned=mac).to_bytes()
-            cached = (frame, tuple(eff.taxel_runs(done)))
-            if len(self._returned) < 4096:
-                self._returned[key] = cached
-        frame, runs = cached
+        """Frame ``k`` as it returns after the ESCs ``acting`` processed it (sent by ``port``),
+        built by skinframes with ``image``'s taxels (None: timing only, no bytes), and where
+        the taxels sit in it (for the fast path)."""
+        done = frozenset(acting)
+        key = (k, done)
+        runs = self._runs.get(key)
+        if runs is None:
+            runs = tuple(self.effects[k].taxel_runs(done))
+            if len(self._runs) < 4096:
+                self._runs[key] = runs
         if image is None:
             return None, runs
-        if runs:
-            buf = bytearray(frame)
-            for dst, at, n in runs:
-                buf[dst : dst + n] = image[at : at + n].tobytes()
-            frame = bytes(buf)
-        return frame, runs
+        back, mac = self.effects[k].returned(done, image)
+        src = ethercat.MASTER_MAC if port == 0 else ethercat.MASTER_MAC_SECOND
+        return ethercat.frame(back, src=src, returned=mac).to_bytes(), runs
 
     def _data_bit(self, k: int) -> int:
         """A bit of frame ``k``'s datagram data, drawn at random: a bit error hits the data,
@@ -406,6 +398,12 @@ class EcatEngine:
                 return 8 * at + pick
             pick -= 8 * n
         return pick
+
+    def rebuild(
+        self, record: Record, starts_ps: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
+    ) -> npt.NDArray[np.uint8]:
+        """EtherCAT frames change per cycle only where the ESCs write taxels (FILL_TAXELS)."""
+        raise TopologyError(f"EtherCAT: no frame is rebuilt per cycle (fill {record.fill})")
 
     # --- diagnosis texts ----------------------------------------------------------------------
     def _break_text(self, f: Fault) -> str:

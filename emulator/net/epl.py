@@ -29,12 +29,13 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
+from emulator.errors import TopologyError
 from emulator.model.limits import check_epl
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net.cycle import FILL_FRAME, FILL_NONE, Cycle, Record
 from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS
-from emulator.net.faults import Fault, check_faults
+from emulator.net.faults import Fault, check_faults, corruption_mark
 from skinframes import ethernet, powerlink
 from skinframes.pcap import NS_PER_S
 from skinframes.powerlink import RequestedService
@@ -49,23 +50,18 @@ def hops_to(cn: int) -> int:
     return cn + 1
 
 
-def soc_frame(start_ps: int) -> bytes:
-    """The SoC of a cycle starting at ``start_ps``: NetTime and RelativeTime of that instant."""
-    ns = start_ps // PS_PER_NS
-    soc = powerlink.SoC(
-        net_time_s=EPOCH_S + ns // NS_PER_S,
-        net_time_ns=ns % NS_PER_S,
-        relative_time_us=start_ps // PS_PER_US,
-    )
-    return powerlink.frame(soc).to_bytes()
-
-
 def soc_frames(starts_ps: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
-    """(k, SoC length) uint8: the SoCs of cycles starting at ``starts_ps`` (as :func:`soc_frame`)."""
+    """(k, SoC length) uint8: the SoCs of cycles starting at ``starts_ps``: NetTime (from
+    ``EPOCH_S``) and RelativeTime of each start."""
     ns = starts_ps // PS_PER_NS
     return powerlink.pack_soc_frames(
         EPOCH_S + ns // NS_PER_S, ns % NS_PER_S, starts_ps // PS_PER_US
     )
+
+
+def soc_frame(start_ps: int) -> bytes:
+    """The SoC of a cycle starting at ``start_ps``."""
+    return bytes(soc_frames(np.array([start_ps], dtype=np.int64))[0])
 
 
 class EplEngine:
@@ -98,8 +94,6 @@ class EplEngine:
         check_epl(nodes, data_bytes)
         check_faults(faults, nodes, nodes, "epl")
         if pres_timeout_ps is not None and pres_timeout_ps < 0:
-            from emulator.errors import TopologyError
-
             raise TopologyError(f"EPL: a PRes timeout of {pres_timeout_ps} ps")
         p = params
         self.nodes, self.data_bytes, self.params, self.asnd = nodes, data_bytes, params, asnd
@@ -190,19 +184,14 @@ class EplEngine:
             if answer is None:
                 t = preq_end + self.timeout[i - 1] + p.gap_ps(p.epl_mn_delay_ps)
                 continue
-            at, bit = answer
+            at, link = answer
             frame = pres[i - 1].tobytes() if pres is not None else b""
-            if bit is None:
+            if link is None:
                 received += 1
                 add(at, frame, self.pres_len, False, fill=FILL_FRAME, node=i - 1)
             else:
-                add(
-                    at,
-                    self._corrupt(frame, self.data_bytes),
-                    self.pres_len,
-                    False,
-                    mark=self._mark(bit),
-                )
+                bad = self._corrupt(frame, self.data_bytes)
+                add(at, bad, self.pres_len, False, mark=corruption_mark(link))
             t = at + p.frame_ps(self.pres_len) + p.gap_ps(p.epl_mn_delay_ps)
         target = c % n + 1
         soa = self.soa_invite[target - 1] if self.asnd else self.soa_plain
@@ -214,20 +203,22 @@ class EplEngine:
             if answer is None:
                 end += self.timeout[target - 1]
             else:
-                at, bit = answer
-                if bit is None:
+                at, link = answer
+                if link is None:
                     add(at, status, len(status), False)
                 else:
-                    add(at, self._corrupt(status, 0), len(status), False, mark=self._mark(bit))
+                    bad = self._corrupt(status, 0)
+                    add(at, bad, len(status), False, mark=corruption_mark(link))
                 end = at + p.frame_ps(len(status))
         end += p.ifg_ps + p.epl_cycle_idle_ps
         return Cycle(tuple(recs), end - start_ps, received, n, events, steady=not self.chance)
 
     def _answer(
         self, i: int, request_end: int, events: Counter[tuple[object, ...]], *, asnd: bool = False
-    ) -> tuple[int, tuple[int, int] | None] | None:
+    ) -> tuple[int, int | None] | None:
         """When CN ``i``'s answer to a request ending at ``request_end`` starts at the MN, and the
-        (link, bit) of a bit error on its way back; None when the MN gets no answer in time."""
+        link where a bit error hit it on its way back (None: intact); None when the MN gets no
+        answer in time."""
         reachable = all(j not in self.dead for j in range(1, i + 1)) and all(
             j not in self.broken for j in range(i)
         )
@@ -247,7 +238,7 @@ class EplEngine:
         if back is not None:
             events[("loss", kind, i)] += 1
             events[("crc", kind, i)] += 1
-            return at, (back[1], -1)
+            return at, back[1]
         return at, None
 
     def _cross(self, links: range) -> tuple[str, int] | None:
@@ -266,11 +257,6 @@ class EplEngine:
         hi = lo + data_bytes if data_bytes else ethernet.MIN_FRAME_BYTES
         bit = self.rng.randrange(8 * lo, 8 * hi)  # drawn in timing-only runs too: same chances
         return ethernet.flip_bit(frame, bit) if frame else frame
-
-    @staticmethod
-    def _mark(bit: tuple[int, int]) -> str:
-        j = bit[0]
-        return f"skinframes: corrupted on link {j}..{j + 1} (injected bit error; FCS mismatch)"
 
     def account(self, cyc: Cycle, times: int) -> None:
         """The MN's counters live in the events; nothing else to update."""

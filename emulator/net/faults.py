@@ -14,7 +14,7 @@ from typing import Final
 
 from emulator.errors import TopologyError
 
-__all__ = ["FAULT_HELP", "Fault", "parse_fault"]
+__all__ = ["FAULT_HELP", "Fault", "corruption_mark", "parse_fault"]
 
 FAULT_HELP: Final = """Fault SPECs (repeat --fault for several; nodes count from the master = 0):
   cable:K@C     the cable between node K and K+1 breaks at the start of cycle C
@@ -89,3 +89,8 @@ def check_faults(faults: tuple[Fault, ...], nodes: int, links: int, protocol: st
             raise TopologyError(f"fault {f}: link {f.where} does not exist (0..{links - 1})")
         if f.kind in ("power", "late") and not 1 <= f.where <= nodes:
             raise TopologyError(f"fault {f}: node {f.where} does not exist (1..{nodes})")
+
+
+def corruption_mark(link: int) -> str:
+    """The pcapng comment of a frame a bit error on ``link`` corrupted (both protocols)."""
+    return f"skinframes: corrupted on link {link}..{link + 1} (injected bit error; FCS mismatch)"

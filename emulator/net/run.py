@@ -14,7 +14,6 @@ from __future__ import annotations
 
 from collections import Counter, deque
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
 from typing import Final, Protocol
 
 import numpy as np
@@ -52,6 +51,9 @@ class Engine(Protocol):
     def next_event(self, cycle: int) -> int | None: ...
     def cycle(self, c: int, start_ps: int, taxels: npt.NDArray[np.uint8] | None) -> Cycle: ...
     def account(self, cyc: Cycle, times: int) -> None: ...
+    def rebuild(
+        self, record: Record, starts_ps: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
+    ) -> npt.NDArray[np.uint8]: ...
 
 
 class Sink(Protocol):
@@ -72,14 +74,11 @@ class Sink(Protocol):
     ) -> None: ...
 
 
-@dataclass
 class MemorySink:
     """Keeps every record (for tests and small runs): (time_ps, port, outbound, bytes, comment)."""
 
-    records: list[tuple[int, int, bool, bytes, str | None]]
-
     def __init__(self) -> None:
-        self.records = []
+        self.records: list[tuple[int, int, bool, bytes, str | None]] = []
 
     def write(
         self, time_ps: int, frame: bytes, *, port: int, outbound: bool, comment: str | None
@@ -317,8 +316,9 @@ def _repeat(
                 for dst, src, n in r.runs:
                     data[:, lo + dst : lo + dst + n] = image[:, src : src + n]
             elif r.fill == FILL_FRAME:
-                rebuild = engine.rebuild  # type: ignore[attr-defined]
-                data[:, lo : lo + r.length] = rebuild(r, starts + int(offsets[i]), taxels[:, i])
+                data[:, lo : lo + r.length] = engine.rebuild(
+                    r, starts + int(offsets[i]), taxels[:, i]
+                )
         sink.write_block(
             starts[:, None] + rel[None, :], lengths, data, ports=ports, outbound=outbound
         )
