@@ -21,7 +21,6 @@ import contextlib
 import io
 import operator
 import os
-import secrets
 import struct
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
@@ -32,6 +31,7 @@ from typing import BinaryIO, Final
 import numpy as np
 import numpy.typing as npt
 
+from skinframes.atomic_file import check_target, create_temp
 from skinframes.errors import (
     CaptureError,
     FieldRangeError,
@@ -312,14 +312,14 @@ class CaptureWriter:
             header = pcap_header(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN)
         else:
             header = _shb() + b"".join(_idb(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN, n) for n in names)
-        _refuse_path(target)
+        check_target(target)
         self._path = target
         self._fmt = fmt
         self._ports = ports
         self._records = 0
         self._bytes = 0
         self._layout: _Layout | None = None
-        self._tmp, fd = _create_temp(target)
+        self._tmp, fd = create_temp(target)
         try:
             self._file = open(fd, "wb", buffering=_BUFFER_BYTES)  # noqa: SIM115  # closed in close()
             self._file.write(header)
@@ -609,35 +609,3 @@ def _integers(name: str, values: npt.ArrayLike, ndim: int) -> npt.NDArray[np.int
     if arr.dtype == np.uint64 and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
         raise FieldRangeError(f"capture block: {name} does not fit int64", field=name)
     return arr.astype(np.int64, copy=False)
-
-
-def _refuse_path(target: Path) -> None:
-    """Raise CaptureError for a path the writer must not replace, or cannot create."""
-    if target.is_symlink():
-        raise CaptureError(f"{target}: is a symbolic link; refusing to replace it")
-    if target.is_dir():
-        raise CaptureError(f"{target}: is a directory")
-    if target.exists() and not target.is_file():
-        raise CaptureError(f"{target}: exists and is not a regular file")
-    if not target.parent.is_dir():
-        raise CaptureError(f"{target}: directory {target.parent} does not exist")
-
-
-def _create_temp(target: Path) -> tuple[Path, int]:
-    """A new, empty file beside ``target``: its path and an open descriptor.
-
-    ``os.open`` with O_EXCL and mode 0o666 lets the umask decide the permissions, as a plain
-    ``open()`` would (``tempfile.mkstemp`` forces 0o600).
-    """
-    flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
-    for _ in range(100):
-        tmp = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
-        try:
-            return tmp, os.open(tmp, flags, 0o666)
-        except FileExistsError:
-            continue
-        except OSError as exc:
-            raise CaptureError(
-                f"{target}: cannot create a file in {target.parent} ({exc.strerror or exc})"
-            ) from exc
-    raise CaptureError(f"{target}: no free temporary name in {target.parent}")

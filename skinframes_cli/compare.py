@@ -9,6 +9,7 @@ from typing import Any
 
 from emulator.model.params import PRESETS
 from skinframes import taxel
+from skinframes.atomic_file import atomic_path
 from skinframes.errors import SkinframesError
 
 ROWS = (
@@ -105,9 +106,11 @@ def plot(doc: dict[str, Any], out: Path) -> Path:
         f"{len(doc['boards'])} skin boards: CAN vs EPL vs EtherCAT "
         f"(dotted 1 ms, dashed 5 ms, red: sample period)"
     )
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_path(out) as tmp:
+            fig.savefig(tmp, dpi=110, format=out.suffix.lstrip(".").lower() or "png")
+    finally:
+        plt.close(fig)
     return out
 
 

@@ -10,6 +10,7 @@ from typing import Any
 from emulator.model.paper_tables import FIGURE_MAX_NODES
 from emulator.model.params import PRESETS
 from skinframes import taxel
+from skinframes.atomic_file import atomic_path
 from skinframes.errors import SkinframesError
 
 PAYLOADS = (2, 32, 128, 192, 256)
@@ -97,9 +98,11 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
         f"Cycle time vs nodes, preset '{preset_name}' (dotted: 1 ms, dashed: 5 ms; "
         f"red: {taxel.BODY_PATCHES} patches)"
     )
-    out.parent.mkdir(parents=True, exist_ok=True)
-    fig.savefig(out, dpi=110)
-    plt.close(fig)
+    try:
+        with atomic_path(out) as tmp:
+            fig.savefig(tmp, dpi=110, format=out.suffix.lstrip(".").lower() or "png")
+    finally:
+        plt.close(fig)
     return out
 
 
