@@ -8,6 +8,7 @@ The public API::
         assert frame.to_bytes() == rec.data
 """
 
+from skinframes.capture_taxels import CaptureTaxels, taxels_from_capture
 from skinframes.dispatch import decode_frame, protocol_of
 from skinframes.errors import DecodeError, EncodeError, SkinframesError
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -19,6 +20,7 @@ __version__ = "0.1.0"
 
 __all__ = [
     "Capture",
+    "CaptureTaxels",
     "CaptureWriter",
     "Command",
     "Datagram",
@@ -34,5 +36,6 @@ __all__ = [
     "decode_frame",
     "protocol_of",
     "read_capture",
+    "taxels_from_capture",
     "write_pcap",
 ]

@@ -15,7 +15,7 @@ from skinframes.dispatch import decode_frame, protocol_of
 from skinframes.errors import DecodeError, TruncatedError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, Record
 
-__all__ = ["describe_record", "frame_fields", "summary"]
+__all__ = ["describe_record", "frame_fields", "record_json", "summary"]
 
 
 def _name(value: int, enum: type[IntEnum]) -> str:
@@ -132,13 +132,23 @@ def describe_record(rec: Record) -> tuple[dict[str, Any], str]:
     ``other``), the protocol's fields, and ``findings``. Ethernet frames are decoded in capture
     mode; one too short for its header is ``other`` with an ``eth.truncated`` error finding.
     """
+    return _describe(rec, text=True)
+
+
+def record_json(rec: Record) -> dict[str, Any]:
+    """The ``decode --json`` object of :func:`describe_record`, without building its text line."""
+    return _describe(rec, text=False)[0]
+
+
+def _describe(rec: Record, text: bool) -> tuple[dict[str, Any], str]:
     obj: dict[str, Any] = {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
+    line = ""
     if rec.linktype == LINKTYPE_CAN_SOCKETCAN:
-        fields, text = _can_fields(rec.data)
+        fields, line = _can_fields(rec.data)
         obj.update(protocol="can", linktype=rec.linktype, **fields)
     elif rec.linktype != LINKTYPE_ETHERNET:
         obj.update(protocol="other", linktype=rec.linktype, findings=[])
-        text = f"linktype {rec.linktype}, {len(rec.data)} bytes"
+        line = f"linktype {rec.linktype}, {len(rec.data)} bytes"
     else:
         try:
             frame = decode_frame(rec.data)
@@ -147,13 +157,14 @@ def describe_record(rec: Record) -> tuple[dict[str, Any], str]:
                 protocol="other",
                 findings=[{"severity": "error", "code": "eth.truncated", "message": str(exc)}],
             )
-            text = str(exc)
+            line = str(exc)
         else:
             obj["protocol"] = protocol_of(frame)
             obj.update(frame_fields(frame))
             obj["findings"] = [f.to_json() for f in frame.findings]
-            text = summary(frame)
-    return obj, text
+            if text:
+                line = summary(frame)
+    return obj, line
 
 
 def _can_fields(data: bytes) -> tuple[dict[str, Any], str]:

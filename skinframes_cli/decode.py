@@ -1,4 +1,5 @@
-"""``skinframes decode PATH [--json]``: every frame of a capture, as text or JSON Lines."""
+"""``skinframes decode PATH [--json] [--taxels OUT.npy]``: every frame of a capture, as text or
+JSON Lines; or the capture's taxels as a numpy array."""
 
 from __future__ import annotations
 
@@ -7,8 +8,13 @@ import json
 import sys
 from typing import Any
 
-from skinframes.describe import describe_record
+import numpy as np
+
+from skinframes.atomic_file import atomic_output
+from skinframes.capture_taxels import taxels_from_capture
+from skinframes.describe import describe_record, record_json
 from skinframes.pcap import read_capture
+from skinframes_cli.options import add_skin_layout
 
 
 def add_parser(sub: Any) -> None:
@@ -17,22 +23,34 @@ def add_parser(sub: Any) -> None:
         "decode",
         help="decode every frame of a pcap/pcapng (gzip too)",
         description="Decode every frame of a pcap or pcapng file (gzip too). "
-        "Skipped records are reported on stderr with their reason.",
+        "Skipped records are reported on stderr with their reason. With --taxels, write the "
+        "capture's skin taxels as a numpy array instead.",
     )
     p.add_argument("path", help="capture file")
     p.add_argument("--json", action="store_true", help="JSON Lines: one object per frame")
+    p.add_argument(
+        "--taxels",
+        metavar="OUT",
+        help="write the taxels (samples x nodes x 16 x 12, uint8) to OUT.npy; OUT.npz also "
+        "holds time_ns and present",
+    )
+    add_skin_layout(p, "(with --taxels)")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Decode and print."""
+    if args.taxels:
+        return _taxels(args)
     capture = read_capture(args.path)
     out = sys.stdout
-    for rec in capture:
-        obj, text = describe_record(rec)
-        if args.json:
-            out.write(json.dumps(obj) + "\n")
-        else:
+    if args.json:
+        dumps = json.JSONEncoder().encode
+        for rec in capture:
+            out.write(dumps(record_json(rec)) + "\n")
+    else:
+        for rec in capture:
+            _, text = describe_record(rec)
             sec, ns = divmod(rec.time_ns, 1_000_000_000)  # exact: a float has no room for ns
             out.write(f"{rec.index:>6} {f'{sec}.{ns:09d}':>20} {len(rec.data):>5}  {text}\n")
     for s in capture.skipped:
@@ -40,6 +58,26 @@ def run(args: argparse.Namespace) -> int:
     print(
         f"skinframes: {capture.total} records: {len(capture.records)} decoded, "
         f"{len(capture.skipped)} skipped",
+        file=sys.stderr,
+    )
+    return 0
+
+
+def _taxels(args: argparse.Namespace) -> int:
+    """``--taxels``: the array, written atomically; a one-line summary on stderr."""
+    result = taxels_from_capture(
+        args.path, nodes=args.nodes, bytes_per_node=args.bytes, layout=args.layout
+    )
+    with atomic_output(args.taxels) as f:
+        if str(args.taxels).endswith(".npz"):
+            np.savez(f, taxels=result.taxels, time_ns=result.time_ns, present=result.present)
+        else:
+            np.save(f, result.taxels)
+    samples, nodes = result.taxels.shape[:2]
+    missing = int(result.present.size - np.count_nonzero(result.present))
+    print(
+        f"skinframes: {args.taxels}: {samples} samples x {nodes} nodes x 16 x 12 taxels "
+        f"({missing} node samples missing)",
         file=sys.stderr,
     )
     return 0

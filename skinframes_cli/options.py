@@ -24,3 +24,19 @@ def int_list(text: str) -> list[int]:
     if not values:
         raise argparse.ArgumentTypeError(f"{text!r} selects no values")
     return values
+
+
+def add_skin_layout(p: argparse.ArgumentParser, what: str) -> None:
+    """``--nodes N --bytes B --layout L``: where a capture's taxels sit (default: inferred)."""
+    p.add_argument(
+        "--nodes", type=int, help=f"EPL CNs / EtherCAT slaves {what} (default: inferred)"
+    )
+    p.add_argument(
+        "--bytes", type=int, help=f"taxel bytes per node {what} (default: inferred; 192 = a patch)"
+    )
+    p.add_argument(
+        "--layout",
+        choices=["per-slave", "logical"],
+        help=f"EtherCAT process image {what}: one LRD per slave, or one contiguous logical image "
+        "(default: inferred)",
+    )

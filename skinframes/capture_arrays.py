@@ -1,0 +1,357 @@
+"""A capture's records as numpy columns: the bulk reader behind :func:`taxels_from_capture`.
+
+:func:`read_record_arrays` maps the file (``mmap``; gzip files are decompressed into memory),
+walks the record headers once to find where each record starts, and returns every other
+per-record value as a numpy column computed from those offsets: no :class:`~skinframes.pcap.Record`
+objects, no per-record ``bytes``. The formats are those :mod:`skinframes.pcap` reads:
+
+- classic pcap (draft-ietf-opsawg-pcap section 4-5): the 24-byte file header, then per record
+  ts_sec, ts_frac (us or ns by the magic), caplen, origlen and the data; either byte order;
+- pcapng (draft-ietf-opsawg-pcapng section 4): Section Header Blocks (byte order per section),
+  Interface Description Blocks (LinkType, ``if_tsresol`` option 9, ``if_tsoffset`` option 14),
+  Enhanced Packet Blocks, Simple Packet Blocks and the obsolete Packet Block.
+
+Records :mod:`skinframes.pcap` would skip (a fraction out of range, an undescribed interface) are
+left out here too; a damaged tail ends the walk, as it ends the record reader.
+"""
+
+from __future__ import annotations
+
+import gzip
+import mmap
+import struct
+import zlib
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+
+from skinframes.capture_writer import (
+    BYTE_ORDER_MAGIC,
+    MAGIC_NS,
+    MAGIC_US,
+    NS_PER_S,
+    PCAP_HEADER_BYTES,
+    SNAPLEN,
+)
+from skinframes.errors import PcapFormatError
+from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC
+
+__all__ = ["RecordArrays", "read_record_arrays", "u16_at", "u32_at"]
+
+PCAP_RECORD_HEADER_BYTES: Final = 16  # ts_sec, ts_frac, caplen, origlen (u32 each)
+# pcapng block types (draft-ietf-opsawg-pcapng 4.1-4.4, Appendix A for the obsolete Packet Block)
+SHB: Final = 0x0A0D0D0A
+IDB: Final = 0x00000001
+PB: Final = 0x00000002
+SPB: Final = 0x00000003
+EPB: Final = 0x00000006
+EPB_DATA_OFFSET: Final = 28  # type, length, interface, ts high, ts low, caplen, origlen
+SPB_DATA_OFFSET: Final = 12  # type, length, origlen
+OPT_IF_TSRESOL: Final = 9
+OPT_IF_TSOFFSET: Final = 14
+DEFAULT_TSRESOL: Final = 6  # 10^-6 s when an IDB has no if_tsresol
+
+
+@dataclass(frozen=True, slots=True)
+class RecordArrays:
+    """Every readable record of a capture, as columns over one byte buffer.
+
+    Attributes:
+        data: the file's bytes (uint8, read-only; a memory map for uncompressed files).
+        offset: where each record's captured bytes start in ``data`` (int64).
+        length: captured bytes of each record (int64).
+        time_ns: capture time of each record, ns since the epoch (int64).
+        linktype: LINKTYPE of each record's interface (int64).
+        index: each record's position in the file, counting records the reader left out.
+    """
+
+    data: npt.NDArray[np.uint8]
+    offset: npt.NDArray[np.int64]
+    length: npt.NDArray[np.int64]
+    time_ns: npt.NDArray[np.int64]
+    linktype: npt.NDArray[np.int64]
+    index: npt.NDArray[np.int64]
+
+    def __len__(self) -> int:
+        return int(self.offset.shape[0])
+
+
+def _view(data: npt.NDArray[np.uint8], dtype: str) -> npt.NDArray[np.int64]:
+    """``data`` seen as an integer of ``dtype`` starting at every byte (unaligned, no copy)."""
+    size = np.dtype(dtype).itemsize
+    count = max(0, data.shape[0] - size + 1)
+    return np.ndarray((count,), dtype=dtype, buffer=data, strides=(1,))
+
+
+def u16_at(
+    data: npt.NDArray[np.uint8], at: npt.NDArray[np.int64], big: bool = False
+) -> npt.NDArray[np.int64]:
+    """The u16 at each offset ``at`` of ``data`` (little-endian unless ``big``), as int64."""
+    return _view(data, ">u2" if big else "<u2")[at].astype(np.int64)
+
+
+def u32_at(
+    data: npt.NDArray[np.uint8], at: npt.NDArray[np.int64], big: bool = False
+) -> npt.NDArray[np.int64]:
+    """The u32 at each offset ``at`` of ``data`` (little-endian unless ``big``), as int64."""
+    return _view(data, ">u4" if big else "<u4")[at].astype(np.int64)
+
+
+def read_record_arrays(path: str | Path) -> RecordArrays:
+    """Read a pcap or pcapng file (gzip too) into :class:`RecordArrays`.
+
+    Raises:
+        PcapFormatError: the file cannot be read or is not a capture.
+    """
+    try:
+        with open(path, "rb") as f:
+            head = f.read(4)
+            if head[:2] == GZIP_MAGIC:
+                f.seek(0)
+                raw: bytes | mmap.mmap = _gunzip(f.read())
+            elif len(head) < 4:
+                raise PcapFormatError(f"{path}: {len(head)} bytes, not a capture file")
+            else:
+                raw = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
+    except OSError as exc:
+        raise PcapFormatError(f"{path}: cannot read ({exc.strerror or exc})") from exc
+    if len(raw) < 4:
+        raise PcapFormatError(f"{path}: {len(raw)} bytes, not a capture file")
+    data = np.frombuffer(raw, dtype=np.uint8)
+    if bytes(raw[:4]) == PCAPNG_MAGIC:
+        return _pcapng(raw, data, str(path))
+    return _pcap(raw, data, str(path))
+
+
+def _gunzip(raw: bytes) -> bytes:
+    """The decompressed bytes; a damaged stream gives what decompressed before the damage."""
+    try:
+        return gzip.decompress(raw)
+    except (OSError, EOFError, zlib.error):
+        try:
+            return zlib.decompressobj(wbits=31).decompress(raw)
+        except zlib.error:
+            return b""
+
+
+def _pcap(raw: bytes | mmap.mmap, data: npt.NDArray[np.uint8], name: str) -> RecordArrays:
+    if len(raw) < PCAP_HEADER_BYTES:
+        raise PcapFormatError(f"{name}: {len(raw)} bytes, the pcap header needs 24")
+    (magic_le,) = struct.unpack_from("<I", raw)
+    (magic_be,) = struct.unpack_from(">I", raw)
+    if magic_le in (MAGIC_US, MAGIC_NS):
+        order, magic = "<", magic_le
+    elif magic_be in (MAGIC_US, MAGIC_NS):
+        order, magic = ">", magic_be
+    else:
+        raise PcapFormatError(
+            f"{name}: magic {bytes(raw[:4]).hex()} is neither pcap (a1b2c3d4 / a1b23c4d) nor pcapng"
+        )
+    major, _minor, _zone, _sig, snaplen, network = struct.unpack_from(order + "HHiIII", raw, 4)
+    if major != 2:
+        raise PcapFormatError(f"{name}: pcap version {major}, expected 2")
+    limit = max(snaplen, SNAPLEN)
+    starts = _walk_pcap(raw, order, limit)
+    big = order == ">"
+    sec = u32_at(data, starts, big)
+    frac = u32_at(data, starts + 4, big)
+    length = u32_at(data, starts + 8, big)
+    scale = 1 if magic == MAGIC_NS else 1000
+    ok = frac < (NS_PER_S if scale == 1 else 1_000_000)
+    index = np.flatnonzero(ok).astype(np.int64)
+    time_ns = sec[ok] * NS_PER_S + frac[ok] * scale
+    linktype = np.full(index.shape, network & 0xFFFF, dtype=np.int64)
+    return RecordArrays(
+        data, starts[ok] + PCAP_RECORD_HEADER_BYTES, length[ok], time_ns, linktype, index
+    )
+
+
+def _walk_pcap(raw: bytes | mmap.mmap, order: str, limit: int) -> npt.NDArray[np.int64]:
+    """Offsets of the record headers, following the chain of caplen fields.
+
+    Each record's position depends on the previous record's caplen, so the chain is walked, but
+    mostly in numpy: cyclic captures repeat their record lengths with the cycle, so after a few
+    records walked one by one (:func:`_step_pcap`) the lengths' period predicts the next block
+    of offsets, and one vectorised read of the caplen fields there keeps the prefix that the
+    file confirms (each confirmed caplen makes the next offset true). Where the pattern breaks
+    (a fault, a new phase), the walk goes one by one again.
+    """
+    data = np.frombuffer(raw, dtype=np.uint8)
+    big = order == ">"
+    end = len(raw)
+    head = PCAP_RECORD_HEADER_BYTES
+    starts: list[npt.NDArray[np.int64]] = []
+    sizes: list[npt.NDArray[np.int64]] = []
+    recent = np.zeros(0, dtype=np.int64)  # sizes (header + caplen) of the latest records
+    pos = PCAP_HEADER_BYTES
+    while pos + head <= end:
+        walked, walked_sizes, pos, stop = _step_pcap(raw, order, limit, pos, _STEP_RECORDS)
+        starts.append(walked)
+        sizes.append(walked_sizes)
+        recent = np.concatenate((recent, walked_sizes))[-2 * _MAX_PERIOD :]
+        if stop:
+            break
+        period = _period(recent)
+        block = 4 * period
+        while period and pos + head <= end:
+            reps = max(1, block // period)
+            guess = np.tile(recent[-period:], reps)
+            at = pos + np.concatenate(([0], np.cumsum(guess[:-1])))
+            fits = at + guess <= end
+            guess, at = guess[fits], at[fits]
+            if not at.size:
+                break
+            good = u32_at(data, at + 8, big) + head == guess
+            m = int(good.size) if bool(good.all()) else int(np.argmin(good))
+            if m:
+                starts.append(at[:m])
+                sizes.append(guess[:m])
+                pos = int(at[m - 1] + guess[m - 1])
+                recent = np.concatenate((recent, guess[:m]))[-2 * _MAX_PERIOD :]
+            if m < good.size:
+                break  # the pattern broke: walk one by one from here
+            block = min(2 * block, _BLOCK_RECORDS)
+    if not starts:
+        return np.zeros(0, dtype=np.int64)
+    return np.concatenate(starts)
+
+
+_STEP_RECORDS: Final = 256  # records walked one by one before predicting again
+_MAX_PERIOD: Final = 1024  # the longest cycle (in records) the prediction looks for
+_BLOCK_RECORDS: Final = 1 << 16  # records predicted per vectorised read
+
+
+def _step_pcap(
+    raw: bytes | mmap.mmap, order: str, limit: int, pos: int, count: int
+) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int, bool]:
+    """Walk up to ``count`` records one by one: (offsets, sizes, next offset, damaged tail)."""
+    caplen = struct.Struct(order + "I").unpack_from
+    end = len(raw)
+    head = PCAP_RECORD_HEADER_BYTES
+    out: list[int] = []
+    out_sizes: list[int] = []
+    stop = False
+    while len(out) < count and pos + head <= end:
+        (incl,) = caplen(raw, pos + 8)
+        if incl > limit or pos + head + incl > end:
+            stop = True  # a damaged or truncated tail: pcap.py reports it, the columns end here
+            break
+        out.append(pos)
+        out_sizes.append(head + incl)
+        pos += head + incl
+    return np.array(out, dtype=np.int64), np.array(out_sizes, dtype=np.int64), pos, stop
+
+
+def _period(sizes: npt.NDArray[np.int64]) -> int:
+    """The shortest period of the whole window ``sizes`` (seen at least twice), or 0."""
+    n = sizes.shape[0]
+    if n < 2:
+        return 0
+    for candidate in (np.flatnonzero(sizes[::-1][1:] == sizes[-1]) + 1).tolist():
+        if 2 * candidate > n:
+            break
+        if np.array_equal(sizes[candidate:], sizes[:-candidate]):
+            return int(candidate)
+    return 0
+
+
+def _pcapng(raw: bytes | mmap.mmap, data: npt.NDArray[np.uint8], name: str) -> RecordArrays:
+    """Walk the blocks; packets become rows, IDBs give each interface's linktype and clock."""
+    end = len(raw)
+    pos = 0
+    rows: list[tuple[int, int, int]] = []  # (block offset, block type, section number)
+    sections: list[tuple[str, list[tuple[int, int, int, int]]]] = []  # order, IDBs
+    u32 = {"<": struct.Struct("<I").unpack_from, ">": struct.Struct(">I").unpack_from}
+    order = "<"
+    while pos + 12 <= end:
+        if bytes(raw[pos : pos + 4]) == PCAPNG_MAGIC:
+            (bom,) = struct.unpack_from("<I", raw, pos + 8)
+            order = "<" if bom == BYTE_ORDER_MAGIC else ">"
+            sections.append((order, []))
+        elif not sections:
+            raise PcapFormatError(f"{name}: pcapng without a Section Header Block")
+        (kind,) = u32[order](raw, pos)
+        (size,) = u32[order](raw, pos + 4)
+        if size < 12 or size % 4 or pos + size > end:
+            break  # damaged tail
+        if kind == IDB:
+            sections[-1][1].append(_idb(raw, pos, size, order))
+        elif kind in (EPB, SPB, PB):
+            rows.append((pos, kind, len(sections) - 1))
+        pos += size
+    if not sections:
+        raise PcapFormatError(f"{name}: not a readable pcapng")
+    block = np.array([r[0] for r in rows], dtype=np.int64)
+    kinds = np.array([r[1] for r in rows], dtype=np.int64)
+    section = np.array([r[2] for r in rows], dtype=np.int64)
+    n = block.shape[0]
+    offset = np.zeros(n, dtype=np.int64)
+    length = np.zeros(n, dtype=np.int64)
+    time_ns = np.zeros(n, dtype=np.int64)
+    linktype = np.zeros(n, dtype=np.int64)
+    ok = np.zeros(n, dtype=bool)
+    for s, (sec_order, idbs) in enumerate(sections):
+        big = sec_order == ">"
+        in_s = section == s
+        for kind in (EPB, PB, SPB):
+            rows_k = np.flatnonzero(in_s & (kinds == kind))
+            if not rows_k.size:
+                continue
+            at = block[rows_k]
+            if kind == SPB:
+                iface = np.zeros(rows_k.shape, dtype=np.int64)
+                orig = u32_at(data, at + 8, big)
+                room = u32_at(data, at + 4, big) - SPB_DATA_OFFSET - 4
+                length[rows_k] = np.minimum(orig, room)
+                offset[rows_k] = at + SPB_DATA_OFFSET
+                ts = np.zeros(rows_k.shape, dtype=np.int64)
+            else:
+                iface = (u32_at if kind == EPB else u16_at)(data, at + 8, big)
+                ts = u32_at(data, at + 12, big) << 32 | u32_at(data, at + 16, big)
+                length[rows_k] = u32_at(data, at + 20, big)
+                offset[rows_k] = at + EPB_DATA_OFFSET
+            for i, (lt, resol, tsoffset_s, _) in enumerate(idbs):
+                mine = iface == i
+                rows_i = rows_k[mine]
+                linktype[rows_i] = lt
+                time_ns[rows_i] = _ticks_to_ns(ts[mine], resol) + tsoffset_s * NS_PER_S
+                ok[rows_i] = True
+    index = np.flatnonzero(ok).astype(np.int64)
+    return RecordArrays(data, offset[ok], length[ok], time_ns[ok], linktype[ok], index)
+
+
+def _idb(raw: bytes | mmap.mmap, pos: int, size: int, order: str) -> tuple[int, int, int, int]:
+    """(linktype, if_tsresol byte, if_tsoffset seconds, snaplen) of an Interface Description."""
+    linktype, _reserved, snaplen = struct.unpack_from(order + "HHI", raw, pos + 8)
+    resol, offset_s = DEFAULT_TSRESOL, 0
+    at, stop = pos + 16, pos + size - 4
+    while at + 4 <= stop:
+        code, n = struct.unpack_from(order + "HH", raw, at)
+        if code == 0:
+            break
+        if code == OPT_IF_TSRESOL and n >= 1:
+            resol = raw[at + 4]
+        elif code == OPT_IF_TSOFFSET and n == 8:
+            (offset_s,) = struct.unpack_from(order + "q", raw, at + 4)
+        at += 4 + (n + 3) // 4 * 4
+    return linktype, resol, offset_s, snaplen
+
+
+def _ticks_to_ns(ticks: npt.NDArray[np.int64], resol: int) -> npt.NDArray[np.int64]:
+    """Timestamps in if_tsresol units -> ns, floor division as :mod:`skinframes.pcap` does.
+
+    if_tsresol: bit 7 clear, 10^-v s per tick; bit 7 set, 2^-v s (pcapng 4.2, option 9).
+    """
+    v = resol & 0x7F
+    if resol & 0x80:
+        whole = ticks >> v
+        part = ticks & ((1 << v) - 1)
+        out: npt.NDArray[np.int64] = whole * NS_PER_S + (part * NS_PER_S >> v)
+    elif v <= 9:
+        out = ticks * 10 ** (9 - v)
+    else:
+        out = ticks // 10 ** (v - 9)
+    return out

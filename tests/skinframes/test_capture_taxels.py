@@ -1,0 +1,201 @@
+"""taxels_from_capture and the bulk record reader: the taxels the emulator put in come back out,
+equal to tshark's payload fields; the record columns equal what skinframes.pcap reads."""
+
+from __future__ import annotations
+
+import gzip
+import struct
+from pathlib import Path
+
+import numpy as np
+import numpy.typing as npt
+import pytest
+import tshark_util
+
+from emulator import PAPER, parse_fault, simulate_ecat, simulate_epl
+from skinframes import taxel, taxels_from_capture
+from skinframes.capture_arrays import read_record_arrays
+from skinframes.errors import FieldRangeError, PcapFormatError
+from skinframes.pcap import read_capture
+from skinframes_cli import main
+
+ROOT = Path(__file__).resolve().parent.parent.parent
+
+
+def expected(nodes: int, data_bytes: int, cycles: int, seed: int) -> npt.NDArray[np.uint8]:
+    """What the emulator carries (taxel.sample_payloads), as (cycles, nodes, 16, 12)."""
+    payloads = taxel.sample_payloads(nodes, cycles, data_bytes, seed=seed)
+    out = np.zeros((cycles, nodes, taxel.PATCH_BYTES), dtype=np.uint8)
+    width = min(data_bytes, taxel.PATCH_BYTES)
+    out[:, :, :width] = payloads[:, :, :width]
+    return out.reshape(cycles, nodes, 16, 12)
+
+
+CASES = [
+    ("epl", 7, 192, "per-slave", False, "pcap"),
+    ("epl", 3, 30, "per-slave", False, "pcapng"),
+    ("ecat", 20, 192, "per-slave", False, "pcap"),
+    ("ecat", 20, 100, "per-slave", True, "pcapng"),
+    ("ecat", 20, 192, "logical", False, "pcap"),
+    ("ecat", 9, 192, "logical", True, "pcapng"),
+]
+
+
+def emulate(
+    tmp_path: Path, protocol: str, nodes: int, data_bytes: int, layout: str, ring: bool, ext: str
+) -> Path:
+    path = tmp_path / f"{protocol}_{nodes}x{data_bytes}_{layout}_{ring}.{ext}"
+    if protocol == "epl":
+        simulate_epl(nodes, data_bytes, PAPER, cycles=5, seed=7, pcap=path)
+    else:
+        simulate_ecat(
+            nodes, data_bytes, PAPER, closed_ring=ring, layout=layout, cycles=5, seed=7, pcap=path
+        )
+    return path
+
+
+@pytest.mark.parametrize(("protocol", "nodes", "data_bytes", "layout", "ring", "ext"), CASES)
+def test_the_emulated_taxels_come_back(
+    tmp_path: Path, protocol: str, nodes: int, data_bytes: int, layout: str, ring: bool, ext: str
+) -> None:
+    path = emulate(tmp_path, protocol, nodes, data_bytes, layout, ring, ext)
+    # a logical image of 192-byte nodes is inferred; other sizes are given
+    hint = {} if layout == "per-slave" or data_bytes == 192 else {"bytes_per_node": data_bytes}
+    result = taxels_from_capture(path, **hint)  # type: ignore[arg-type]
+    assert result.taxels.dtype == np.uint8
+    assert np.array_equal(result.taxels, expected(nodes, data_bytes, 5, seed=7))
+    assert result.present.all()
+    records = read_capture(path).records
+    first = records[0].time_ns
+    assert result.time_ns[0] == first and np.all(np.diff(result.time_ns) > 0)
+    given = taxels_from_capture(path, nodes=nodes, bytes_per_node=data_bytes, layout=layout)
+    assert np.array_equal(given.taxels, result.taxels)
+
+
+def test_gzip_and_the_command_line(tmp_path: Path) -> None:
+    path = emulate(tmp_path, "ecat", 5, 192, "per-slave", False, "pcap")
+    packed = tmp_path / "c.pcap.gz"
+    packed.write_bytes(gzip.compress(path.read_bytes()))
+    want = expected(5, 192, 5, seed=7)
+    assert np.array_equal(taxels_from_capture(packed).taxels, want)
+    assert main(["decode", str(packed), "--taxels", str(tmp_path / "t.npy")]) == 0
+    assert np.array_equal(np.load(tmp_path / "t.npy"), want)
+    assert main(["decode", str(path), "--taxels", str(tmp_path / "t.npz")]) == 0
+    with np.load(tmp_path / "t.npz") as z:
+        assert np.array_equal(z["taxels"], want) and z["present"].all()
+        assert z["time_ns"].tolist() == taxels_from_capture(path).time_ns.tolist()
+    assert main(["decode", str(path), "--taxels", str(tmp_path / "no" / "t.npy")]) == 2
+
+
+def test_a_lost_pres_is_missing_not_invented(tmp_path: Path) -> None:
+    path = tmp_path / "power.pcap"
+    simulate_epl(4, 192, PAPER, cycles=5, seed=2, faults=(parse_fault("power:3@2"),), pcap=path)
+    result = taxels_from_capture(path, nodes=4)
+    want = expected(4, 192, 5, seed=2)
+    # CN 3 (node index 2) and the CN behind it lose power from cycle 2 on
+    assert result.present[:2].all() and not result.present[2:, 2:].any()
+    assert result.present[2:, :2].all()
+    assert np.array_equal(result.taxels[result.present], want[result.present])
+    assert not result.taxels[~result.present].any()
+
+
+def test_no_skin_data_is_an_error(tmp_path: Path) -> None:
+    with pytest.raises(FieldRangeError):
+        taxels_from_capture(ROOT / "pcaps" / "ecat_all_commands.pcap", protocol="epl")
+    with pytest.raises(FieldRangeError):
+        taxels_from_capture(ROOT / "pcaps" / "epl_cycle_4cn.pcap", layout="ring")
+    bad = tmp_path / "x.pcap"
+    bad.write_bytes(b"not a capture at all")
+    with pytest.raises(PcapFormatError):
+        taxels_from_capture(bad)
+    assert main(["decode", str(bad), "--taxels", str(tmp_path / "t.npy")]) == 2
+
+
+@pytest.mark.parametrize(("protocol", "nodes", "data_bytes", "layout", "ring", "ext"), CASES)
+def test_taxels_equal_tsharks_payload_field(
+    tshark: str,
+    tmp_path: Path,
+    protocol: str,
+    nodes: int,
+    data_bytes: int,
+    layout: str,
+    ring: bool,
+    ext: str,
+) -> None:
+    path = emulate(tmp_path, protocol, nodes, data_bytes, layout, ring, ext)
+    result = taxels_from_capture(path, bytes_per_node=data_bytes)
+    width = min(data_bytes, taxel.PATCH_BYTES)
+    image: dict[int, list[bytes]] = {}  # sample -> the payload bytes tshark shows, node order
+    if protocol == "epl":
+        rows = tshark_util.fields(tshark, path, ["epl.mtyp", "epl.src", "data.data"])
+        sample = -1
+        for row in rows:
+            if row["epl.mtyp"] == ["1"]:
+                sample += 1
+            elif row["epl.mtyp"] == ["4"]:
+                node = int(row["epl.src"][0]) - 1
+                got = result.taxels[sample, node].reshape(-1)[:width].tobytes()
+                assert got == bytes.fromhex(row["data.data"][0])[:width]
+                image.setdefault(sample, []).append(got)
+    else:
+        rows = tshark_util.fields(tshark, path, ["ecat.cmd", "ecat.lad", "ecat.cnt", "ecat.data"])
+        sample = -1
+        for row in rows:
+            cells = zip(row["ecat.lad"], row["ecat.cnt"], row["ecat.data"], strict=True)
+            for lad, wkc, hexdata in cells:
+                if int(lad, 0) == 0 and int(wkc, 0) == 0 and (sample < 0 or image.get(sample)):
+                    sample += 1
+                if int(wkc, 0):
+                    image.setdefault(sample, []).append(bytes.fromhex(hexdata))
+        for s, parts in image.items():
+            flat = b"".join(parts)[: nodes * data_bytes]
+            rows_of = np.frombuffer(flat, dtype=np.uint8).reshape(nodes, data_bytes)[:, :width]
+            got = result.taxels[s].reshape(nodes, -1)[:, :width]
+            assert np.array_equal(got, rows_of)
+    assert sorted(image) == list(range(result.taxels.shape[0]))
+
+
+def _classic(order: str, magic: int, records: list[tuple[int, int, bytes]]) -> bytes:
+    out = struct.pack(order + "IHHiIII", magic, 2, 4, 0, 0, 65535, 1)
+    for sec, frac, data in records:
+        out += struct.pack(order + "IIII", sec, frac, len(data), len(data)) + data
+    return out
+
+
+@pytest.mark.parametrize("order", ["<", ">"])
+@pytest.mark.parametrize("magic", [0xA1B2C3D4, 0xA1B23C4D])
+def test_record_columns_equal_the_record_reader(tmp_path: Path, order: str, magic: int) -> None:
+    rng = np.random.default_rng(1)
+    records = [
+        (int(rng.integers(0, 2**31)), int(rng.integers(0, 999_999)), rng.bytes(int(n)))
+        for n in [60, 60, 216] * 300 + list(rng.integers(14, 1514, size=200))
+    ]
+    records.insert(500, (1, 2_000_000_000, b"x" * 60))  # a fraction out of range: skipped
+    raw = _classic(order, magic, records)
+    path = tmp_path / "r.pcap"
+    path.write_bytes(raw + b"\x00" * 7)  # a damaged tail
+    assert_columns_equal(path)
+
+
+def assert_columns_equal(path: Path) -> None:
+    capture = read_capture(path)
+    cols = read_record_arrays(path)
+    assert cols.index.tolist() == [r.index for r in capture.records]
+    assert cols.time_ns.tolist() == [r.time_ns for r in capture.records]
+    assert cols.linktype.tolist() == [r.linktype for r in capture.records]
+    for r, at, n in zip(capture.records, cols.offset, cols.length, strict=True):
+        assert cols.data[at : at + n].tobytes() == r.data
+
+
+@pytest.mark.parametrize("name", sorted(p.name for p in (ROOT / "pcaps").glob("*.pcap")))
+def test_record_columns_of_the_golden_pcaps(name: str) -> None:
+    assert_columns_equal(ROOT / "pcaps" / name)
+
+
+def test_record_columns_of_the_real_captures(shared_captures: Path) -> None:
+    for path in sorted(shared_captures.glob("*.*cap*")):
+        assert_columns_equal(path)
+
+
+def test_record_columns_of_an_emulated_pcapng(tmp_path: Path) -> None:
+    assert_columns_equal(emulate(tmp_path, "ecat", 9, 192, "logical", True, "pcapng"))
