@@ -25,7 +25,7 @@ from skinframes_cli import build_parser, main
 
 ROOT = Path(__file__).resolve().parent.parent
 DOC = ROOT / "docs" / "interface.md"
-HEADING = re.compile(r"^### `skinframes ([a-z ]+)`$", re.MULTILINE)
+HEADING = re.compile(r"^### `skinframes ([a-z -]+)`$", re.MULTILINE)
 OPTION = re.compile(r"(?<![\w-])--[a-z][a-z0-9-]*")
 
 
