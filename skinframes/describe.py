@@ -58,8 +58,13 @@ def frame_fields(frame: ethernet.EthernetFrame) -> dict[str, Any]:
     return out
 
 
+_MESSAGE_NAMES: dict[int, str] = {int(t): t.name for t in powerlink.MessageType}
+
+
 def _epl_fields(m: Any) -> dict[str, Any]:
-    if isinstance(m, powerlink.RawMessage):
+    """The JSON fields of an EPL message; one type test per message, not one per field group."""
+    kind = type(m)
+    if kind is powerlink.RawMessage:
         return {
             "message_type": m.message_type & 0x7F,
             "message": _name(m.message_type & 0x7F, powerlink.MessageType),
@@ -69,25 +74,26 @@ def _epl_fields(m: Any) -> dict[str, Any]:
         }
     out: dict[str, Any] = {
         "message_type": int(m.MESSAGE_TYPE),
-        "message": powerlink.MessageType(m.MESSAGE_TYPE).name,
+        "message": _MESSAGE_NAMES[m.MESSAGE_TYPE],
         "dest": m.dest,
         "src": m.src,
     }
-    if isinstance(m, powerlink.PReq | powerlink.PRes):
-        out["size"] = m.size
+    if kind is powerlink.PRes or kind is powerlink.PReq:
+        out["size"] = len(m.payload)
         out["pdo_version"] = m.pdo_version
         out["flags1"] = int(m.flags1)
-    if isinstance(m, powerlink.PRes | powerlink.SoA):
+        if kind is powerlink.PRes:
+            out["nmt_status"] = int(m.nmt_status)
+    elif kind is powerlink.SoA:
         out["nmt_status"] = int(m.nmt_status)
-    if isinstance(m, powerlink.SoA):
         out["requested_service"] = int(m.requested_service)
         out["requested_target"] = m.requested_target
         out["epl_version"] = m.epl_version
-    if isinstance(m, powerlink.SoC):
+    elif kind is powerlink.SoC:
         out["net_time_s"] = m.net_time_s
         out["net_time_ns"] = m.net_time_ns
         out["relative_time_us"] = m.relative_time_us
-    if isinstance(m, powerlink.ASnd):
+    elif kind is powerlink.ASnd:
         out["service_id"] = m.service_id
         out["service"] = _name(m.service_id, powerlink.ServiceId)
         s = m.service

@@ -77,7 +77,7 @@ def mac(text: str) -> bytes:
 
 def format_mac(addr: bytes) -> str:
     """Format 6 bytes as ``"02:00:00:00:00:01"``."""
-    return ":".join(f"{b:02x}" for b in addr)
+    return addr.hex(":")
 
 
 def is_group(addr: bytes) -> bool:

@@ -45,7 +45,7 @@ def run(args: argparse.Namespace) -> int:
     capture = read_capture(args.path)
     out = sys.stdout
     if args.json:
-        dumps = json.JSONEncoder().encode
+        dumps = json.JSONEncoder(check_circular=False).encode
         for rec in capture:
             out.write(dumps(record_json(rec)) + "\n")
     else:

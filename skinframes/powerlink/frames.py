@@ -75,6 +75,10 @@ DECODERS: Final[dict[int, Decoder]] = {
     MessageType.ASND: ASnd._decode,
 }
 
+# decoders that check every length before one struct call and raise only DecodeErrors: they need
+# no ``decoding`` context (a contextmanager costs about as much as one of them)
+STRUCT_DECODERS: Final[frozenset[Decoder]] = frozenset({SoC._decode, PReq._decode, PRes._decode, SoA._decode})
+
 
 def decode(payload: bytes, *, strict: bool = True) -> tuple[EplMessage, int, list[Finding]]:
     """Decode the EPL part of a frame (the bytes after the EtherType).
@@ -95,6 +99,9 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[EplMessage, int, lis
     if len(buf) < HEADER_BYTES:
         raise TruncatedError(f"EPL: {len(buf)} bytes, the common header needs {HEADER_BYTES}")
     decoder = DECODERS.get(buf[0], RawMessage._decode)
-    with decoding("EPL"):
+    if decoder in STRUCT_DECODERS:  # checked lengths, one struct call: nothing to translate
         message, used = decoder(buf, strict, findings)
+    else:
+        with decoding("EPL"):
+            message, used = decoder(buf, strict, findings)
     return message, used, findings

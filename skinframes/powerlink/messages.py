@@ -45,13 +45,16 @@ from skinframes.powerlink.schemas import (
     MAX_PDO_PAYLOAD_BYTES,
     PDO_HEADER_BYTES,
     PDO_SIZE_OFFSET,
+    PREQ_HEAD,
     PRES_HEAD,
     SOA_BYTES,
+    SOA_STRUCT,
+    SOA_SYNC_REQUEST,
     SOC_BYTES,
+    SOC_STRUCT,
     SYNC_REQUEST_BYTES,
     build,
     field_values,
-    init_kwargs,
     preq_schema,
     soa_schema,
     soc_schema,
@@ -80,11 +83,14 @@ class SoC:
 
     @classmethod
     def _decode(cls, buf: bytes, strict: bool, findings: list[Finding]) -> tuple[SoC, int]:
+        """By one ``struct`` call: the fields ``soc_schema.parse`` gives (tested)."""
         if len(buf) < SOC_BYTES:
             raise TruncatedError(f"EPL SoC: {len(buf)} bytes, needs {SOC_BYTES}")
-        message = cls(**init_kwargs(cls, soc_schema.parse(buf)))
-        _reserved("reserved_3", message.reserved_3, strict, findings)
-        _reserved("reserved_5", message.reserved_5, strict, findings)
+        _, dest, src, reserved_3, flags, reserved_5, s, ns, rel = SOC_STRUCT.unpack_from(buf)
+        message = cls(dest, src, flags, s, ns, rel, reserved_3, reserved_5)
+        if reserved_3 or reserved_5:
+            _reserved("reserved_3", reserved_3, strict, findings)
+            _reserved("reserved_5", reserved_5, strict, findings)
         return message, SOC_BYTES
 
 
@@ -115,11 +121,19 @@ class PReq:
 
     @classmethod
     def _decode(cls, buf: bytes, strict: bool, findings: list[Finding]) -> tuple[PReq, int]:
+        """By one ``struct`` call: the fields ``preq_schema.parse`` gives (tested)."""
         size = _pdo_size("PReq", buf)
-        message = cls(**init_kwargs(cls, preq_schema.parse(buf)))
-        _reserved("reserved_3", message.reserved_3, strict, findings)
-        _reserved("reserved_7", message.reserved_7, strict, findings)
-        return message, PDO_HEADER_BYTES + size
+        _, dest, src, reserved_3, flags1, flags2, version, reserved_7, _ = PREQ_HEAD.unpack_from(
+            buf
+        )
+        end = PDO_HEADER_BYTES + size
+        message = cls(
+            dest, buf[PDO_HEADER_BYTES:end], src, flags1, flags2, version, reserved_3, reserved_7
+        )
+        if reserved_3 or reserved_7:
+            _reserved("reserved_3", reserved_3, strict, findings)
+            _reserved("reserved_7", reserved_7, strict, findings)
+        return message, end
 
 
 @dataclass(frozen=True, slots=True)
@@ -242,16 +256,38 @@ class SoA:
 
     @classmethod
     def _decode(cls, buf: bytes, strict: bool, findings: list[Finding]) -> tuple[SoA, int]:
+        """By one ``struct`` call: the fields ``soa_schema.parse`` gives (tested)."""
         if len(buf) < SOA_BYTES:
             raise TruncatedError(f"EPL SoA: {len(buf)} bytes, needs {SOA_BYTES}")
-        kw = init_kwargs(cls, soa_schema.parse(buf))
-        kw["requested_service"] = known(RequestedService, kw["requested_service"])
-        kw["nmt_status"] = known(NmtState, kw["nmt_status"])
-        if kw["sync_request"] is not None:
-            kw["sync_request"] = bytes(kw["sync_request"])
-        message = cls(**kw)
-        _reserved("reserved_5", message.reserved_5, strict, findings)
-        return message, SOA_BYTES + (SYNC_REQUEST_BYTES if message.sync_request is not None else 0)
+        (_, dest, src, nmt, flags1, reserved_5, service, target, version, flags3) = (
+            SOA_STRUCT.unpack_from(buf)
+        )
+        used = SOA_BYTES
+        sync_request = None
+        if service == SOA_SYNC_REQUEST:
+            used += SYNC_REQUEST_BYTES
+            if len(buf) < used:
+                raise TruncatedError(
+                    f"EPL SoA: {len(buf)} bytes, a SyncRequest SoA needs {used}",
+                    field="sync_request",
+                    offset=SOA_BYTES,
+                )
+            sync_request = buf[SOA_BYTES:used]
+        message = cls(
+            known(RequestedService, service),
+            target,
+            dest,
+            src,
+            known(NmtState, nmt),
+            flags1,
+            version,
+            flags3,
+            sync_request,
+            reserved_5,
+        )
+        if reserved_5:
+            _reserved("reserved_5", reserved_5, strict, findings)
+        return message, used
 
 
 @dataclass(frozen=True, slots=True)

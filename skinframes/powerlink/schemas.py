@@ -82,6 +82,13 @@ pres_schema = cs.Struct(
 # pres_schema's header as one struct: message_type, dest, src, nmt_status, flags1, flags2,
 # pdo_version, reserved_7, size (the fast path; equal to pres_schema, tested with hypothesis)
 PRES_HEAD: Final = struct.Struct("<BBBBBBBBH")
+# preq_schema's header: message_type, dest, src, reserved_3, flags1, flags2, pdo_version,
+# reserved_7, size (same shape as the PRes header; tested equal to preq_schema)
+PREQ_HEAD: Final = PRES_HEAD
+
+# soc_schema as one struct: message_type, dest, src, reserved_3, flags, reserved_5, net_time_s,
+# net_time_ns, relative_time_us (the decoding fast path; tested equal to soc_schema)
+SOC_STRUCT: Final = struct.Struct("<BBBBBBIIQ")
 
 soa_schema = cs.Struct(
     *_header,
@@ -94,6 +101,11 @@ soa_schema = cs.Struct(
     "flags3" / cs.Int8ul,  # redundancy: MR 0x01, CR 0x02, RR 0x04
     "sync_request" / cs.If(cs.this.requested_service == 6, cs.Bytes(SYNC_REQUEST_BYTES)),
 )
+
+# soa_schema without its optional SyncRequest, as one struct: message_type, dest, src,
+# nmt_status, flags1, reserved_5, requested_service, requested_target, epl_version, flags3
+SOA_STRUCT: Final = struct.Struct("<BBBBBBBBBB")
+SOA_SYNC_REQUEST: Final = 6  # RequestedService.SYNC_REQUEST: the SoA carries a SyncRequest
 
 # --- ASnd services: the bytes after the 4-byte ASnd header ---------------------------------------
 ident_response_schema = cs.Struct(
