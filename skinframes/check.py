@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from skinframes import powerlink
-from skinframes.dispatch import decode_frame, protocol_of
+from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError
 from skinframes.findings import Finding, Severity, error, info, warning
 from skinframes.pcap import LINKTYPE_ETHERNET, Capture
@@ -157,12 +157,13 @@ def check_capture(capture: Capture) -> CaptureReport:
         report.findings.append(FrameFinding(s.index, error("pcap.skipped", s.reason)))
         report.counts["skipped"] += 1
     cycle = _CycleChecker()
+    decode = RepeatMemo(decode_frame)  # each distinct frame is decoded once
     for rec in capture:
         if rec.linktype != LINKTYPE_ETHERNET:
             report.counts["other"] += 1
             continue
         try:
-            frame = decode_frame(rec.data)
+            frame = decode(rec.data)
         except DecodeError as exc:  # capture mode raises only for a record under 14 bytes
             report.counts["other"] += 1
             report.findings.append(FrameFinding(rec.index, error("eth.truncated", str(exc))))

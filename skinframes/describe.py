@@ -11,11 +11,11 @@ from typing import Any
 
 from skinframes import ethercat, ethernet, powerlink
 from skinframes.canbus import CanFrame
-from skinframes.dispatch import decode_frame, protocol_of
+from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError, TruncatedError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, Record
 
-__all__ = ["describe_record", "frame_fields", "record_json", "summary"]
+__all__ = ["JsonDescriber", "describe_record", "frame_fields", "record_json", "summary"]
 
 
 def _name(value: int, enum: type[IntEnum]) -> str:
@@ -138,26 +138,51 @@ def describe_record(rec: Record) -> tuple[dict[str, Any], str]:
     ``other``), the protocol's fields, and ``findings``. Ethernet frames are decoded in capture
     mode; one too short for its header is ``other`` with an ``eth.truncated`` error finding.
     """
-    return _describe(rec, text=True)
+    fields, text = _fields(rec.linktype, rec.data, text=True)
+    return _head(rec) | fields, text
 
 
 def record_json(rec: Record) -> dict[str, Any]:
     """The ``decode --json`` object of :func:`describe_record`, without building its text line."""
-    return _describe(rec, text=False)[0]
+    return _head(rec) | _fields(rec.linktype, rec.data, text=False)[0]
 
 
-def _describe(rec: Record, text: bool) -> tuple[dict[str, Any], str]:
-    obj: dict[str, Any] = {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
+class JsonDescriber:
+    """:func:`record_json` for a whole capture: a frame seen before (same bytes and linktype)
+    shares the protocol fields computed the first time (the objects are only read, never
+    changed); memory bounded as :class:`~skinframes.dispatch.RepeatMemo` bounds it."""
+
+    def __init__(self) -> None:
+        self._fields = RepeatMemo(self._compute)
+
+    @staticmethod
+    def _compute(key: tuple[int, bytes]) -> dict[str, Any]:
+        return _fields(key[0], key[1], text=False)[0]
+
+    def __call__(self, rec: Record) -> dict[str, Any]:
+        """The ``decode --json`` object of ``rec``."""
+        obj = _head(rec)
+        obj.update(self._fields((rec.linktype, rec.data)))
+        return obj
+
+
+def _head(rec: Record) -> dict[str, Any]:
+    return {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
+
+
+def _fields(linktype: int, data: bytes, text: bool) -> tuple[dict[str, Any], str]:
+    """The JSON fields after ``length`` (``protocol`` ... ``findings``) and, if ``text``, the line."""
+    obj: dict[str, Any] = {}
     line = ""
-    if rec.linktype == LINKTYPE_CAN_SOCKETCAN:
-        fields, line = _can_fields(rec.data)
-        obj.update(protocol="can", linktype=rec.linktype, **fields)
-    elif rec.linktype != LINKTYPE_ETHERNET:
-        obj.update(protocol="other", linktype=rec.linktype, findings=[])
-        line = f"linktype {rec.linktype}, {len(rec.data)} bytes"
+    if linktype == LINKTYPE_CAN_SOCKETCAN:
+        fields, line = _can_fields(data)
+        obj.update(protocol="can", linktype=linktype, **fields)
+    elif linktype != LINKTYPE_ETHERNET:
+        obj.update(protocol="other", linktype=linktype, findings=[])
+        line = f"linktype {linktype}, {len(data)} bytes"
     else:
         try:
-            frame = decode_frame(rec.data)
+            frame = decode_frame(data)
         except DecodeError as exc:
             obj.update(
                 protocol="other",

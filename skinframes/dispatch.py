@@ -2,8 +2,8 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
-from typing import Final, Literal
+from collections.abc import Callable, Hashable
+from typing import Final, Generic, Literal, TypeVar
 
 from skinframes import ethercat, ethernet, powerlink
 from skinframes.errors import (
@@ -15,7 +15,7 @@ from skinframes.errors import (
 )
 from skinframes.findings import Finding, error, info, warning
 
-__all__ = ["DECODERS", "decode_frame", "protocol_of"]
+__all__ = ["DECODERS", "RepeatMemo", "decode_frame", "protocol_of"]
 
 Decoder = Callable[..., tuple[ethernet.Payload, int, list[Finding]]]
 
@@ -119,6 +119,41 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
                 raise LengthMismatchError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
             findings.append(info("eth.trailer", msg))
     return ethernet.EthernetFrame(dst, src, message, ethertype, pad, tuple(findings))
+
+
+T = TypeVar("T")
+K = TypeVar("K", bound=Hashable)
+
+# How many distinct frames a RepeatMemo remembers: a cycle's worth of distinct requests (EPL: 239
+# PReq + SoA + ...; EtherCAT: a master's outgoing frames) fits many times over; about 6 MB
+# for full-size frames, whatever the capture's length.
+MEMO_ENTRIES: Final = 4096
+
+
+class RepeatMemo(Generic[K, T]):
+    """A pure function of a frame's bytes, computed once for frames that repeat byte for byte.
+
+    Cyclic captures repeat most frames exactly: an EPL MN's PReq and SoA, an EtherCAT master's
+    outgoing frames. Decoded frames are immutable, so a repeat can share the first result. The
+    memory is bounded: past ``MEMO_ENTRIES`` distinct keys it starts afresh.
+    """
+
+    def __init__(self, compute: Callable[[K], T], entries: int = MEMO_ENTRIES) -> None:
+        self._compute = compute
+        self._entries = entries
+        self._memo: dict[K, T] = {}
+
+    def __call__(self, key: K) -> T:
+        """``compute(key)``, remembered."""
+        try:
+            return self._memo[key]
+        except KeyError:
+            pass
+        value = self._compute(key)  # raises as compute raises; nothing remembered then
+        if len(self._memo) >= self._entries:
+            self._memo.clear()
+        self._memo[key] = value
+        return value
 
 
 def _raw(data: bytes) -> tuple[bytes, bytes]:

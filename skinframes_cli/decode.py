@@ -12,7 +12,7 @@ import numpy as np
 
 from skinframes.atomic_file import atomic_output
 from skinframes.capture_taxels import taxels_from_capture
-from skinframes.describe import describe_record, record_json
+from skinframes.describe import JsonDescriber, describe_record
 from skinframes.pcap import read_capture
 from skinframes_cli.options import add_skin_layout
 
@@ -46,8 +46,9 @@ def run(args: argparse.Namespace) -> int:
     out = sys.stdout
     if args.json:
         dumps = json.JSONEncoder(check_circular=False).encode
+        describe = JsonDescriber()  # repeated frames: fields computed once
         for rec in capture:
-            out.write(dumps(record_json(rec)) + "\n")
+            out.write(dumps(describe(rec)) + "\n")
     else:
         for rec in capture:
             _, text = describe_record(rec)

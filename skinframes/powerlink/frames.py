@@ -77,7 +77,9 @@ DECODERS: Final[dict[int, Decoder]] = {
 
 # decoders that check every length before one struct call and raise only DecodeErrors: they need
 # no ``decoding`` context (a contextmanager costs about as much as one of them)
-STRUCT_DECODERS: Final[frozenset[Decoder]] = frozenset({SoC._decode, PReq._decode, PRes._decode, SoA._decode})
+STRUCT_DECODERS: Final[frozenset[Decoder]] = frozenset(
+    {SoC._decode, PReq._decode, PRes._decode, SoA._decode}
+)
 
 
 def decode(payload: bytes, *, strict: bool = True) -> tuple[EplMessage, int, list[Finding]]:

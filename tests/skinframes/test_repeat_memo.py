@@ -1,0 +1,56 @@
+"""Frames that repeat are decoded once: the results equal decoding every frame anew."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from emulator import PAPER, simulate_ecat, simulate_epl
+from skinframes import check
+from skinframes.describe import JsonDescriber, describe_record, record_json
+from skinframes.dispatch import RepeatMemo
+from skinframes.pcap import read_capture
+
+ROOT = Path(__file__).resolve().parent.parent.parent
+
+
+@pytest.fixture(scope="module")
+def captures(tmp_path_factory: pytest.TempPathFactory) -> list[Path]:
+    d = tmp_path_factory.mktemp("memo")
+    simulate_epl(5, 192, PAPER, cycles=6, asnd=True, pcap=d / "epl.pcap")
+    simulate_ecat(9, 64, PAPER, closed_ring=True, cycles=6, pcap=d / "ring.pcapng")
+    return [d / "epl.pcap", d / "ring.pcapng", *sorted((ROOT / "pcaps").glob("*.pcap"))]
+
+
+def test_json_objects_equal_those_computed_frame_by_frame(captures: list[Path]) -> None:
+    for path in captures:
+        describe = JsonDescriber()
+        for rec in read_capture(path):
+            assert describe(rec) == record_json(rec) == describe_record(rec)[0]
+
+
+def test_check_reports_equal_those_of_decoding_every_frame(
+    captures: list[Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    memo = [check.check_capture(read_capture(p)).to_json() for p in captures]
+    monkeypatch.setattr(check, "RepeatMemo", lambda compute: compute)
+    assert memo == [check.check_capture(read_capture(p)).to_json() for p in captures]
+
+
+def test_the_memory_is_bounded_and_errors_are_not_remembered() -> None:
+    calls: list[int] = []
+
+    def square(x: int) -> int:
+        calls.append(x)
+        if x < 0:
+            raise ValueError(x)
+        return x * x
+
+    memo: RepeatMemo[int, int] = RepeatMemo(square, entries=3)
+    assert [memo(x) for x in (1, 2, 1, 2, 3)] == [1, 4, 1, 4, 9] and calls == [1, 2, 3]
+    assert memo(4) == 16 and len(memo._memo) <= 3
+    for _ in range(2):
+        with pytest.raises(ValueError):
+            memo(-1)
+    assert calls.count(-1) == 2
