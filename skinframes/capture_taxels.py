@@ -368,6 +368,9 @@ def _first_sample_count(
     return int(ret.size)
 
 
+_MAX_PIECES: Final = 64  # distinct (address, length) pieces copied row-wise in _logical
+
+
 def _logical(
     time_ns: npt.NDArray[np.int64],
     markers: npt.NDArray[np.bool_],
@@ -389,17 +392,27 @@ def _logical(
     size = nodes * bytes_per_node
     lad = dg["lad"][items] - base
     length = np.minimum(dg["length"][items], np.maximum(size - lad, 0))
-    total = int(length.sum())
-    # one row per byte: which item, and the byte's position in it
-    item_of = np.repeat(np.arange(items.size), length)
-    starts = np.cumsum(length) - length
-    pos = np.arange(total) - np.repeat(starts, length)
     image = np.zeros((samples, size), dtype=np.uint8)
     seen = np.zeros((samples, size), dtype=bool)
     seen[:, image_bytes:] = True  # past the image: nothing to read
-    where = (s_of[item_of], lad[item_of] + pos)
-    image[where] = data[dg["data_at"][items][item_of] + pos]
-    seen[where] = True
+    data_at = dg["data_at"][items]
+    # a cyclic capture reads the same few (address, length) pieces every sample: copy each
+    # piece's rows at once; many different pieces go byte by byte
+    pieces, piece_of = np.unique(np.stack((lad, length)), axis=1, return_inverse=True)
+    if pieces.shape[1] <= _MAX_PIECES:
+        for p, (at, n) in enumerate(pieces.T.tolist()):
+            mine = np.flatnonzero(piece_of.reshape(-1) == p)
+            if n <= 0 or not mine.size:
+                continue
+            count = np.full(mine.shape, n, dtype=np.int64)
+            image[s_of[mine], at : at + n] = rows_at(data, data_at[mine], n, count)
+            seen[s_of[mine], at : at + n] = True
+    else:
+        item_of = np.repeat(np.arange(items.size), length)  # one row per byte
+        pos = np.arange(int(length.sum())) - np.repeat(np.cumsum(length) - length, length)
+        where = (s_of[item_of], lad[item_of] + pos)
+        image[where] = data[data_at[item_of] + pos]
+        seen[where] = True
     width = min(bytes_per_node, taxel.PATCH_BYTES)
     taxels = np.zeros((samples, nodes, taxel.PATCH_BYTES), dtype=np.uint8)
     taxels[:, :, :width] = image.reshape(samples, nodes, bytes_per_node)[:, :, :width]

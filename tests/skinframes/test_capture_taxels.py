@@ -199,3 +199,17 @@ def test_record_columns_of_the_real_captures(shared_captures: Path) -> None:
 
 def test_record_columns_of_an_emulated_pcapng(tmp_path: Path) -> None:
     assert_columns_equal(emulate(tmp_path, "ecat", 9, 192, "logical", True, "pcapng"))
+
+
+def test_many_different_pieces_go_byte_by_byte(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from skinframes import capture_taxels
+
+    path = emulate(tmp_path, "ecat", 9, 192, "logical", True, "pcapng")
+    rowwise = taxels_from_capture(path)
+    monkeypatch.setattr(capture_taxels, "_MAX_PIECES", 0)
+    bytewise = taxels_from_capture(path)
+    assert np.array_equal(rowwise.taxels, bytewise.taxels)
+    assert np.array_equal(rowwise.present, bytewise.present) and bytewise.present.all()
+    assert np.array_equal(bytewise.taxels, expected(9, 192, 5, seed=7))
