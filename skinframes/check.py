@@ -11,7 +11,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-from skinframes import powerlink
+from skinframes import ethernet, powerlink
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError
 from skinframes.findings import Finding, Severity, error, info, warning
@@ -157,25 +157,38 @@ def check_capture(capture: Capture) -> CaptureReport:
         report.findings.append(FrameFinding(s.index, error("pcap.skipped", s.reason)))
         report.counts["skipped"] += 1
     cycle = _CycleChecker()
-    decode = RepeatMemo(decode_frame)  # each distinct frame is decoded once
+    decode = RepeatMemo(_decode)  # each distinct frame is decoded and judged once
+    findings = report.findings
     for rec in capture:
         if rec.linktype != LINKTYPE_ETHERNET:
             report.counts["other"] += 1
             continue
         try:
-            frame = decode(rec.data)
+            frame, proto, found = decode(rec.data)
         except DecodeError as exc:  # capture mode raises only for a record under 14 bytes
             report.counts["other"] += 1
-            report.findings.append(FrameFinding(rec.index, error("eth.truncated", str(exc))))
+            findings.append(FrameFinding(rec.index, error("eth.truncated", str(exc))))
             continue
-        proto = protocol_of(frame)
         report.counts[proto] += 1
-        found = list(frame.findings)
-        found += [error("eth.corrupted", c) for c in rec.comments if c.startswith(CORRUPTED_MARK)]
+        if rec.comments:
+            found = found + [
+                error("eth.corrupted", c) for c in rec.comments if c.startswith(CORRUPTED_MARK)
+            ]
         if proto == "epl":
-            m = frame.payload
-            assert not isinstance(m, bytes | bytearray)
-            found += _node_findings(m)  # type: ignore[arg-type]
-            found += cycle.feed(m)  # type: ignore[arg-type]
-        report.findings += [FrameFinding(rec.index, f) for f in found]
+            more = cycle.feed(frame.payload)  # type: ignore[arg-type]
+            if more:
+                found = found + more
+        if found:
+            findings += [FrameFinding(rec.index, f) for f in found]
     return report
+
+
+def _decode(data: bytes) -> tuple[ethernet.EthernetFrame, str, list[Finding]]:
+    """A frame, its protocol, and the findings that depend on its bytes alone (not to be
+    changed: a repeated frame shares them)."""
+    frame = decode_frame(data)
+    proto = protocol_of(frame)
+    found = list(frame.findings)
+    if proto == "epl":
+        found += _node_findings(frame.payload)  # type: ignore[arg-type]
+    return frame, proto, found
