@@ -9,7 +9,7 @@ from __future__ import annotations
 
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, Final
 
 from skinframes import ethernet, powerlink
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
@@ -157,7 +157,7 @@ def check_capture(capture: Capture) -> CaptureReport:
         report.findings.append(FrameFinding(s.index, error("pcap.skipped", s.reason)))
         report.counts["skipped"] += 1
     cycle = _CycleChecker()
-    decode = RepeatMemo(_decode)  # each distinct frame is decoded and judged once
+    decode = RepeatMemo(_decode, key=judged_bytes)  # each distinct frame decoded, judged once
     findings = report.findings
     for rec in capture:
         if rec.linktype != LINKTYPE_ETHERNET:
@@ -183,9 +183,35 @@ def check_capture(capture: Capture) -> CaptureReport:
     return report
 
 
+# An EPL PReq/PRes (DS 301 4.6.1.1.3-4): header to the end of Size, then the payload
+_PDO_PAYLOAD_AT: Final = ethernet.HEADER_BYTES + powerlink.PDO_HEADER_BYTES  # 24
+_PDO_TYPES: Final = (powerlink.MessageType.PREQ, powerlink.MessageType.PRES)
+_EPL_TYPE: Final = ethernet.ETHERTYPE_EPL.to_bytes(2, "big")
+
+
+def judged_bytes(data: bytes) -> bytes:
+    """The bytes the checks of a frame depend on: all of them, except a PReq's or PRes's
+    payload when fewer than 4 bytes follow it.
+
+    No rule reads a PDO payload: the Size field, the header, the node ids and the padding after
+    the payload decide every finding; only a trailing FCS (4 bytes or more after the message)
+    covers the payload. So PRes frames that differ only in their taxels are judged once.
+    """
+    if (
+        len(data) >= _PDO_PAYLOAD_AT
+        and data[14] in _PDO_TYPES
+        and data[ethernet.HEADER_BYTES - 2 : ethernet.HEADER_BYTES] == _EPL_TYPE
+    ):
+        end = _PDO_PAYLOAD_AT + (data[22] | data[23] << 8)
+        if end <= len(data) < end + ethernet.FCS_BYTES:
+            return data[:_PDO_PAYLOAD_AT] + data[end:]
+    return data
+
+
 def _decode(data: bytes) -> tuple[ethernet.EthernetFrame, str, list[Finding]]:
     """A frame, its protocol, and the findings that depend on its bytes alone (not to be
-    changed: a repeated frame shares them)."""
+    changed: a repeated frame shares them, and for a PReq/PRes a frame with other taxels,
+    see :func:`judged_bytes`; the cycle checker reads only the message type and node ids)."""
     frame = decode_frame(data)
     proto = protocol_of(frame)
     found = list(frame.findings)

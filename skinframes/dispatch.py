@@ -135,24 +135,32 @@ class RepeatMemo(Generic[K, T]):
 
     Cyclic captures repeat most frames exactly: an EPL MN's PReq and SoA, an EtherCAT master's
     outgoing frames. Decoded frames are immutable, so a repeat can share the first result. The
-    memory is bounded: past ``MEMO_ENTRIES`` distinct keys it starts afresh.
+    memory is bounded: past ``MEMO_ENTRIES`` distinct keys it starts afresh. ``key`` (default:
+    the argument itself) may map arguments whose results the caller treats as equal to one key.
     """
 
-    def __init__(self, compute: Callable[[K], T], entries: int = MEMO_ENTRIES) -> None:
+    def __init__(
+        self,
+        compute: Callable[[K], T],
+        entries: int = MEMO_ENTRIES,
+        key: Callable[[K], Hashable] | None = None,
+    ) -> None:
         self._compute = compute
         self._entries = entries
-        self._memo: dict[K, T] = {}
+        self._key = key
+        self._memo: dict[Hashable, T] = {}
 
-    def __call__(self, key: K) -> T:
-        """``compute(key)``, remembered."""
+    def __call__(self, arg: K) -> T:
+        """``compute(arg)``, remembered under ``key(arg)``."""
+        k = arg if self._key is None else self._key(arg)
         try:
-            return self._memo[key]
+            return self._memo[k]
         except KeyError:
             pass
-        value = self._compute(key)  # raises as compute raises; nothing remembered then
+        value = self._compute(arg)  # raises as compute raises; nothing remembered then
         if len(self._memo) >= self._entries:
             self._memo.clear()
-        self._memo[key] = value
+        self._memo[k] = value
         return value
 
 

@@ -5,6 +5,8 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from emulator import PAPER, simulate_ecat, simulate_epl
 from skinframes import check
@@ -34,7 +36,7 @@ def test_check_reports_equal_those_of_decoding_every_frame(
     captures: list[Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     memo = [check.check_capture(read_capture(p)).to_json() for p in captures]
-    monkeypatch.setattr(check, "RepeatMemo", lambda compute: compute)
+    monkeypatch.setattr(check, "RepeatMemo", lambda compute, **_: compute)
     assert memo == [check.check_capture(read_capture(p)).to_json() for p in captures]
 
 
@@ -54,3 +56,28 @@ def test_the_memory_is_bounded_and_errors_are_not_remembered() -> None:
         with pytest.raises(ValueError):
             memo(-1)
     assert calls.count(-1) == 2
+
+
+@given(
+    st.sampled_from([3, 4, 0x84, 5]),
+    st.binary(min_size=12, max_size=12),
+    st.binary(min_size=7, max_size=7),
+    st.binary(max_size=300),
+    st.binary(max_size=300),
+    st.binary(max_size=6),
+)
+def test_a_pdo_payload_changes_no_finding(
+    mtype: int, macs: bytes, head: bytes, payload: bytes, other: bytes, padding: bytes
+) -> None:
+    """Frames with equal judged_bytes get equal findings (decoder's and node ids')."""
+    other = (other + bytes(len(payload)))[: len(payload)]
+    size = len(payload).to_bytes(2, "little")
+    a = macs + b"\x88\xab" + bytes([mtype]) + head + size + payload + padding
+    b = macs + b"\x88\xab" + bytes([mtype]) + head + size + other + padding
+    if check.judged_bytes(a) != check.judged_bytes(b):
+        assert len(padding) >= 4 or mtype not in (3, 4)
+        return
+    for_a, for_b = check._decode(a), check._decode(b)
+    assert for_a[1:] == for_b[1:]
+    pa, pb = for_a[0].payload, for_b[0].payload
+    assert (type(pa), pa.src, pa.dest) == (type(pb), pb.src, pb.dest)  # type: ignore[union-attr]
