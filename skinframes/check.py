@@ -11,7 +11,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Final
 
-from skinframes import ethernet, powerlink
+from skinframes import ethercat, ethernet, powerlink
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError
 from skinframes.findings import Finding, Severity, error, info, warning
@@ -189,14 +189,23 @@ _PDO_TYPES: Final = (powerlink.MessageType.PREQ, powerlink.MessageType.PRES)
 _EPL_TYPE: Final = ethernet.ETHERTYPE_EPL.to_bytes(2, "big")
 
 
-def judged_bytes(data: bytes) -> bytes:
-    """The bytes the checks of a frame depend on: all of them, except a PReq's or PRes's
-    payload when fewer than 4 bytes follow it.
+_ECAT_TYPE: Final = ethernet.ETHERTYPE_ECAT.to_bytes(2, "big")
+_ECAT_FIRST: Final = ethernet.HEADER_BYTES + ethercat.FRAME_HEADER_BYTES  # 16
+_PROCESS_DATA: Final = frozenset(int(c) for c in ethercat.LOGICAL_COMMANDS)  # LRD, LWR, LRW
 
-    No rule reads a PDO payload: the Size field, the header, the node ids and the padding after
-    the payload decide every finding; only a trailing FCS (4 bytes or more after the message)
-    covers the payload. So PRes frames that differ only in their taxels are judged once.
+
+def judged_bytes(data: bytes) -> bytes:
+    """The bytes the checks of a frame depend on: all of them, except the process data of an
+    EPL PReq/PRes or of EtherCAT LRD/LWR/LRW datagrams when fewer than 4 bytes follow the
+    message.
+
+    No rule reads process data: the headers (Size, the datagram length words and their M bits,
+    commands, reserved bits), the node ids and the padding decide every finding; only a trailing
+    FCS (4 bytes or more after the message) covers the data. So PRes frames, and EtherCAT frames
+    of logical datagrams, that differ only in their taxels are judged once.
     """
+    if data[ethernet.HEADER_BYTES - 2 : ethernet.HEADER_BYTES] == _ECAT_TYPE:
+        return _ecat_judged(data)
     if (
         len(data) >= _PDO_PAYLOAD_AT
         and data[14] in _PDO_TYPES
@@ -206,6 +215,30 @@ def judged_bytes(data: bytes) -> bytes:
         if end <= len(data) < end + ethernet.FCS_BYTES:
             return data[:_PDO_PAYLOAD_AT] + data[end:]
     return data
+
+
+def _ecat_judged(data: bytes) -> bytes:
+    """:func:`judged_bytes` of an EtherCAT frame (ETG.1000.4 Table 12/13): every byte but the
+    data of LRD/LWR/LRW datagrams; the whole frame when any other command is in it."""
+    n = len(data)
+    if n < _ECAT_FIRST or data[15] >> 4 != ethercat.FrameType.ECAT:
+        return data
+    parts = [data[:_ECAT_FIRST]]
+    pos, more = _ECAT_FIRST, True
+    while more and pos < n:
+        if pos + ethercat.DATAGRAM_HEADER_BYTES > n or data[pos] not in _PROCESS_DATA:
+            return data
+        word = data[pos + 6] | data[pos + 7] << 8
+        end = pos + ethercat.DATAGRAM_HEADER_BYTES + (word & 0x7FF)
+        if end + ethercat.WKC_BYTES > n:
+            return data
+        parts.append(data[pos : pos + ethercat.DATAGRAM_HEADER_BYTES])
+        parts.append(data[end : end + ethercat.WKC_BYTES])
+        pos, more = end + ethercat.WKC_BYTES, bool(word & 0x8000)
+    if n - pos >= ethernet.FCS_BYTES:
+        return data
+    parts.append(data[pos:])
+    return b"".join(parts)
 
 
 def _decode(data: bytes) -> tuple[ethernet.EthernetFrame, str, list[Finding]]:

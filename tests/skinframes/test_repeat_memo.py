@@ -81,3 +81,40 @@ def test_a_pdo_payload_changes_no_finding(
     assert for_a[1:] == for_b[1:]
     pa, pb = for_a[0].payload, for_b[0].payload
     assert (type(pa), pa.src, pa.dest) == (type(pb), pb.src, pb.dest)  # type: ignore[union-attr]
+
+
+@given(
+    st.lists(
+        st.tuples(
+            st.sampled_from([0x0A, 0x0B, 0x0C, 0x04]),
+            st.binary(min_size=0, max_size=120),
+            st.integers(0, 0xFFFF),
+        ),
+        min_size=1,
+        max_size=6,
+    ),
+    st.binary(min_size=1, max_size=1),
+    st.binary(max_size=6),
+    st.booleans(),
+)
+def test_ecat_process_data_changes_no_finding(
+    datagrams: list[tuple[int, bytes, int]], flip: bytes, padding: bytes, bad_length: bool
+) -> None:
+    """Frames with equal judged_bytes get equal findings, whatever the datagrams' data."""
+    from skinframes import ethercat
+
+    def body(flipped: bool) -> bytes:
+        dgs = tuple(
+            ethercat.Datagram(cmd, 0, 0, bytes(b ^ flip[0] for b in data) if flipped else data)
+            for cmd, data, _ in datagrams
+        )
+        frame = ethercat.EcatFrame(dgs, length=5 if bad_length else None)
+        return ethercat.frame(frame).to_bytes() + padding
+
+    a, b = body(False), body(True)
+    if check.judged_bytes(a) != check.judged_bytes(b):
+        message = 16 + sum(12 + len(data) for _, data, _ in datagrams)
+        after = len(a) - message  # Ethernet padding to 60 bytes included
+        assert after >= 4 or any(cmd == 0x04 for cmd, _, _ in datagrams)
+        return
+    assert check._decode(a)[1:] == check._decode(b)[1:]
