@@ -15,9 +15,10 @@ image. For each capture and round, in alternating order:
 * ``skinframes check`` against ``tshark -q -z expert``. Target >= 1x.
 
 Every command runs as a fresh process writing to /dev/null (tshark's start-up counts, as does
-Python's). Reported: the median time of each and the median over rounds of the paired ratios
-tshark / skinframes (both measured in the same round, so load that drifts between rounds
-cancels), with MET or NOT MET. Nothing is asserted. Before timing, the taxels are checked equal
+Python's). Reported: the median wall time of each and the median over rounds of the paired
+ratios tshark / skinframes, of wall time and of CPU time (user + system: on a shared machine
+the steadier of the two), both measured in the same round so that load drifting between rounds
+cancels, with MET or NOT MET (by wall time). Nothing is asserted. Before timing, the taxels are checked equal
 to the seeded patterns the emulator carried (``VERIFICATION FAILED``, exit 1, otherwise).
 """
 
@@ -25,6 +26,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -55,17 +57,21 @@ def skinframes(*args: str) -> list[str]:
     return [sys.executable, "-m", "skinframes_cli", *args]
 
 
-def run_process(argv: list[str]) -> float:
-    """Wall time of one process, output to /dev/null."""
+def run_process(argv: list[str]) -> tuple[float, float]:
+    """(wall, CPU user + system) seconds of one process, output to /dev/null."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
     start = time.perf_counter()
     subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
-    return time.perf_counter() - start
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
-def run_call(fn: Callable[[], object]) -> float:
-    start = time.perf_counter()
+def run_call(fn: Callable[[], object]) -> tuple[float, float]:
+    """(wall, CPU) seconds of a call in this process."""
+    start, cpu = time.perf_counter(), time.process_time()
     fn()
-    return time.perf_counter() - start
+    return time.perf_counter() - start, time.process_time() - cpu
 
 
 def verify(path: Path, cycles: int) -> None:
@@ -90,7 +96,7 @@ def main_bench() -> int:
     version = subprocess.run([tshark, "-v"], capture_output=True, text=True).stdout.split("\n")[0]
     print(f"# bench_decode: {version}; CPython {sys.version.split()[0]}; numpy {np.__version__}")
     print(f"# load average {os.getloadavg()[0]:.2f}; {args.cycles} cycles; {args.rounds} rounds")
-    rows: list[tuple[str, str, str, float, float, float, float]] = []
+    rows: list[tuple[str, str, str, float, float, float, float, float]] = []
     for name, (sim, field, display) in CAPTURES.items():
         path = work / (name.replace(" ", "_") + ".pcap")
         argv = ["simulate", *sim, "--nodes", str(NODES), "--bytes", str(BYTES)]
@@ -115,7 +121,7 @@ def main_bench() -> int:
         out = str(work / "taxels.npy")
         json_argv = [tshark, "-n", "-r", str(path), "-T", "json"]
         expert_argv = [tshark, "-n", "-r", str(path), "-q", "-z", "expert"]
-        jobs: list[tuple[str, Callable[[], float], str, list[str], float]] = [
+        jobs: list[tuple[str, Callable[[], tuple[float, float]], str, list[str], float]] = [
             (
                 "taxels_from_capture (library)",
                 lambda p=path: run_call(lambda: taxels_from_capture(p)),  # type: ignore[misc]
@@ -149,15 +155,21 @@ def main_bench() -> int:
             t_ours: list[float] = []
             t_theirs: list[float] = []
             ratios: list[float] = []
+            cpu_ratios: list[float] = []
             for r in range(args.rounds):
                 if r % 2:
                     b, a = run_process(theirs), ours()
                 else:
                     a, b = ours(), run_process(theirs)
-                t_ours.append(a)
-                t_theirs.append(b)
-                ratios.append(b / a)
-                print(f"  {name}: {what}: round {r}: {a:.3f} s vs {b:.3f} s", file=sys.stderr)
+                t_ours.append(a[0])
+                t_theirs.append(b[0])
+                ratios.append(b[0] / a[0])
+                cpu_ratios.append(b[1] / max(a[1], 1e-9))
+                print(
+                    f"  {name}: {what}: round {r}: wall {a[0]:.3f} s vs {b[0]:.3f} s, "
+                    f"CPU {a[1]:.3f} s vs {b[1]:.3f} s",
+                    file=sys.stderr,
+                )
             rows.append(
                 (
                     f"{name}, {frames} frames",
@@ -166,19 +178,21 @@ def main_bench() -> int:
                     statistics.median(t_ours),
                     statistics.median(t_theirs),
                     statistics.median(ratios),
+                    statistics.median(cpu_ratios),
                     target,
                 )
             )
     print()
     print(
-        "| capture | skinframes | against | skinframes s | tshark s | x tshark | target | verdict |"
+        "| capture | skinframes | against | skinframes s | tshark s | x tshark (wall) "
+        "| x tshark (CPU) | target | verdict (wall) |"
     )
-    print("|---|---|---|---:|---:|---:|---:|---|")
-    for capture, what, reference, ours_s, theirs_s, ratio, target in rows:
+    print("|---|---|---|---:|---:|---:|---:|---:|---|")
+    for capture, what, reference, ours_s, theirs_s, ratio, cpu_ratio, target in rows:
         verdict = "**MET**" if ratio >= target else "**NOT MET**"
         print(
             f"| {capture} | {what} | {reference} | {ours_s:.3f} | {theirs_s:.3f} | {ratio:.2f}x "
-            f"| >= {target:g}x | {verdict} |"
+            f"| {cpu_ratio:.2f}x | >= {target:g}x | {verdict} |"
         )
     if args.dir is None:
         shutil.rmtree(work, ignore_errors=True)
