@@ -190,6 +190,7 @@ _EPL_TYPE: Final = ethernet.ETHERTYPE_EPL.to_bytes(2, "big")
 
 
 _ECAT_TYPE: Final = ethernet.ETHERTYPE_ECAT.to_bytes(2, "big")
+assert _ECAT_TYPE[0] == _EPL_TYPE[0] == 0x88
 _ECAT_FIRST: Final = ethernet.HEADER_BYTES + ethercat.FRAME_HEADER_BYTES  # 16
 _PROCESS_DATA: Final = frozenset(int(c) for c in ethercat.LOGICAL_COMMANDS)  # LRD, LWR, LRW
 
@@ -204,13 +205,11 @@ def judged_bytes(data: bytes) -> bytes:
     FCS (4 bytes or more after the message) covers the data. So PRes frames, and EtherCAT frames
     of logical datagrams, that differ only in their taxels are judged once.
     """
-    if data[ethernet.HEADER_BYTES - 2 : ethernet.HEADER_BYTES] == _ECAT_TYPE:
+    if len(data) < _PDO_PAYLOAD_AT or data[12] != 0x88:  # EtherType high byte, EPL and ECAT
+        return data
+    if data[13] == _ECAT_TYPE[1]:
         return _ecat_judged(data)
-    if (
-        len(data) >= _PDO_PAYLOAD_AT
-        and data[14] in _PDO_TYPES
-        and data[ethernet.HEADER_BYTES - 2 : ethernet.HEADER_BYTES] == _EPL_TYPE
-    ):
+    if data[13] == _EPL_TYPE[1] and data[14] in _PDO_TYPES:
         end = _PDO_PAYLOAD_AT + (data[22] | data[23] << 8)
         if end <= len(data) < end + ethernet.FCS_BYTES:
             return data[:_PDO_PAYLOAD_AT] + data[end:]
