@@ -45,16 +45,6 @@ BITS_PER_TAXEL: Final = 8
 PATCH_BYTES: Final = TRIANGLES_PER_PATCH * TAXELS_PER_TRIANGLE * BITS_PER_TAXEL // 8  # 192, eq. 1
 BODY_PATCHES: Final = 160  # eq. 2: about 1 m^2 of skin
 NO_LOAD: Final = 0xF0  # robots-configuration skinSpec noLoad (can.md 1.3)
-NOISE: Final = 2  # +- sensor noise around NO_LOAD in contact_pattern
-# A taxel is pressed when it reads below NO_LOAD by more than five times the noise: noise alone
-# never crosses it (values are inverted: pressure lowers them).
-CONTACT_THRESHOLD: Final = NO_LOAD - 5 * NOISE  # 230
-
-
-def in_contact(taxels: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
-    """Per triangle (the last axis holds its 12 taxels): any taxel below CONTACT_THRESHOLD."""
-    pressed: npt.NDArray[np.bool_] = np.any(np.asarray(taxels) < CONTACT_THRESHOLD, axis=-1)
-    return pressed
 
 
 def patch_to_bytes(taxels: npt.ArrayLike) -> bytes:
@@ -88,6 +78,19 @@ def pack_patches(patches: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
             f"patches: dtype {arr.dtype}, shape {arr.shape}; need uint8 (n, T, 12)"
         )
     return arr.reshape(arr.shape[0], arr.shape[1] * TAXELS_PER_TRIANGLE)
+
+
+# --- contact ---------------------------------------------------------------------------------
+NOISE: Final = 2  # +- sensor noise around NO_LOAD in contact_pattern
+# A taxel is pressed when it reads below NO_LOAD by more than five times the noise: noise alone
+# never crosses it (values are inverted: pressure lowers them).
+CONTACT_THRESHOLD: Final = NO_LOAD - 5 * NOISE  # 230
+
+
+def in_contact(taxels: npt.NDArray[np.uint8]) -> npt.NDArray[np.bool_]:
+    """Per triangle (the last axis holds its 12 taxels): any taxel below CONTACT_THRESHOLD."""
+    pressed: npt.NDArray[np.bool_] = np.any(np.asarray(taxels) < CONTACT_THRESHOLD, axis=-1)
+    return pressed
 
 
 @dataclass(frozen=True, slots=True)
