@@ -19,7 +19,7 @@ from typing import Final, Protocol
 import numpy as np
 import numpy.typing as npt
 
-from emulator.errors import ScheduleError, TopologyError
+from emulator.errors import PayloadError, ScheduleError
 from emulator.model.limits import check_cycles
 from emulator.net.cycle import FILL_FRAME, FILL_TAXELS, Cycle, Record
 from emulator.net.result import CycleDetail, SimResult
@@ -120,7 +120,7 @@ class TaxelSource:
         if payloads is not None:
             arr = np.asarray(payloads)
             if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
-                raise TopologyError(
+                raise PayloadError(
                     f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
                 )
             self._chunks: Iterator[npt.NDArray[np.uint8]] = iter((arr,))
