@@ -13,7 +13,7 @@ memory does not grow with the number of cycles.
 from __future__ import annotations
 
 from collections import Counter, deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Final, Protocol
 
 import numpy as np
@@ -117,35 +117,26 @@ class TaxelSource:
         payloads: npt.NDArray[np.uint8] | None = None,
     ) -> None:
         self.shape = (nodes, data_bytes)
+        self._given: npt.NDArray[np.uint8] | None = None
+        self._stream: taxel.PayloadStream | None = None
         if payloads is not None:
             arr = np.asarray(payloads)
             if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
                 raise PayloadError(
                     f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
                 )
-            self._chunks: Iterator[npt.NDArray[np.uint8]] = iter((arr,))
+            self._given = arr
         else:
-            self._chunks = iter_payloads(nodes, cycles, data_bytes, seed)
-        self._buf = np.empty((0, nodes, data_bytes), np.uint8)
+            self._stream = taxel.PayloadStream(nodes, cycles, data_bytes, seed=seed)
+        self._taken = 0
 
     def take(self, count: int) -> npt.NDArray[np.uint8]:
         """The next ``count`` cycles' taxels, (count, nodes, data_bytes)."""
-        parts = [self._buf]
-        have = len(self._buf)
-        while have < count:
-            chunk = next(self._chunks)
-            parts.append(chunk)
-            have += len(chunk)
-        whole = parts[0] if len(parts) == 1 else np.concatenate(parts)
-        self._buf = whole[count:]
-        return whole[:count]
-
-
-def iter_payloads(
-    nodes: int, cycles: int, data_bytes: int, seed: int
-) -> Iterator[npt.NDArray[np.uint8]]:
-    """Seeded contact patterns of ``cycles`` samples, in chunks (memory of one chunk)."""
-    return taxel.iter_sample_payloads(nodes, cycles, data_bytes, seed=seed)
+        first, self._taken = self._taken, self._taken + count
+        if self._given is not None:
+            return self._given[first : first + count]
+        assert self._stream is not None
+        return self._stream.take(count)
 
 
 class _Overlap:
