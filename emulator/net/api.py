@@ -41,17 +41,18 @@ class CaptureSink:
             comment=comment,
         )
 
-    def write_block(
+    def write_repeated(
         self,
         times_ps: npt.NDArray[np.int64],
         lengths: npt.NDArray[np.int64],
-        data: npt.NDArray[np.uint8],
+        template: npt.NDArray[np.uint8],
         *,
         ports: npt.NDArray[np.int64],
         outbound: npt.NDArray[np.bool_],
+        fills: list[tuple[int, npt.NDArray[np.uint8]]],
     ) -> None:
-        self.writer.write_block(
-            times_ps // PS_PER_NS, lengths, data, ports=ports, outbound=outbound
+        self.writer.write_repeated(
+            times_ps // PS_PER_NS, lengths, template, ports=ports, outbound=outbound, fills=fills
         )
 
 

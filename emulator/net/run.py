@@ -27,7 +27,7 @@ from skinframes import ethernet, taxel
 
 __all__ = ["BLOCK_BYTES", "MAX_LISTED", "Engine", "MemorySink", "Sink", "TaxelSource", "run"]
 
-BLOCK_BYTES: Final = 32 << 20  # frame bytes the fast path assembles at once
+BLOCK_BYTES: Final = 32 << 20  # frame bytes per block of repeated cycles (taxels drawn at once)
 MAX_LISTED: Final = 10_000  # cycles_detail entries at most (the rest are counted)
 
 
@@ -63,14 +63,15 @@ class Sink(Protocol):
         self, time_ps: int, frame: bytes, *, port: int, outbound: bool, comment: str | None
     ) -> None: ...
 
-    def write_block(
+    def write_repeated(
         self,
         times_ps: npt.NDArray[np.int64],
         lengths: npt.NDArray[np.int64],
-        data: npt.NDArray[np.uint8],
+        template: npt.NDArray[np.uint8],
         *,
         ports: npt.NDArray[np.int64],
         outbound: npt.NDArray[np.bool_],
+        fills: list[tuple[int, npt.NDArray[np.uint8]]],
     ) -> None: ...
 
 
@@ -85,19 +86,23 @@ class MemorySink:
     ) -> None:
         self.records.append((time_ps, port, outbound, frame, comment))
 
-    def write_block(
+    def write_repeated(
         self,
         times_ps: npt.NDArray[np.int64],
         lengths: npt.NDArray[np.int64],
-        data: npt.NDArray[np.uint8],
+        template: npt.NDArray[np.uint8],
         *,
         ports: npt.NDArray[np.int64],
         outbound: npt.NDArray[np.bool_],
+        fills: list[tuple[int, npt.NDArray[np.uint8]]],
     ) -> None:
-        ends = np.cumsum(lengths)
+        ends = np.cumsum(lengths).tolist()
         for row in range(times_ps.shape[0]):
-            raw = data[row].tobytes()
-            for r, end in enumerate(ends.tolist()):
+            data = template.copy()
+            for offset, values in fills:
+                data[offset : offset + values.shape[1]] = values[row]
+            raw = data.tobytes()
+            for r, end in enumerate(ends):
                 start = end - int(lengths[r])
                 self.records.append(
                     (int(times_ps[row, r]), int(ports[r]), bool(outbound[r]), raw[start:end], None)
@@ -297,21 +302,22 @@ def _repeat(
     while done < q:
         k = min(per_block, q - done)
         starts = start + (done + np.arange(k, dtype=np.int64)) * period_ps
-        data = np.empty((k, row_bytes), np.uint8)
-        data[:] = template
         taxels = source.take(k * period_len).reshape(k, period_len, *source.shape)
+        fills: list[tuple[int, npt.NDArray[np.uint8]]] = []
         for col, (i, r) in enumerate(cols):
             lo = int(at[col])
             if r.fill == FILL_TAXELS:
                 image = taxels[:, i].reshape(k, -1)
-                for dst, src, n in r.runs:
-                    data[:, lo + dst : lo + dst + n] = image[:, src : src + n]
+                fills.extend((lo + dst, image[:, src : src + n]) for dst, src, n in r.runs)
             elif r.fill == FILL_FRAME:
-                data[:, lo : lo + r.length] = engine.rebuild(
-                    r, starts + int(offsets[i]), taxels[:, i]
-                )
-        sink.write_block(
-            starts[:, None] + rel[None, :], lengths, data, ports=ports, outbound=outbound
+                fills.append((lo, engine.rebuild(r, starts + int(offsets[i]), taxels[:, i])))
+        sink.write_repeated(
+            starts[:, None] + rel[None, :],
+            lengths,
+            template,
+            ports=ports,
+            outbound=outbound,
+            fills=fills,
         )
         done += k
         if progress is not None:
