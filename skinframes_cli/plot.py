@@ -31,9 +31,31 @@ def add_parser(sub: Any) -> None:
         "EtherCAT) for several payloads: the analytic model as lines, the emulator as markers, "
         "and the paper's printed table cells.",
     )
-    p.add_argument("--out", default="cycle_time.png", help="output file, .png or .svg")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="output file, .png or .svg (default cycle_time.png, with --map map.png)",
+    )
     p.add_argument("--preset", choices=list(PRESETS), default="paper")
     p.add_argument("--step", type=int, default=20, help="nodes between emulated points")
+    p.add_argument(
+        "--map",
+        action="store_true",
+        help="the design space instead: cycle time over nodes x bytes per protocol, with the "
+        "1 ms and 5 ms contours",
+    )
+    p.add_argument(
+        "--nodes",
+        type=int,
+        default=taxel.BODY_PATCHES,
+        help=f"--map: your configuration's nodes, drawn as a point (default {taxel.BODY_PATCHES})",
+    )
+    p.add_argument(
+        "--bytes",
+        type=int,
+        default=taxel.PATCH_BYTES,
+        help=f"--map: your configuration's bytes per node (default {taxel.PATCH_BYTES})",
+    )
     p.set_defaults(run=run)
 
 
@@ -108,6 +130,13 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     """Draw and report the file."""
-    path = make_plot(Path(args.out), args.preset, args.step)
+    if args.map:
+        from skinframes_cli.plot_map import make_map
+
+        out = Path("map.png" if args.out is None else args.out)
+        make_map(out, args.preset, args.nodes, args.bytes)
+        print(f"wrote {out}")
+        return 0
+    path = make_plot(Path(args.out or "cycle_time.png"), args.preset, args.step)
     print(f"wrote {path}")
     return 0
