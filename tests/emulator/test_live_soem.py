@@ -329,6 +329,12 @@ def check_coe_capture(tshark: str, path: Path, coe: dict[str, Any]) -> None:
         *("ecat_mailbox.coe.sdodata", "ecat_mailbox.coe.abortcode"),
     )
     assert rows
+    # every mailbox write the slaves accepted and every read of SM1 decodes as a mailbox
+    for cmd, ado in (("0x05", "0x1000"), ("0x04", "0x1080")):
+        accepted = tshark_fields(
+            tshark, path, f"ecat.cmd == {cmd} && ecat.ado == {ado} && ecat.cnt == 1", "ecat.cmd"
+        )
+        assert len(accepted) == sum(1 for r in rows if r[0] == cmd and r[1] == "1")
     last: tuple[int, int] | None = None  # the SDO request the slave accepted last
     uploads: dict[tuple[int, int], str] = {}
     aborts: dict[tuple[int, int], int] = {}
