@@ -42,6 +42,7 @@ from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
 from emulator.net.faults import Fault, check_faults, corruption_mark
+from emulator.net.startup import StartupRecord, run_startup
 from skinframes import ethercat, ethernet
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -326,21 +327,36 @@ class EcatEngine(EcatTiming):
         layout: str = "per-slave",
         faults: tuple[Fault, ...] = (),
         seed: int = 0,
+        startup: bool = False,
     ) -> None:
         check_emulated_ecat(nodes, data_bytes)
         super().__init__(nodes, params, closed_ring=closed_ring, faults=faults, seed=seed)
         self.sent = frames_for(nodes, data_bytes, layout)
         self.data_bytes, self.layout = data_bytes, layout
-        self.chain = EcatChain.configured(nodes, data_bytes)
-        self.effects: list[FrameEffect] = [self.chain.frame_effect(f) for f in self.sent]
-        everyone = range(nodes)
-        self.expected_wkc = sum(e.wkc(everyone) for e in self.effects)
         self.out = [ethercat.frame(f).to_bytes() for f in self.sent]
         self.out2 = [
             ethercat.frame(f, src=ethercat.MASTER_MAC_SECOND).to_bytes() for f in self.sent
         ]
         self.wire = [params.frame_ps(len(b)) for b in self.out]
         self._runs: dict[tuple[int, frozenset[int]], tuple[tuple[int, int, int], ...]] = {}
+        # startup: patches with a CoE mailbox taken to OP by the start-up frames, timed by this
+        # engine's walk (emulator.net.startup); else configured without frames on the wire
+        self.startup: list[StartupRecord] = []
+        if startup:
+            if faults or closed_ring:
+                raise TopologyError("the start-up runs on an open ring without faults only")
+            self.chain = EcatChain.skin(nodes, data_bytes, mailbox=True)
+            self.startup = run_startup(
+                self.chain,
+                lambda t: self._walk(t, False, Counter()).arrive_ps,
+                params.frame_ps,
+                params.ifg_ps,
+            )
+        else:
+            self.chain = EcatChain.configured(nodes, data_bytes)
+        self.effects: list[FrameEffect] = [self.chain.frame_effect(f) for f in self.sent]
+        everyone = range(nodes)
+        self.expected_wkc = sum(e.wkc(everyone) for e in self.effects)
 
     # --- what the driver asks -----------------------------------------------------------------
     def event_at(self, cycle: int) -> bool:

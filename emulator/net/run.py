@@ -169,8 +169,11 @@ def run(
     progress: Callable[[int], None] | None = None,
     fast: bool = True,
     every_cycle: bool = False,
+    start_ps: int = 0,
 ) -> tuple[SimResult, Counter[tuple[object, ...]]]:
     """Run ``cycles`` cycles of ``engine``; frames to ``sink`` (None: timing only).
+
+    The first cycle starts at ``start_ps`` (after a start-up the caller wrote, for example).
 
     ``every_cycle`` lists every cycle in the result's details (and walks every cycle), not only
     those that differ from the cycle one period earlier.
@@ -199,7 +202,7 @@ def run(
         maxlen=period_len
     )  # (cycle_ps, wkc, expected) of the last P
     overlap = _Overlap()
-    c, start = 0, 0
+    c, start = 0, start_ps
 
     def note(cyc: Cycle, c: int, start: int) -> None:
         key = (cyc.cycle_ps, cyc.wkc, cyc.expected_wkc)
