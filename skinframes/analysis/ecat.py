@@ -1,0 +1,436 @@
+"""EtherCAT cycle analysis of a capture, frame by frame with state per frame pattern only.
+
+A frame's *pattern* is its datagram chain without the data: each datagram's command, address
+and length (ETG.1000.4 Table 13). The address is the logical address for LRD/LWR/LRW, station
+address and offset for configured-address commands, and the offset alone for auto-increment
+and broadcast commands (every slave increments their ADP on the way, ETG.1000.4 5.4.1). A
+pattern is *cyclic* when it carries process data (a logical command).
+
+Directions: an ESC sets bit 0x02 of the first source-MAC octet of a frame it processed
+(:data:`skinframes.ethercat.RETURNED_MAC_BIT`); in a closed ring a frame can also come back on
+the master's other port (another pcapng interface). A frame is the *return* of an earlier one
+when their patterns, first datagram index and master port (source MAC with that bit cleared)
+agree and either the bit or the interface differ; otherwise it is sent by the master
+(*outbound*). An outbound frame followed by another outbound frame of the same key before its
+return is *unanswered* (lost), provided the capture holds returns of that pattern at all.
+
+Per pattern and master port: the period between outbound frames, the round trip (outbound to
+return) and the working counter of each datagram in the returned frames against its steady
+state (the most frequent value, ties to the lower) or a given value for the process data
+datagrams. AL states (ETG.1000.4 Table 31): writes of AL control (0x0120) in outbound frames
+are the states the master requested; reads of AL status (0x0130) in returned frames are what
+the slaves reported, each change listed once.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Any, Final
+
+import numpy as np
+import numpy.typing as npt
+
+from skinframes import ethercat
+from skinframes.analysis.stats import Rows, Series, Summary
+from skinframes.errors import DecodeError
+from skinframes.ethercat import Command
+
+__all__ = [
+    "AL_CONTROL",
+    "AL_STATUS",
+    "AlStateChange",
+    "EcatAnalysis",
+    "EcatAnalyzer",
+    "PatternReport",
+    "WkcDeviation",
+    "pattern_text",
+]
+
+AL_CONTROL: Final = 0x0120  # ETG.1000.4 Table 31: AL control register (2 bytes)
+AL_STATUS: Final = 0x0130  # ETG.1000.4 Table 31: AL status register (2 bytes)
+AL_STATE_MASK: Final = 0x0F  # bits 0-3: the state; bit 4 error indication / acknowledge
+AL_ERROR_BIT: Final = 0x10
+AL_STATE_NAMES: Final = {1: "INIT", 2: "PREOP", 3: "BOOT", 4: "SAFEOP", 8: "OP"}  # ETG.1000.6 6.4.1
+RETURNED_MAC_BIT: Final = ethercat.RETURNED_MAC_BIT
+
+_LOGICAL: Final = frozenset(int(c) for c in ethercat.LOGICAL_COMMANDS)
+_CONFIGURED: Final = frozenset(
+    int(c) for c in (Command.FPRD, Command.FPWR, Command.FPRW, Command.FRMW)
+)
+_AUTO_INCREMENT: Final = frozenset(
+    int(c) for c in (Command.APRD, Command.APWR, Command.APRW, Command.ARMW)
+)
+_WRITES: Final = frozenset(
+    int(c)
+    for c in (Command.APWR, Command.APRW, Command.FPWR, Command.FPRW, Command.BWR, Command.BRW)
+)
+_READS: Final = frozenset(
+    int(c)
+    for c in (
+        Command.APRD,
+        Command.APRW,
+        Command.FPRD,
+        Command.FPRW,
+        Command.BRD,
+        Command.BRW,
+        Command.ARMW,
+        Command.FRMW,
+    )
+)
+# Working-counter increments of one slave for a logical command it serves both ways
+# (ETG.1000.4 Table 17: read 1, write 1... LRW read 1 + write 2).
+LOGICAL_WKC_PER_SLAVE: Final = {int(Command.LRD): 1, int(Command.LWR): 1, int(Command.LRW): 3}
+
+Pattern = tuple[tuple[int, int, int, int], ...]  # (cmd, adp or -1, ado or lad, length) each
+
+
+def pattern_of(frame: ethercat.EcatFrame) -> Pattern:
+    """The frame's pattern: per datagram (command, ADP or -1, ADO or the logical address, length)."""
+    out = []
+    for d in frame.datagrams:
+        cmd = int(d.cmd)
+        if cmd in _LOGICAL:
+            out.append((cmd, -1, d.lad, len(d.data)))
+        elif cmd in _CONFIGURED:
+            out.append((cmd, d.adp, d.ado, len(d.data)))
+        else:
+            out.append((cmd, -1, d.ado, len(d.data)))
+    return tuple(out)
+
+
+def _command_name(cmd: int) -> str:
+    try:
+        return Command(cmd).name
+    except ValueError:
+        return f"{cmd:#04x}"
+
+
+def pattern_text(pattern: Pattern) -> str:
+    """``LRD 0x00000000+8, FPRD 0x1001:0x0130+2, BRD *:0x0130+2`` for a pattern."""
+    parts = []
+    for cmd, adp, addr, n in pattern:
+        if cmd in _LOGICAL:
+            where = f"{addr:#010x}"
+        elif adp >= 0:
+            where = f"{adp:#06x}:{addr:#06x}"
+        else:
+            where = f"*:{addr:#06x}"
+        parts.append(f"{_command_name(cmd)} {where}+{n}")
+    return ", ".join(parts)
+
+
+def al_state_name(value: int) -> str:
+    """``OP``, ``SAFEOP+ERR``... for an AL control or status word."""
+    state = AL_STATE_NAMES.get(value & AL_STATE_MASK, f"{value & AL_STATE_MASK:#x}")
+    return state + ("+ERR" if value & AL_ERROR_BIT else "")
+
+
+@dataclass(frozen=True, slots=True)
+class WkcDeviation:
+    """A returned datagram whose working counter differs from the expected value."""
+
+    frame: int
+    time_ns: int
+    pattern: int  # index into EcatAnalysis.patterns (a pattern from one master port)
+    datagram: int  # position in the frame
+    wkc: int
+    expected: int
+
+
+@dataclass(frozen=True, slots=True)
+class AlStateChange:
+    """An AL state the master requested (``requested``) or a slave reported (``reported``)."""
+
+    frame: int
+    time_ns: int
+    kind: str  # "requested" or "reported"
+    target: str  # "station 0x1001", "position 0", "all"
+    state: str
+    value: int
+
+
+@dataclass(frozen=True, slots=True)
+class PatternReport:
+    """What ``analyze`` found for one pattern sent from one master port."""
+
+    pattern: Pattern
+    text: str
+    cyclic: bool
+    port: str  # the master port's MAC
+    frames: int  # outbound frames
+    returned: int
+    unanswered: tuple[int, ...]  # frame numbers of outbound frames that never came back
+    period: Summary
+    period_ns: Any
+    round_trip: Summary
+    round_trip_ns: Any
+    expected_wkc: tuple[int, ...]
+    steady_wkc: tuple[int, ...]  # the most frequent returned working counter per datagram
+
+    def to_json(self, index: int) -> dict[str, Any]:
+        """One entry of ``ecat.patterns``."""
+        return {
+            "pattern": index,
+            "datagrams": self.text,
+            "cyclic": self.cyclic,
+            "port": self.port,
+            "frames": self.frames,
+            "returned": self.returned,
+            "unanswered": list(self.unanswered),
+            "period": self.period.to_json(),
+            "round_trip": self.round_trip.to_json(),
+            "expected_wkc": list(self.expected_wkc),
+            "steady_wkc": list(self.steady_wkc),
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class EcatAnalysis:
+    """The EtherCAT part of ``analyze``."""
+
+    frames: int
+    undecodable: int
+    patterns: tuple[PatternReport, ...]
+    wkc_deviations: tuple[WkcDeviation, ...]
+    al_states: tuple[AlStateChange, ...]
+    ports: tuple[str, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``ecat`` object of ``analyze --json`` (docs/interface.md)."""
+        return {
+            "frames": self.frames,
+            "undecodable": self.undecodable,
+            "ports": list(self.ports),
+            "patterns": [p.to_json(i) for i, p in enumerate(self.patterns)],
+            "wkc_deviations": [
+                {
+                    "frame": d.frame,
+                    "time_ns": d.time_ns,
+                    "pattern": d.pattern,
+                    "datagram": d.datagram,
+                    "wkc": d.wkc,
+                    "expected": d.expected,
+                }
+                for d in self.wkc_deviations
+            ],
+            "al_states": [
+                {
+                    "frame": a.frame,
+                    "time_ns": a.time_ns,
+                    "kind": a.kind,
+                    "target": a.target,
+                    "state": a.state,
+                    "value": a.value,
+                }
+                for a in self.al_states
+            ],
+        }
+
+
+@dataclass(slots=True)
+class _Stream:
+    """One pattern from one master port."""
+
+    width: int
+    frames: int = 0
+    last_out_ns: int | None = None
+    period_ns: Series = field(default_factory=Series)
+    round_trip_ns: Series = field(default_factory=Series)
+    out_frames: Series = field(default_factory=Series)
+    out_times: Series = field(default_factory=Series)
+    back_frames: Series = field(default_factory=Series)
+    back_times: Series = field(default_factory=Series)
+    unanswered: Series = field(default_factory=Series)
+    out_wkc: Rows = field(init=False)
+    back_wkc: Rows = field(init=False)
+
+    def __post_init__(self) -> None:
+        self.out_wkc = Rows(self.width)
+        self.back_wkc = Rows(self.width)
+
+
+def _mac(b: bytes) -> str:
+    return ":".join(f"{x:02x}" for x in b)
+
+
+class EcatAnalyzer:
+    """Feed EtherCAT frames in capture order (:meth:`feed`), then read :meth:`result`."""
+
+    def __init__(self, expected_wkc: int | None = None) -> None:
+        self.expected_wkc = expected_wkc
+        self.frames = 0
+        self.undecodable = 0
+        self.patterns: dict[Pattern, int] = {}
+        self.streams: dict[tuple[int, bytes], _Stream] = {}
+        # (pattern, first idx, port) -> (frame, time_ns, mac bit, interface, adps)
+        self.pending: dict[tuple[int, int, bytes], tuple[int, int, int, int, tuple[int, ...]]] = {}
+        self.requested: list[AlStateChange] = []
+        self.reported: dict[bool, list[AlStateChange]] = {False: [], True: []}
+        self.al_last: dict[tuple[bool, str], int] = {}
+
+    def feed(self, frame: int, time_ns: int, interface: int, data: bytes) -> None:
+        """One EtherCAT frame (the whole Ethernet frame) with its frame number, time, interface."""
+        try:
+            ecat, _, _ = ethercat.decode(data[14:], strict=False)
+        except DecodeError:
+            self.undecodable += 1
+            return
+        if not ecat.datagrams:
+            self.undecodable += 1
+            return
+        self.frames += 1
+        pattern = pattern_of(ecat)
+        pid = self.patterns.setdefault(pattern, len(self.patterns))
+        bit = data[6] & RETURNED_MAC_BIT
+        port = bytes((data[6] & ~RETURNED_MAC_BIT,)) + data[7:12]
+        stream = self.streams.get((pid, port))
+        if stream is None:
+            stream = self.streams[(pid, port)] = _Stream(len(pattern))
+        key = (pid, ecat.datagrams[0].idx, port)
+        wkcs = [d.wkc for d in ecat.datagrams]
+        before = self.pending.get(key)
+        if before is not None and (before[2] != bit or before[3] != interface):
+            del self.pending[key]
+            stream.round_trip_ns.append(time_ns - before[1])
+            stream.back_frames.append(frame)
+            stream.back_times.append(time_ns)
+            stream.back_wkc.append(wkcs)
+            self._al_reads(ecat, frame, time_ns, True, before[4])
+            return
+        if before is not None:
+            stream.unanswered.append(before[0])
+        adps = tuple(d.adp for d in ecat.datagrams)
+        self.pending[key] = (frame, time_ns, bit, interface, adps)
+        stream.frames += 1
+        if stream.last_out_ns is not None:
+            stream.period_ns.append(time_ns - stream.last_out_ns)
+        stream.last_out_ns = time_ns
+        stream.out_frames.append(frame)
+        stream.out_times.append(time_ns)
+        stream.out_wkc.append(wkcs)
+        self._al_writes(ecat, frame, time_ns)
+        self._al_reads(ecat, frame, time_ns, False, adps)
+
+    @staticmethod
+    def _target(cmd: int, adp: int) -> str:
+        if cmd in _CONFIGURED:
+            return f"station {adp:#06x}"
+        if cmd in _AUTO_INCREMENT:
+            return f"position {(-adp) & 0xFFFF}"
+        return "all"
+
+    @staticmethod
+    def _register(d: ethercat.Datagram, register: int) -> int | None:
+        start = register - d.ado
+        if int(d.cmd) in _LOGICAL or not 0 <= start <= len(d.data) - 2:
+            return None
+        return d.data[start] | d.data[start + 1] << 8
+
+    def _al_writes(self, ecat: ethercat.EcatFrame, frame: int, time_ns: int) -> None:
+        for d in ecat.datagrams:
+            if int(d.cmd) in _WRITES:
+                value = self._register(d, AL_CONTROL)
+                if value is not None:
+                    target = self._target(int(d.cmd), d.adp)
+                    self.requested.append(
+                        AlStateChange(
+                            frame, time_ns, "requested", target, al_state_name(value), value
+                        )
+                    )
+
+    def _al_reads(
+        self,
+        ecat: ethercat.EcatFrame,
+        frame: int,
+        time_ns: int,
+        returned: bool,
+        adps: tuple[int, ...],
+    ) -> None:
+        for d, adp in zip(ecat.datagrams, adps, strict=True):
+            if int(d.cmd) in _READS and d.wkc:
+                value = self._register(d, AL_STATUS)
+                if value is None:
+                    continue
+                target = self._target(int(d.cmd), adp)
+                if self.al_last.get((returned, target)) != value:
+                    self.al_last[(returned, target)] = value
+                    self.reported[returned].append(
+                        AlStateChange(
+                            frame, time_ns, "reported", target, al_state_name(value), value
+                        )
+                    )
+
+    def result(self) -> EcatAnalysis:
+        """The statistics and events of everything fed so far."""
+        by_id = {pid: p for p, pid in self.patterns.items()}
+        ports = tuple(dict.fromkeys(port for _, port in self.streams))
+        reports: list[PatternReport] = []
+        deviations: list[WkcDeviation] = []
+        any_returns = any(len(s.back_frames) for s in self.streams.values())
+        for index, ((pid, port), s) in enumerate(
+            sorted(self.streams.items(), key=lambda kv: kv[0])
+        ):
+            pattern = by_id[pid]
+            cyclic = any(cmd in _LOGICAL for cmd, *_ in pattern)
+            use_back = len(s.back_frames) > 0 or any_returns
+            rows = s.back_wkc.array() if use_back else s.out_wkc.array()
+            numbers = s.back_frames.array() if use_back else s.out_frames.array()
+            times = s.back_times.array() if use_back else s.out_times.array()
+            steady = expected = _steady(rows)
+            if self.expected_wkc is not None:
+                expected = tuple(
+                    self.expected_wkc if cmd in _LOGICAL else e
+                    for (cmd, *_), e in zip(pattern, expected, strict=True)
+                )
+            if len(rows):
+                bad_rows, bad_cols = np.nonzero(rows != np.asarray(expected, dtype=np.int64))
+                for r, c in zip(bad_rows.tolist(), bad_cols.tolist(), strict=True):
+                    deviations.append(
+                        WkcDeviation(
+                            int(numbers[r]),
+                            int(times[r]),
+                            index,
+                            c,
+                            int(rows[r, c]),
+                            expected[c],
+                        )
+                    )
+            unanswered = s.unanswered.array() if len(s.back_frames) else np.empty(0, np.int64)
+            reports.append(
+                PatternReport(
+                    pattern=pattern,
+                    text=pattern_text(pattern),
+                    cyclic=cyclic,
+                    port=_mac(port),
+                    frames=s.frames,
+                    returned=len(s.back_frames),
+                    unanswered=tuple(int(x) for x in unanswered),
+                    period=Summary.of(s.period_ns.array()),
+                    period_ns=s.period_ns.array(),
+                    round_trip=Summary.of(s.round_trip_ns.array()),
+                    round_trip_ns=s.round_trip_ns.array(),
+                    expected_wkc=tuple(expected),
+                    steady_wkc=steady,
+                )
+            )
+        deviations.sort(key=lambda d: (d.frame, d.datagram))
+        al = sorted(self.requested + self.reported[any_returns], key=lambda a: (a.frame, a.kind))
+        return EcatAnalysis(
+            frames=self.frames,
+            undecodable=self.undecodable,
+            patterns=tuple(reports),
+            wkc_deviations=tuple(deviations),
+            al_states=tuple(al),
+            ports=tuple(_mac(p) for p in ports),
+        )
+
+
+def _steady(rows: npt.NDArray[np.uint16]) -> tuple[int, ...]:
+    """Per column the most frequent value (ties to the lower); zeros for no rows."""
+    if len(rows) == 0:
+        return tuple(0 for _ in range(rows.shape[1]))
+    out = []
+    for column in rows.T:
+        values, counts = np.unique(column, return_counts=True)
+        out.append(int(values[int(np.argmax(counts))]))  # unique sorts: argmax takes the lower
+    return tuple(out)
