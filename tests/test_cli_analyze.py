@@ -17,6 +17,8 @@ import pytest
 
 from skinframes_cli import main
 
+ROOT = Path(__file__).resolve().parent.parent
+
 
 def analyze(capsys: pytest.CaptureFixture[str], *argv: str) -> dict[str, Any]:
     assert main(["analyze", *argv, "--json"]) == 0
@@ -185,3 +187,18 @@ def test_bad_input_is_one_error_line(
     assert main(["analyze", *args]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("skinframes: error:")
+
+
+@pytest.mark.parametrize(
+    "path",
+    [
+        ROOT / "pcaps" / "epl_asnd_services.pcap",
+        ROOT / "pcaps" / "ecat_all_commands.pcap",
+        ROOT / "pcaps" / "epl_cycle_4cn.pcap",
+    ],
+    ids=lambda p: p.name,
+)
+def test_json_keys_are_documented(capsys: pytest.CaptureFixture[str], path: Path) -> None:
+    from test_interface_doc import assert_documented, keys
+
+    assert_documented("analyze", keys(analyze(capsys, str(path))))
