@@ -24,15 +24,15 @@ the slaves reported, each change listed once.
 
 from __future__ import annotations
 
+import struct
 from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
 import numpy.typing as npt
 
-from skinframes import ethercat
+from skinframes import ethercat, ethernet
 from skinframes.analysis.stats import Rows, Series, Summary
-from skinframes.errors import DecodeError
 from skinframes.ethercat import Command
 
 __all__ = [
@@ -44,6 +44,7 @@ __all__ = [
     "PatternReport",
     "WkcDeviation",
     "pattern_text",
+    "walk",
 ]
 
 AL_CONTROL: Final = 0x0120  # ETG.1000.4 Table 31: AL control register (2 bytes)
@@ -84,18 +85,61 @@ LOGICAL_WKC_PER_SLAVE: Final = {int(Command.LRD): 1, int(Command.LWR): 1, int(Co
 Pattern = tuple[tuple[int, int, int, int], ...]  # (cmd, adp or -1, ado or lad, length) each
 
 
-def pattern_of(frame: ethercat.EcatFrame) -> Pattern:
-    """The frame's pattern: per datagram (command, ADP or -1, ADO or the logical address, length)."""
-    out = []
-    for d in frame.datagrams:
-        cmd = int(d.cmd)
+# (cmd, idx, adp, ado, data length, data offset in the Ethernet frame, wkc) of one datagram
+_Walked = tuple[int, int, int, int, int, int, int]
+_HEAD: Final = struct.Struct("<BBHHH")  # cmd idx adp ado len|flags; then irq (ETG.1000.4 Table 13)
+_HEADER_TYPE_SHIFT: Final = 12  # EtherCAT header: length 11 bits, reserved 1, type 4 (Table 12)
+_LEN_MASK: Final = 0x07FF
+_MORE: Final = 0x8000
+
+
+def walk(data: bytes, start: int) -> list[_Walked]:
+    """The datagram headers of the EtherCAT frame at ``data[start:]``, read as
+    :func:`skinframes.ethercat.decode` reads them (while the M bit says more follow), without
+    building datagrams; empty when the frame is not one of EtherCAT commands or is truncated."""
+    end = len(data)
+    if end - start < ethercat.FRAME_HEADER_BYTES:
+        return []
+    header = data[start] | data[start + 1] << 8
+    if header >> _HEADER_TYPE_SHIFT != ethercat.FrameType.ECAT:
+        return []
+    out: list[_Walked] = []
+    pos = first = start + ethercat.FRAME_HEADER_BYTES
+    last = first + (header & _LEN_MASK)  # a set M bit on the last datagram ends here
+    head = _HEAD.unpack_from
+    more = True
+    while more and pos < end:
+        if end - pos < ethercat.DATAGRAM_OVERHEAD_BYTES:
+            return []
+        cmd, idx, adp, ado, word = head(data, pos)
+        n = word & _LEN_MASK
+        at = pos + ethercat.DATAGRAM_HEADER_BYTES
+        pos = at + n + ethercat.WKC_BYTES
+        if pos > end:
+            return []
+        out.append((cmd, idx, adp, ado, n, at, data[pos - 2] | data[pos - 1] << 8))
+        more = bool(word & _MORE) and pos != last
+    return out
+
+
+def _register(data: bytes, at: int, ado: int, n: int, register: int) -> int | None:
+    """The 16-bit register a physical datagram at offset ``ado`` with ``n`` bytes carries."""
+    first = register - ado
+    if not 0 <= first <= n - 2:
+        return None
+    return data[at + first] | data[at + first + 1] << 8
+
+
+def _touches_al(pattern: Pattern) -> bool:
+    """Does a frame of this pattern write AL control or read AL status?"""
+    for cmd, _, ado, n in pattern:
         if cmd in _LOGICAL:
-            out.append((cmd, -1, d.lad, len(d.data)))
-        elif cmd in _CONFIGURED:
-            out.append((cmd, d.adp, d.ado, len(d.data)))
-        else:
-            out.append((cmd, -1, d.ado, len(d.data)))
-    return tuple(out)
+            continue
+        if cmd in _WRITES and 0 <= AL_CONTROL - ado <= n - 2:
+            return True
+        if cmd in _READS and 0 <= AL_STATUS - ado <= n - 2:
+            return True
+    return False
 
 
 def _command_name(cmd: int) -> str:
@@ -267,27 +311,31 @@ class EcatAnalyzer:
         self.requested: list[AlStateChange] = []
         self.reported: dict[bool, list[AlStateChange]] = {False: [], True: []}
         self.al_last: dict[tuple[bool, str], int] = {}
+        self.al_patterns: list[bool] = []  # per pattern: does it touch the AL registers?
 
     def feed(self, frame: int, time_ns: int, interface: int, data: bytes) -> None:
         """One EtherCAT frame (the whole Ethernet frame) with its frame number, time, interface."""
-        try:
-            ecat, _, _ = ethercat.decode(data[14:], strict=False)
-        except DecodeError:
-            self.undecodable += 1
-            return
-        if not ecat.datagrams:
+        dgs = walk(data, ethernet.HEADER_BYTES)
+        if not dgs:
             self.undecodable += 1
             return
         self.frames += 1
-        pattern = pattern_of(ecat)
-        pid = self.patterns.setdefault(pattern, len(self.patterns))
+        pattern = tuple(
+            (c, -1, a | o << 16, n) if c in _LOGICAL else (c, a if c in _CONFIGURED else -1, o, n)
+            for c, _, a, o, n, _, _ in dgs
+        )
+        pid = self.patterns.get(pattern)
+        if pid is None:
+            pid = self.patterns[pattern] = len(self.patterns)
+            self.al_patterns.append(_touches_al(pattern))
         bit = data[6] & RETURNED_MAC_BIT
         port = bytes((data[6] & ~RETURNED_MAC_BIT,)) + data[7:12]
         stream = self.streams.get((pid, port))
         if stream is None:
             stream = self.streams[(pid, port)] = _Stream(len(pattern))
-        key = (pid, ecat.datagrams[0].idx, port)
-        wkcs = [d.wkc for d in ecat.datagrams]
+        key = (pid, dgs[0][1], port)
+        wkcs = [d[6] for d in dgs]
+        al = self.al_patterns[pid]
         before = self.pending.get(key)
         if before is not None and (before[2] != bit or before[3] != interface):
             del self.pending[key]
@@ -295,11 +343,12 @@ class EcatAnalyzer:
             stream.back_frames.append(frame)
             stream.back_times.append(time_ns)
             stream.back_wkc.append(wkcs)
-            self._al_reads(ecat, frame, time_ns, True, before[4])
+            if al:
+                self._al_reads(dgs, data, frame, time_ns, True, before[4])
             return
         if before is not None:
             stream.unanswered.append(before[0])
-        adps = tuple(d.adp for d in ecat.datagrams)
+        adps = tuple(d[2] for d in dgs) if al else ()
         self.pending[key] = (frame, time_ns, bit, interface, adps)
         stream.frames += 1
         if stream.last_out_ns is not None:
@@ -308,8 +357,9 @@ class EcatAnalyzer:
         stream.out_frames.append(frame)
         stream.out_times.append(time_ns)
         stream.out_wkc.append(wkcs)
-        self._al_writes(ecat, frame, time_ns)
-        self._al_reads(ecat, frame, time_ns, False, adps)
+        if al:
+            self._al_writes(dgs, data, frame, time_ns)
+            self._al_reads(dgs, data, frame, time_ns, False, adps)
 
     @staticmethod
     def _target(cmd: int, adp: int) -> str:
@@ -319,39 +369,37 @@ class EcatAnalyzer:
             return f"position {(-adp) & 0xFFFF}"
         return "all"
 
-    @staticmethod
-    def _register(d: ethercat.Datagram, register: int) -> int | None:
-        start = register - d.ado
-        if int(d.cmd) in _LOGICAL or not 0 <= start <= len(d.data) - 2:
-            return None
-        return d.data[start] | d.data[start + 1] << 8
-
-    def _al_writes(self, ecat: ethercat.EcatFrame, frame: int, time_ns: int) -> None:
-        for d in ecat.datagrams:
-            if int(d.cmd) in _WRITES:
-                value = self._register(d, AL_CONTROL)
+    def _al_writes(self, dgs: list[_Walked], data: bytes, frame: int, time_ns: int) -> None:
+        for cmd, _, adp, ado, n, at, _ in dgs:
+            if cmd in _WRITES:
+                value = _register(data, at, ado, n, AL_CONTROL)
                 if value is not None:
-                    target = self._target(int(d.cmd), d.adp)
                     self.requested.append(
                         AlStateChange(
-                            frame, time_ns, "requested", target, al_state_name(value), value
+                            frame,
+                            time_ns,
+                            "requested",
+                            self._target(cmd, adp),
+                            al_state_name(value),
+                            value,
                         )
                     )
 
     def _al_reads(
         self,
-        ecat: ethercat.EcatFrame,
+        dgs: list[_Walked],
+        data: bytes,
         frame: int,
         time_ns: int,
         returned: bool,
         adps: tuple[int, ...],
     ) -> None:
-        for d, adp in zip(ecat.datagrams, adps, strict=True):
-            if int(d.cmd) in _READS and d.wkc:
-                value = self._register(d, AL_STATUS)
+        for (cmd, _, _, ado, n, at, wkc), adp in zip(dgs, adps, strict=True):
+            if cmd in _READS and wkc:
+                value = _register(data, at, ado, n, AL_STATUS)
                 if value is None:
                     continue
-                target = self._target(int(d.cmd), adp)
+                target = self._target(cmd, adp)
                 if self.al_last.get((returned, target)) != value:
                     self.al_last[(returned, target)] = value
                     self.reported[returned].append(
