@@ -99,31 +99,33 @@ def analyze_capture(
     """
     epl = EplAnalyzer(pres_timeout_ns)
     ecat = EcatAnalyzer(expected_wkc)
-    counts = {"epl": 0, "ecat": 0, "other": 0}
     n = 0
     epl_feed = epl.feed
     ecat_feed = ecat.feed
+    n_epl = n_ecat = n_other = 0
+    header = ethernet.HEADER_BYTES
     for rec in records:
         n += 1
         if progress is not None and n % PROGRESS_EVERY == 0:
             progress(PROGRESS_EVERY)
         data = rec.data
-        if rec.linktype != LINKTYPE_ETHERNET or len(data) < ethernet.HEADER_BYTES:
-            counts["other"] += 1
+        if rec.linktype != LINKTYPE_ETHERNET or len(data) < header:
+            n_other += 1
             continue
         kind = data[_ETHERTYPE]
         if kind == _EPL:
-            counts["epl"] += 1
-            epl_feed(rec.index + 1, rec.time_ns, data[ethernet.HEADER_BYTES :])
+            n_epl += 1
+            epl_feed(rec.index + 1, rec.time_ns, data[header:])
         elif kind == _ECAT:
-            counts["ecat"] += 1
+            n_ecat += 1
             ecat_feed(rec.index + 1, rec.time_ns, rec.interface, data)
         else:
-            counts["other"] += 1
+            n_other += 1
     if progress is not None:
         progress(n % PROGRESS_EVERY)
-    epl_result = epl.result() if counts["epl"] else None
-    ecat_result = ecat.result() if counts["ecat"] else None
+    counts = {"epl": n_epl, "ecat": n_ecat, "other": n_other}
+    epl_result = epl.result() if n_epl else None
+    ecat_result = ecat.result() if n_ecat else None
     config = tuple(
         c
         for c in (

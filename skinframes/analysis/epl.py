@@ -34,7 +34,13 @@ from skinframes.powerlink.enums import (
     RequestedService,
     ServiceId,
 )
-from skinframes.powerlink.schemas import PDO_SIZE_OFFSET, SRC_OFFSET
+from skinframes.powerlink.schemas import (
+    ASND_HEADER_BYTES,
+    ERROR_ENTRY_BYTES,
+    PDO_SIZE_OFFSET,
+    SRC_OFFSET,
+    STATUS_RESPONSE_FIXED_BYTES,
+)
 
 __all__ = ["EplAnalysis", "EplAnalyzer", "EplEvent", "MissingResponse", "StateChange"]
 
@@ -49,14 +55,15 @@ _PREQ: Final = int(MessageType.PREQ)
 _PRES: Final = int(MessageType.PRES)
 _SOA: Final = int(MessageType.SOA)
 _ASND: Final = int(MessageType.ASND)
-_EVENT_SERVICES: Final = frozenset(
-    {
-        ServiceId.IDENT_RESPONSE,
-        ServiceId.STATUS_RESPONSE,
-        ServiceId.NMT_REQUEST,
-        ServiceId.NMT_COMMAND,
-    }
+# StatusResponse and IdentResponse: flags1, flags2, then NMTStatus (status_response_schema,
+# ident_response_schema); a StatusResponse's error entries follow its fixed part.
+_ASND_NMT_STATUS_OFFSET: Final = ASND_HEADER_BYTES + 2
+_STATUS_RESPONSE: Final = int(ServiceId.STATUS_RESPONSE)
+_IDENT_RESPONSE: Final = int(ServiceId.IDENT_RESPONSE)
+_FIRST_ENTRY: Final = slice(
+    STATUS_RESPONSE_FIXED_BYTES, STATUS_RESPONSE_FIXED_BYTES + ERROR_ENTRY_BYTES
 )
+_EVENT_SERVICES: Final = frozenset({ServiceId.NMT_REQUEST, ServiceId.NMT_COMMAND})
 
 
 def state_name(value: int) -> str:
@@ -255,10 +262,11 @@ class EplAnalyzer:
         if mtype == _PRES:
             if src == MN:
                 return
-            n = self._node(src)
+            n = self.nodes.get(src) or self._node(src)
             if len(epl) >= PDO_SIZE_OFFSET + 2:
                 n.sizes[epl[PDO_SIZE_OFFSET] | epl[PDO_SIZE_OFFSET + 1] << 8] += 1
-            self._observe(src, epl[_NMT_STATUS_OFFSET], frame, time_ns, "PRes")
+            if self.state.get(src) != epl[_NMT_STATUS_OFFSET]:
+                self._observe(src, epl[_NMT_STATUS_OFFSET], frame, time_ns, "PRes")
             if self.pending is not None and self.pending[0] == src:
                 response_ns = time_ns - self.pending[2]
                 n.response_ns.append(response_ns)
@@ -276,11 +284,12 @@ class EplAnalyzer:
             self.last_soc_ns = time_ns
         elif mtype == _PREQ:
             dest = epl[_DEST_OFFSET]
-            self._node(dest).polled += 1
+            (self.nodes.get(dest) or self._node(dest)).polled += 1
             self.pending = (dest, frame, time_ns)
         elif mtype == _SOA:
             self.soas += 1
-            self._observe(src, epl[_NMT_STATUS_OFFSET], frame, time_ns, "SoA")
+            if self.state.get(src) != epl[_NMT_STATUS_OFFSET]:
+                self._observe(src, epl[_NMT_STATUS_OFFSET], frame, time_ns, "SoA")
             if len(epl) > _SOA_SERVICE_OFFSET and epl[_SOA_SERVICE_OFFSET] not in (
                 RequestedService.NO_SERVICE,
             ):
@@ -288,11 +297,17 @@ class EplAnalyzer:
         elif mtype == _ASND:
             service = epl[_SERVICE_ID_OFFSET]
             self.services[service] += 1
-            if service in _EVENT_SERVICES:
+            if service in (_STATUS_RESPONSE, _IDENT_RESPONSE):
+                if len(epl) > _ASND_NMT_STATUS_OFFSET:
+                    source = "StatusResponse" if service == _STATUS_RESPONSE else "IdentResponse"
+                    self._observe(src, epl[_ASND_NMT_STATUS_OFFSET], frame, time_ns, source)
+                if service == _STATUS_RESPONSE and any(epl[_FIRST_ENTRY]):
+                    self._asnd(frame, time_ns, epl)  # error entries: the full decoder reads them
+            elif service in _EVENT_SERVICES:
                 self._asnd(frame, time_ns, epl)
 
     def _asnd(self, frame: int, time_ns: int, epl: bytes) -> None:
-        """The rare ASnd frames that carry states and events, through the full decoder."""
+        """The rare ASnd frames that carry events, through the full decoder."""
         try:
             message, _, _ = powerlink.decode(epl, strict=False)
         except DecodeError:
@@ -302,7 +317,6 @@ class EplAnalyzer:
         service = message.service
         src, dest = message.src, message.dest
         if isinstance(service, powerlink.StatusResponse):
-            self._observe(src, service.nmt_status, frame, time_ns, "StatusResponse")
             for e in service.error_entries:
                 self.events.append(
                     EplEvent(
@@ -313,8 +327,6 @@ class EplAnalyzer:
                         f"entry type {e.entry_type:#06x}, error code {e.error_code:#06x}",
                     )
                 )
-        elif isinstance(service, powerlink.IdentResponse):
-            self._observe(src, service.nmt_status, frame, time_ns, "IdentResponse")
         elif isinstance(service, powerlink.NmtCommand):
             name = _name(NmtCommandId, service.command_id)
             self.events.append(EplEvent(frame, time_ns, dest, "nmt_command", name))
