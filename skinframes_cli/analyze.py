@@ -22,6 +22,7 @@ from skinframes.analysis.epl import EplAnalysis
 from skinframes.atomic_file import atomic_output, atomic_path
 from skinframes.errors import SkinframesError
 from skinframes.pcap import read_capture
+from skinframes.powerlink import NmtState
 from skinframes_cli.progress import progress_bar
 
 MODEL_PRESET: Final = "wire"
@@ -320,7 +321,8 @@ def _plot(out: Path, a: Analysis) -> None:
         if len(a.epl.response_ns) <= 10:
             ax_response.legend(fontsize="small")
         nodes = sorted({s.node for s in a.epl.states})
-        names = sorted({s.after for s in a.epl.states})
+        order = {name: i for i, name in enumerate(NmtState.__members__)}  # DS 301 order
+        names = sorted({s.after for s in a.epl.states}, key=lambda n: (order.get(n, 99), n))
         for node in nodes:
             points = [(s.time_ns, names.index(s.after)) for s in a.epl.states if s.node == node]
             xs = [(t - a.epl.states[0].time_ns) / 1e9 for t, _ in points]
@@ -337,9 +339,12 @@ def _plot(out: Path, a: Analysis) -> None:
             if len(p.round_trip_ns):
                 ax_response.hist(p.round_trip_ns / _NS_PER_US, bins=50, alpha=0.6)
         ax_period.set_title("EtherCAT cyclic-frame period")
+        if cyclic:
+            ax_period.legend(fontsize="small")
         ax_response.set_title("EtherCAT round trip")
         states = [s for s in a.ecat.al_states if s.kind == "reported"]
-        names = sorted({s.state for s in states})
+        by_value = {s.state: s.value for s in states}  # INIT < PREOP < SAFEOP < OP, errors after
+        names = sorted(by_value, key=lambda n: (by_value[n] & 0x0F, by_value[n]))
         targets = sorted({s.target for s in states})
         t0 = states[0].time_ns if states else 0
         for target in targets:
