@@ -20,17 +20,16 @@ __all__ = ["Rows", "Series", "Summary"]
 _FIRST_CHUNK: Final = 64  # rows; the array doubles when full
 
 
-class Series:
-    """A growing column of int64 values (appended one by one, read back as one array)."""
+class _Growing:
+    """Values appended one by one into a numpy array that doubles when full."""
 
     __slots__ = ("_n", "_values")
 
-    def __init__(self) -> None:
-        self._values: npt.NDArray[np.int64] = np.empty(_FIRST_CHUNK, dtype=np.int64)
+    def __init__(self, shape: tuple[int, ...], dtype: type[np.generic]) -> None:
+        self._values: npt.NDArray[Any] = np.empty((_FIRST_CHUNK, *shape), dtype=dtype)
         self._n = 0
 
-    def append(self, value: int) -> None:
-        """Add one value."""
+    def _append(self, value: Any) -> None:
         if self._n == len(self._values):
             self._values = np.concatenate([self._values, np.empty_like(self._values)])
         self._values[self._n] = value
@@ -39,11 +38,44 @@ class Series:
     def __len__(self) -> int:
         return self._n
 
-    def array(self) -> npt.NDArray[np.int64]:
-        """The values so far (a read-only view; appending may replace the buffer)."""
+    def _array(self) -> npt.NDArray[Any]:
         view = self._values[: self._n]
         view.flags.writeable = False
         return view
+
+
+class Series(_Growing):
+    """A growing column of int64 values (appended one by one, read back as one array)."""
+
+    __slots__ = ()
+
+    def __init__(self) -> None:
+        super().__init__((), np.int64)
+
+    def append(self, value: int) -> None:
+        """Add one value."""
+        self._append(value)
+
+    def array(self) -> npt.NDArray[np.int64]:
+        """The values so far (a read-only view; appending may replace the buffer)."""
+        return self._array()
+
+
+class Rows(_Growing):
+    """A growing 2-D uint16 table of fixed width (one row per frame: its working counters)."""
+
+    __slots__ = ()
+
+    def __init__(self, width: int) -> None:
+        super().__init__((width,), np.uint16)
+
+    def append(self, row: list[int]) -> None:
+        """Add one row of ``width`` values."""
+        self._append(row)
+
+    def array(self) -> npt.NDArray[np.uint16]:
+        """The rows so far, shape (n, width) (a read-only view)."""
+        return self._array()
 
 
 @dataclass(frozen=True, slots=True)
@@ -88,29 +120,3 @@ class Summary:
             "max_ns": self.max_ns,
             "std_ns": self.std_ns,
         }
-
-
-class Rows:
-    """A growing 2-D uint16 table of fixed width (one row per frame: its working counters)."""
-
-    __slots__ = ("_n", "_values")
-
-    def __init__(self, width: int) -> None:
-        self._values: npt.NDArray[np.uint16] = np.empty((_FIRST_CHUNK, width), dtype=np.uint16)
-        self._n = 0
-
-    def append(self, row: tuple[int, ...] | list[int]) -> None:
-        """Add one row of ``width`` values."""
-        if self._n == len(self._values):
-            self._values = np.concatenate([self._values, np.empty_like(self._values)])
-        self._values[self._n] = row
-        self._n += 1
-
-    def __len__(self) -> int:
-        return self._n
-
-    def array(self) -> npt.NDArray[np.uint16]:
-        """The rows so far, shape (n, width) (a read-only view)."""
-        view = self._values[: self._n]
-        view.flags.writeable = False
-        return view
