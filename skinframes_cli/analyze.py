@@ -164,7 +164,7 @@ def _epl_text(e: EplAnalysis) -> list[str]:
     for n in sorted(e.responses):
         out.append(
             f"  CN {n:>3}: polled {e.polled.get(n, 0)}, missing "
-            f"{sum(m.node == n for m in e.missing)}, late {sum(m.node == n for m in e.late)}"
+            f"{e.missing_count.get(n, 0)}, late {e.late_count.get(n, 0)}"
             f", PRes {e.pres_bytes.get(n, '-')} bytes; response {_stats_line(e.responses[n])}"
         )
     if e.pres_timeout_ns is None:

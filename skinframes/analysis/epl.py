@@ -139,6 +139,8 @@ class EplAnalysis:
     polled: dict[int, int]
     missing: tuple[MissingResponse, ...]
     late: tuple[MissingResponse, ...]
+    missing_count: dict[int, int]  # per CN
+    late_count: dict[int, int]
     unexpected: dict[int, int]
     pres_bytes: dict[int, int]
     states: tuple[StateChange, ...]
@@ -161,8 +163,8 @@ class EplAnalysis:
                     "polled": self.polled.get(n, 0),
                     "pres_bytes": self.pres_bytes.get(n),
                     "response": self.responses[n].to_json(),
-                    "missing": sum(m.node == n for m in self.missing),
-                    "late": sum(m.node == n for m in self.late),
+                    "missing": self.missing_count.get(n, 0),
+                    "late": self.late_count.get(n, 0),
                     "unexpected": self.unexpected.get(n, 0),
                 }
                 for n in sorted(self.responses)
@@ -359,6 +361,8 @@ class EplAnalyzer:
             polled={n: s.polled for n, s in self.nodes.items()},
             missing=tuple(self.missing),
             late=tuple(self.late),
+            missing_count={n: s.missing for n, s in self.nodes.items()},
+            late_count={n: s.late for n, s in self.nodes.items()},
             unexpected={n: s.unexpected for n, s in self.nodes.items() if s.unexpected},
             pres_bytes={n: s.sizes.most_common(1)[0][0] for n, s in self.nodes.items() if s.sizes},
             states=tuple(self.states),
