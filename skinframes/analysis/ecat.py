@@ -297,6 +297,60 @@ def _mac(b: bytes) -> str:
     return ":".join(f"{x:02x}" for x in b)
 
 
+_SKELETON: Final = slice(ethernet.HEADER_BYTES, ethernet.HEADER_BYTES + 3)  # header + cmd
+_LAYOUT_MIN_DATAGRAMS: Final = 3  # below this the walk is as fast as the cached layout
+
+
+@dataclass(frozen=True, slots=True)
+class _Layout:
+    """A frame layout seen before: one struct reads every header and working counter at once.
+
+    A frame matches when its EtherCAT header and each datagram's command, ADP, ADO and
+    length word (M bit included) are the layout's, so the walk would give the same pattern;
+    only patterns without auto-increment or broadcast datagrams (whose ADP changes on the
+    way) and without AL registers are cached.
+    """
+
+    pid: int
+    head: struct.Struct  # "<H" + per datagram "BBHHHH{n}xH": 7 values each
+    header: int
+    cmds: tuple[int, ...]
+    adps: tuple[int, ...]
+    ados: tuple[int, ...]
+    words: tuple[int, ...]
+
+    @classmethod
+    def of(cls, pid: int, dgs: list[_Walked], data: bytes) -> _Layout | None:
+        """The layout of a walked frame, or None when its pattern cannot be cached."""
+        if any(c not in _LOGICAL and c not in _CONFIGURED for c, *_ in dgs):
+            return None
+        fmt = "<H" + "".join(f"BBHHHH{n}xH" for _, _, _, _, n, _, _ in dgs)
+        head = struct.Struct(fmt)
+        values = head.unpack_from(data, ethernet.HEADER_BYTES)
+        return cls(
+            pid,
+            head,
+            values[0],
+            values[1::7],
+            values[3::7],
+            values[4::7],
+            values[5::7],
+        )
+
+    def match(self, data: bytes) -> tuple[int, ...] | None:
+        """The unpacked values when ``data`` has this layout, else None."""
+        values = self.head.unpack_from(data, ethernet.HEADER_BYTES)
+        if (
+            values[0] == self.header
+            and values[1::7] == self.cmds
+            and values[3::7] == self.adps
+            and values[4::7] == self.ados
+            and values[5::7] == self.words
+        ):
+            return values
+        return None
+
+
 class EcatAnalyzer:
     """Feed EtherCAT frames in capture order (:meth:`feed`), then read :meth:`result`."""
 
@@ -312,30 +366,45 @@ class EcatAnalyzer:
         self.reported: dict[bool, list[AlStateChange]] = {False: [], True: []}
         self.al_last: dict[tuple[bool, str], int] = {}
         self.al_patterns: list[bool] = []  # per pattern: does it touch the AL registers?
+        self.layouts: dict[tuple[int, bytes], _Layout] = {}
 
     def feed(self, frame: int, time_ns: int, interface: int, data: bytes) -> None:
         """One EtherCAT frame (the whole Ethernet frame) with its frame number, time, interface."""
-        dgs = walk(data, ethernet.HEADER_BYTES)
-        if not dgs:
-            self.undecodable += 1
-            return
+        layout_key = (len(data), data[_SKELETON])
+        layout = self.layouts.get(layout_key)
+        dgs: list[_Walked] = []
+        if layout is not None and (values := layout.match(data)) is not None:
+            pid, idx0, wkcs = layout.pid, values[2], values[7::7]
+        else:
+            dgs = walk(data, ethernet.HEADER_BYTES)
+            if not dgs:
+                self.undecodable += 1
+                return
+            pattern = tuple(
+                (c, -1, a | o << 16, n)
+                if c in _LOGICAL
+                else (c, a if c in _CONFIGURED else -1, o, n)
+                for c, _, a, o, n, _, _ in dgs
+            )
+            known = self.patterns.get(pattern)
+            if known is None:
+                pid = self.patterns[pattern] = len(self.patterns)
+                self.al_patterns.append(_touches_al(pattern))
+                if len(dgs) >= _LAYOUT_MIN_DATAGRAMS and not self.al_patterns[pid]:
+                    cached = _Layout.of(pid, dgs, data)
+                    if cached is not None:
+                        self.layouts[layout_key] = cached
+            else:
+                pid = known
+            idx0, wkcs = dgs[0][1], tuple(d[6] for d in dgs)
         self.frames += 1
-        pattern = tuple(
-            (c, -1, a | o << 16, n) if c in _LOGICAL else (c, a if c in _CONFIGURED else -1, o, n)
-            for c, _, a, o, n, _, _ in dgs
-        )
-        pid = self.patterns.get(pattern)
-        if pid is None:
-            pid = self.patterns[pattern] = len(self.patterns)
-            self.al_patterns.append(_touches_al(pattern))
         bit = data[6] & RETURNED_MAC_BIT
         port = bytes((data[6] & ~RETURNED_MAC_BIT,)) + data[7:12]
         stream = self.streams.get((pid, port))
         if stream is None:
-            stream = self.streams[(pid, port)] = _Stream(len(pattern))
-        key = (pid, dgs[0][1], port)
-        wkcs = [d[6] for d in dgs]
-        al = self.al_patterns[pid]
+            stream = self.streams[(pid, port)] = _Stream(len(wkcs))
+        key = (pid, idx0, port)
+        al = self.al_patterns[pid]  # such patterns are never in self.layouts: dgs is walked
         before = self.pending.get(key)
         if before is not None and (before[2] != bit or before[3] != interface):
             del self.pending[key]

@@ -9,6 +9,7 @@ default ("linear", Hyndman and Fan type 7), the same as Python's
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -69,7 +70,7 @@ class Rows(_Growing):
     def __init__(self, width: int) -> None:
         super().__init__((width,), np.uint16)
 
-    def append(self, row: list[int]) -> None:
+    def append(self, row: Sequence[int]) -> None:
         """Add one row of ``width`` values."""
         self._append(row)
 

@@ -212,3 +212,21 @@ def test_ecat_statistics_equal_tshark_fields(
     ] == sorted(deviations)
     if path.name == "open_break.pcap":
         assert deviations, "the cable break must show in the working counters"
+
+
+def test_cached_layouts_give_what_the_walk_gives(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Frames of a layout seen before are read with one struct call; without that cache every
+    frame is walked datagram by datagram. Both give the same document, faults included."""
+    from emulator import WIRE, parse_fault, simulate_ecat
+    from skinframes.analysis import ecat
+
+    path = tmp_path / "ring.pcapng"
+    faults = (parse_fault("cable:4@3"), parse_fault("biterr:2:0.2"))
+    simulate_ecat(9, 24, WIRE, closed_ring=True, cycles=12, seed=3, faults=faults, pcap=path)
+    cached = analyze_capture(read_capture(path)).to_json()
+    monkeypatch.setattr(ecat, "_LAYOUT_MIN_DATAGRAMS", 10**6)
+    walked = analyze_capture(read_capture(path)).to_json()
+    assert cached == walked
+    assert cached["ecat"]["wkc_deviations"]
