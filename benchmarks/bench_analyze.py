@@ -72,7 +72,7 @@ def timed(argv: list[str]) -> tuple[float, float]:
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--cycles", type=int, default=1000, help="emulated cycles per capture")
+    ap.add_argument("--cycles", type=int, default=3000, help="emulated cycles per capture")
     ap.add_argument("--rounds", type=int, default=3)
     ap.add_argument("--dir", help="folder for the captures (default: a temporary one)")
     args = ap.parse_args()
