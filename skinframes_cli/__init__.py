@@ -13,11 +13,35 @@ from collections.abc import Sequence
 from typing import Final
 
 from skinframes.errors import SkinframesError
-from skinframes_cli import can, check, compare, decode, demo, plan, plot, serve, simulate, tables
+from skinframes_cli import (
+    analyze,
+    can,
+    check,
+    compare,
+    decode,
+    demo,
+    plan,
+    plot,
+    serve,
+    simulate,
+    tables,
+)
 
 __all__ = ["main"]
 
-COMMANDS: Final = (demo, tables, simulate, plan, plot, decode, check, can, compare, serve)
+COMMANDS: Final = (
+    demo,
+    tables,
+    simulate,
+    plan,
+    plot,
+    decode,
+    check,
+    analyze,
+    can,
+    compare,
+    serve,
+)
 
 
 class _Parser(argparse.ArgumentParser):
