@@ -8,7 +8,15 @@ paper's formulas, tables and plans), :mod:`emulator.esc` (the emulated EtherCAT 
 sample on CAN, EPL and EtherCAT) and :mod:`emulator.errors`.
 """
 
-from emulator.errors import EmulatorError, LinkError, ScheduleError, TopologyError
+from emulator.errors import (
+    EmulatorError,
+    FaultError,
+    LinkError,
+    PayloadError,
+    PresetError,
+    ScheduleError,
+    TopologyError,
+)
 from emulator.model import analytic
 from emulator.model.params import PAPER, PRESETS, WIRE, TimingParams, preset
 from emulator.net import simulate_ecat, simulate_epl
@@ -22,7 +30,10 @@ __all__ = [
     "CycleDetail",
     "EmulatorError",
     "Fault",
+    "FaultError",
     "LinkError",
+    "PayloadError",
+    "PresetError",
     "ScheduleError",
     "SimResult",
     "TimingParams",

@@ -2,7 +2,10 @@
 
 skinframes.errors.SkinframesError
 └── EmulatorError
-    ├── TopologyError(…, ValueError)   impossible network: 0 nodes, > 239 CNs, bad layout, fault
+    ├── TopologyError(…, ValueError)   impossible network: 0 nodes, > 239 CNs, bad layout
+    │   ├── PresetError                unknown preset, table or model name
+    │   ├── FaultError                 a fault SPEC that cannot be parsed or does not fit the network
+    │   └── PayloadError               given taxels/payloads of the wrong shape or type
     ├── ScheduleError                  frames would overlap, marks a classic pcap cannot carry
     └── LinkError                      live link: no such interface, no privileges, ip failed
 """
@@ -11,7 +14,15 @@ from __future__ import annotations
 
 from skinframes.errors import SkinframesError
 
-__all__ = ["EmulatorError", "LinkError", "ScheduleError", "TopologyError"]
+__all__ = [
+    "EmulatorError",
+    "FaultError",
+    "LinkError",
+    "PayloadError",
+    "PresetError",
+    "ScheduleError",
+    "TopologyError",
+]
 
 
 class EmulatorError(SkinframesError):
@@ -20,6 +31,18 @@ class EmulatorError(SkinframesError):
 
 class TopologyError(EmulatorError, ValueError):
     """The requested network cannot exist (node count, payload size, layout, preset)."""
+
+
+class PresetError(TopologyError):
+    """An unknown preset, table or model name (a TopologyError, as it was before 0.x split it)."""
+
+
+class FaultError(TopologyError):
+    """A fault SPEC that cannot be parsed, or names a link or node the network does not have."""
+
+
+class PayloadError(TopologyError):
+    """Given taxels or payloads of the wrong shape or dtype for the network."""
 
 
 class ScheduleError(EmulatorError):

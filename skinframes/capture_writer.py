@@ -17,6 +17,7 @@ timestamps and frames of each block into it, with numpy.
 
 from __future__ import annotations
 
+import bisect
 import contextlib
 import io
 import operator
@@ -319,6 +320,8 @@ class CaptureWriter:
         self._records = 0
         self._bytes = 0
         self._layout: _Layout | None = None
+        # what the image's frame bytes hold after write_repeated: (layout, template, fill places)
+        self._image_holds: tuple[_Layout, bytes, tuple[tuple[int, int], ...]] | None = None
         self._tmp, fd = create_temp(target)
         try:
             self._file = open(fd, "wb", buffering=_BUFFER_BYTES)  # noqa: SIM115  # closed in close()
@@ -432,23 +435,79 @@ class CaptureWriter:
         if k == 0 or r == 0:
             return
         self._check_time(int(times.min()), int(times.max()))
-        image, flat, frames = layout.image, layout.image.reshape(-1), layout.frames
+        self._image_holds = None  # the frames' bytes in the image are this block's from now on
+        image = layout.image
         for start in range(0, k, len(image)):
             rows = min(len(image), k - start)
             part = image[:rows]
-            words = np.empty((rows, r, 2), dtype="<u4")  # the two u32 time words of each record
-            t = times[start : start + rows]
-            if self._fmt == "pcap":
-                sec, nsec = np.divmod(t, NS_PER_S)
-                words[:, :, 0] = sec
-                words[:, :, 1] = nsec
-            else:
-                words[:, :, 0] = t >> 32
-                words[:, :, 1] = t & 0xFFFFFFFF
-            flat[layout.stamp_index[: words.nbytes]] = words.view(np.uint8).reshape(-1)
+            self._stamp(layout, times[start : start + rows])
             rows_data = data[start : start + rows]
-            for at, src, n in frames:
+            for at, src, n in layout.frames:
                 part[:, at : at + n] = rows_data[:, src : src + n]
+            f.write(part.data)
+            self._records += rows * r
+            self._bytes += part.nbytes
+
+    def write_repeated(
+        self,
+        times_ns: npt.NDArray[np.integer],
+        lengths: npt.NDArray[np.integer],
+        template: npt.NDArray[np.uint8],
+        *,
+        ports: npt.NDArray[np.integer] | None = None,
+        outbound: npt.NDArray[np.bool_] | None = None,
+        fills: Sequence[tuple[int, npt.NDArray[np.uint8]]] = (),
+    ) -> None:
+        """Append k rows of R records whose frames are ``template`` but for the ``fills``.
+
+        Byte for byte :meth:`write_block` with ``data`` = ``template`` in every row and each
+        fill's values put in. The template stays in the reused image from call to call, so a
+        row costs its timestamps, its fills and the write, not a copy of the bytes that do not
+        change (a periodic emulation: the same frames every cycle but for their taxels).
+
+        Args:
+            times_ns: (k, R) integer timestamps, nanoseconds.
+            lengths: (R,) frame lengths.
+            template: (sum(lengths),) uint8, one row's R frames concatenated in record order.
+            ports, outbound: as in :meth:`write_block`.
+            fills: ``(offset, values)`` pairs: ``values`` (k, n) uint8 replace bytes
+                ``offset .. offset + n`` of each row's frames (inside one frame).
+
+        Raises:
+            CaptureError: shapes disagree, or a fill leaves its frame; the writer is closed.
+            FieldRangeError, FrameTooLargeError: as in :meth:`write_block`.
+        """
+        f = self._open_file()
+        times = _integers("times_ns", times_ns, 2)
+        k, r = times.shape
+        layout = self._layout_for(lengths, ports, outbound, r)
+        row = np.asarray(template)
+        if row.dtype != np.uint8:
+            raise TypeError(f"template must be uint8, not {row.dtype}")
+        if row.shape != (layout.data_bytes,):
+            raise CaptureError(
+                f"capture block: template of shape {row.shape}, expected ({layout.data_bytes},)"
+            )
+        places = [self._place(layout, offset, values, k) for offset, values in fills]
+        if k == 0 or r == 0:
+            return
+        self._check_time(int(times.min()), int(times.max()))
+        image = layout.image
+        holds = (layout, row.tobytes(), tuple((at, v.shape[1]) for at, v in places))
+        if (
+            self._image_holds is None
+            or self._image_holds[0] is not layout
+            or (self._image_holds[1:] != holds[1:])
+        ):
+            for at, src, n in layout.frames:
+                image[:, at : at + n] = row[src : src + n]
+            self._image_holds = holds
+        for start in range(0, k, len(image)):
+            rows = min(len(image), k - start)
+            part = image[:rows]
+            self._stamp(layout, times[start : start + rows])
+            for at, values in places:
+                part[:, at : at + values.shape[1]] = values[start : start + rows]
             f.write(part.data)
             self._records += rows * r
             self._bytes += part.nbytes
@@ -539,6 +598,41 @@ class CaptureWriter:
                 )
             return record_header(time_ns, len(frame)) + frame
         return _epb(port, time_ns, frame, _epb_flags(outbound, crc_error), comment)
+
+    def _stamp(self, layout: _Layout, t: npt.NDArray[np.int64]) -> None:
+        """Write the timestamps ``t`` (rows, R) into the first rows of the layout's image."""
+        rows, r = t.shape
+        words = np.empty((rows, r, 2), dtype="<u4")  # the two u32 time words of each record
+        if self._fmt == "pcap":
+            sec, nsec = np.divmod(t, NS_PER_S)
+            words[:, :, 0] = sec
+            words[:, :, 1] = nsec
+        else:
+            words[:, :, 0] = t >> 32
+            words[:, :, 1] = t & 0xFFFFFFFF
+        layout.image.reshape(-1)[layout.stamp_index[: words.nbytes]] = words.view(np.uint8).reshape(
+            -1
+        )
+
+    @staticmethod
+    def _place(
+        layout: _Layout, offset: int, values: npt.NDArray[np.uint8], k: int
+    ) -> tuple[int, npt.NDArray[np.uint8]]:
+        """A fill's image column and values, checked: inside one frame, k rows of uint8."""
+        v = np.asarray(values)
+        if v.dtype != np.uint8:
+            raise TypeError(f"fill values must be uint8, not {v.dtype}")
+        if v.ndim != 2 or v.shape[0] != k:
+            raise CaptureError(f"capture block: fill of shape {v.shape} for {k} rows")
+        offset = operator.index(offset)
+        j = bisect.bisect_right([src for _, src, _ in layout.frames], offset) - 1
+        if j >= 0:
+            at, src, n = layout.frames[j]
+            if offset + v.shape[1] <= src + n:
+                return at + offset - src, v
+        raise CaptureError(
+            f"capture block: a fill of {v.shape[1]} bytes at {offset} is not inside one frame"
+        )
 
     def _layout_for(
         self,

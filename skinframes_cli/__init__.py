@@ -14,6 +14,7 @@ from typing import Final
 
 from skinframes.errors import SkinframesError
 from skinframes_cli import (
+    analyze,
     can,
     check,
     compare,
@@ -37,6 +38,7 @@ COMMANDS: Final = (
     plot,
     decode,
     check,
+    analyze,
     can,
     compare,
     serve,

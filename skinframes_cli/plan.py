@@ -48,6 +48,6 @@ def run(args: argparse.Namespace) -> int:
         print(
             f"  {NAMES[table]:<22} best {best.layout:<9} {best.cycle_us:>10.2f} us "
             f"({best.frames_per_cycle} frames per cycle, {100 * network.efficiency:.1f} % of the "
-            f"limit)   [{others}]"
+            f"limit)   [{others}; eqs. 3-19: {network.analytic_us:.2f} us]"
         )
     return 0

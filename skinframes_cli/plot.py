@@ -31,9 +31,31 @@ def add_parser(sub: Any) -> None:
         "EtherCAT) for several payloads: the analytic model as lines, the emulator as markers, "
         "and the paper's printed table cells.",
     )
-    p.add_argument("--out", default="cycle_time.png", help="output file, .png or .svg")
+    p.add_argument(
+        "--out",
+        default=None,
+        help="output file, .png or .svg (default cycle_time.png, with --map map.png)",
+    )
     p.add_argument("--preset", choices=list(PRESETS), default="paper")
     p.add_argument("--step", type=int, default=20, help="nodes between emulated points")
+    p.add_argument(
+        "--map",
+        action="store_true",
+        help="the design space instead: cycle time over nodes x bytes per protocol, with the "
+        "1 ms and 5 ms contours",
+    )
+    p.add_argument(
+        "--nodes",
+        type=int,
+        default=taxel.BODY_PATCHES,
+        help=f"--map: your configuration's nodes, drawn as a point (default {taxel.BODY_PATCHES})",
+    )
+    p.add_argument(
+        "--bytes",
+        type=int,
+        default=taxel.PATCH_BYTES,
+        help=f"--map: your configuration's bytes per node (default {taxel.PATCH_BYTES})",
+    )
     p.set_defaults(run=run)
 
 
@@ -47,9 +69,10 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
     from tqdm import tqdm
 
     from emulator import analytic
-    from emulator.model.cycle_time import cycle_us
     from emulator.model.paper_tables import BYTES, NODES, paper_value
     from emulator.model.params import preset
+    from emulator.model.units import PS_PER_US
+    from emulator.net.sweep import cycle_ps_row
 
     if out.suffix.lower() not in (".png", ".svg"):
         raise SkinframesError(f"{out}: the plot is written as .png or .svg")
@@ -57,15 +80,13 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
         raise SkinframesError("--step must be >= 1")
     params = preset(preset_name)
     fig, axes = plt.subplots(1, 3, figsize=(16, 5.2), constrained_layout=True)
-    points = [
-        (t, b, n)
-        for t, _ in PANELS
-        for b in PAYLOADS
-        for n in range(step, FIGURE_MAX_NODES[t] + 1, step)
-    ]
+    rows = [(t, n) for t, _ in PANELS for n in range(step, FIGURE_MAX_NODES[t] + 1, step)]
     emulated: dict[tuple[str, int], list[tuple[int, float]]] = {}
-    for t, b, n in tqdm(points, desc="emulating", unit="run", disable=not sys.stderr.isatty()):
-        emulated.setdefault((t, b), []).append((n, cycle_us(t, n, b, params, "emulated")))
+    sizes = np.array(PAYLOADS, dtype=np.int64)
+    for t, n in tqdm(rows, desc="emulating", unit="row", disable=not sys.stderr.isatty()):
+        # the engines' timing-only sweep: one cycle per payload (tests: equal to simulate)
+        for b, ps in zip(PAYLOADS, cycle_ps_row(t, n, sizes, params).tolist(), strict=True):
+            emulated.setdefault((t, b), []).append((n, ps / PS_PER_US))
     colors = plt.get_cmap("viridis")(np.linspace(0, 0.9, len(PAYLOADS)))
     for ax, (table, title) in zip(axes, PANELS, strict=True):
         nodes = np.arange(1, FIGURE_MAX_NODES[table] + 1)
@@ -108,6 +129,13 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     """Draw and report the file."""
-    path = make_plot(Path(args.out), args.preset, args.step)
+    if args.map:
+        from skinframes_cli.plot_map import make_map
+
+        out = Path("map.png" if args.out is None else args.out)
+        make_map(out, args.preset, args.nodes, args.bytes)
+        print(f"wrote {out}")
+        return 0
+    path = make_plot(Path(args.out or "cycle_time.png"), args.preset, args.step)
     print(f"wrote {path}")
     return 0

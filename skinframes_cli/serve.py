@@ -20,7 +20,7 @@ def add_parser(sub: Any) -> None:
         "serve",
         help="serve emulated EtherCAT slaves on a network interface until SIGINT/SIGTERM",
         description="Answer EtherCAT frames on IFACE as a line of emulated skin patches (ESCs "
-        "with SII, AL state machine, SyncManagers and FMMUs). Point any master at the other end "
+        "with SII, AL state machine, SyncManagers, FMMUs and a CoE mailbox). Point any master at the other end "
         "of the link, e.g. a veth pair in a network namespace (see the README). Needs root or "
         "CAP_NET_RAW. Runs until SIGINT or SIGTERM, then prints what it served.",
     )
@@ -45,6 +45,11 @@ def add_parser(sub: Any) -> None:
         default=1.0,
         help="time between two taxel samples in ms (default 1)",
     )
+    p.add_argument(
+        "--no-mailbox",
+        action="store_true",
+        help="patches without a mailbox (no CoE; PDOs from the SII only), as before CoE existed",
+    )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
     p.set_defaults(run=run)
 
@@ -56,7 +61,7 @@ def run(args: argparse.Namespace) -> int:
 
     period_s = args.period_ms / 1000.0
     check_served_ecat(args.nodes, args.bytes, args.samples, period_s)
-    chain = EcatChain.skin(args.nodes, args.bytes)
+    chain = EcatChain.skin(args.nodes, args.bytes, mailbox=not args.no_mailbox)
     feed = TaxelFeed(
         args.nodes,
         args.bytes,
@@ -87,6 +92,7 @@ def run(args: argparse.Namespace) -> int:
         "iface": args.iface,
         "nodes": args.nodes,
         "bytes": args.bytes,
+        "mailbox": not args.no_mailbox,
         **stats.summary(),
     }
     if args.json:

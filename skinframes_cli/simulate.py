@@ -64,6 +64,12 @@ def add_parser(sub: Any) -> None:
         metavar="SPEC",
         help="inject a fault ('--fault help' lists the kinds)",
     )
+    p.add_argument(
+        "--startup",
+        action="store_true",
+        help="EtherCAT: begin with the master's start-up (scan, SII, mailbox, CoE reads, "
+        "INIT->PREOP->SAFEOP->OP) on patches with a CoE mailbox",
+    )
     p.add_argument("--seed", type=int, default=0, help="seed of the taxel contact patterns")
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.set_defaults(run=run)
@@ -81,6 +87,8 @@ def run(args: argparse.Namespace) -> int:
     faults = tuple(parse_fault(spec) for spec in args.fault)
     if args.protocol == "epl" and args.redundant:
         raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
+    if args.startup and (args.protocol != "ecat" or args.redundant or faults):
+        raise SkinframesError("--startup: EtherCAT on an open ring without --fault only")
     if args.protocol == "ecat" and (args.asnd or args.pres_timeout_us is not None):
         raise SkinframesError("--asnd and --pres-timeout-us apply to EPL only")
     params = preset(args.preset)
@@ -117,6 +125,7 @@ def run(args: argparse.Namespace) -> int:
                 faults=faults,
                 pcap=args.pcap,
                 progress=bar,
+                startup=args.startup,
             )
     if args.json:
         print(json.dumps(result.to_json(), indent=2))
@@ -127,6 +136,8 @@ def run(args: argparse.Namespace) -> int:
         f"preset {result.preset}, layout {result.layout}"
     )
     print(f"  cycles {result.cycles}, frames {result.frames}")
+    if result.startup_us is not None:
+        print(f"  start-up: {result.startup_frames} frames, {result.startup_us:.3f} us")
     print(
         f"  cycle time: min {c['min']:.3f} us, median {c['median']:.3f} us, max {c['max']:.3f} us"
     )

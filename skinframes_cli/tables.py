@@ -3,16 +3,22 @@
 from __future__ import annotations
 
 import argparse
-import json
+import math
 import sys
-from collections.abc import Callable, Iterable
-from typing import Any
+from collections.abc import Iterable
+from typing import IO, Any
+
+import numpy as np
 
 from emulator.model.cycle_time import MODELS
 from emulator.model.paper_tables import paper_value
 from emulator.model.params import PRESETS, preset
-from emulator.model.tables import Cell, cycle_tables
+from emulator.model.sweep import rows
+from emulator.model.tables import DECIMALS, iter_csv, iter_json, not_applicable
+from skinframes.atomic_file import atomic_output
+from skinframes.errors import SkinframesError
 from skinframes_cli.options import int_list
+from skinframes_cli.progress import progress_bar
 
 TITLES = {
     "epl": "Table I: Ethernet POWERLINK cycle time [us]",
@@ -55,45 +61,91 @@ def add_parser(sub: Any) -> None:
         help="payload bytes per node, same syntax (default: 2,32,128,256)",
     )
     p.add_argument("--json", action="store_true", help="one JSON document")
+    p.add_argument(
+        "--csv",
+        nargs="?",
+        const="-",
+        metavar="FILE",
+        help="one line per cell (table,nodes,bytes,cycle_us,not_applicable) on stdout, or "
+        "written to FILE",
+    )
+    p.add_argument(
+        "--jobs",
+        type=int,
+        default=None,
+        metavar="N",
+        help="--model emulated: processes to spread the cells over (default: every core)",
+    )
     p.set_defaults(run=run)
 
 
-def _progress(model: str) -> Callable[[list[Cell]], Iterable[Cell]]:
-    """A progress bar on a terminal when emulating many cells."""
-
-    def wrap(cells: list[Cell]) -> Iterable[Cell]:
-        from tqdm import tqdm
-
-        show = model == "emulated" and len(cells) > 50 and sys.stderr.isatty()
-        return tqdm(cells, desc="cycles", unit="cell", disable=not show)
-
-    return wrap
+def _write(chunks: Iterable[str], out: IO[str]) -> None:
+    for chunk in chunks:
+        out.write(chunk)
 
 
 def run(args: argparse.Namespace) -> int:
-    """Print the tables."""
-    doc = cycle_tables(
-        args.model, preset(args.preset), args.nodes, args.bytes, progress=_progress(args.model)
-    )
-    if args.json:
-        print(json.dumps(doc, indent=2))
-        return 0
-    print(f"model {doc['model']}, preset {doc['preset']}")
-    for table, title in TITLES.items():
-        print(f"\n{title}")
-        print("nodes " + "".join(f"{b:>12}" for b in args.bytes))
-        deltas = []
-        for n in args.nodes:
-            row = doc[table][str(n)]
-            print(f"{n:>5} " + "".join(f"{row[str(b)]:>12.2f}" for b in args.bytes))
-            if args.preset == "paper":
-                for b in args.bytes:
-                    printed = paper_value(table, n, b)
-                    if printed is not None:
-                        deltas.append(abs(row[str(b)] - printed))
+    """Print the tables (and write the CSV)."""
+    if args.jobs is not None and args.jobs < 1:
+        raise SkinframesError(f"--jobs {args.jobs}: at least 1")
+    if args.json and args.csv == "-":
+        raise SkinframesError("--json and --csv both on stdout: give --csv a FILE")
+    params = preset(args.preset)
+    cells = 3 * len(args.nodes) * len(args.bytes)
+    kw = {"jobs": args.jobs}
+    if args.csv not in (None, "-"):
+        with progress_bar(cells, "cells") as step, atomic_output(args.csv, "w") as f:
+            _write(iter_csv(args.model, params, args.nodes, args.bytes, progress=step, **kw), f)
+        if not args.json:
+            print(f"wrote {args.csv}")
+            return 0
+    with progress_bar(cells, "cells") as step:
+        if args.json:
+            chunks = iter_json(args.model, params, args.nodes, args.bytes, progress=step, **kw)
+            _write(chunks, sys.stdout)
+            return 0
+        if args.csv == "-":
+            _write(
+                iter_csv(args.model, params, args.nodes, args.bytes, progress=step, **kw),
+                sys.stdout,
+            )
+            return 0
+        _text(args, rows(args.model, params, args.nodes, args.bytes, progress=step, **kw))
+    return 0
+
+
+def _text(args: argparse.Namespace, source: Iterable[Any]) -> None:
+    """The human-readable tables, with the paper's printed cells compared."""
+    print(f"model {args.model}, preset {args.preset}")
+    na = not_applicable(args.model, args.nodes, args.bytes)
+    current = None
+    deltas: list[float] = []
+
+    def close(table: str | None) -> None:
+        if table is None:
+            return
+        for reason in na.get(table, []):
+            print(f"      n/a: {reason}")
         if deltas:
             print(
                 f"      {len(deltas)} cells printed in the paper; largest difference "
                 f"{max(deltas):.4f} us (the paper rounds to 0.01)"
             )
-    return 0
+        deltas.clear()
+
+    for table, n, row in source:
+        if table != current:
+            close(current)
+            current = table
+            print(f"\n{TITLES[table]}")
+            print("nodes " + "".join(f"{b:>12}" for b in args.bytes))
+        values = np.round(row, DECIMALS).tolist()
+        print(
+            f"{n:>5} " + "".join("         n/a" if math.isnan(v) else f"{v:>12.2f}" for v in values)
+        )
+        if args.preset == "paper":
+            for b, v in zip(args.bytes, values, strict=True):
+                printed = paper_value(table, n, b)
+                if printed is not None and not math.isnan(v):
+                    deltas.append(abs(v - printed))
+    close(current)

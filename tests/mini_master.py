@@ -188,6 +188,12 @@ def scan(transceive: Transceive, nodes: int) -> dict[str, Any]:
         raise MasterError("no TxPDO in the SII")
     start, _len, control, _st, enable, kind = sms[sm_of_pdo]
     result["sm"] = [start, size, control, enable, kind]
+    for s in stations:  # mailbox SyncManagers (SII types 1, 2) before PREOP
+        for i, (m_start, m_len, m_control, _st, m_enable, m_kind) in enumerate(sms):
+            if m_kind in (1, 2):
+                regs = struct.pack("<HHBBBB", m_start, m_len, m_control, 0, m_enable, 0)
+                if m.fpwr(s, 0x0800 + 8 * i, regs) != 1:
+                    raise MasterError(f"station {s:#x}: mailbox SM write refused")
     m.cmd(BWR, 0, 0x0120, struct.pack("<H", 0x0002))
     m.wait_state(nodes, 0x02)
     for p, s in enumerate(stations):

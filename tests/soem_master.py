@@ -3,6 +3,12 @@
 Run inside the network namespace (``ip netns exec NS python tests/soem_master.py ...``). Every
 cycle's input image (all slaves' ``input`` bytes in order) is appended to ``--inputs-out``.
 Timeouts are generous: the machine is shared, and a lost frame costs SOEM a few kernel ticks.
+
+``--coe``: in PRE-OP, SDO reads and writes on the first slave (identity, PDO assignment and
+mapping, abort codes, the SDO information dictionary) and its SII's TXPDO category read through
+SOEM's EEPROM functions, for the test to compare. ``--assign-triangles K``: before mapping, every
+slave's TxPDO assignment 0x1C13 is rewritten to its first K PDOs (slave 0 entry by entry, the
+others by complete access), so that SOEM's ``config_map`` computes a smaller IO map.
 """
 
 from __future__ import annotations
@@ -10,9 +16,101 @@ from __future__ import annotations
 import argparse
 import json
 import statistics
+import struct
 import time
+from typing import Any
 
 import pysoem
+
+TXPDO_CATEGORY, END_CATEGORY, FIRST_CATEGORY_WORD = 50, 0xFFFF, 0x40  # ETG.2010 Tables 2, 3
+
+
+def sii_words(slave: Any, word: int, count: int) -> bytes:
+    """``count`` SII words from ``word`` on, through SOEM's EEPROM read (4 bytes a call)."""
+    out = b"".join(slave.eeprom_read(w) for w in range(word, word + count, 2))
+    return out[: 2 * count]
+
+
+def sii_txpdos(slave: Any) -> dict[str, list[Any]]:
+    """The TXPDO category of the slave's SII: {pdo index: [sm, [entry words]]} (ETG.2010 T11/12),
+    the entry words written as 0x1A00:n values are (index << 16 | subindex << 8 | bit length)."""
+    word = FIRST_CATEGORY_WORD
+    while True:
+        kind, size = struct.unpack("<HH", sii_words(slave, word, 2))
+        if kind == END_CATEGORY:
+            return {}
+        if kind == TXPDO_CATEGORY:
+            data = sii_words(slave, word + 2, size)
+            break
+        word += 2 + size
+    pdos: dict[str, list[Any]] = {}
+    pos = 0
+    while pos + 8 <= len(data):
+        index, n, sm = struct.unpack_from("<HBB", data, pos)
+        pos += 8
+        entries = []
+        for _ in range(n):
+            e_index, e_sub, _name, _dtype, bits = struct.unpack_from("<HBBBB", data, pos)
+            entries.append(e_index << 16 | e_sub << 8 | bits)
+            pos += 8
+        pdos[str(index)] = [sm, entries]
+    return pdos
+
+
+def abort_code(call: Any) -> int | None:
+    """The SDO abort code the call ends with (None if it succeeds)."""
+    try:
+        call()
+    except pysoem.SdoError as exc:
+        return int(exc.abort_code)
+    return None
+
+
+def coe_checks(slave: Any) -> dict[str, Any]:
+    """SDO traffic with one slave in PRE-OP: what the test compares with the SII and the spec."""
+    u = int.from_bytes
+    out: dict[str, Any] = {"vendor_id": u(slave.sdo_read(0x1018, 1), "little")}
+    out["identity"] = [u(slave.sdo_read(0x1018, k), "little") for k in range(1, 5)]
+    out["device_name"] = slave.sdo_read(0x1008, 0).decode("ascii")
+    n = slave.sdo_read(0x1C13, 0)[0]
+    out["assign"] = [u(slave.sdo_read(0x1C13, k), "little") for k in range(1, n + 1)]
+    out["mappings"] = {}
+    for pdo in out["assign"]:
+        m = slave.sdo_read(pdo, 0)[0]
+        out["mappings"][str(pdo)] = [u(slave.sdo_read(pdo, k), "little") for k in range(1, m + 1)]
+    out["assign_ca"] = slave.sdo_read(0x1C13, 0, ca=True).hex()
+    out["sm_types"] = list(slave.sdo_read(0x1C00, 0, ca=True)[2:])
+    out["abort_unknown_object"] = abort_code(lambda: slave.sdo_read(0x2000, 0))
+    out["abort_unknown_subindex"] = abort_code(lambda: slave.sdo_read(0x1018, 9))
+    out["abort_read_only"] = abort_code(lambda: slave.sdo_write(0x1018, 1, bytes(4)))
+    out["abort_length"] = abort_code(lambda: slave.sdo_write(0x8000, 2, bytes(2)))
+    out["abort_range"] = abort_code(lambda: slave.sdo_write(0x8000, 1, struct.pack("<I", 1)))
+    slave.sdo_write(0x8000, 1, struct.pack("<I", 2000))
+    out["sampling_period_us"] = u(slave.sdo_read(0x8000, 1), "little")
+    out["od"] = [
+        [
+            o.index,
+            o.name.decode() if isinstance(o.name, bytes) else o.name,
+            o.object_code,
+            len(o.entries),
+        ]
+        for o in slave.od
+    ]
+    out["sii_txpdos"] = sii_txpdos(slave)
+    return out
+
+
+def reassign(slaves: Any, triangles: int) -> None:
+    """Assign each slave's first ``triangles`` TxPDOs to SM3 (0x1C13) in PRE-OP."""
+    pdos = [0x1A00 + t for t in range(triangles)]
+    first = slaves[0]
+    first.sdo_write(0x1C13, 0, bytes([0]))  # entries change only while subindex 0 is 0
+    for k, pdo in enumerate(pdos, start=1):
+        first.sdo_write(0x1C13, k, struct.pack("<H", pdo))
+    first.sdo_write(0x1C13, 0, bytes([len(pdos)]))
+    image = bytes([len(pdos), 0]) + b"".join(struct.pack("<H", p) for p in pdos)
+    for s in slaves[1:]:
+        s.sdo_write(0x1C13, 0, image, ca=True)
 
 
 def main() -> None:
@@ -21,6 +119,8 @@ def main() -> None:
     p.add_argument("--cycles", type=int, default=1000)
     p.add_argument("--inputs-out", required=True)
     p.add_argument("--timeout-us", type=int, default=100_000)
+    p.add_argument("--coe", action="store_true")
+    p.add_argument("--assign-triangles", type=int, default=0)
     args = p.parse_args()
     t = pysoem.settings.timeouts
     t.ret, t.safe, t.eeprom, t.state = 50_000, 500_000, 500_000, 20_000_000
@@ -37,6 +137,11 @@ def main() -> None:
         out["serials"] = [int.from_bytes(s.eeprom_read(0x0E), "little") for s in slaves]
         slaves[0].eeprom_write(0x20, b"\xef\xbe")
         out["eeprom_word_0x20"] = slaves[0].eeprom_read(0x20)[:2].hex()
+        if args.coe:
+            out["preop"] = master.state_check(pysoem.PREOP_STATE, 10_000_000)
+            out["coe"] = coe_checks(slaves[0])
+        if args.assign_triangles:
+            reassign(slaves, args.assign_triangles)
         t1 = time.perf_counter()
         out["iomap_bytes"] = master.config_map()
         out["config_map_s"] = round(time.perf_counter() - t1, 3)

@@ -3,5 +3,8 @@
 application), :mod:`.device` (one ESC) and :mod:`.chain` (a line of ESCs processing whole frames,
 for the live transport and the timing engine alike).
 
+A patch with a mailbox adds :mod:`.mailbox` (SM0/SM1, counter, repeat request), :mod:`.coe`
+(SDO, SDO information, emergencies) and :mod:`.objects` (its object dictionary).
+
 This file imports nothing, so that importing one module does not load the others.
 """

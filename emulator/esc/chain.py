@@ -29,7 +29,7 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
-from emulator.esc.sii import SlaveInfo
+from emulator.esc.sii import SlaveInfo, SyncManagerType
 from emulator.esc.state_machine import AlState, SkinPatchApplication
 from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
@@ -72,17 +72,28 @@ class EcatChain:
         self.dropped = 0
 
     @classmethod
-    def skin(cls, nodes: int, input_bytes: int, *, config: EscConfig | None = None) -> EcatChain:
+    def skin(
+        cls,
+        nodes: int,
+        input_bytes: int,
+        *,
+        config: EscConfig | None = None,
+        mailbox: bool = False,
+    ) -> EcatChain:
         """``nodes`` skin patches of ``input_bytes`` each, powered on (INIT, unconfigured).
 
         Serial numbers are the positions + 1; vendor, product and revision are equal, as for a
-        batch of identical devices.
+        batch of identical devices. ``mailbox``: patches with a CoE mailbox
+        (:meth:`SlaveInfo.skin_patch`).
         """
         if not 1 <= nodes <= MAX_SLAVES:
             raise TopologyError(f"EtherCAT chain: {nodes} slaves (1..{MAX_SLAVES})")
         return cls(
             [
-                EscDevice(SlaveInfo.skin_patch(input_bytes, serial=i + 1), config=config)
+                EscDevice(
+                    SlaveInfo.skin_patch(input_bytes, serial=i + 1, mailbox=mailbox),
+                    config=config,
+                )
                 for i in range(nodes)
             ]
         )
@@ -407,7 +418,7 @@ def configure_frames(
     Station addresses by APWR, the input SyncManager and FMMU0 by FPWR, then BWR AL control
     INIT+ack, PREOP, SAFEOP, OP: the essential steps of ETG.1000.6's start-up (5.4, 6.4).
     """
-    sm_index = next((i for i, sm in enumerate(info.sync_managers) if not sm.ecat_writes), None)
+    sm_index = info.sm_of_type(SyncManagerType.INPUTS)
     if sm_index is None:
         raise TopologyError("configure: the slave has no input SyncManager")
     sm = info.sync_managers[sm_index]

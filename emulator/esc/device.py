@@ -39,6 +39,7 @@ circulating bit, UDP encapsulation and a second PDI. The slave application behin
 from __future__ import annotations
 
 import struct
+from collections.abc import Callable
 from dataclasses import dataclass
 from typing import Final
 
@@ -199,6 +200,12 @@ class EscDevice:
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
+        # the application's mailbox handler (emulator.esc.mailbox), run after frames that
+        # completed a mailbox buffer or wrote SyncManager registers (repeat requests)
+        self._mailbox_hook: Callable[[EscDevice], None] | None = getattr(
+            self.app, "mailbox_event", None
+        )
+        self._mailbox_due = False
         self._power_on()
 
     # --- power-on, EEPROM load ----------------------------------------------------------------
@@ -337,6 +344,11 @@ class EscDevice:
             self._sms[index] = None  # the SyncManager's state is reset
             self._rebuild_sms()
 
+    def pdi_set_repeat_ack(self, index: int, value: bool) -> None:
+        """PDI control 0x0807 bit 1: the repeat acknowledge of a mailbox (datasheet II 2.14.7)."""
+        addr = REG_SM + SM_BYTES * index + 7
+        self.mem[addr] = (self.mem[addr] & ~0x02) | (0x02 if value else 0)
+
     def pdi_write(self, addr: int, data: bytes) -> None:
         """The application writes memory; a whole read-SM buffer is a buffer exchange."""
         self.mem[addr : addr + len(data)] = data
@@ -377,6 +389,10 @@ class EscDevice:
             for sm in self._completed:
                 self._finish_buffer(sm)
             self._completed.clear()
+        if self._mailbox_due:
+            self._mailbox_due = False
+            if self._mailbox_hook is not None:
+                self._mailbox_hook(self)
         if self._reset_written is None:
             self._reset_progress = 0
         else:
@@ -588,6 +604,7 @@ class EscDevice:
             return  # the SyncManager was reset in the meantime
         st = REG_SM + SM_BYTES * sm.index + 5
         sm.open = False
+        self._mailbox_due = self._mailbox_due or sm.mailbox
         if sm.ecat_writes:
             assert isinstance(sm.buf, bytearray)
             self.mem[sm.start : sm.end] = sm.buf
@@ -756,6 +773,7 @@ class EscDevice:
             self._rebuild_fmmus()
         if sm_changed:
             self._rebuild_sms(sm_enabled)
+            self._mailbox_due = True
         if dl_changed:
             self._update_dl_status()
         self._update_irq()

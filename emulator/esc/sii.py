@@ -8,13 +8,17 @@ section I, 11.1 (Tables 42 and 43) summarises it. The EEPROM is word addressed, 
   checksum: the low byte is the CRC-8 of bytes 0-13 with polynomial x^8 + x^2 + x + 1 (0x07),
   initial value 0xFF, no reflection, no final XOR (datasheet I, Table 42);
 * words 8-15: vendor ID, product code, revision number, serial number (u32 each);
-* words 0x14-0x1C: bootstrap and standard mailbox offsets/sizes and the mailbox protocols,
-  all 0 here: the skin patch has no mailbox;
+* words 0x14-0x1C: bootstrap and standard mailbox offsets/sizes and the mailbox protocols
+  (ETG.2010 Table 2): the standard receive mailbox (master -> slave, SM0) at words 0x18/0x19,
+  the standard send mailbox (SM1) at 0x1A/0x1B, the protocols at 0x1C (bit 2 = CoE); all 0
+  for a slave without a mailbox;
 * word 0x3E: EEPROM size in Kibit minus 1; word 0x3F: version (1);
 * from word 0x40: categories ``{type u16, size in words u16, data}``, ended by type 0xFFFF.
 
 The categories written here: STRINGS (10), GENERAL (30), FMMU (40), SYNCM (41), TXPDO (50) and
-RXPDO (51) when the slave has outputs (ETG.2010 Tables 4-13). A :class:`SlaveInfo` is the small
+RXPDO (51) when the slave has outputs (ETG.2010 Tables 4-13). GENERAL byte 5 carries the CoE
+details (bit 0 SDO, 1 SDO information, 2 PDO assign, 3 PDO configuration, 4 upload at start-up,
+5 SDO complete access; ETG.2010 Table 6), which SOEM reads to choose complete access. A :class:`SlaveInfo` is the small
 description they are built from; :meth:`SlaveInfo.skin_patch` describes one tactile patch whose
 TxPDO carries its taxel bytes.
 """
@@ -56,7 +60,8 @@ WORD_VENDOR: Final = 0x08
 WORD_PRODUCT: Final = 0x0A
 WORD_REVISION: Final = 0x0C
 WORD_SERIAL: Final = 0x0E
-WORD_STD_RX_MAILBOX: Final = 0x18
+WORD_STD_RX_MAILBOX: Final = 0x18  # receive mailbox offset, size (SM0, master -> slave)
+WORD_STD_TX_MAILBOX: Final = 0x1A  # send mailbox offset, size (SM1, slave -> master)
 WORD_MAILBOX_PROTOCOL: Final = 0x1C
 WORD_SIZE: Final = 0x3E
 WORD_VERSION: Final = 0x3F
@@ -73,6 +78,20 @@ VENDOR_ID: Final = 0x534B494E
 PRODUCT_CODE_BASE: Final = 0x00010000
 REVISION: Final = 0x00010000  # major 1, minor 0
 PROCESS_RAM_START: Final = 0x1000  # datasheet I, 1.1: process memory starts at 0x1000
+
+# Mailbox protocols, SII word 0x1C (ETG.2010 Table 2) and CoE details, GENERAL byte 5 (Table 6)
+MBX_PROTOCOL_COE: Final = 0x0004
+COE_SDO: Final = 0x01
+COE_SDO_INFO: Final = 0x02
+COE_PDO_ASSIGN: Final = 0x04
+COE_PDO_CONFIG: Final = 0x08
+COE_UPLOAD_AT_STARTUP: Final = 0x10
+COE_COMPLETE_ACCESS: Final = 0x20
+# The skin patch's mailbox: two 128-byte buffers at the start of process RAM, SOEM's and the
+# Beckhoff terminals' default (SOEM ethercatconfig.c falls back to 0x1000/0x1080, 128 bytes).
+MAILBOX_BYTES: Final = 128
+MAILBOX_OUT_START: Final = 0x1000
+MAILBOX_IN_START: Final = 0x1080
 
 
 class Category(IntEnum):
@@ -119,13 +138,19 @@ class DataType(IntEnum):
     UNSIGNED8 = 0x0005
     UNSIGNED16 = 0x0006
     UNSIGNED32 = 0x0007
+    VISIBLE_STRING = 0x0009
     OCTET_STRING = 0x000A
+    PDO_MAPPING = 0x0021  # record type of 0x1600/0x1A00 (ETG.1000.6 Table 64)
+    IDENTITY = 0x0023  # record type of 0x1018
 
 
 # SyncManager control bytes (datasheet II, 2.14.3): bits 1:0 mode (00 buffered), bits 3:2
 # direction (00 ECAT reads, 01 ECAT writes), bit 5 interrupt in AL event, bit 6 watchdog.
 SM_CONTROL_INPUTS: Final = 0x20
 SM_CONTROL_OUTPUTS: Final = 0x64
+# mailbox mode (bits 1:0 = 10) with the PDI interrupt (bit 5): SOEM's EC_DEFAULTMBXSM0/1
+SM_CONTROL_MAILBOX_OUT: Final = 0x26
+SM_CONTROL_MAILBOX_IN: Final = 0x22
 
 
 def crc8(data: bytes) -> int:
@@ -217,6 +242,8 @@ class SlaveInfo:
     order: str = ""
     pdi_control: int = PDI_SPI_SLAVE
     esc_configuration: int = 0x00  # 0x0141: no device emulation, no enhanced link detection
+    mailbox_protocols: int = 0  # SII word 0x1C
+    coe_details: int = 0  # GENERAL byte 5
 
     def __post_init__(self) -> None:
         for label, value, bits in (
@@ -249,6 +276,14 @@ class SlaveInfo:
         bits = sum(p.bit_length for p in self.tx_pdos + self.rx_pdos if p.sync_manager == index)
         return (bits + 7) // 8
 
+    @property
+    def has_mailbox(self) -> bool:
+        """True when the SII lists a mailbox SyncManager in each direction."""
+        return (
+            self.sm_of_type(SyncManagerType.MAILBOX_OUT) is not None
+            and self.sm_of_type(SyncManagerType.MAILBOX_IN) is not None
+        )
+
     def sm_of_type(self, kind: SyncManagerType) -> int | None:
         """Index of the first SyncManager of ``kind``, or None."""
         for i, sm in enumerate(self.sync_managers):
@@ -264,19 +299,30 @@ class SlaveInfo:
         serial: int = 0,
         alias: int = 0,
         output_bytes: int = 0,
+        mailbox: bool = False,
     ) -> SlaveInfo:
-        """A tactile patch: its taxels as a TxPDO on SM0 at 0x1000, no mailbox.
+        """A tactile patch: its taxels as TxPDOs, with or without a CoE mailbox.
 
-        Each taxel is one UNSIGNED8 entry, object 0x6000 + triangle, subindex 1-12 (16 triangles
-        of 12 taxels make the 192 bytes of a patch); PDO 0x1A00 + k carries 16 triangles. A
-        payload beyond one patch uses one 96-bit OCTET_STRING entry per triangle instead, so the
-        SII stays small. ``output_bytes`` adds an RxPDO 0x1600 (UNSIGNED8 entries of object
-        0x7000) on SM1, placed after the three buffers of SM0 (datasheet I, 8.1).
+        Without a mailbox (the default): the taxels are a TxPDO on SM0 at 0x1000. Each taxel is
+        one UNSIGNED8 entry, object 0x6000 + triangle, subindex 1-12 (16 triangles of 12 taxels
+        make the 192 bytes of a patch); PDO 0x1A00 + k carries 16 triangles. A payload beyond one
+        patch uses one 96-bit OCTET_STRING entry per triangle instead, so the SII stays small.
+        ``output_bytes`` adds an RxPDO 0x1600 (UNSIGNED8 entries of object 0x7000) on SM1,
+        placed after the three buffers of SM0 (datasheet I, 8.1).
+
+        With ``mailbox=True``: the standard layout of a CoE slave (ETG.2010 Table 9, SOEM's
+        defaults): SM0/SM1 the 128-byte receive/send mailboxes at 0x1000/0x1080, SM2 the outputs
+        (length 0 and disabled without outputs), SM3 the inputs; one TxPDO 0x1A00 + t per
+        triangle t mapping its taxels 0x6000 + t:1..12 (see :mod:`emulator.esc.objects` for why
+        per triangle), assigned to SM3 through 0x1C13; mailbox protocol CoE with SDO, SDO
+        information, PDO assignment and complete access.
         """
         if not 1 <= input_bytes <= 1486:
             raise TopologyError(f"skin patch: {input_bytes} input bytes (1..1486)")
         if not 0 <= output_bytes <= 1486:
             raise TopologyError(f"skin patch: {output_bytes} output bytes (0..1486)")
+        if mailbox:
+            return cls._skin_patch_coe(input_bytes, serial, alias, output_bytes)
         per = taxel.TAXELS_PER_TRIANGLE
         tx: list[Pdo] = []
         if input_bytes <= taxel.PATCH_BYTES:
@@ -306,22 +352,95 @@ class SlaveInfo:
                 SyncManagerSpec(start, output_bytes, SM_CONTROL_OUTPUTS, 1, SyncManagerType.OUTPUTS)
             )
             fmmus.insert(0, FmmuUsage.OUTPUTS)  # SOEM maps outputs with the first FMMU
-            out = tuple(PdoEntry(0x7000, i + 1, 8) for i in range(output_bytes))
-            rx = (Pdo(0x1600, 1, out, name="Outputs"),)
+            rx = (_outputs_pdo(output_bytes, 1),)
+        return cls._patch(input_bytes, serial, alias, tuple(sms), fmmus, tuple(tx), rx)
+
+    @classmethod
+    def _patch(
+        cls,
+        input_bytes: int,
+        serial: int,
+        alias: int,
+        sms: tuple[SyncManagerSpec, ...],
+        fmmus: list[FmmuUsage],
+        tx: tuple[Pdo, ...],
+        rx: tuple[Pdo, ...],
+        *,
+        coe: bool = False,
+    ) -> SlaveInfo:
+        """The identity every skin patch shares (module constants), with its layout."""
         return cls(
             vendor_id=VENDOR_ID,
             product_code=PRODUCT_CODE_BASE + input_bytes,
             revision=REVISION,
             serial=serial,
             name=f"SkinPatch{input_bytes}",
-            sync_managers=tuple(sms),
+            sync_managers=sms,
             fmmus=tuple(fmmus),
-            tx_pdos=tuple(tx),
+            tx_pdos=tx,
             rx_pdos=rx,
             alias=alias,
             group="RobotSkin",
             order=f"SKIN-{input_bytes}",
+            mailbox_protocols=MBX_PROTOCOL_COE if coe else 0,
+            coe_details=COE_SDO | COE_SDO_INFO | COE_PDO_ASSIGN | COE_COMPLETE_ACCESS if coe else 0,
         )
+
+    @classmethod
+    def _skin_patch_coe(
+        cls, input_bytes: int, serial: int, alias: int, output_bytes: int
+    ) -> SlaveInfo:
+        per = taxel.TAXELS_PER_TRIANGLE
+        tx = tuple(
+            Pdo(
+                0x1A00 + t,
+                3,
+                tuple(
+                    PdoEntry(0x6000 + t, k + 1, 8, DataType.UNSIGNED8)
+                    for k in range(min(per, input_bytes - t * per))
+                ),
+                name=f"Triangle {t}",
+            )
+            for t in range(-(-input_bytes // per))
+        )
+        out_start = PROCESS_RAM_START + 2 * MAILBOX_BYTES
+        in_start = out_start + 3 * (-(-output_bytes // 8) * 8)  # after SM2's 3 buffers
+        sms = (
+            SyncManagerSpec(
+                MAILBOX_OUT_START,
+                MAILBOX_BYTES,
+                SM_CONTROL_MAILBOX_OUT,
+                1,
+                SyncManagerType.MAILBOX_OUT,
+            ),
+            SyncManagerSpec(
+                MAILBOX_IN_START,
+                MAILBOX_BYTES,
+                SM_CONTROL_MAILBOX_IN,
+                1,
+                SyncManagerType.MAILBOX_IN,
+            ),
+            SyncManagerSpec(
+                out_start,
+                output_bytes,
+                SM_CONTROL_OUTPUTS,
+                1 if output_bytes else 0,
+                SyncManagerType.OUTPUTS,
+            ),
+            SyncManagerSpec(in_start, input_bytes, SM_CONTROL_INPUTS, 1, SyncManagerType.INPUTS),
+        )
+        rx: tuple[Pdo, ...] = ()
+        fmmus = [FmmuUsage.INPUTS]
+        if output_bytes:
+            rx = (_outputs_pdo(output_bytes, 2),)
+            fmmus.insert(0, FmmuUsage.OUTPUTS)
+        return cls._patch(input_bytes, serial, alias, sms, fmmus, tx, rx, coe=True)
+
+
+def _outputs_pdo(output_bytes: int, sync_manager: int) -> Pdo:
+    """RxPDO 0x1600: one UNSIGNED8 entry of object 0x7000 per output byte."""
+    out = tuple(PdoEntry(0x7000, i + 1, 8) for i in range(output_bytes))
+    return Pdo(0x1600, sync_manager, out, name="Outputs")
 
 
 # --- the image ---------------------------------------------------------------------------------
@@ -374,11 +493,26 @@ def build_sii(info: SlaveInfo) -> bytes:
         info.serial,
     )
     struct.pack_into("<H", head, 2 * WORD_VERSION, SII_VERSION)
+    rx_mbx = info.sm_of_type(SyncManagerType.MAILBOX_OUT)
+    tx_mbx = info.sm_of_type(SyncManagerType.MAILBOX_IN)
+    if rx_mbx is not None and tx_mbx is not None:
+        rx_sm, tx_sm = info.sync_managers[rx_mbx], info.sync_managers[tx_mbx]
+        struct.pack_into(
+            "<HHHHH",
+            head,
+            2 * WORD_STD_RX_MAILBOX,
+            rx_sm.start,
+            rx_sm.length,
+            tx_sm.start,
+            tx_sm.length,
+            info.mailbox_protocols,
+        )
 
     general = bytearray(32)  # ETG.2010 Table 6
     general[0] = group_idx
     general[2] = order_idx
     general[3] = name_idx
+    general[5] = info.coe_details
     general[14] = group_idx  # duplicate of GroupIdx "for compatibility"
     struct.pack_into("<H", general, 16, PHYSICAL_PORT_MII | PHYSICAL_PORT_MII << 4)
 

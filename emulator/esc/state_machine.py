@@ -17,13 +17,17 @@ acknowledged before"); a request with the acknowledge bit clears the indication 
 
 from __future__ import annotations
 
+import struct
 from enum import IntEnum
 from typing import TYPE_CHECKING, Final, Protocol
 
 from emulator.esc.sii import SlaveInfo, SyncManagerType
+from skinframes.ecat_mailbox import MailboxType
 
 if TYPE_CHECKING:
     from emulator.esc.device import EscDevice
+    from emulator.esc.mailbox import Mailbox
+    from emulator.esc.objects import SkinDictionary
 
 __all__ = [
     "ACK",
@@ -36,6 +40,12 @@ __all__ = [
 ]
 
 ACK: Final = 0x10  # AL control bit 4: error indication acknowledge
+# Emergency error code of a refused PREOP->SAFEOP (or SAFEOP->OP) transition, the AL status code
+# in the first two data bytes: the code Beckhoff slaves send (ETG.1000.6 5.6.4, ETG.1020 "EtherCAT
+# state machine" emergencies 0xA000/0xA001)
+EMERGENCY_PS_FAILED: Final = 0xA000
+EMERGENCY_SO_FAILED: Final = 0xA001
+ERROR_REGISTER_GENERIC: Final = 0x01  # 0x1001 bit 0 (CiA 301 7.5.2.2)
 ERROR_INDICATION: Final = 0x10  # AL status bit 4
 STATE_MASK: Final = 0x0F
 
@@ -117,11 +127,14 @@ class PdiApplication(Protocol):
 class SkinPatchApplication:
     """The firmware of a skin patch: the ESM, SyncManager checks, taxels published by the PDI.
 
-    It behaves as the Beckhoff slave stack does for a mailbox-less device: at power-on it
-    deactivates every SyncManager through the PDI (0x0807 bit 0); in PREOP->SAFEOP it checks
-    that the master programmed each process-data SyncManager with the SII's start address,
-    length, mode and direction and enabled it (else 0x001E for inputs, 0x001D for outputs),
-    then activates them and writes its inputs once; leaving SAFEOP deactivates them again.
+    It behaves as the Beckhoff slave stack does: at power-on it deactivates every SyncManager
+    through the PDI (0x0807 bit 0); a slave with a mailbox checks SM0/SM1 in INIT->PREOP (else
+    0x0016) and releases them, and serves CoE from PREOP on (:mod:`emulator.esc.mailbox`,
+    :mod:`emulator.esc.coe`, :mod:`emulator.esc.objects`); in PREOP->SAFEOP it checks that the
+    master programmed each process-data SyncManager with the SII's start address, the length of
+    the PDOs assigned to it (0x1C12/0x1C13 when the slave has CoE, else the SII's), mode and
+    direction and enabled it (else 0x001E for inputs, 0x001D for outputs), then activates them
+    and writes its inputs once; leaving SAFEOP deactivates them again.
     """
 
     def __init__(self, info: SlaveInfo) -> None:
@@ -137,13 +150,42 @@ class SkinPatchApplication:
         self._input_start = (
             None if self._input_sm is None else info.sync_managers[self._input_sm].start
         )
+        self._image: list[tuple[int, int]] | None = None  # (offset, bytes) of assigned PDOs
+        self.objects: SkinDictionary | None = None
+        self.mailbox: Mailbox | None = None
+        if info.has_mailbox:
+            from emulator.esc.coe import CoeServer
+            from emulator.esc.mailbox import Mailbox
+            from emulator.esc.objects import skin_dictionary
+
+            self.objects = skin_dictionary(info, lambda: self.inputs, lambda: self.outputs)
+            tx = info.sync_managers[info.sm_of_type(SyncManagerType.MAILBOX_IN) or 0]
+            self.mailbox = Mailbox(info, CoeServer(self.objects, tx.length))
+        self.outputs = bytes(info.output_bytes)
 
     # --- the PDI application protocol ------------------------------------------------------
     def power_on(self, device: EscDevice) -> None:
         """INIT, every SyncManager deactivated by the PDI (ESM state INIT)."""
         for i in range(device.config.syncmanagers):
             device.pdi_deactivate_sm(i, True)
+        if self.mailbox is not None:
+            self.mailbox.stop(device)
         device.pdi_set_al_status(AlState.INIT, error=False, code=AlStatusCode.NO_ERROR)
+
+    def mailbox_event(self, device: EscDevice) -> None:
+        """After a frame that touched a mailbox or a SyncManager register (device hook)."""
+        if self.mailbox is not None:
+            self.mailbox.service(device, device.al_status & STATE_MASK)
+
+    def emergency(self, device: EscDevice, code: int, data: bytes = b"") -> None:
+        """Send an emergency message (ETG.1000.6 5.6.4) and set the error register 0x1001."""
+        if self.mailbox is None or self.objects is None or not self.mailbox.active:
+            return
+        self.objects.error_register |= ERROR_REGISTER_GENERIC
+        coe = self.mailbox.coe
+        assert coe is not None
+        self.mailbox.post(MailboxType.COE, coe.emergency(code, self.objects.error_register, data))
+        self.mailbox.service(device, device.al_status & STATE_MASK)
 
     def al_control(self, device: EscDevice, value: int) -> None:
         """Run the ESM on a write of AL control (ETG.1000.6 6.4)."""
@@ -160,20 +202,36 @@ class SkinPatchApplication:
             verdict = self._enter(device, current, requested)
         if verdict != AlStatusCode.NO_ERROR:
             device.pdi_set_al_status(current, error=True, code=verdict)
+            if (current, requested) in (
+                (AlState.PREOP, AlState.SAFEOP),
+                (AlState.SAFEOP, AlState.OP),
+            ):
+                failed = EMERGENCY_PS_FAILED if current == AlState.PREOP else EMERGENCY_SO_FAILED
+                self.emergency(device, failed, struct.pack("<HBB", verdict, current, requested))
             return
+        if ack and self.objects is not None:
+            self.objects.error_register = 0
         device.pdi_set_al_status(requested, error=error, code=code)
 
     # --- inputs ------------------------------------------------------------------------------
     def publish(self, device: EscDevice, data: bytes) -> None:
         """Write a complete input buffer through the PDI (a buffer exchange of SM inputs)."""
-        if len(data) != self._input_bytes or self._input_start is None:
+        if len(data) != self._input_bytes or self._input_start is None:  # the whole patch
             raise ValueError(f"inputs: {len(data)} bytes, the PDO has {self._input_bytes}")
         self.inputs = bytes(data)
-        device.pdi_write(self._input_start, self.inputs)
+        if self._image is None:
+            device.pdi_write(self._input_start, self.inputs)
+        else:
+            device.pdi_write(self._input_start, b"".join(data[a : a + n] for a, n in self._image))
 
     # --- transitions --------------------------------------------------------------------------
     def _enter(self, device: EscDevice, current: int, requested: int) -> AlStatusCode:
+        if requested == AlState.PREOP and current == AlState.INIT and self.mailbox is not None:
+            if not self.mailbox.configured(device):
+                return AlStatusCode.INVALID_MAILBOX_CONFIGURATION
+            self.mailbox.start(device)
         if requested == AlState.SAFEOP and current == AlState.PREOP:
+            self._image = self._assigned_image()
             code = self._check_process_data_sms(device)
             if code != AlStatusCode.NO_ERROR:
                 return code
@@ -184,12 +242,47 @@ class SkinPatchApplication:
         elif requested in (AlState.PREOP, AlState.INIT):
             for i, _ in self._pd_sms:
                 device.pdi_deactivate_sm(i, True)
+            if requested == AlState.INIT and self.mailbox is not None:
+                self.mailbox.stop(device)
         return AlStatusCode.NO_ERROR
+
+    def sm_bytes(self, index: int) -> int:
+        """Bytes of the PDOs assigned to SyncManager ``index``: 0x1C12/0x1C13 with CoE (SM2
+        outputs, SM3 inputs), else the SII's PDOs."""
+        if self.objects is None:
+            return self.info.sm_bytes(index)
+        kind = self.info.sync_managers[index].type
+        if kind == SyncManagerType.INPUTS:
+            assigned, pdos = self.objects.tx_pdos(), self.info.tx_pdos
+        elif kind == SyncManagerType.OUTPUTS:
+            assigned, pdos = self.objects.rx_pdos(), self.info.rx_pdos
+        else:
+            return 0
+        bits = {p.index: p.bit_length for p in pdos}
+        return (sum(bits[i] for i in assigned) + 7) // 8
+
+    def _assigned_image(self) -> list[tuple[int, int]] | None:
+        """Where each assigned TxPDO's bytes lie in the patch's inputs; None when all are
+        assigned in SII order (the inputs are the image)."""
+        if self.objects is None:
+            return None
+        assigned = self.objects.tx_pdos()
+        if assigned == [p.index for p in self.info.tx_pdos]:
+            return None
+        at, ranges = 0, {}
+        for p in self.info.tx_pdos:
+            ranges[p.index] = (at, p.bit_length // 8)
+            at += p.bit_length // 8
+        return [ranges[i] for i in assigned]
 
     def _check_process_data_sms(self, device: EscDevice) -> AlStatusCode:
         for i, spec in self._pd_sms:
             start, length, control, activate = device.sm_registers(i)
-            expected_length = self.info.sm_bytes(i)
+            expected_length = self.sm_bytes(i)
+            if expected_length == 0:  # nothing assigned: the SyncManager must not run
+                if activate & 1 and length:
+                    return AlStatusCode.INVALID_OUTPUT_CONFIGURATION
+                continue
             ok = (
                 start == spec.start
                 and length == expected_length

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
@@ -11,6 +12,8 @@ __all__ = [
     "MAX_EMULATED_SLAVES",
     "MAX_SERVED_SLAVES",
     "MAX_SLAVES",
+    "RANGES",
+    "Range",
     "check_cycles",
     "check_ecat",
     "check_emulated_ecat",
@@ -26,24 +29,55 @@ MAX_EMULATED_SLAVES: Final = 1024
 MAX_SERVED_SLAVES: Final = MAX_EMULATED_SLAVES
 
 
+@dataclass(frozen=True, slots=True)
+class Range:
+    """The node counts and payload sizes a protocol allows, and how its messages name them."""
+
+    protocol: str
+    min_nodes: int
+    max_nodes: int
+    nodes_word: str
+    min_bytes: int
+    max_bytes: int
+    bytes_word: str
+
+    def nodes_text(self, nodes: str) -> str:
+        """Why ``nodes`` (a count or ``lo..hi``) cannot be: ``EPL: 240 CNs (1..239)``."""
+        return f"{self.protocol}: {nodes} {self.nodes_word} ({self.min_nodes}..{self.max_nodes})"
+
+    def bytes_text(self, data_bytes: str) -> str:
+        """Why ``data_bytes`` cannot be: ``EtherCAT: 1487 bytes per slave (1..1486)``."""
+        return (
+            f"{self.protocol}: {data_bytes} {self.bytes_word} ({self.min_bytes}..{self.max_bytes})"
+        )
+
+
+# EPL: DS 301 node ids 1..239 for CNs; PRes payload up to C_DLL_ISOCHR_MAX_PAYL (1490 bytes).
+EPL_RANGE: Final = Range(
+    "EPL", 1, powerlink.MAX_CN_NODE_ID, "CNs", 0, powerlink.MAX_PDO_PAYLOAD_BYTES, "payload bytes"
+)
+# EtherCAT: 16-bit position addresses; one datagram of one frame per slave (ETG.1000.4).
+ECAT_RANGE: Final = Range(
+    "EtherCAT", 1, MAX_SLAVES, "slaves", 1, ethercat.MAX_DATAGRAM_DATA_BYTES, "bytes per slave"
+)
+RANGES: Final = {"epl": EPL_RANGE, "ecat": ECAT_RANGE, "ecat_redundant": ECAT_RANGE}
+
+
+def _check(r: Range, nodes: int, data_bytes: int) -> None:
+    if not r.min_nodes <= nodes <= r.max_nodes:
+        raise TopologyError(r.nodes_text(str(nodes)))
+    if not r.min_bytes <= data_bytes <= r.max_bytes:
+        raise TopologyError(r.bytes_text(str(data_bytes)))
+
+
 def check_epl(nodes: int, data_bytes: int) -> None:
     """EPL: 1..239 CNs (DS 301 node ids), PRes payload 0..1490 bytes (C_DLL_ISOCHR_MAX_PAYL)."""
-    if not 1 <= nodes <= powerlink.MAX_CN_NODE_ID:
-        raise TopologyError(f"EPL: {nodes} CNs (1..{powerlink.MAX_CN_NODE_ID})")
-    if not 0 <= data_bytes <= powerlink.MAX_PDO_PAYLOAD_BYTES:
-        raise TopologyError(
-            f"EPL: {data_bytes} payload bytes (0..{powerlink.MAX_PDO_PAYLOAD_BYTES})"
-        )
+    _check(EPL_RANGE, nodes, data_bytes)
 
 
 def check_ecat(nodes: int, data_bytes: int) -> None:
     """EtherCAT: 1..65535 slaves, 1..1486 bytes per slave (one datagram in one frame)."""
-    if not 1 <= nodes <= MAX_SLAVES:
-        raise TopologyError(f"EtherCAT: {nodes} slaves (1..{MAX_SLAVES})")
-    if not 1 <= data_bytes <= ethercat.MAX_DATAGRAM_DATA_BYTES:
-        raise TopologyError(
-            f"EtherCAT: {data_bytes} bytes per slave (1..{ethercat.MAX_DATAGRAM_DATA_BYTES})"
-        )
+    _check(ECAT_RANGE, nodes, data_bytes)
 
 
 def check_served_ecat(nodes: int, data_bytes: int, samples: int, period_s: float) -> None:

@@ -15,7 +15,7 @@ from __future__ import annotations
 from dataclasses import dataclass, replace
 from typing import Final
 
-from emulator.errors import TopologyError
+from emulator.errors import PresetError, TopologyError
 from emulator.model.units import byte_time_ps
 from skinframes import ethernet
 
@@ -153,4 +153,4 @@ def preset(name: str) -> TimingParams:
     try:
         return PRESETS[name]
     except KeyError:
-        raise TopologyError(f"unknown preset {name!r}; choose from {sorted(PRESETS)}") from None
+        raise PresetError(f"unknown preset {name!r}; choose from {sorted(PRESETS)}") from None

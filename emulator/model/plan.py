@@ -11,13 +11,18 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any, Final
 
+import numpy as np
+import numpy.typing as npt
+
 from emulator.model.cycle_time import TABLES, simulate, validate
 from emulator.model.params import WIRE, TimingParams
+from emulator.model.sweep import analytic_grid
 from emulator.model.units import PS_PER_US
 from emulator.net.ecat import LAYOUTS
 
 __all__ = ["LayoutOption", "NetworkPlan", "Plan", "limit_us", "plan"]
 
+Num = npt.ArrayLike
 PER_SLAVE: Final = "per-slave"
 TABLE_LAYOUTS: Final[dict[str, tuple[str, ...]]] = {
     "epl": (PER_SLAVE,),  # EPL has one layout: each CN answers its PReq with its own PRes
@@ -52,20 +57,24 @@ class NetworkPlan:
         overhead_us: ``best.cycle_us - limit_us``: what the protocol costs beyond the taxels.
         efficiency: ``limit_us / best.cycle_us`` (1.0 = the link carries nothing but taxels).
         alternatives: every layout emulated, ``best`` among them, in the order tried.
+        analytic_us: the paper's eqs. (3)-(19) for the same cell (its per-slave layout).
     """
 
     best: LayoutOption
     overhead_us: float
     efficiency: float
     alternatives: tuple[LayoutOption, ...]
+    analytic_us: float = float("nan")
 
     def to_json(self) -> dict[str, Any]:
-        """The best layout's fields, then ``overhead_us``, ``efficiency``, ``alternatives``."""
+        """The best layout's fields, then ``overhead_us``, ``efficiency``, ``alternatives``,
+        ``analytic_us``."""
         return {
             **self.best.to_json(),
             "overhead_us": self.overhead_us,
             "efficiency": self.efficiency,
             "alternatives": [o.to_json() for o in self.alternatives],
+            "analytic_us": self.analytic_us,
         }
 
 
@@ -94,9 +103,10 @@ class Plan:
         }
 
 
-def limit_us(nodes: int, data_bytes: int, params: TimingParams) -> float:
-    """The physical limit: ``nodes x data_bytes`` taxel bytes back to back on one link, in us."""
-    return nodes * data_bytes * params.byte_ps / PS_PER_US
+def limit_us(nodes: Num, data_bytes: Num, params: TimingParams) -> Any:
+    """The physical limit: ``nodes x data_bytes`` taxel bytes back to back on one link, in us
+    (scalars, or numpy arrays that broadcast: a float or an array)."""
+    return np.asarray(nodes) * np.asarray(data_bytes) * params.byte_ps / PS_PER_US
 
 
 def plan(nodes: int, data_bytes: int, params: TimingParams = WIRE) -> Plan:
@@ -105,7 +115,7 @@ def plan(nodes: int, data_bytes: int, params: TimingParams = WIRE) -> Plan:
     Raises:
         TopologyError: a network cannot have ``nodes`` nodes of ``data_bytes`` (e.g. > 239 EPL CNs).
     """
-    limit = limit_us(nodes, data_bytes, params)
+    limit = float(limit_us(nodes, data_bytes, params))
     networks: dict[str, NetworkPlan] = {}
     for table in TABLES:
         validate(table, nodes, data_bytes)
@@ -118,6 +128,7 @@ def plan(nodes: int, data_bytes: int, params: TimingParams = WIRE) -> Plan:
             overhead_us=best.cycle_us - limit,
             efficiency=limit / best.cycle_us,
             alternatives=options,
+            analytic_us=round(float(analytic_grid(table, [nodes], [data_bytes], params)[0, 0]), 6),
         )
     return Plan(nodes, data_bytes, params.name, limit, networks)
 

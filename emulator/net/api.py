@@ -18,6 +18,7 @@ from emulator.net.epl import EplEngine
 from emulator.net.faults import Fault
 from emulator.net.result import SimResult
 from emulator.net.run import Engine, Sink, run
+from emulator.net.startup import StartupRecord
 from skinframes.pcap import CaptureWriter
 
 __all__ = ["CaptureSink", "simulate_ecat", "simulate_epl"]
@@ -41,17 +42,18 @@ class CaptureSink:
             comment=comment,
         )
 
-    def write_block(
+    def write_repeated(
         self,
         times_ps: npt.NDArray[np.int64],
         lengths: npt.NDArray[np.int64],
-        data: npt.NDArray[np.uint8],
+        template: npt.NDArray[np.uint8],
         *,
         ports: npt.NDArray[np.int64],
         outbound: npt.NDArray[np.bool_],
+        fills: list[tuple[int, npt.NDArray[np.uint8]]],
     ) -> None:
-        self.writer.write_block(
-            times_ps // PS_PER_NS, lengths, data, ports=ports, outbound=outbound
+        self.writer.write_repeated(
+            times_ps // PS_PER_NS, lengths, template, ports=ports, outbound=outbound, fills=fills
         )
 
 
@@ -68,10 +70,21 @@ def _execute(
     fast: bool,
     every_cycle: bool,
     ports: int,
+    prelude: list[StartupRecord] | None = None,
 ) -> tuple[SimResult, Any]:
     if pcap is not None and sink is not None:
         raise TopologyError("give a pcap path or a sink, not both")
+    start_ps = 0
+    if prelude:  # the start-up's frames, then the cycles one IFG after its last frame
+        start_ps = prelude[-1].time_ps + prelude[-1].wire_ps + params.ifg_ps
+
+    def write_prelude(out: Sink | None) -> None:
+        for r in prelude or ():
+            if out is not None:
+                out.write(r.time_ps, r.frame, port=0, outbound=r.outbound, comment=None)
+
     if pcap is None:
+        write_prelude(sink)
         return run(
             engine,
             cycles,
@@ -82,9 +95,11 @@ def _execute(
             progress=progress,
             fast=fast,
             every_cycle=every_cycle,
+            start_ps=start_ps,
         )
     names = ["master port 0", "master port 1"][:ports]
     with CaptureWriter(pcap, ports=ports, port_names=names) as writer:
+        write_prelude(CaptureSink(writer))
         result, events = run(
             engine,
             cycles,
@@ -95,6 +110,7 @@ def _execute(
             progress=progress,
             fast=fast,
             every_cycle=every_cycle,
+            start_ps=start_ps,
         )
     result.pcap = os.fspath(pcap)
     return result, events
@@ -117,6 +133,7 @@ def simulate_ecat(
     progress: Callable[[int], None] | None = None,
     fast: bool = True,
     every_cycle: bool = False,
+    startup: bool = False,
 ) -> SimResult:
     """Emulate ``cycles`` EtherCAT cycles reading ``data_bytes`` of taxels from each of
     ``nodes`` skin patches (see :mod:`emulator.net.ecat`).
@@ -133,12 +150,21 @@ def simulate_ecat(
         progress: called with the number of cycles done since the last call.
         fast: repeat steady cycles instead of walking each (the same bytes; a test proves it).
         every_cycle: list every cycle in ``details`` (walking each), not only the changes.
+        startup: patches with a CoE mailbox, and the frames of the master's start-up
+            (:mod:`emulator.net.startup`) before the first cycle; open ring, no faults.
     """
     if closed_ring is not None and redundant is not None and closed_ring != redundant:
         raise TopologyError("closed_ring and its old name redundant disagree")
     ring = bool(closed_ring if closed_ring is not None else redundant)
     engine = EcatEngine(
-        nodes, data_bytes, params, closed_ring=ring, layout=layout, faults=faults, seed=seed
+        nodes,
+        data_bytes,
+        params,
+        closed_ring=ring,
+        layout=layout,
+        faults=faults,
+        seed=seed,
+        startup=startup,
     )
     result, events = _execute(
         engine,
@@ -152,7 +178,12 @@ def simulate_ecat(
         fast=fast,
         every_cycle=every_cycle,
         ports=2 if ring else 1,
+        prelude=engine.startup,
     )
+    if startup:
+        s = engine.startup
+        result.startup_us = (s[-1].time_ps + s[-1].wire_ps) / PS_PER_US if s else 0.0
+        result.startup_frames = len(s)
     if ring and engine.break_ps:
         result.recovery_us = params.ecat_link_loss_ps / PS_PER_US
     result.diagnosis = engine.diagnosis(events)

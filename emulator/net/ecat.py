@@ -30,7 +30,7 @@ from __future__ import annotations
 import random
 from collections import Counter
 from dataclasses import dataclass, field
-from typing import Final
+from typing import Any, Final
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +42,7 @@ from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
 from emulator.net.faults import Fault, check_faults, corruption_mark
+from emulator.net.startup import StartupRecord, run_startup
 from skinframes import ethercat, ethernet
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -49,8 +50,11 @@ __all__ = [
     "DEFAULT_TIMEOUT_MARGIN_PS",
     "LAYOUTS",
     "EcatEngine",
+    "EcatTiming",
     "frames_for",
     "path_latency_ps",
+    "per_slave_frame_lengths",
+    "send_times_ps",
 ]
 
 LAYOUTS: Final = ("per-slave", "logical")
@@ -94,6 +98,24 @@ def frames_for(nodes: int, data_bytes: int, layout: str = "per-slave") -> list[E
     raise TopologyError(f"unknown layout {layout!r}; choose from {list(LAYOUTS)}")
 
 
+def per_slave_frame_lengths(nodes: int, sizes: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+    """(frames, len(sizes)): the lengths (as captured) of the frames :func:`frames_for` builds
+    in the ``per-slave`` layout, one column per size, 0 past a column's last frame.
+
+    Equal datagrams of 12 + b bytes pack max_tgram to a frame (eq. 15, ETG.1000.4 Table 12/13),
+    the last frame the rest; short frames are padded to 60 bytes (802.3 minimum).
+    """
+    for b in (int(sizes.min()), int(sizes.max())):
+        check_ecat(nodes, b)
+    per_dg = ethercat.DATAGRAM_OVERHEAD_BYTES + sizes.astype(np.int64)
+    per_frame = (ethernet.MAX_PAYLOAD_BYTES - ethercat.FRAME_HEADER_BYTES) // per_dg
+    frames = -(-nodes // per_frame)
+    k = np.arange(int(frames.max()), dtype=np.int64)[:, None]
+    count = np.clip(nodes - k * per_frame, 0, per_frame)
+    length = ethernet.HEADER_BYTES + ethercat.FRAME_HEADER_BYTES + count * per_dg
+    return np.where(count > 0, np.maximum(length, ethernet.MIN_FRAME_BYTES), 0)
+
+
 def path_latency_ps(nodes: int, params: TimingParams, closed_ring: bool) -> int:
     """Delay of a bit from the master's (first) port through the chain back to the master."""
     if closed_ring:  # n + 1 cables, one processing pass per slave
@@ -109,17 +131,180 @@ def forwarding_latency_ps(nodes: int, params: TimingParams) -> int:
     return (nodes + 1) * params.cable_ps + nodes * params.ecat_forwarding_ps
 
 
+Ps = Any  # a time in ps: an int, or an int64 array of them (timing-only sweeps)
+
+
+def send_times_ps(
+    start_ps: int, wire_ps: npt.NDArray[np.int64], ifg_ps: int
+) -> npt.NDArray[np.int64]:
+    """When the master starts each frame of a cycle: back to back from ``start_ps``, one IFG
+    apart (axis 0: the frames, in order; ETG.1000.4 cyclic frames, paper eq. 12's n_fr T_eth)."""
+    step = wire_ps + ifg_ps
+    return start_ps + np.cumsum(step, axis=0) - step
+
+
 @dataclass
 class _Walk:
     """Where one frame went."""
 
     port: int | None  # the master port it came back to; None = lost on the way
-    arrive_ps: int
+    arrive_ps: Ps
     processed: list[int] = field(default_factory=list)  # chain positions 0..n-1, in order
     corrupted_link: int | None = None
 
 
-class EcatEngine:
+Trip = tuple[_Walk, bool, Ps]  # where a frame went, back in time, when the master is done
+
+
+class EcatTiming:
+    """The timing of an EtherCAT chain: how frames walk it hop by hop (the same for the full
+    engine, :class:`EcatEngine`, and for timing-only sweeps, :meth:`cycle_ps`).
+
+    Args:
+        closed_ring: the master's second port closes the ring (cable redundancy).
+        faults: the fault plan (:mod:`emulator.net.faults`); empty for a healthy network.
+        seed: the random faults' seed.
+    """
+
+    def __init__(
+        self,
+        nodes: int,
+        params: TimingParams,
+        *,
+        closed_ring: bool = False,
+        faults: tuple[Fault, ...] = (),
+        seed: int = 0,
+    ) -> None:
+        self.nodes, self.params, self.closed_ring = nodes, params, closed_ring
+        self.topology = "closed" if closed_ring else "open"
+        self.links = nodes + 1 if closed_ring else nodes
+        check_faults(faults, nodes, self.links, "ecat")
+        self.faults = faults
+        self.rng = random.Random(seed)
+        # the longest way a frame can take (out and back through every ESC, as in an open ring
+        # or a closed ring broken next to a master port) plus the margin
+        longest = path_latency_ps(nodes, params, False) + 2 * params.cable_ps
+        self.timeout = [longest + DEFAULT_TIMEOUT_MARGIN_PS] * 2
+        self.late_ps = {f.where - 1: round(f.value * PS_PER_US) for f in faults if f.kind == "late"}
+        self.chance = tuple(f for f in faults if f.kind in ("biterr", "drop") and f.value > 0)
+        self.break_ps: dict[int, int] = {}  # link -> the time it failed
+
+    @property
+    def ports(self) -> tuple[int, ...]:
+        """The master ports that send each frame: both in the closed ring."""
+        return (0, 1) if self.closed_ring else (0,)
+
+    def trip(self, t: Ps, wire: Ps, port: int, events: Counter[tuple[object, ...]]) -> Trip:
+        """A frame of ``wire`` ps sent by master ``port`` at ``t``: where it went, whether it
+        came back before the master's receive timeout, and when the master is done with it (its
+        end at the master, or the timeout's end when it was lost)."""
+        w = self._walk(t, port == 1, events)
+        deadline = t + self.timeout[port]
+        if w.port is None:
+            events[("lost", port)] += 1
+            return w, False, deadline + wire
+        if np.any(w.arrive_ps > deadline):
+            events[("lost", port)] += 1
+            events[("late",)] += 1
+            return w, False, w.arrive_ps + wire
+        return w, True, w.arrive_ps + wire
+
+    def cycle_ps(self, wire_ps: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+        """Timing only: one steady-state cycle for each of several frame sets at once.
+
+        ``wire_ps`` is (frames, cells): column j holds the wire times of the frames a master
+        sends each cycle in cell j (0 past its last frame). Each frame walks the chain as in
+        :meth:`EcatEngine.cycle` (numpy time arrays instead of ints); no bytes, no ESC model.
+
+        Returns:
+            (cells,) cycle times in ps.
+
+        Raises:
+            TopologyError: a fault plan; a sweep is of healthy networks only.
+        """
+        if self.faults:
+            raise TopologyError("EtherCAT timing sweep: a healthy network only (no faults)")
+        events: Counter[tuple[object, ...]] = Counter()
+        sends = send_times_ps(0, wire_ps, self.params.ifg_ps)
+        end = np.zeros(wire_ps.shape[1:], dtype=np.int64)
+        for port in self.ports:
+            _, _, done = self.trip(sends, wire_ps, port, events)
+            end = np.maximum(end, np.where(wire_ps > 0, done, 0).max(axis=0))
+        if events:
+            raise TopologyError(f"EtherCAT timing sweep: frames lost in a healthy chain {events}")
+        return np.asarray(end + self.params.ifg_ps, dtype=np.int64)
+
+    # --- the chain ----------------------------------------------------------------------------
+    def _fail(self, link: int, t: int, events: Counter[tuple[object, ...]]) -> None:
+        if link in self.break_ps:
+            return
+        self.break_ps[link] = t
+        for slave, port in ((link, 1), (link + 1, 0)):  # the ESCs at both ends lose the link
+            if 1 <= slave <= self.nodes:
+                events[("link", slave, port)] += 1
+
+    def _down(self, link: int, t: Ps) -> bool:
+        b = self.break_ps.get(link)
+        return b is not None and t >= b
+
+    def _closed(self, link: int, t: Ps) -> bool:
+        b = self.break_ps.get(link)
+        return b is not None and t >= b + self.params.ecat_link_loss_ps
+
+    def _walk(self, t0: Ps, from_second_port: bool, events: Counter[tuple[object, ...]]) -> _Walk:
+        """Follow one frame from a master port until it is back at a master port or lost
+        (``t0``: an int, or an array of send times of frames that all take the same way)."""
+        n, p, late = self.nodes, self.params, self.late_ps
+        node, d, t = (n + 1, -1, t0) if from_second_port else (0, 1, t0)
+        w = _Walk(None, 0)
+        corrupted = False
+        while True:
+            link = node if d > 0 else node - 1
+            open_end = not self.closed_ring and link == n  # the last slave's free port 1
+            if open_end or self._down(link, t):
+                if node in (0, n + 1):  # the master's own cable is down
+                    return w
+                if not (open_end or self._closed(link, t)):
+                    return w  # sent into a dead cable before the port closed
+                if d > 0:  # port 1 closed: loop back towards port 0 (forwarding path)
+                    t = t + p.ecat_forwarding_ps
+                else:  # port 0 closed: loop into the processing unit, out by port 1
+                    t = t + p.ecat_processing_ps + late.get(node - 1, 0)
+                    if not corrupted:
+                        w.processed.append(node - 1)
+                d = -d
+                continue
+            hit = self._cross(link)
+            if hit == "drop":
+                return w
+            node, t = node + d, t + p.cable_ps
+            receiver_port = 0 if d > 0 else 1
+            if hit == "biterr" and not corrupted:
+                corrupted = True
+                w.corrupted_link = link
+                if 1 <= node <= n:
+                    events[("invalid", node, receiver_port)] += 1
+            elif corrupted and 1 <= node <= n:  # a later ESC sees the frame already invalid
+                events[("forwarded", node, receiver_port)] += 1
+            if node == 0 or node == n + 1:
+                w.port, w.arrive_ps = (0 if node == 0 else 1), t
+                return w
+            if d > 0:
+                t = t + p.ecat_processing_ps + late.get(node - 1, 0)
+                if not corrupted:
+                    w.processed.append(node - 1)
+            else:
+                t = t + p.ecat_forwarding_ps
+
+    def _cross(self, link: int) -> str | None:
+        """Chance faults on one crossing of ``link``: None, 'drop' or 'biterr'."""
+        for f in self.chance:
+            if f.where == link and self.rng.random() < f.value:
+                return f.kind
+        return None
+
+
+class EcatEngine(EcatTiming):
     """EtherCAT cycles of ``nodes`` skin patches with ``data_bytes`` of taxels each.
 
     Args:
@@ -142,33 +327,36 @@ class EcatEngine:
         layout: str = "per-slave",
         faults: tuple[Fault, ...] = (),
         seed: int = 0,
+        startup: bool = False,
     ) -> None:
         check_emulated_ecat(nodes, data_bytes)
+        super().__init__(nodes, params, closed_ring=closed_ring, faults=faults, seed=seed)
         self.sent = frames_for(nodes, data_bytes, layout)
-        self.nodes, self.data_bytes, self.params = nodes, data_bytes, params
-        self.closed_ring, self.layout = closed_ring, layout
-        self.topology = "closed" if closed_ring else "open"
-        self.links = nodes + 1 if closed_ring else nodes
-        check_faults(faults, nodes, self.links, "ecat")
-        self.faults = faults
-        self.rng = random.Random(seed)
-        self.chain = EcatChain.configured(nodes, data_bytes)
-        self.effects: list[FrameEffect] = [self.chain.frame_effect(f) for f in self.sent]
-        everyone = range(nodes)
-        self.expected_wkc = sum(e.wkc(everyone) for e in self.effects)
+        self.data_bytes, self.layout = data_bytes, layout
         self.out = [ethercat.frame(f).to_bytes() for f in self.sent]
         self.out2 = [
             ethercat.frame(f, src=ethercat.MASTER_MAC_SECOND).to_bytes() for f in self.sent
         ]
         self.wire = [params.frame_ps(len(b)) for b in self.out]
-        # the longest way a frame can take (out and back through every ESC, as in an open ring
-        # or a closed ring broken next to a master port) plus the margin
-        longest = path_latency_ps(nodes, params, False) + 2 * params.cable_ps
-        self.timeout = [longest + DEFAULT_TIMEOUT_MARGIN_PS] * 2
-        self.late_ps = {f.where - 1: round(f.value * PS_PER_US) for f in faults if f.kind == "late"}
-        self.chance = tuple(f for f in faults if f.kind in ("biterr", "drop") and f.value > 0)
-        self.break_ps: dict[int, int] = {}  # link -> the time it failed
         self._runs: dict[tuple[int, frozenset[int]], tuple[tuple[int, int, int], ...]] = {}
+        # startup: patches with a CoE mailbox taken to OP by the start-up frames, timed by this
+        # engine's walk (emulator.net.startup); else configured without frames on the wire
+        self.startup: list[StartupRecord] = []
+        if startup:
+            if faults or closed_ring:
+                raise TopologyError("the start-up runs on an open ring without faults only")
+            self.chain = EcatChain.skin(nodes, data_bytes, mailbox=True)
+            self.startup = run_startup(
+                self.chain,
+                lambda t: self._walk(t, False, Counter()).arrive_ps,
+                params.frame_ps,
+                params.ifg_ps,
+            )
+        else:
+            self.chain = EcatChain.configured(nodes, data_bytes)
+        self.effects: list[FrameEffect] = [self.chain.frame_effect(f) for f in self.sent]
+        everyone = range(nodes)
+        self.expected_wkc = sum(e.wkc(everyone) for e in self.effects)
 
     # --- what the driver asks -----------------------------------------------------------------
     def event_at(self, cycle: int) -> bool:
@@ -197,11 +385,11 @@ class EcatEngine:
             start_ps >= b + p.ecat_link_loss_ps for b in self.break_ps.values()
         )
         records: list[Record] = []
-        t, end, wkc = start_ps, start_ps, 0
-        ports = (0, 1) if self.closed_ring else (0,)
+        end, wkc = start_ps, 0
+        sends = send_times_ps(start_ps, np.array(self.wire, dtype=np.int64), p.ifg_ps).tolist()
         for k, eff in enumerate(self.effects):
-            wire = self.wire[k]
-            for port in ports:
+            wire, t = self.wire[k], sends[k]
+            for port in self.ports:
                 frame = (self.out if port == 0 else self.out2)[k]
                 records.append(
                     Record(
@@ -213,15 +401,10 @@ class EcatEngine:
                         frame if image is not None else None,
                     )
                 )
-                w = self._walk(t, port == 1, events)
-                deadline = t + self.timeout[port]
-                if w.port is None or w.arrive_ps > deadline:
-                    events[("lost", port)] += 1
-                    if w.port is not None:
-                        events[("late",)] += 1
-                    end = max(end, deadline + wire)  # the master waits for it in vain
-                    if w.port is None:
-                        continue
+                w, in_time, done = self.trip(t, wire, port, events)
+                end = max(end, done)  # when lost: the master waited for it in vain
+                if w.port is None:
+                    continue
                 acting = tuple(w.processed)
                 back, runs = self._back(k, port, acting, image)
                 mark = None
@@ -232,7 +415,7 @@ class EcatEngine:
                     bit = self._data_bit(k)  # drawn in timing-only runs too: same chances
                     if back is not None:
                         back = ethernet.flip_bit(back, bit)
-                elif w.arrive_ps <= deadline:
+                elif in_time:
                     wkc += eff.wkc(acting)
                 records.append(
                     Record(
@@ -248,8 +431,6 @@ class EcatEngine:
                         mark,
                     )
                 )
-                end = max(end, w.arrive_ps + wire)
-            t += wire + p.ifg_ps
         records.sort(key=lambda r: (r.rel_ps, r.port, not r.outbound))
         return Cycle(
             tuple(records), end + p.ifg_ps - start_ps, wkc, self.expected_wkc, events, steady
@@ -293,74 +474,6 @@ class EcatEngine:
                 text += f", {late} of them came back after the timeout"
             out.append(text)
         return out
-
-    # --- the chain ----------------------------------------------------------------------------
-    def _fail(self, link: int, t: int, events: Counter[tuple[object, ...]]) -> None:
-        if link in self.break_ps:
-            return
-        self.break_ps[link] = t
-        for slave, port in ((link, 1), (link + 1, 0)):  # the ESCs at both ends lose the link
-            if 1 <= slave <= self.nodes:
-                events[("link", slave, port)] += 1
-
-    def _down(self, link: int, t: int) -> bool:
-        b = self.break_ps.get(link)
-        return b is not None and t >= b
-
-    def _closed(self, link: int, t: int) -> bool:
-        b = self.break_ps.get(link)
-        return b is not None and t >= b + self.params.ecat_link_loss_ps
-
-    def _walk(self, t0: int, from_second_port: bool, events: Counter[tuple[object, ...]]) -> _Walk:
-        """Follow one frame from a master port until it is back at a master port or lost."""
-        n, p, late = self.nodes, self.params, self.late_ps
-        node, d, t = (n + 1, -1, t0) if from_second_port else (0, 1, t0)
-        w = _Walk(None, 0)
-        corrupted = False
-        while True:
-            link = node if d > 0 else node - 1
-            open_end = not self.closed_ring and link == n  # the last slave's free port 1
-            if open_end or self._down(link, t):
-                if node in (0, n + 1):  # the master's own cable is down
-                    return w
-                if not (open_end or self._closed(link, t)):
-                    return w  # sent into a dead cable before the port closed
-                if d > 0:  # port 1 closed: loop back towards port 0 (forwarding path)
-                    t += p.ecat_forwarding_ps
-                else:  # port 0 closed: loop into the processing unit, out by port 1
-                    t += p.ecat_processing_ps + late.get(node - 1, 0)
-                    if not corrupted:
-                        w.processed.append(node - 1)
-                d = -d
-                continue
-            hit = self._cross(link)
-            if hit == "drop":
-                return w
-            node, t = node + d, t + p.cable_ps
-            receiver_port = 0 if d > 0 else 1
-            if hit == "biterr" and not corrupted:
-                corrupted = True
-                w.corrupted_link = link
-                if 1 <= node <= n:
-                    events[("invalid", node, receiver_port)] += 1
-            elif corrupted and 1 <= node <= n:  # a later ESC sees the frame already invalid
-                events[("forwarded", node, receiver_port)] += 1
-            if node == 0 or node == n + 1:
-                w.port, w.arrive_ps = (0 if node == 0 else 1), t
-                return w
-            if d > 0:
-                t += p.ecat_processing_ps + late.get(node - 1, 0)
-                if not corrupted:
-                    w.processed.append(node - 1)
-            else:
-                t += p.ecat_forwarding_ps
-
-    def _cross(self, link: int) -> str | None:
-        """Chance faults on one crossing of ``link``: None, 'drop' or 'biterr'."""
-        for f in self.chance:
-            if f.where == link and self.rng.random() < f.value:
-                return f.kind
-        return None
 
     def _back(
         self, k: int, port: int, acting: tuple[int, ...], image: npt.NDArray[np.uint8] | None

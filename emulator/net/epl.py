@@ -24,6 +24,7 @@ from __future__ import annotations
 
 import random
 from collections import Counter
+from collections.abc import Callable
 from typing import Final
 
 import numpy as np
@@ -34,13 +35,13 @@ from emulator.model.limits import check_epl
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net.cycle import FILL_FRAME, FILL_NONE, Cycle, Record
-from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS
+from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS, Ps
 from emulator.net.faults import Fault, check_faults, corruption_mark
 from skinframes import ethernet, powerlink
 from skinframes.pcap import NS_PER_S
 from skinframes.powerlink import RequestedService
 
-__all__ = ["EPOCH_S", "EplEngine", "hops_to", "soc_frame"]
+__all__ = ["EPOCH_S", "EplEngine", "hops_to", "pres_length", "soc_frame"]
 
 EPOCH_S: Final = 1_700_000_000  # NetTime of cycle 0 in the SoC (a fixed, reproducible epoch)
 
@@ -48,6 +49,11 @@ EPOCH_S: Final = 1_700_000_000  # NetTime of cycle 0 in the SoC (a fixed, reprod
 def hops_to(cn: int) -> int:
     """Hubs (and cables) between the MN and CN number ``cn`` (1-based): the MN's own and CNs 1..cn."""
     return cn + 1
+
+
+def pres_length(data_bytes: int) -> int:
+    """Length (as captured) of a PRes carrying ``data_bytes`` of taxels."""
+    return len(powerlink.frame(powerlink.PRes(1, bytes(data_bytes))).to_bytes())
 
 
 def soc_frames(starts_ps: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
@@ -112,7 +118,7 @@ class EplEngine:
             for i in range(1, nodes + 1)
         ]
         self.soc_len = len(soc_frame(0))
-        self.pres_len = len(powerlink.frame(powerlink.PRes(1, bytes(data_bytes))).to_bytes())
+        self.pres_len = pres_length(data_bytes)
         self.needed = [
             2 * hops_to(i) * p.hop_ps + p.gap_ps(p.epl_cn_delay_ps) for i in range(1, nodes + 1)
         ]
@@ -171,12 +177,51 @@ class EplEngine:
                 Record(t - start_ps, 0, out, length, p.frame_ps(length), data, fill, (), node, mark)
             )
 
-        add(start_ps, soc_frame(start_ps) if bytes_on else b"", self.soc_len, True, fill=FILL_FRAME)
-        t = start_ps + p.frame_ps(self.soc_len) + p.ifg_ps
-        received = 0
         pres = (
             powerlink.pack_pres_frames(taxels, np.arange(1, n + 1)) if taxels is not None else None
         )
+        end, received = self._timeline(
+            c, start_ps, p.frame_ps(self.pres_len), events, add, pres, bytes_on
+        )
+        return Cycle(tuple(recs), end - start_ps, received, n, events, steady=not self.chance)
+
+    def cycle_ps(self, pres_wire_ps: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+        """Timing only: one steady-state cycle for each PRes wire time in ``pres_wire_ps`` (one
+        per payload size), the polls walked once as in :meth:`cycle` with numpy time arrays;
+        no frames built.
+
+        Raises:
+            TopologyError: a fault plan or ``asnd``; a sweep is of healthy networks only.
+        """
+        if self.faults or self.asnd:
+            raise TopologyError("EPL timing sweep: a healthy network without ASnd only")
+        events: Counter[tuple[object, ...]] = Counter()
+
+        def skip(t: Ps, frame: bytes, length: int, out: bool, *more: object) -> None:
+            pass
+
+        end, _ = self._timeline(0, 0, pres_wire_ps, events, skip, None, False)
+        if events:
+            raise TopologyError(f"EPL timing sweep: PRes lost in a healthy network {events}")
+        return np.broadcast_to(np.asarray(end, dtype=np.int64), pres_wire_ps.shape).copy()
+
+    def _timeline(
+        self,
+        c: int,
+        start_ps: int,
+        pres_wire: Ps,
+        events: Counter[tuple[object, ...]],
+        add: Callable[..., None],
+        pres: npt.NDArray[np.uint8] | None,
+        bytes_on: bool,
+    ) -> tuple[Ps, int]:
+        """Cycle ``c`` from ``start_ps``: SoC, the polls, SoA (and ASnd), each frame handed to
+        ``add``; returns when the next cycle starts and the PRes received. ``pres_wire``: the
+        PRes wire time, an int or an array of them (then every time is an array)."""
+        p, n = self.params, self.nodes
+        add(start_ps, soc_frame(start_ps) if bytes_on else b"", self.soc_len, True, FILL_FRAME)
+        t: Ps = start_ps + p.frame_ps(self.soc_len) + p.ifg_ps
+        received = 0
         for i in range(1, n + 1):
             add(t, self.preq[i - 1], len(self.preq[i - 1]), True)
             preq_end = t + p.frame_ps(len(self.preq[i - 1]))
@@ -188,11 +233,11 @@ class EplEngine:
             frame = pres[i - 1].tobytes() if pres is not None else b""
             if link is None:
                 received += 1
-                add(at, frame, self.pres_len, False, fill=FILL_FRAME, node=i - 1)
+                add(at, frame, self.pres_len, False, FILL_FRAME, i - 1)
             else:
                 bad = self._corrupt(frame, self.data_bytes)
-                add(at, bad, self.pres_len, False, mark=corruption_mark(link))
-            t = at + p.frame_ps(self.pres_len) + p.gap_ps(p.epl_mn_delay_ps)
+                add(at, bad, self.pres_len, False, FILL_NONE, -1, corruption_mark(link))
+            t = at + pres_wire + p.gap_ps(p.epl_mn_delay_ps)
         target = c % n + 1
         soa = self.soa_invite[target - 1] if self.asnd else self.soa_plain
         add(t, soa, len(soa), True)
@@ -208,14 +253,13 @@ class EplEngine:
                     add(at, status, len(status), False)
                 else:
                     bad = self._corrupt(status, 0)
-                    add(at, bad, len(status), False, mark=corruption_mark(link))
+                    add(at, bad, len(status), False, FILL_NONE, -1, corruption_mark(link))
                 end = at + p.frame_ps(len(status))
-        end += p.ifg_ps + p.epl_cycle_idle_ps
-        return Cycle(tuple(recs), end - start_ps, received, n, events, steady=not self.chance)
+        return end + p.ifg_ps + p.epl_cycle_idle_ps, received
 
     def _answer(
-        self, i: int, request_end: int, events: Counter[tuple[object, ...]], *, asnd: bool = False
-    ) -> tuple[int, int | None] | None:
+        self, i: int, request_end: Ps, events: Counter[tuple[object, ...]], *, asnd: bool = False
+    ) -> tuple[Ps, int | None] | None:
         """When CN ``i``'s answer to a request ending at ``request_end`` starts at the MN, and the
         link where a bit error hit it on its way back (None: intact); None when the MN gets no
         answer in time."""
@@ -230,8 +274,9 @@ class EplEngine:
         if back is not None and back[0] == "drop":
             events[("loss", kind, i)] += 1
             return None
-        at = request_end + self.needed[i - 1] + self.late_ps.get(i, 0)
-        if at - request_end > self.timeout[i - 1]:
+        delay = self.needed[i - 1] + self.late_ps.get(i, 0)
+        at = request_end + delay
+        if delay > self.timeout[i - 1]:
             events[("loss", kind, i)] += 1
             events[("late", kind, i)] += 1
             return None

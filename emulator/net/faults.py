@@ -8,11 +8,12 @@ cycle and are reproducible with ``--seed``.
 
 from __future__ import annotations
 
+import math
 import re
 from dataclasses import dataclass
 from typing import Final
 
-from emulator.errors import TopologyError
+from emulator.errors import FaultError
 
 __all__ = ["FAULT_HELP", "Fault", "corruption_mark", "parse_fault"]
 
@@ -61,34 +62,36 @@ def parse_fault(spec: str) -> Fault:
     """Parse one ``--fault`` SPEC (see :data:`FAULT_HELP`).
 
     Raises:
-        TopologyError: the SPEC is not one of the forms above.
+        FaultError: the SPEC is not one of the forms above.
     """
     kind = spec.split(":", 1)[0]
     pattern = _PATTERNS.get(kind)
     m = pattern.match(spec.strip()) if pattern else None
     if m is None:
-        raise TopologyError(f"fault {spec!r}: not a fault SPEC ('--fault help' lists them)")
+        raise FaultError(f"fault {spec!r}: not a fault SPEC ('--fault help' lists them)")
     a, b = m.group(1), m.group(2)
     if kind in ("cable", "power"):
         return Fault(kind, int(a), int(b))
     try:
         value = float(b)
     except ValueError:
-        raise TopologyError(f"fault {spec!r}: {b!r} is not a number") from None
+        raise FaultError(f"fault {spec!r}: {b!r} is not a number") from None
+    if not math.isfinite(value):
+        raise FaultError(f"fault {spec!r}: {b!r} is not a finite number")
     if kind in ("biterr", "drop") and not 0.0 <= value <= 1.0:
-        raise TopologyError(f"fault {spec!r}: probability {value} outside 0..1")
+        raise FaultError(f"fault {spec!r}: probability {value} outside 0..1")
     if kind == "late" and value < 0:
-        raise TopologyError(f"fault {spec!r}: a CN cannot answer early")
+        raise FaultError(f"fault {spec!r}: a CN cannot answer early")
     return Fault(kind, int(a), 0, value)
 
 
 def check_faults(faults: tuple[Fault, ...], nodes: int, links: int, protocol: str) -> None:
-    """Raise TopologyError for a fault that names a node or link the network does not have."""
+    """Raise FaultError for a fault that names a node or link the network does not have."""
     for f in faults:
         if f.kind in ("cable", "biterr", "drop") and not 0 <= f.where < links:
-            raise TopologyError(f"fault {f}: link {f.where} does not exist (0..{links - 1})")
+            raise FaultError(f"fault {f}: link {f.where} does not exist (0..{links - 1})")
         if f.kind in ("power", "late") and not 1 <= f.where <= nodes:
-            raise TopologyError(f"fault {f}: node {f.where} does not exist (1..{nodes})")
+            raise FaultError(f"fault {f}: node {f.where} does not exist (1..{nodes})")
 
 
 def corruption_mark(link: int) -> str:

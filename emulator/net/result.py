@@ -66,6 +66,8 @@ class SimResult:
     pcap: str | None = None
     recovery_us: float | None = None
     diagnosis: list[str] = field(default_factory=list)
+    startup_us: float | None = None  # simulate ecat --startup: when its last frame is back
+    startup_frames: int = 0  # frames of the start-up at the master's port, sent and returned
 
     def add_cycles(self, cycle_ps: int, frames: int, times: int) -> None:
         """Count ``times`` cycles of ``cycle_ps`` with ``frames`` frames each."""
@@ -127,4 +129,8 @@ class SimResult:
             "recovery_us": self.recovery_us,
             "diagnosis": list(self.diagnosis),
             "pcap": self.pcap,
-        }
+        } | (
+            {"startup_us": self.startup_us, "startup_frames": self.startup_frames}
+            if self.startup_us is not None
+            else {}
+        )

@@ -13,13 +13,13 @@ memory does not grow with the number of cycles.
 from __future__ import annotations
 
 from collections import Counter, deque
-from collections.abc import Callable, Iterator
+from collections.abc import Callable
 from typing import Final, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from emulator.errors import ScheduleError, TopologyError
+from emulator.errors import PayloadError, ScheduleError
 from emulator.model.limits import check_cycles
 from emulator.net.cycle import FILL_FRAME, FILL_TAXELS, Cycle, Record
 from emulator.net.result import CycleDetail, SimResult
@@ -27,7 +27,7 @@ from skinframes import ethernet, taxel
 
 __all__ = ["BLOCK_BYTES", "MAX_LISTED", "Engine", "MemorySink", "Sink", "TaxelSource", "run"]
 
-BLOCK_BYTES: Final = 32 << 20  # frame bytes the fast path assembles at once
+BLOCK_BYTES: Final = 32 << 20  # frame bytes per block of repeated cycles (taxels drawn at once)
 MAX_LISTED: Final = 10_000  # cycles_detail entries at most (the rest are counted)
 
 
@@ -63,14 +63,15 @@ class Sink(Protocol):
         self, time_ps: int, frame: bytes, *, port: int, outbound: bool, comment: str | None
     ) -> None: ...
 
-    def write_block(
+    def write_repeated(
         self,
         times_ps: npt.NDArray[np.int64],
         lengths: npt.NDArray[np.int64],
-        data: npt.NDArray[np.uint8],
+        template: npt.NDArray[np.uint8],
         *,
         ports: npt.NDArray[np.int64],
         outbound: npt.NDArray[np.bool_],
+        fills: list[tuple[int, npt.NDArray[np.uint8]]],
     ) -> None: ...
 
 
@@ -85,19 +86,23 @@ class MemorySink:
     ) -> None:
         self.records.append((time_ps, port, outbound, frame, comment))
 
-    def write_block(
+    def write_repeated(
         self,
         times_ps: npt.NDArray[np.int64],
         lengths: npt.NDArray[np.int64],
-        data: npt.NDArray[np.uint8],
+        template: npt.NDArray[np.uint8],
         *,
         ports: npt.NDArray[np.int64],
         outbound: npt.NDArray[np.bool_],
+        fills: list[tuple[int, npt.NDArray[np.uint8]]],
     ) -> None:
-        ends = np.cumsum(lengths)
+        ends = np.cumsum(lengths).tolist()
         for row in range(times_ps.shape[0]):
-            raw = data[row].tobytes()
-            for r, end in enumerate(ends.tolist()):
+            data = template.copy()
+            for offset, values in fills:
+                data[offset : offset + values.shape[1]] = values[row]
+            raw = data.tobytes()
+            for r, end in enumerate(ends):
                 start = end - int(lengths[r])
                 self.records.append(
                     (int(times_ps[row, r]), int(ports[r]), bool(outbound[r]), raw[start:end], None)
@@ -117,35 +122,26 @@ class TaxelSource:
         payloads: npt.NDArray[np.uint8] | None = None,
     ) -> None:
         self.shape = (nodes, data_bytes)
+        self._given: npt.NDArray[np.uint8] | None = None
+        self._stream: taxel.PayloadStream | None = None
         if payloads is not None:
             arr = np.asarray(payloads)
             if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
-                raise TopologyError(
+                raise PayloadError(
                     f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
                 )
-            self._chunks: Iterator[npt.NDArray[np.uint8]] = iter((arr,))
+            self._given = arr
         else:
-            self._chunks = iter_payloads(nodes, cycles, data_bytes, seed)
-        self._buf = np.empty((0, nodes, data_bytes), np.uint8)
+            self._stream = taxel.PayloadStream(nodes, cycles, data_bytes, seed=seed)
+        self._taken = 0
 
     def take(self, count: int) -> npt.NDArray[np.uint8]:
         """The next ``count`` cycles' taxels, (count, nodes, data_bytes)."""
-        parts = [self._buf]
-        have = len(self._buf)
-        while have < count:
-            chunk = next(self._chunks)
-            parts.append(chunk)
-            have += len(chunk)
-        whole = parts[0] if len(parts) == 1 else np.concatenate(parts)
-        self._buf = whole[count:]
-        return whole[:count]
-
-
-def iter_payloads(
-    nodes: int, cycles: int, data_bytes: int, seed: int
-) -> Iterator[npt.NDArray[np.uint8]]:
-    """Seeded contact patterns of ``cycles`` samples, in chunks (memory of one chunk)."""
-    return taxel.iter_sample_payloads(nodes, cycles, data_bytes, seed=seed)
+        first, self._taken = self._taken, self._taken + count
+        if self._given is not None:
+            return self._given[first : first + count]
+        assert self._stream is not None
+        return self._stream.take(count)
 
 
 class _Overlap:
@@ -173,8 +169,11 @@ def run(
     progress: Callable[[int], None] | None = None,
     fast: bool = True,
     every_cycle: bool = False,
+    start_ps: int = 0,
 ) -> tuple[SimResult, Counter[tuple[object, ...]]]:
     """Run ``cycles`` cycles of ``engine``; frames to ``sink`` (None: timing only).
+
+    The first cycle starts at ``start_ps`` (after a start-up the caller wrote, for example).
 
     ``every_cycle`` lists every cycle in the result's details (and walks every cycle), not only
     those that differ from the cycle one period earlier.
@@ -203,7 +202,7 @@ def run(
         maxlen=period_len
     )  # (cycle_ps, wkc, expected) of the last P
     overlap = _Overlap()
-    c, start = 0, 0
+    c, start = 0, start_ps
 
     def note(cyc: Cycle, c: int, start: int) -> None:
         key = (cyc.cycle_ps, cyc.wkc, cyc.expected_wkc)
@@ -306,21 +305,22 @@ def _repeat(
     while done < q:
         k = min(per_block, q - done)
         starts = start + (done + np.arange(k, dtype=np.int64)) * period_ps
-        data = np.empty((k, row_bytes), np.uint8)
-        data[:] = template
         taxels = source.take(k * period_len).reshape(k, period_len, *source.shape)
+        fills: list[tuple[int, npt.NDArray[np.uint8]]] = []
         for col, (i, r) in enumerate(cols):
             lo = int(at[col])
             if r.fill == FILL_TAXELS:
                 image = taxels[:, i].reshape(k, -1)
-                for dst, src, n in r.runs:
-                    data[:, lo + dst : lo + dst + n] = image[:, src : src + n]
+                fills.extend((lo + dst, image[:, src : src + n]) for dst, src, n in r.runs)
             elif r.fill == FILL_FRAME:
-                data[:, lo : lo + r.length] = engine.rebuild(
-                    r, starts + int(offsets[i]), taxels[:, i]
-                )
-        sink.write_block(
-            starts[:, None] + rel[None, :], lengths, data, ports=ports, outbound=outbound
+                fills.append((lo, engine.rebuild(r, starts + int(offsets[i]), taxels[:, i])))
+        sink.write_repeated(
+            starts[:, None] + rel[None, :],
+            lengths,
+            template,
+            ports=ports,
+            outbound=outbound,
+            fills=fills,
         )
         done += k
         if progress is not None:

@@ -45,6 +45,7 @@ IN_CI = os.environ.get("CI") == "true"
 CAP_NET_ADMIN, CAP_NET_RAW, CAP_SYS_ADMIN = 12, 13, 21
 SEED, SAMPLES, PERIOD_MS = 20260, 256, 2.0
 GROUP_SOURCE_WARNING = "Source MAC must not be a group address"  # SOEM sends from 01:01:...
+MAILBOX_STACK = "eth:ethertype:ecatf:ecat:ecat_mailbox"
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
@@ -148,11 +149,11 @@ def capturing(net: VethPair, path: Path) -> Iterator[None]:
         proc.communicate(timeout=60)
 
 
-def run_soem(net: VethPair, inputs: Path, cycles: int = 1000) -> dict[str, Any]:
+def run_soem(net: VethPair, inputs: Path, cycles: int = 1000, *extra: str) -> dict[str, Any]:
     done = subprocess.run(
         [
             *("ip", "netns", "exec", net.netns, sys.executable, str(TESTS / "soem_master.py")),
-            *(net.master, "--cycles", str(cycles), "--inputs-out", str(inputs)),
+            *(net.master, "--cycles", str(cycles), "--inputs-out", str(inputs), *extra),
         ],
         cwd=ROOT,
         env=ENV,
@@ -166,25 +167,30 @@ def run_soem(net: VethPair, inputs: Path, cycles: int = 1000) -> dict[str, Any]:
     return doc
 
 
-def sample_of_rows(rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8]) -> list[int]:
+def sample_of_rows(
+    rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8], take: int | None = None
+) -> list[int]:
     """For each slave's row, the index k of the published sample it equals (fails if none)."""
     ks = []
     for p, row in enumerate(rows):
-        hits = np.flatnonzero((payloads[:, p, :] == row).all(axis=1))
+        hits = np.flatnonzero((payloads[:, p, :take] == row).all(axis=1))
         assert hits.size == 1, f"slave {p}: {row.tobytes().hex()} is no published sample"
         ks.append(int(hits[0]))
     return ks
 
 
-def check_taxels(inputs: npt.NDArray[np.uint8], nodes: int, size: int) -> int:
-    """Every cycle holds whole published samples, in time order; returns the samples seen."""
+def check_taxels(
+    inputs: npt.NDArray[np.uint8], nodes: int, size: int, take: int | None = None
+) -> int:
+    """Every cycle holds whole published samples (their first ``take`` bytes), in time order;
+    returns the samples seen."""
     payloads = taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED)
     for p in range(nodes):  # each slave's samples are distinct, so matching is unambiguous
-        assert len({payloads[k, p].tobytes() for k in range(SAMPLES)}) == SAMPLES
+        assert len({payloads[k, p, :take].tobytes() for k in range(SAMPLES)}) == SAMPLES
     seen: set[int] = set()
     previous = None
-    for cycle in inputs.reshape(-1, nodes, size):
-        ks = sample_of_rows(cycle, payloads)
+    for cycle in inputs.reshape(-1, nodes, size if take is None else take):
+        ks = sample_of_rows(cycle, payloads, take)
         steps = [(b - a) % SAMPLES for a, b in itertools.pairwise(ks)]
         # publications happen between frames: inside a cycle the sample only moves forward,
         # at most once per frame of the cycle (a few), never backwards
@@ -213,7 +219,7 @@ def check_capture(tshark: str, path: Path) -> int:
         _, _, messages = line.partition("\t")
         assert all(m.startswith(GROUP_SOURCE_WARNING) for m in messages.split("|")), line
     stacks = tshark_util.run(tshark, path, "-T", "fields", "-e", "frame.protocols").split()
-    assert stacks and set(stacks) == {"eth:ethertype:ecatf:ecat"}
+    assert stacks and set(stacks) <= {"eth:ethertype:ecatf:ecat", MAILBOX_STACK}
     return len(stacks)
 
 
@@ -225,9 +231,11 @@ def test_pysoem_runs_the_emulated_skin(
     inputs = tmp_path / "inputs.bin"
     pcap = tmp_path / "veth.pcapng"
     with serving(net, nodes, size) as server, capturing(net, pcap):
-        doc = run_soem(net, inputs)
+        doc = run_soem(net, inputs, 1000, "--coe")
     assert server["rc"] == 0, server["stderr"]
     assert doc["config_init"] == nodes
+    check_coe(doc["coe"], size)
+    check_coe_capture(tshark, pcap, doc["coe"])
     for s in doc["slaves"]:  # the identity pysoem read from each SII
         assert (s["man"], s["id"], s["rev"]) == (0x534B494E, 0x00010000 + size, 0x00010000)
         assert s["name"] == f"SkinPatch{size}"
@@ -257,6 +265,124 @@ def test_pysoem_runs_the_emulated_skin(
     )
 
 
+VENDOR_ID, REVISION = 0x534B494E, 0x00010000  # the README's identity of a skin patch
+# SDO abort codes, ETG.1000.6 Table 41
+ABORT_NO_OBJECT, ABORT_NO_SUBINDEX, ABORT_READ_ONLY = 0x06020000, 0x06090011, 0x06010002
+ABORT_LENGTH, ABORT_VALUE_TOO_LOW = 0x06070010, 0x06090032
+
+
+def promised_txpdos(size: int) -> dict[int, list[int]]:
+    """The mapping the README promises, by hand: TxPDO 0x1A00 + t maps taxels 0x6000 + t:1..12,
+    8 bits each, as 0x1A00:n values (index << 16 | subindex << 8 | bits)."""
+    out: dict[int, list[int]] = {}
+    for i in range(size):
+        t, k = divmod(i, 12)
+        out.setdefault(0x1A00 + t, []).append((0x6000 + t) << 16 | (k + 1) << 8 | 8)
+    return out
+
+
+def check_coe(coe: dict[str, Any], size: int) -> None:
+    """What SOEM read and wrote over SDO, against the SII it read and the spec's codes."""
+    assert coe["vendor_id"] == VENDOR_ID
+    assert coe["identity"] == [VENDOR_ID, 0x00010000 + size, REVISION, 1]
+    assert coe["device_name"] == f"SkinPatch{size}"
+    promised = promised_txpdos(size)
+    sii = {int(k): v for k, v in coe["sii_txpdos"].items()}
+    assert sii == {k: [3, v] for k, v in promised.items()}  # SII: every TxPDO on SM3
+    assert coe["assign"] == list(promised)  # 0x1C13 assigns what the SII puts on SM3
+    assert {int(k): v for k, v in coe["mappings"].items()} == promised
+    n = len(promised)  # complete access: subindex 0 as 16 bits, then the entries
+    assert bytes.fromhex(coe["assign_ca"]) == bytes([n, 0]) + b"".join(
+        p.to_bytes(2, "little") for p in promised
+    )
+    assert coe["sm_types"] == [1, 2, 3, 4]  # mailbox out, mailbox in, outputs, inputs
+    assert coe["abort_unknown_object"] == ABORT_NO_OBJECT
+    assert coe["abort_unknown_subindex"] == ABORT_NO_SUBINDEX
+    assert coe["abort_read_only"] == ABORT_READ_ONLY
+    assert coe["abort_length"] == ABORT_LENGTH
+    assert coe["abort_range"] == ABORT_VALUE_TOO_LOW
+    assert coe["sampling_period_us"] == 2000  # written in PRE-OP, read back
+    od = {o[0]: o[1:] for o in coe["od"]}  # SDO information: index -> name, code, entries
+    expected = {0x1000, 0x1001, 0x1008, 0x1009, 0x100A, 0x1018, 0x1C00, 0x1C12, 0x1C13, 0x8000}
+    expected |= set(promised) | {0x6000 + t for t in range(len(promised))}
+    assert set(od) == expected
+    assert od[0x1018] == ["Identity", 9, 5]  # RECORD, subindices 0-4
+    assert od[0x1C13][1:] == [8, n + 1]  # ARRAY
+    assert od[0x1A00][1:] == [9, len(promised[0x1A00]) + 1]
+
+
+def tshark_fields(tshark: str, path: Path, display: str, *names: str) -> list[list[str]]:
+    out = tshark_util.run(
+        tshark, path, "-Y", display, "-T", "fields", *(a for n in names for a in ("-e", n))
+    )
+    return [line.split("\t") for line in out.splitlines()]
+
+
+def check_coe_capture(tshark: str, path: Path, coe: dict[str, Any]) -> None:
+    """tshark decodes the mailbox traffic as the SDO exchange SOEM reported."""
+    rows = tshark_fields(
+        tshark,
+        path,
+        "ecat_mailbox",
+        *("ecat.cmd", "ecat.cnt", "ecat.ado", "ecat_mailbox.type", "ecat_mailbox.counter"),
+        *("ecat_mailbox.coe.type", "ecat_mailbox.coe.sdoidx", "ecat_mailbox.coe.sdosub"),
+        *("ecat_mailbox.coe.sdodata", "ecat_mailbox.coe.abortcode"),
+    )
+    assert rows
+    # every mailbox write the slaves accepted and every read of SM1 decodes as a mailbox
+    for cmd, ado in (("0x05", "0x1000"), ("0x04", "0x1080")):
+        accepted = tshark_fields(
+            tshark, path, f"ecat.cmd == {cmd} && ecat.ado == {ado} && ecat.cnt == 1", "ecat.cmd"
+        )
+        assert len(accepted) == sum(1 for r in rows if r[0] == cmd and r[1] == "1")
+    last: tuple[int, int] | None = None  # the SDO request the slave accepted last
+    uploads: dict[tuple[int, int], str] = {}
+    aborts: dict[tuple[int, int], int] = {}
+    for cmd, wkc, ado, kind, counter, service, idx, sub, data, abort in rows:
+        assert kind == "3" and 1 <= int(counter) <= 7  # CoE, counted
+        if cmd == "0x05" and wkc == "1":  # a request the slave accepted (FPWR into SM0)
+            assert int(ado, 16) == 0x1000
+            if service == "2" and idx:
+                last = (int(idx, 16), int(sub, 16))
+        elif cmd == "0x04":  # an answer read from SM1
+            assert int(ado, 16) == 0x1080 and wkc == "1"
+            assert last is not None
+            if abort:  # tshark shows an abort's code, not its index
+                aborts[last] = int(abort, 16)
+            elif service == "3" and idx:
+                assert (int(idx, 16), int(sub, 16)) == last  # the answer to the last request
+                if data:
+                    uploads[last] = data
+    for k, value in enumerate(coe["identity"], start=1):
+        assert int(uploads[0x1018, k], 16) == value
+    assert int(uploads[0x1C13, 0], 16) == len(coe["assign"])
+    for k, pdo in enumerate(coe["assign"], start=1):
+        assert int(uploads[0x1C13, k], 16) == pdo
+    assert aborts[0x2000, 0] == ABORT_NO_OBJECT
+    assert aborts[0x1018, 9] == ABORT_NO_SUBINDEX
+    assert aborts[0x1018, 1] == ABORT_READ_ONLY
+    assert aborts[0x8000, 2] == ABORT_LENGTH
+
+
+@pytest.mark.tshark
+def test_pysoem_reassigns_pdos_in_preop(net: VethPair, tshark: str, tmp_path: Path) -> None:
+    """0x1C13 rewritten in PRE-OP (8 of 16 triangles): SOEM's config_map maps half the bytes and
+    the slaves deliver the first 8 triangles of every sample."""
+    nodes, size, triangles = 21, 192, 8
+    inputs = tmp_path / "inputs.bin"
+    with serving(net, nodes, size) as server:
+        doc = run_soem(net, inputs, 1000, "--assign-triangles", str(triangles))
+    assert server["rc"] == 0, server["stderr"]
+    take = triangles * 12
+    assert doc["iomap_bytes"] == nodes * take
+    assert doc["expected_wkc"] == nodes
+    assert (doc["safeop"], doc["op"], doc["al_status_codes"]) == (4, 8, [0])
+    assert doc["wkc"] == [nodes] * 1000
+    data = np.fromfile(inputs, dtype=np.uint8)
+    assert data.size == 1000 * nodes * take
+    assert check_taxels(data, nodes, size, take) > 1
+
+
 def test_independent_master_over_the_wire(net: VethPair) -> None:
     nodes, size = 5, 192
     with serving(net, nodes, size) as server:
@@ -277,7 +403,7 @@ def test_independent_master_over_the_wire(net: VethPair) -> None:
     assert (r["count"], r["esc_type"], r["name"]) == (nodes, 0x11, "SkinPatch192")
     assert r["identity"] == [[0x534B494E, 0x000100C0, 0x00010000, p + 1] for p in range(nodes)]
     assert (r["broadcast_serial_or"], r["broadcast_wkc"]) == (1 | 2 | 3 | 4 | 5, nodes)
-    assert r["sm"] == [0x1000, size, 0x20, 1, 4]
+    assert r["sm"] == [0x1100, size, 0x20, 1, 4]  # SM3 after the two 128-byte mailboxes
     assert (r["al_status_4"], r["al_status_8"], r["al_status_final"]) == ("0400", "0800", "0100")
     assert r["lrd_wkc"] == [nodes]
     payloads = taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED)

@@ -5,6 +5,7 @@ from __future__ import annotations
 import pytest
 
 from emulator.errors import TopologyError
+from emulator.model import analytic
 from emulator.model.params import PAPER, WIRE
 from emulator.model.plan import Plan, limit_us, plan
 
@@ -50,7 +51,9 @@ def test_json_document(small: Plan) -> None:
         "overhead_us",
         "efficiency",
         "alternatives",
+        "analytic_us",
     ]
+    assert doc["ecat"]["analytic_us"] == round(float(analytic.ecat_cycle_us(20, 64, WIRE)), 6)
     assert doc["ecat"]["alternatives"][0] == {
         "layout": "per-slave",
         "cycle_us": small.networks["ecat"].alternatives[0].cycle_us,

@@ -460,3 +460,64 @@ def test_refused_paths(tmp_path: Path) -> None:
     assert target.read_bytes() == b"keep me"
     assert not (tmp_path / "nowhere.pcap").exists()
     assert not (tmp_path / "missing").exists()
+
+
+# --- write_repeated == write, record by record ------------------------------------------------------
+@given(st.data(), st.sampled_from([1, 150, None]))
+def test_write_repeated_equals_write_one_by_one(
+    data: st.DataObject, chunk_bytes: int | None
+) -> None:
+    # a template row, some fills inside frames, and calls that alternate with write_block and
+    # change the fills: every row must be the template with that call's fills, nothing stale
+    fmt = data.draw(st.sampled_from(["pcap", "pcapng"]))
+    lengths = np.array(data.draw(st.lists(st.integers(1, 40), min_size=1, max_size=4)), np.int64)
+    total = int(lengths.sum())
+    starts = np.concatenate(([0], np.cumsum(lengths)))[:-1]
+    template = np.frombuffer(data.draw(st.binary(min_size=total, max_size=total)), np.uint8)
+    chunk = capture_writer._CHUNK_BYTES if chunk_bytes is None else chunk_bytes
+    expected: list[tuple[int, bytes]] = []
+    with tempfile.TemporaryDirectory() as tmp:
+        one, many = Path(tmp) / "one", Path(tmp) / "many"
+        with (
+            mock.patch.object(capture_writer, "_CHUNK_BYTES", chunk),
+            CaptureWriter(many, fmt=fmt) as w,
+        ):
+            t = 0
+            for call in range(data.draw(st.integers(1, 4))):
+                k = data.draw(st.integers(0, 5))
+                fills = []
+                rows = np.tile(template, (k, 1))
+                for _ in range(data.draw(st.integers(0, 3))):
+                    j = data.draw(st.integers(0, len(lengths) - 1))
+                    lo = data.draw(st.integers(0, int(lengths[j]) - 1))
+                    n = data.draw(st.integers(1, int(lengths[j]) - lo))
+                    raw = data.draw(st.binary(min_size=k * n, max_size=k * n))
+                    values = np.frombuffer(raw, np.uint8).reshape(k, n)
+                    fills.append((int(starts[j]) + lo, values))
+                    rows[:, int(starts[j]) + lo : int(starts[j]) + lo + n] = values
+                times = t + np.arange(k * len(lengths), dtype=np.int64).reshape(k, len(lengths))
+                t += k * len(lengths)
+                if call % 2 and data.draw(st.booleans()):
+                    w.write_block(times, lengths, rows)
+                else:
+                    w.write_repeated(times, lengths, template, fills=fills)
+                for c in range(k):
+                    for j, n in enumerate(lengths.tolist()):
+                        lo = int(starts[j])
+                        expected.append((int(times[c, j]), rows[c, lo : lo + n].tobytes()))
+        with CaptureWriter(one, fmt=fmt) as w1:
+            for time_ns, frame in expected:
+                w1.write(time_ns, frame)
+        assert many.read_bytes() == one.read_bytes()
+
+
+def test_a_fill_must_stay_inside_one_frame(tmp_path: Path) -> None:
+    with CaptureWriter(tmp_path / "x.pcap") as w:
+        lengths = np.array([60, 60])
+        template = np.zeros(120, np.uint8)
+        with pytest.raises(CaptureError, match="not inside one frame"):
+            w.write_repeated(
+                np.array([[0, 1]]), lengths, template, fills=[(58, np.ones((1, 4), np.uint8))]
+            )
+        with pytest.raises(CaptureError, match="template of shape"):
+            w.write_repeated(np.array([[0, 1]]), lengths, template[:100])

@@ -295,3 +295,28 @@ def test_iterators_check_their_arguments_when_called() -> None:
         taxel.iter_contact_pattern(0, 3)
     with pytest.raises(FieldRangeError):
         taxel.iter_contact_pattern(1, 3, seed=2**32)
+
+
+@pytest.mark.parametrize("no_load", [0, 1, 2, 3, 128, 240, 253, 254, 255])
+def test_noise_is_the_byte_mod_5_around_no_load_for_every_byte(no_load: int) -> None:
+    raw = np.arange(256, dtype=np.uint8).repeat(1500)  # longer than one scratch pass
+    expected = [min(255, max(0, no_load - 2 + b % 5)) for b in raw.tolist()]
+    assert taxel._noise_values(raw, no_load).tolist() == expected
+
+
+@given(
+    st.integers(1, 4),
+    st.lists(st.integers(1, 7), min_size=1, max_size=6),
+    st.integers(0, 2**32 - 1),
+    st.sampled_from([1, 12, 192, 500]),
+)
+def test_payload_stream_cut_anyhow_equals_sample_payloads(
+    patches: int, cuts: list[int], seed: int, data_bytes: int
+) -> None:
+    samples = sum(cuts)
+    stream = taxel.PayloadStream(patches, samples, data_bytes, seed=seed)
+    pieces = [stream.take(m) for m in cuts]
+    whole = taxel.sample_payloads(patches, samples, data_bytes, seed=seed)
+    assert np.concatenate(pieces).tobytes() == whole.tobytes()
+    with pytest.raises(FieldRangeError, match="0 left"):
+        stream.take(1)

@@ -1,0 +1,118 @@
+"""``skinframes analyze`` against ``tshark -T fields`` extracting the fields analyze needs.
+
+Builds one EPL and one EtherCAT capture with the emulator (wire preset), then per round runs,
+back to back and in alternating order, ``skinframes analyze F --json`` (the whole command:
+interpreter start, reading, analysis, JSON) and ``tshark -r F -T fields -e ...`` with the
+fields a tshark user needs to compute the same statistics (frame number and time, EPL message
+type, source, destination, NMT status, ASnd service; EtherCAT interface, source MAC, command,
+index, addresses, length, working counter). Both write to /dev/null. Prints the time of each
+and the ratio tshark / analyze (median of the per-round ratios; the goal is >= 2) of the wall
+times and of the CPU times (user + system of each child: less disturbed by the other work of a
+shared machine), plus the in-process time of ``read_capture`` + ``analyze_capture``. Printed,
+never asserted.
+
+    python benchmarks/bench_analyze.py [--cycles N] [--rounds R] [--dir D]
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+ROOT = Path(__file__).resolve().parent.parent
+sys.path.insert(0, str(ROOT))
+
+from emulator import WIRE, simulate_ecat, simulate_epl  # noqa: E402
+from skinframes.analysis import analyze_capture  # noqa: E402
+from skinframes.pcap import read_capture  # noqa: E402
+
+GOAL_RATIO = 2.0
+EPL_FIELDS = (
+    "frame.number",
+    "frame.time_epoch",
+    "epl.mtyp",
+    "epl.src",
+    "epl.dest",
+    "epl.pres.stat",
+    "epl.soa.stat",
+    "epl.asnd.svid",
+)
+ECAT_FIELDS = (
+    "frame.number",
+    "frame.time_epoch",
+    "frame.interface_id",
+    "eth.src",
+    "ecat.cmd",
+    "ecat.idx",
+    "ecat.adp",
+    "ecat.ado",
+    "ecat.lad",
+    "ecat.subframe.length",
+    "ecat.cnt",
+)
+
+
+def timed(argv: list[str]) -> tuple[float, float]:
+    """(wall seconds, CPU seconds: user + system of the child) of one run."""
+    before = resource.getrusage(resource.RUSAGE_CHILDREN)
+    start = time.perf_counter()
+    subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
+    wall = time.perf_counter() - start
+    after = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--cycles", type=int, default=3000, help="emulated cycles per capture")
+    ap.add_argument("--rounds", type=int, default=3)
+    ap.add_argument("--dir", help="folder for the captures (default: a temporary one)")
+    args = ap.parse_args()
+    tshark = shutil.which("tshark")
+    if tshark is None:
+        sys.exit("bench_analyze: tshark is not installed")
+    skinframes = str(Path(sys.executable).with_name("skinframes"))
+    folder = Path(args.dir or tempfile.mkdtemp(prefix="bench_analyze_"))
+    epl, ecat = folder / "epl.pcap", folder / "ecat.pcapng"
+    simulate_epl(20, 192, WIRE, cycles=args.cycles, asnd=True, pcap=epl)
+    simulate_ecat(20, 32, WIRE, cycles=5 * args.cycles, pcap=ecat)
+    print(f"load average {os.getloadavg()[0]:.2f}; {args.rounds} rounds, median ratio")
+    for name, path, names in (("EPL", epl, EPL_FIELDS), ("EtherCAT", ecat, ECAT_FIELDS)):
+        records = len(read_capture(path))
+        ours = [skinframes, "analyze", str(path), "--json"]
+        theirs = [tshark, "-n", "-r", str(path), "-T", "fields"]
+        theirs += [a for n in names for a in ("-e", n)]
+        ratios, cpu_ratios, t_ours, t_theirs = [], [], [], []
+        for r in range(args.rounds):
+            if r % 2:
+                a, b = timed(ours), timed(theirs)
+            else:
+                b, a = timed(theirs), timed(ours)
+            t_ours.append(a[0])
+            t_theirs.append(b[0])
+            ratios.append(b[0] / a[0])
+            cpu_ratios.append(b[1] / a[1])
+        start = time.perf_counter()
+        analyze_capture(read_capture(path))
+        inside = time.perf_counter() - start
+        ratio, cpu = statistics.median(ratios), statistics.median(cpu_ratios)
+        print(
+            f"{name:<8} {records:>7} frames: analyze {statistics.median(t_ours):.3f} s, "
+            f"tshark -T fields {statistics.median(t_theirs):.3f} s (wall); ratio {ratio:.2f}x "
+            f"wall, {cpu:.2f}x CPU (goal >= {GOAL_RATIO:g}x"
+            f"{'' if min(ratio, cpu) >= GOAL_RATIO else ': NOT MET'}); "
+            f"read + analyze_capture in process {inside:.3f} s "
+            f"({inside / records * 1e6:.1f} us/frame)"
+        )
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,151 @@
+"""The start-up a master runs before the first cycle, on the emulated chain, timed.
+
+The order is SOEM's (``ecx_config_init``, ``ecx_config_map_group``) and ETG.1000.6 5.4/6.4's:
+count the slaves (BRD 0x0000), INIT with the error acknowledge, station addresses (APWR 0x0010),
+the SII words a master needs from each slave (identity 0x08-0x0F, mailbox 0x18-0x1C; EEPROM
+command 0x0502 and data 0x0508), the mailbox SyncManagers SM0/SM1 from the SII, PRE-OP, the CoE
+reads of the identity 0x1018:01 and of the PDO assignment 0x1C12/0x1C13 (complete access), the
+process-data SyncManager and FMMU, SAFE-OP and OP, each state checked with BRD 0x0130.
+
+Each frame carries one datagram, built by ``skinframes`` (:mod:`skinframes.ethercat`,
+:mod:`skinframes.ecat_mailbox`), answered by the register-level ESC model
+(:meth:`emulator.esc.chain.EcatChain.process_frame`) and timed by the engine's walk: the master
+sends the next frame one IFG after the previous one is back, as a blocking master does. A master
+polls the send mailbox (SM1 status 0x080D) until the answer is there.
+"""
+
+from __future__ import annotations
+
+import struct
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import Final
+
+from emulator.errors import TopologyError
+from emulator.esc.chain import STATION_BASE, EcatChain
+from emulator.esc.sii import SyncManagerType
+from emulator.esc.state_machine import ACK, AlState
+from skinframes import ecat_mailbox as mb
+from skinframes import ethercat
+from skinframes.dispatch import decode_frame
+from skinframes.ethercat import Command, Datagram, EcatFrame
+
+__all__ = ["SII_WORDS", "StartupRecord", "run_startup"]
+
+# SII words a master reads from each slave (ETG.2010 Table 2): vendor, product, revision, serial
+# (8 bytes a read: two words at a time), the standard mailboxes and their protocols
+SII_WORDS: Final = (0x08, 0x0C, 0x18, 0x1C)
+EEPROM_READ: Final = 0x0100  # 0x0502 command bits 8-10 = 1 (datasheet II 2.11.3)
+MAILBOX_POLLS: Final = 10  # SM1 status reads before the master gives up on an answer
+_U16 = struct.Struct("<H")
+
+
+@dataclass(frozen=True, slots=True)
+class StartupRecord:
+    """One frame of the start-up at the master's port 0."""
+
+    time_ps: int
+    outbound: bool
+    frame: bytes
+    wire_ps: int
+
+
+@dataclass
+class _Master:
+    chain: EcatChain
+    walk: Callable[[int], int]  # send time -> arrival time back at the master
+    frame_ps: Callable[[int], int]  # frame length -> time on the wire
+    ifg_ps: int
+    t_ps: int = 0
+    records: list[StartupRecord] = field(default_factory=list)
+
+    def x(self, d: Datagram) -> Datagram:
+        """Send one datagram, wait for it to return: the returned datagram."""
+        sent = ethercat.frame(EcatFrame((d,))).to_bytes()
+        wire = self.frame_ps(len(sent))
+        self.records.append(StartupRecord(self.t_ps, True, sent, wire))
+        back = self.chain.process_frame(sent)
+        if back is None:
+            raise TopologyError(f"start-up: the chain lost the frame {d.cmd!r} {d.ado:#06x}")
+        arrive = self.walk(self.t_ps)
+        self.records.append(StartupRecord(arrive, False, back, wire))
+        self.t_ps = arrive + wire + self.ifg_ps
+        ecat = decode_frame(back).payload
+        if not isinstance(ecat, EcatFrame):
+            raise TopologyError("start-up: the chain returned a frame that is not EtherCAT")
+        return ecat.datagrams[0]
+
+    def state(self, state: int, nodes: int) -> None:
+        """Request ``state`` from everyone (BWR 0x0120), check it (BRD 0x0130)."""
+        self.x(Datagram(Command.BWR, 0, 0x0120, _U16.pack(state)))
+        got = self.x(Datagram(Command.BRD, 0, 0x0130, bytes(2)))
+        if got.wkc != nodes or _U16.unpack(got.data)[0] != state & 0x0F:
+            raise TopologyError(f"start-up: state {state:#x} not reached ({got.data.hex()})")
+
+
+def run_startup(
+    chain: EcatChain,
+    walk: Callable[[int], int],
+    frame_ps: Callable[[int], int],
+    ifg_ps: int,
+    *,
+    logical_base: int = 0,
+    station_base: int = STATION_BASE,
+) -> list[StartupRecord]:
+    """Take ``chain`` (skin patches with a mailbox, powered on) to OP; the frames, timed."""
+    m = _Master(chain, walk, frame_ps, ifg_ps)
+    nodes = len(chain)
+    info = chain.devices[0].info
+    found = m.x(Datagram(Command.BRD, 0, 0x0000, bytes(2)))
+    if found.wkc != nodes:
+        raise TopologyError(f"start-up: {found.wkc} slaves answer, {nodes} expected")
+    m.x(Datagram(Command.BWR, 0, 0x0120, _U16.pack(AlState.INIT | ACK)))
+    stations = [station_base + p for p in range(nodes)]
+    for p, s in enumerate(stations):
+        m.x(Datagram(Command.APWR, (-p) & 0xFFFF, 0x0010, _U16.pack(s)))
+    for s in stations:
+        for word in SII_WORDS:
+            m.x(Datagram(Command.FPWR, s, 0x0502, struct.pack("<HI", EEPROM_READ, word)))
+            m.x(Datagram(Command.FPRD, s, 0x0508, bytes(8)))
+    rx = info.sm_of_type(SyncManagerType.MAILBOX_OUT)
+    tx = info.sm_of_type(SyncManagerType.MAILBOX_IN)
+    if rx is None or tx is None or (rx, tx) != (0, 1):
+        raise TopologyError("start-up: the slaves have no mailbox on SM0/SM1")
+    mbx = [info.sync_managers[rx], info.sync_managers[tx]]
+    sm01 = b"".join(struct.pack("<HHBBBB", s.start, s.length, s.control, 0, 1, 0) for s in mbx)
+    for s in stations:
+        m.x(Datagram(Command.FPWR, s, 0x0800, sm01))
+    m.state(AlState.PREOP, nodes)
+    requests = (
+        mb.sdo_upload_request(0x1018, 1),
+        mb.sdo_upload_request(0x1C12, 0, complete_access=True),
+        mb.sdo_upload_request(0x1C13, 0, complete_access=True),
+    )
+    for s in stations:
+        counter = 0
+        for body in requests:
+            counter = mb.next_counter(counter)
+            message = mb.mailbox(mb.MailboxType.COE, body, counter, size=mbx[0].length)
+            if m.x(Datagram(Command.FPWR, s, mbx[0].start, message)).wkc != 1:
+                raise TopologyError(f"start-up: station {s:#x} refused a mailbox write")
+            for _ in range(MAILBOX_POLLS):
+                if m.x(Datagram(Command.FPRD, s, 0x0805 + 8 * tx, bytes(1))).data[0] & 0x08:
+                    break
+            else:
+                raise TopologyError(f"start-up: station {s:#x} did not answer over CoE")
+            m.x(Datagram(Command.FPRD, s, mbx[1].start, bytes(mbx[1].length)))
+    sm_index = info.sm_of_type(SyncManagerType.INPUTS)
+    if sm_index is None:
+        raise TopologyError("start-up: the slaves have no input SyncManager")
+    sm = info.sync_managers[sm_index]
+    size = info.sm_bytes(sm_index)
+    for p, s in enumerate(stations):
+        regs = struct.pack("<HHBBBB", sm.start, size, sm.control, 0, sm.enable, 0)
+        m.x(Datagram(Command.FPWR, s, 0x0800 + 8 * sm_index, regs))
+        fmmu = struct.pack(
+            "<IHBBHBBBxxx", logical_base + p * size, size, 0, 7, sm.start, 0, 0x01, 0x01
+        )
+        m.x(Datagram(Command.FPWR, s, 0x0600, fmmu))
+    m.state(AlState.SAFEOP, nodes)
+    m.state(AlState.OP, nodes)
+    return m.records

@@ -1,0 +1,205 @@
+"""``skinframes analyze``: cycle statistics of an EPL or EtherCAT capture, streamed.
+
+:func:`analyze_capture` reads the records once, in order, and keeps state per node (EPL) or per
+frame pattern (EtherCAT) only; times are kept as int64 arrays (8 bytes per cycle), never as
+Python objects per frame. :mod:`.epl` and :mod:`.ecat` say what is measured and how;
+:func:`infer_config` names the network the capture shows (nodes, bytes per node, layout) so that
+a caller holding a timing model can put its cycle time beside the measured period.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass
+from typing import Any, Final
+
+from skinframes import ethernet
+from skinframes.analysis.ecat import LOGICAL_WKC_PER_SLAVE, EcatAnalysis, EcatAnalyzer
+from skinframes.analysis.epl import EplAnalysis, EplAnalyzer
+from skinframes.analysis.stats import Series, Summary
+from skinframes.pcap import LINKTYPE_ETHERNET, Record
+
+__all__ = [
+    "Analysis",
+    "InferredConfig",
+    "Series",
+    "Summary",
+    "analyze_capture",
+    "infer_config",
+]
+
+PROGRESS_EVERY: Final = 4096  # records between progress callbacks
+_EPL: Final = ethernet.ETHERTYPE_EPL.to_bytes(2, "big")
+_ECAT: Final = ethernet.ETHERTYPE_ECAT.to_bytes(2, "big")
+_ETHERTYPE: Final = slice(2 * ethernet.MAC_BYTES, 2 * ethernet.MAC_BYTES + 2)
+
+
+@dataclass(frozen=True, slots=True)
+class InferredConfig:
+    """The network a capture shows, in the terms of ``skinframes simulate``."""
+
+    protocol: str  # "epl" or "ecat"
+    nodes: int
+    bytes: int
+    layout: str  # "per-slave" or "logical"
+    topology: str  # "daisy" (EPL), "open" or "closed" (EtherCAT)
+    asnd: bool  # EPL: an ASnd in (most) cycles
+    measured_period_ns: float | None  # median SoC period or cyclic-frame period
+
+    def to_json(self) -> dict[str, Any]:
+        """The ``config`` object of ``analyze --json``."""
+        return {
+            "protocol": self.protocol,
+            "nodes": self.nodes,
+            "bytes": self.bytes,
+            "layout": self.layout,
+            "topology": self.topology,
+            "asnd": self.asnd,
+            "measured_period_ns": self.measured_period_ns,
+        }
+
+
+@dataclass(frozen=True, slots=True)
+class Analysis:
+    """Everything ``analyze`` found in one capture."""
+
+    records: int
+    counts: dict[str, int]
+    epl: EplAnalysis | None
+    ecat: EcatAnalysis | None
+    config: tuple[InferredConfig, ...]
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"records", "counts", "epl", "ecat", "config"}`` (docs/interface.md)."""
+        return {
+            "records": self.records,
+            "counts": self.counts,
+            "epl": self.epl.to_json() if self.epl else None,
+            "ecat": self.ecat.to_json() if self.ecat else None,
+            "config": [c.to_json() for c in self.config],
+        }
+
+
+def analyze_capture(
+    records: Iterable[Record],
+    *,
+    expected_wkc: int | None = None,
+    pres_timeout_ns: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> Analysis:
+    """Analyse the EPL and EtherCAT traffic of a capture, reading each record once.
+
+    Args:
+        records: the capture's records in order (``read_capture(path)``); frame numbers are
+            ``record.index + 1``, as Wireshark counts.
+        expected_wkc: the working counter every process-data (logical) datagram should return;
+            default: each datagram's steady state (its most frequent value).
+        pres_timeout_ns: the MN's PRes timeout; a PRes later than this after its PReq is late.
+        progress: called with the number of records read since the last call.
+    """
+    epl = EplAnalyzer(pres_timeout_ns)
+    ecat = EcatAnalyzer(expected_wkc)
+    n = 0
+    epl_feed = epl.feed
+    ecat_feed = ecat.feed
+    n_epl = n_ecat = n_other = 0
+    header = ethernet.HEADER_BYTES
+    for rec in records:
+        n += 1
+        if progress is not None and n % PROGRESS_EVERY == 0:
+            progress(PROGRESS_EVERY)
+        data = rec.data
+        if rec.linktype != LINKTYPE_ETHERNET or len(data) < header:
+            n_other += 1
+            continue
+        kind = data[_ETHERTYPE]
+        if kind == _EPL:
+            n_epl += 1
+            epl_feed(rec.index + 1, rec.time_ns, data[header:])
+        elif kind == _ECAT:
+            n_ecat += 1
+            ecat_feed(rec.index + 1, rec.time_ns, rec.interface, data)
+        else:
+            n_other += 1
+    if progress is not None:
+        progress(n % PROGRESS_EVERY)
+    counts = {"epl": n_epl, "ecat": n_ecat, "other": n_other}
+    epl_result = epl.result() if n_epl else None
+    ecat_result = ecat.result() if n_ecat else None
+    config = tuple(
+        c
+        for c in (
+            _epl_config(epl_result) if epl_result else None,
+            _ecat_config(ecat_result) if ecat_result else None,
+        )
+        if c is not None
+    )
+    return Analysis(n, counts, epl_result, ecat_result, config)
+
+
+def infer_config(analysis: Analysis, protocol: str) -> InferredConfig | None:
+    """The inferred configuration of ``protocol`` ("epl" or "ecat"), if the capture shows one."""
+    return next((c for c in analysis.config if c.protocol == protocol), None)
+
+
+def _epl_config(epl: EplAnalysis) -> InferredConfig | None:
+    """CNs: the nodes polled by PReq; bytes: the PRes payload size of those that answer, when
+    all agree."""
+    polled = [n for n, k in epl.polled.items() if k]
+    sizes = {epl.pres_bytes[n] for n in polled if n in epl.pres_bytes}
+    if len(sizes) != 1:
+        return None
+    (size,) = sizes
+    return InferredConfig(
+        "epl",
+        len(polled),
+        size,
+        "per-slave",
+        "daisy",
+        asnd=epl.soas > 0 and 2 * epl.asnd_invites > epl.soas,
+        measured_period_ns=epl.soc_period.median_ns,
+    )
+
+
+def _ecat_config(ecat: EcatAnalysis) -> InferredConfig | None:
+    """The slaves and bytes that explain the cyclic frames of the first master port.
+
+    The cycle is the set of cyclic patterns sent most often. Per-slave layout: logical
+    datagrams of one length, each with a steady working counter of one slave. Otherwise one
+    logical process image of N x B bytes from address 0: the N (largest first) whose slaves,
+    B bytes each in a row, give every datagram its steady working counter (a slave counts in
+    each datagram its bytes overlap; LOGICAL_WKC_PER_SLAVE per command).
+    """
+    if not ecat.ports:
+        return None
+    first = ecat.ports[0]
+    cyclic = [
+        (i, p) for i, p in enumerate(ecat.patterns) if p.cyclic and p.port == first and p.frames
+    ]
+    if not cyclic:
+        return None
+    most = max(p.frames for _, p in cyclic)
+    cycle = [(i, p) for i, p in cyclic if p.frames == most]
+    spans: list[tuple[int, int, int, int]] = []  # (lad, length, steady wkc, per-slave weight)
+    for _, p in cycle:
+        for (cmd, _, lad, length), wkc in zip(p.pattern, p.steady_wkc, strict=True):
+            if cmd in LOGICAL_WKC_PER_SLAVE:
+                spans.append((lad, length, wkc, LOGICAL_WKC_PER_SLAVE[cmd]))
+    if not spans:
+        return None
+    closed = "closed" if len(ecat.ports) > 1 else "open"
+    period = cycle[0][1].period.median_ns
+    lengths = {s[1] for s in spans}
+    if len(lengths) == 1 and all(w == weight for _, _, w, weight in spans):
+        return InferredConfig("ecat", len(spans), lengths.pop(), "per-slave", closed, False, period)
+    total = sum(s[1] for s in spans)
+    for nodes in range(total, 0, -1):
+        if total % nodes:
+            continue
+        size = total // nodes
+        if all(
+            w == weight * (min((lad + n - 1) // size, nodes - 1) - lad // size + 1)
+            for lad, n, w, weight in spans
+        ):
+            return InferredConfig("ecat", nodes, size, "logical", closed, False, period)
+    return None
