@@ -11,7 +11,7 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any
 
-from skinframes import powerlink
+from skinframes import encap, ipv4udp, powerlink
 from skinframes.dispatch import decode_frame, protocol_of
 from skinframes.errors import DecodeError
 from skinframes.findings import Finding, Severity, error, info, warning
@@ -172,9 +172,10 @@ def check_capture(capture: Capture) -> CaptureReport:
         found = list(frame.findings)
         found += [error("eth.corrupted", c) for c in rec.comments if c.startswith(CORRUPTED_MARK)]
         if proto == "epl":
-            m = frame.payload
+            m = encap.message_of(frame)
             assert not isinstance(m, bytes | bytearray)
             found += _node_findings(m)  # type: ignore[arg-type]
-            found += cycle.feed(m)  # type: ignore[arg-type]
+            if not isinstance(frame.payload, ipv4udp.Ipv4Udp):  # EPL/UDP is routed, not cyclic
+                found += cycle.feed(m)  # type: ignore[arg-type]
         report.findings += [FrameFinding(rec.index, f) for f in found]
     return report
