@@ -18,6 +18,7 @@ from skinframes.errors import FieldRangeError, FrameTooLargeError, TruncatedErro
 from skinframes.findings import Finding
 
 __all__ = [
+    "DEFAULT_BIT_RATE_BPS",
     "ETHERTYPE_ECAT",
     "ETHERTYPE_EPL",
     "FCS_BYTES",
@@ -46,6 +47,9 @@ FCS_BYTES: Final = 4  # CRC-32, 802.3 3.2.9
 PREAMBLE_SFD_BYTES: Final = 8  # 7 preamble + 1 SFD, 802.3 3.2.1-3.2.2
 IFG_BYTES: Final = 12  # 96 bit times, 802.3 4.4.2
 MIN_PAYLOAD_BYTES: Final = 46  # minFrameSize 64 - header 14 - FCS 4
+DEFAULT_BIT_RATE_BPS: Final = (
+    100_000_000  # 100BASE-TX (802.3 clause 24/25): pcapng if_speed default
+)
 MAX_PAYLOAD_BYTES: Final = 1500
 MIN_FRAME_BYTES: Final = HEADER_BYTES + MIN_PAYLOAD_BYTES  # 60, as captured (no FCS)
 MAX_FRAME_BYTES: Final = HEADER_BYTES + MAX_PAYLOAD_BYTES  # 1514, as captured
