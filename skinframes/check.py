@@ -28,10 +28,15 @@ BROADCAST = powerlink.BROADCAST_NODE_ID
 
 @dataclass(frozen=True, slots=True)
 class FrameFinding:
-    """A finding tied to a record of the capture (index -1: the file itself)."""
+    """A finding tied to a record of the capture (index -1: the file itself).
+
+    ``node``: the EPL node id of the frame's source (None for other frames), by which ``check``
+    groups identical findings.
+    """
 
     index: int
     finding: Finding
+    node: int | None = None
 
 
 @dataclass(slots=True)
@@ -200,7 +205,7 @@ class OverlapChecker:
         return [
             warning(  # a warning: a software capture's clock can be this wrong on legal traffic
                 "eth.overlap",
-                f"Ethernet: {time_ns - p_time} ns after record {p_index} from the same sender "
+                f"Ethernet: {time_ns - p_time} ns after frame {p_index + 1} from the same sender "
                 f"{ethernet.format_mac(src)} on interface {interface}, which needs {need} ns "
                 f"(wire time {min(wire, p_wire)} ns + inter-frame gap {ifg} ns at "
                 f"{rate / 1e6:g} Mbit/s, IEEE 802.3-2018 4.2.3.2, 4.4.2): the frames overlap",
@@ -238,5 +243,7 @@ def check_capture(capture: Capture) -> CaptureReport:
             found += _node_findings(m)  # type: ignore[arg-type]
             if not isinstance(frame.payload, ipv4udp.Ipv4Udp):  # EPL/UDP is routed, not cyclic
                 found += cycle.feed(m)  # type: ignore[arg-type]
-        report.findings += [FrameFinding(rec.index, f) for f in found]
+        m = encap.message_of(frame)
+        node = getattr(m, "src", None) if proto == "epl" else None
+        report.findings += [FrameFinding(rec.index, f, node) for f in found]
     return report

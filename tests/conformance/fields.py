@@ -57,6 +57,15 @@ def _if(cls: type | tuple[type, ...], attr: str) -> Extract:
     return get
 
 
+def _service(cls: type, attr: str) -> Extract:
+    def get(frame: EthernetFrame) -> list[int]:
+        m = _epl(frame)
+        s = m.service if isinstance(m, powerlink.ASnd) else None
+        return [int(getattr(s, attr))] if isinstance(s, cls) else []
+
+    return get
+
+
 def _physical(d: ethercat.Datagram) -> bool:
     return d.cmd not in ethercat.LOGICAL_COMMANDS
 
@@ -72,6 +81,12 @@ EPL_FIELDS: dict[str, Extract] = {
     "epl.soa.svtg": _if(powerlink.SoA, "requested_target"),
     "epl.soa.eplv": _if(powerlink.SoA, "epl_version"),
     "epl.asnd.svid": _if(powerlink.ASnd, "service_id"),
+    # Wireshark's names of the IdentResponse / StatusResponse flag bits (our aliases)
+    **{
+        f"epl.asnd.{short}.{name}": _service(cls, name)
+        for short, cls in (("ires", powerlink.IdentResponse), ("sres", powerlink.StatusResponse))
+        for name in ("en", "ec", "fls", "sls", "pr", "rs")
+    },
 }
 
 ECAT_FIELDS: dict[str, Extract] = {

@@ -127,7 +127,7 @@ def test_network_variable_and_mailbox_frames_agree_with_tshark(tshark: str, tmp_
         ethercat.EcatFrame((), ethercat.FrameType.MAILBOX, content=ethercat.Mailbox(0, 15, b"")),
     ]
     path = tmp_path / "types.pcap"
-    write_pcap(path, [(i * 1000, ethercat.frame(f).to_bytes()) for i, f in enumerate(frames)])
+    write_pcap(path, [(i * 10_000, ethercat.frame(f).to_bytes()) for i, f in enumerate(frames)])
     stacks = tshark_util.run(tshark, path, "-T", "fields", "-e", "frame.protocols").split()
     assert [s.split(":")[3] for s in stacks] == ["tc_nv", "tc_nv", "ecat_mailbox", "ecat_mailbox"]
     assert assert_fields_agree(tshark, path, {**CONTENT_FIELDS, **ALL_FIELDS}) == len(frames)

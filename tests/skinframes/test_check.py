@@ -343,7 +343,7 @@ def test_tshark_flags_the_pres_size_error_too(tshark: str, tmp_path: Path) -> No
 #   fields), and PRes frames of 280 bytes that carry Size 32 (224 bytes after the PDO: INFO trailer;
 #   tshark: 0 expert items).
 # - 1CN: openPOWERLINK captured on the sending host, so SoC (36 bytes) and SoA (54) are unpadded
-#   (INFO), and StatusResponse frames longer than their content (INFO trailer).
+#   (INFO); its 6 StatusResponses are 72-byte frames, the size openPOWERLINK builds (no finding).
 # - MultiWriteRead: every frame ends with its correct FCS (INFO). tshark calls 2 frames Malformed
 #   because its multi-parameter SDO parser reads the FCS as data; we recognise the CRC.
 # - SOEM: the master sends from 01:01:01:01:01:01, a group address (WARNING; tshark warns on all 580).
@@ -353,7 +353,7 @@ def test_tshark_flags_the_pres_size_error_too(tshark: str, tmp_path: Path) -> No
 #   frame 359, 6.683 us after 358 (captured on the sending host, stamped in software).
 REAL = {
     "epl-viz_EPL_Example.cap": {"epl.reserved": 251, "eth.trailer": 251, "eth.overlap": 2},
-    "epl-viz_1CN.pcapng": {"eth.unpadded": 552, "eth.trailer": 6, "eth.overlap": 1},
+    "epl-viz_1CN.pcapng": {"eth.unpadded": 552, "eth.overlap": 1},
     # 4 of the 7 frames carry a Write/ReadMultipleParam segment with bytes after it (INFO)
     "epl-viz_MultiWriteRead_example.pcapng": {"eth.fcs": 7, "epl.sdo.multi_param.padding": 4},
     "ethercrab_replay-ek1100-el2828-el2889.pcapng": {"eth.unpadded": 1789},
