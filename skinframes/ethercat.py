@@ -777,10 +777,16 @@ def returned_mac(src: bytes) -> bytes:
 
 
 def frame(
-    ecat: EcatFrame, *, src: bytes = MASTER_MAC, returned: bool = False
+    ecat: EcatFrame,
+    *,
+    src: bytes = MASTER_MAC,
+    returned: bool = False,
+    tags: tuple[ethernet.Tag, ...] = (),
 ) -> ethernet.EthernetFrame:
-    """Wrap an EtherCAT frame in Ethernet as a master sends it (broadcast destination)."""
-    return ethernet.EthernetFrame(BROADCAST_MAC, returned_mac(src) if returned else src, ecat)
+    """Wrap an EtherCAT frame in Ethernet as a master sends it (broadcast destination), with
+    VLAN ``tags`` if given (ETG.1000.4 5.3: EtherCAT frames may carry an 802.1Q tag)."""
+    mac = returned_mac(src) if returned else src
+    return ethernet.EthernetFrame(BROADCAST_MAC, mac, ecat, tags=tags)
 
 
 # --- batch fast path: numpy, one fixed layout (k datagrams of B bytes) per call ------------------

@@ -31,6 +31,7 @@ __all__ = [
     "PREAMBLE_SFD_BYTES",
     "EthernetFrame",
     "Payload",
+    "Tag",
     "fcs",
     "flip_bit",
     "format_mac",

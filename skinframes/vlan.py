@@ -16,6 +16,8 @@ from dataclasses import dataclass
 from typing import Final
 
 import construct as cs
+import numpy as np
+import numpy.typing as npt
 
 from skinframes.errors import FieldRangeError, TruncatedError
 
@@ -28,6 +30,7 @@ __all__ = [
     "TPID_STAG",
     "VlanTag",
     "peel",
+    "tag_frames",
     "tag_schema",
 ]
 
@@ -113,3 +116,35 @@ def peel(data: bytes) -> tuple[tuple[VlanTag, ...], int, int]:
         at += TAG_BYTES
         (ethertype,) = struct.unpack_from(">H", data, at)
     return tuple(tags), ethertype, at + 2
+
+
+def tag_frames(
+    frames: npt.NDArray[np.uint8], tags: tuple[VlanTag, ...], payload_bytes: int
+) -> npt.NDArray[np.uint8]:
+    """Rows of untagged frames as :class:`~skinframes.ethernet.EthernetFrame` encodes them with
+    ``tags`` (batch fast path, proven equal in tests/skinframes/test_ethernet.py).
+
+    Args:
+        frames: (k, L) untagged frames: 14-byte header, ``payload_bytes`` of payload, zero
+            padding to the 60-byte minimum.
+        tags: the tags, outermost first, inserted after the source MAC.
+        payload_bytes: the payload's length (the same in every row).
+
+    Returns:
+        (k, max(60, 14 + 4 x tags + payload_bytes)): the padding shrinks by what the tags add.
+    """
+    frames = np.asarray(frames, dtype=np.uint8)
+    if not tags:
+        return frames
+    k = frames.shape[0]
+    head = _MAC_PAIR_BYTES
+    extra = TAG_BYTES * len(tags)
+    used = head + 2 + payload_bytes  # through the payload, untagged
+    if frames.ndim != 2 or frames.shape[1] < used:
+        raise FieldRangeError(f"VLAN batch: rows shorter than 14 + {payload_bytes} bytes")
+    width = max(60, used + extra)  # IEEE 802.3 minimum, as ethernet.padding_for counts it
+    out = np.zeros((k, width), dtype=np.uint8)
+    out[:, :head] = frames[:, :head]
+    out[:, head : head + extra] = np.frombuffer(b"".join(t.to_bytes() for t in tags), np.uint8)
+    out[:, head + extra : used + extra] = frames[:, head:used]
+    return out

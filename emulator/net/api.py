@@ -19,6 +19,7 @@ from emulator.net.faults import Fault
 from emulator.net.result import SimResult
 from emulator.net.run import Engine, Sink, run
 from skinframes.pcap import CaptureWriter
+from skinframes.vlan import VlanTag
 
 __all__ = ["CaptureSink", "simulate_ecat", "simulate_epl"]
 
@@ -100,6 +101,15 @@ def _execute(
     return result, events
 
 
+def _tags(vid: int | None) -> tuple[VlanTag, ...]:
+    """One 802.1Q tag with VLAN id ``vid`` (0xFFF is reserved, IEEE 802.1Q-2018 Table 9-2)."""
+    if vid is None:
+        return ()
+    if not 0 <= vid <= 0xFFE:
+        raise TopologyError(f"VLAN id {vid}: 0..4094 (4095 is reserved)")
+    return (VlanTag(vid),)
+
+
 def simulate_ecat(
     nodes: int,
     data_bytes: int,
@@ -117,6 +127,7 @@ def simulate_ecat(
     progress: Callable[[int], None] | None = None,
     fast: bool = True,
     every_cycle: bool = False,
+    vlan: int | None = None,
 ) -> SimResult:
     """Emulate ``cycles`` EtherCAT cycles reading ``data_bytes`` of taxels from each of
     ``nodes`` skin patches (see :mod:`emulator.net.ecat`).
@@ -133,12 +144,21 @@ def simulate_ecat(
         progress: called with the number of cycles done since the last call.
         fast: repeat steady cycles instead of walking each (the same bytes; a test proves it).
         every_cycle: list every cycle in ``details`` (walking each), not only the changes.
+        vlan: tag every frame with this 802.1Q VLAN id (0..4094); the 4 bytes count on the
+            wire.
     """
     if closed_ring is not None and redundant is not None and closed_ring != redundant:
         raise TopologyError("closed_ring and its old name redundant disagree")
     ring = bool(closed_ring if closed_ring is not None else redundant)
     engine = EcatEngine(
-        nodes, data_bytes, params, closed_ring=ring, layout=layout, faults=faults, seed=seed
+        nodes,
+        data_bytes,
+        params,
+        closed_ring=ring,
+        layout=layout,
+        faults=faults,
+        seed=seed,
+        tags=_tags(vlan),
     )
     result, events = _execute(
         engine,
@@ -175,6 +195,7 @@ def simulate_epl(
     progress: Callable[[int], None] | None = None,
     fast: bool = True,
     every_cycle: bool = False,
+    vlan: int | None = None,
 ) -> SimResult:
     """Emulate ``cycles`` EPL cycles: ``nodes`` CNs each answering with ``data_bytes`` of
     taxels (see :mod:`emulator.net.epl`; the other arguments as for :func:`simulate_ecat`).
@@ -182,6 +203,7 @@ def simulate_epl(
     Args:
         asnd: each SoA invites one CN in turn, which answers with a StatusResponse.
         pres_timeout_ps: the MN's PRes timeout; a CN that cannot meet it loses its PRes.
+        vlan: tag every frame with this 802.1Q VLAN id, as for :func:`simulate_ecat`.
     """
     engine = EplEngine(
         nodes,
@@ -191,6 +213,7 @@ def simulate_epl(
         pres_timeout_ps=pres_timeout_ps,
         faults=faults,
         seed=seed,
+        tags=_tags(vlan),
     )
     result, events = _execute(
         engine,

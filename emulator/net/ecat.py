@@ -42,8 +42,9 @@ from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
 from emulator.net.faults import Fault, check_faults, corruption_mark
-from skinframes import ethercat, ethernet
+from skinframes import ethercat, ethernet, vlan
 from skinframes.ethercat import Command, Datagram, EcatFrame
+from skinframes.vlan import VlanTag
 
 __all__ = [
     "DEFAULT_TIMEOUT_MARGIN_PS",
@@ -142,8 +143,11 @@ class EcatEngine:
         layout: str = "per-slave",
         faults: tuple[Fault, ...] = (),
         seed: int = 0,
+        tags: tuple[VlanTag, ...] = (),
     ) -> None:
         check_emulated_ecat(nodes, data_bytes)
+        self.tags = tags  # VLAN tags on every frame (IEEE 802.1Q); their bytes count on the wire
+        self.tag_shift = vlan.TAG_BYTES * len(tags)  # where the EtherCAT bytes move in a frame
         self.sent = frames_for(nodes, data_bytes, layout)
         self.nodes, self.data_bytes, self.params = nodes, data_bytes, params
         self.closed_ring, self.layout = closed_ring, layout
@@ -156,9 +160,10 @@ class EcatEngine:
         self.effects: list[FrameEffect] = [self.chain.frame_effect(f) for f in self.sent]
         everyone = range(nodes)
         self.expected_wkc = sum(e.wkc(everyone) for e in self.effects)
-        self.out = [ethercat.frame(f).to_bytes() for f in self.sent]
+        self.out = [ethercat.frame(f, tags=tags).to_bytes() for f in self.sent]
         self.out2 = [
-            ethercat.frame(f, src=ethercat.MASTER_MAC_SECOND).to_bytes() for f in self.sent
+            ethercat.frame(f, src=ethercat.MASTER_MAC_SECOND, tags=tags).to_bytes()
+            for f in self.sent
         ]
         self.wire = [params.frame_ps(len(b)) for b in self.out]
         # the longest way a frame can take (out and back through every ESC, as in an open ring
@@ -372,20 +377,21 @@ class EcatEngine:
         key = (k, done)
         runs = self._runs.get(key)
         if runs is None:
-            runs = tuple(self.effects[k].taxel_runs(done))
+            shift = self.tag_shift
+            runs = tuple((at + shift, src, n) for at, src, n in self.effects[k].taxel_runs(done))
             if len(self._runs) < 4096:
                 self._runs[key] = runs
         if image is None:
             return None, runs
         back, mac = self.effects[k].returned(done, image)
         src = ethercat.MASTER_MAC if port == 0 else ethercat.MASTER_MAC_SECOND
-        return ethercat.frame(back, src=src, returned=mac).to_bytes(), runs
+        return ethercat.frame(back, src=src, returned=mac, tags=self.tags).to_bytes(), runs
 
     def _data_bit(self, k: int) -> int:
         """A bit of frame ``k``'s datagram data, drawn at random: a bit error hits the data,
         not the headers, so that Wireshark still dissects the frame it captured."""
         spans = [
-            (at, len(d.data))
+            (at + self.tag_shift, len(d.data))
             for at, d in zip(
                 ethercat.data_offsets(self.sent[k]), self.sent[k].datagrams, strict=True
             )

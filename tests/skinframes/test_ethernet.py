@@ -266,3 +266,22 @@ def test_flip_bit_changes_one_bit_and_the_fcs(frame: bytes, data: st.DataObject)
 def test_flip_bit_out_of_range(frame: bytes, bit: int) -> None:
     with pytest.raises(FieldRangeError):
         ethernet.flip_bit(frame, bit)
+
+
+@pytest.mark.parametrize("size", [0, 1, 24, 27, 28, 36, 192, 1490])
+@pytest.mark.parametrize("ntags", [1, 2])
+def test_tag_frames_batch_equals_the_codec(size: int, ntags: int) -> None:
+    import numpy as np
+
+    from skinframes.vlan import tag_frames
+
+    tags = (VlanTag(100, tpid=TPID_STAG), VlanTag(7, pcp=5))[-ntags:]
+    messages = [
+        powerlink.PRes(i + 1, bytes(range(size % 256)) * (size // 256) + bytes(size % 256))
+        for i in range(3)
+    ]
+    plain = [powerlink.frame(m) for m in messages]
+    rows = np.array([np.frombuffer(f.to_bytes(), np.uint8) for f in plain])
+    got = tag_frames(rows, tags, len(messages[0].to_bytes()))
+    want = [EthernetFrame(f.dst, f.src, f.payload, tags=tags).to_bytes() for f in plain]
+    assert [bytes(r) for r in got] == want
