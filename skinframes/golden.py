@@ -34,7 +34,7 @@ from skinframes.powerlink import (
     StatusResponse,
 )
 
-__all__ = ["SCENARIOS", "build"]
+__all__ = ["SCENARIOS", "build", "stamp"]
 
 STEP_NS: Final = 10_000
 BYTE_NS: Final = 8 * 1_000_000_000 // ethernet.DEFAULT_BIT_RATE_BPS  # 80 ns at 100 Mbit/s
@@ -53,6 +53,11 @@ def _stamp(frames: list[bytes]) -> Records:
         free_ns[src] = t + (ethernet.wire_bytes(len(f)) + ethernet.IFG_BYTES) * BYTE_NS
         out.append((t, f))
     return out
+
+
+def stamp(frames: list[bytes]) -> Records:
+    """Timestamps for ``frames`` as the golden files have them (see :func:`_stamp`)."""
+    return _stamp(frames)
 
 
 def _patches(n: int, seed: int = 0) -> list[bytes]:

@@ -13,11 +13,23 @@ from collections.abc import Sequence
 from typing import Final
 
 from skinframes.errors import SkinframesError
-from skinframes_cli import can, check, compare, decode, demo, plan, plot, serve, simulate, tables
+from skinframes_cli import (
+    can,
+    check,
+    compare,
+    decode,
+    demo,
+    plan,
+    plot,
+    serve,
+    simulate,
+    tables,
+    vectors,
+)
 
 __all__ = ["main"]
 
-COMMANDS: Final = (demo, tables, simulate, plan, plot, decode, check, can, compare, serve)
+COMMANDS: Final = (demo, tables, simulate, plan, plot, decode, check, can, compare, serve, vectors)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -122,7 +122,7 @@ def test_network_variable_and_mailbox_frames_agree_with_tshark(tshark: str, tmp_
         ethercat.EcatFrame(
             (),
             ethercat.FrameType.MAILBOX,
-            content=ethercat.Mailbox(0x1001, 3, bytes.fromhex("0020400010000000"), counter=2),
+            content=ethercat.Mailbox(0x1001, 3, bytes.fromhex("00204000100000000000"), counter=2),
         ),
         ethercat.EcatFrame((), ethercat.FrameType.MAILBOX, content=ethercat.Mailbox(0, 15, b"")),
     ]
@@ -130,6 +130,7 @@ def test_network_variable_and_mailbox_frames_agree_with_tshark(tshark: str, tmp_
     write_pcap(path, [(i * 10_000, ethercat.frame(f).to_bytes()) for i, f in enumerate(frames)])
     stacks = tshark_util.run(tshark, path, "-T", "fields", "-e", "frame.protocols").split()
     assert [s.split(":")[3] for s in stacks] == ["tc_nv", "tc_nv", "ecat_mailbox", "ecat_mailbox"]
+    assert tshark_util.problems(tshark, path) == []
     assert assert_fields_agree(tshark, path, {**CONTENT_FIELDS, **ALL_FIELDS}) == len(frames)
     report = check_capture(read_capture(path))
     assert report.errors == report.warnings == 0
