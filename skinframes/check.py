@@ -2,7 +2,9 @@
 
 Per frame (from the decoders): EPL Size vs payload, EtherCAT header length vs datagrams, the
 more-follows chain, padding, reserved fields. Added here: EPL node-id ranges per message type
-(DS 301 4.2.5.1.1) and the EPL cycle order SoC -> PReq/PRes... -> SoA -> ASnd (DS 301 4.2.4.1).
+(DS 301 4.2.5.1.1), the EPL cycle order SoC -> PReq/PRes... -> SoA -> ASnd (DS 301 4.2.4.1), and
+physical timing: two frames of one sender on one interface that overlap on the wire
+(:class:`OverlapChecker`).
 """
 
 from __future__ import annotations
@@ -11,13 +13,13 @@ from collections import Counter
 from dataclasses import dataclass, field
 from typing import Any, Final
 
-from skinframes import ethercat, ethernet, powerlink
+from skinframes import encap, ethercat, ethernet, ipv4udp, powerlink
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError
 from skinframes.findings import Finding, Severity, error, info, warning
 from skinframes.pcap import LINKTYPE_ETHERNET, Capture
 
-__all__ = ["CaptureReport", "FrameFinding", "check_capture"]
+__all__ = ["CaptureReport", "FrameFinding", "OverlapChecker", "check_capture"]
 
 MN = powerlink.MN_NODE_ID
 CORRUPTED_MARK = "skinframes: corrupted"  # how the emulator's fault injection marks a frame
@@ -26,10 +28,15 @@ BROADCAST = powerlink.BROADCAST_NODE_ID
 
 @dataclass(frozen=True, slots=True)
 class FrameFinding:
-    """A finding tied to a record of the capture (index -1: the file itself)."""
+    """A finding tied to a record of the capture (index -1: the file itself).
+
+    ``node``: the EPL node id of the frame's source (None for other frames), by which ``check``
+    groups identical findings.
+    """
 
     index: int
     finding: Finding
+    node: int | None = None
 
 
 @dataclass(slots=True)
@@ -150,6 +157,62 @@ class _CycleChecker:
         return out
 
 
+class OverlapChecker:
+    """Frames one sender puts on one interface cannot overlap on the wire (``eth.overlap``).
+
+    A full-duplex MAC sends one frame at a time (IEEE 802.3-2018 4.2.3.2), each as preamble + SFD
+    (3.2.1-3.2.2), the frame padded to 60 bytes (3.2.8), the FCS (3.2.9), then keeps the
+    inter-frame gap (4.4.2) before the next one; the constants are :mod:`skinframes.ethernet`'s.
+    The sender is the source MAC, the interface the pcapng interface id. Two of its frames
+    stamped ``dt`` apart need ``dt >= wire time + IFG`` of the shorter one (whether a capture
+    stamps the first or the last bit, the same bit of both frames is compared), less one tick
+    of the timestamps' resolution (1 us when both stamps are whole microseconds). A warning, not
+    an error: captures stamped in software (on the sender) show legal frames closer than this.
+
+    Args:
+        bit_rate_bps: the interface's speed by interface id (pcapng ``if_speed``); missing
+            interfaces run at :data:`~skinframes.ethernet.DEFAULT_BIT_RATE_BPS`.
+    """
+
+    def __init__(self, bit_rate_bps: dict[int, int] | None = None) -> None:
+        self.bit_rate_bps = bit_rate_bps or {}
+        self.last: dict[tuple[int, bytes], tuple[int, int, int]] = {}  # -> (index, time, wire)
+
+    def wire_ns(self, interface: int, frame_bytes: int, fcs_captured: bool) -> int:
+        """Time on the wire of a frame captured with ``frame_bytes`` (FCS included or not)."""
+        rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
+        body = frame_bytes - (ethernet.FCS_BYTES if fcs_captured else 0)
+        octets = ethernet.wire_bytes(body)
+        return -(-octets * 8 * 1_000_000_000 // rate)  # rounded up to whole ns
+
+    def feed(
+        self, index: int, time_ns: int, interface: int, src: bytes, length: int, fcs: bool
+    ) -> list[Finding]:
+        """The finding for a frame that starts before its sender's previous one has ended."""
+        wire = self.wire_ns(interface, length, fcs)
+        key = (interface, bytes(src))
+        prev = self.last.get(key)
+        self.last[key] = (index, time_ns, wire)
+        if prev is None:
+            return []
+        p_index, p_time, p_wire = prev
+        rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
+        ifg = -(-ethernet.IFG_BYTES * 8 * 1_000_000_000 // rate)
+        need = min(wire, p_wire) + ifg
+        tick = 1000 if time_ns % 1000 == 0 and p_time % 1000 == 0 else 1
+        if time_ns - p_time >= need - tick + 1 or time_ns < p_time:
+            return []
+        return [
+            warning(  # a warning: a software capture's clock can be this wrong on legal traffic
+                "eth.overlap",
+                f"Ethernet: {time_ns - p_time} ns after frame {p_index + 1} from the same sender "
+                f"{ethernet.format_mac(src)} on interface {interface}, which needs {need} ns "
+                f"(wire time {min(wire, p_wire)} ns + inter-frame gap {ifg} ns at "
+                f"{rate / 1e6:g} Mbit/s, IEEE 802.3-2018 4.2.3.2, 4.4.2): the frames overlap",
+            )
+        ]
+
+
 def check_capture(capture: Capture) -> CaptureReport:
     """Run every check on every record of ``capture``."""
     report = CaptureReport(capture.path, capture.total)
@@ -159,6 +222,7 @@ def check_capture(capture: Capture) -> CaptureReport:
     cycle = _CycleChecker()
     decode = RepeatMemo(_decode, key=judged_bytes)  # each distinct frame decoded, judged once
     findings = report.findings
+    overlap = OverlapChecker()
     for rec in capture:
         if rec.linktype != LINKTYPE_ETHERNET:
             report.counts["other"] += 1
@@ -170,16 +234,24 @@ def check_capture(capture: Capture) -> CaptureReport:
             findings.append(FrameFinding(rec.index, error("eth.truncated", str(exc))))
             continue
         report.counts[proto] += 1
+        fcs = any(f.code == "eth.fcs" for f in frame.findings)
+        later = overlap.feed(rec.index, rec.time_ns, rec.interface, frame.src, rec.orig_len, fcs)
+        if later:
+            found = found + later  # never in place: a repeated frame shares ``found``
         if rec.comments:
             found = found + [
                 error("eth.corrupted", c) for c in rec.comments if c.startswith(CORRUPTED_MARK)
             ]
+        node = None
         if proto == "epl":
-            more = cycle.feed(frame.payload)  # type: ignore[arg-type]
-            if more:
-                found = found + more
+            m = encap.message_of(frame)
+            node = getattr(m, "src", None)
+            if not isinstance(frame.payload, ipv4udp.Ipv4Udp):  # EPL/UDP is routed, not cyclic
+                more = cycle.feed(m)  # type: ignore[arg-type]
+                if more:
+                    found = found + more
         if found:
-            findings += [FrameFinding(rec.index, f) for f in found]
+            findings += [FrameFinding(rec.index, f, node) for f in found]
     return report
 
 
@@ -248,5 +320,5 @@ def _decode(data: bytes) -> tuple[ethernet.EthernetFrame, str, list[Finding]]:
     proto = protocol_of(frame)
     found = list(frame.findings)
     if proto == "epl":
-        found += _node_findings(frame.payload)  # type: ignore[arg-type]
+        found += _node_findings(encap.message_of(frame))  # type: ignore[arg-type]
     return frame, proto, found

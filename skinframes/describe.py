@@ -9,7 +9,7 @@ from __future__ import annotations
 from enum import IntEnum
 from typing import Any
 
-from skinframes import ethercat, ethernet, powerlink
+from skinframes import encap, ethercat, ethernet, powerlink
 from skinframes.canbus import CanFrame
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError, TruncatedError
@@ -32,10 +32,12 @@ def frame_fields(frame: ethernet.EthernetFrame) -> dict[str, Any]:
         "eth_src": ethernet.format_mac(frame.src),
         "ethertype": frame.ethertype,
     }
-    p = frame.payload
+    out.update(encap.fields(frame))  # VLAN tags, IPv4/UDP: empty for a plain frame
+    p = encap.message_of(frame)
     if isinstance(p, ethercat.EcatFrame):
-        out["ecat_length"] = p.datagram_bytes if p.length is None else p.length
+        out["ecat_length"] = p.length_field
         out["ecat_type"] = p.frame_type
+        out.update(ethercat.content_fields(p))  # types 4 and 5: nv / mailbox
         out["datagrams"] = [
             {
                 "cmd": _name(d.cmd, ethercat.Command),
@@ -109,7 +111,7 @@ def _epl_fields(m: Any) -> dict[str, Any]:
 
 def summary(frame: ethernet.EthernetFrame) -> str:
     """A one-line description in the spirit of Wireshark's Info column."""
-    p = frame.payload
+    p = encap.message_of(frame)
     proto = protocol_of(frame)
     if proto == "ecat":
         assert isinstance(p, ethercat.EcatFrame)

@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Hashable
 from typing import Final, Generic, Literal, TypeVar
 
-from skinframes import ethercat, ethernet, powerlink
+from skinframes import encap, ethercat, ethernet, powerlink
 from skinframes.errors import (
     DecodeError,
     InvalidFieldError,
@@ -28,10 +28,12 @@ PROTOCOL_NAMES: Final = {ethernet.ETHERTYPE_EPL: "epl", ethernet.ETHERTYPE_ECAT:
 
 
 def protocol_of(frame: ethernet.EthernetFrame) -> Literal["epl", "ecat", "other"]:
-    """``"epl"`` or ``"ecat"`` when the payload was decoded as such, else ``"other"``."""
-    if isinstance(frame.payload, ethercat.EcatFrame):
+    """``"epl"`` or ``"ecat"`` when the payload was decoded as such (also inside VLAN tags or
+    UDP/IPv4), else ``"other"``."""
+    message = encap.message_of(frame)
+    if isinstance(message, ethercat.EcatFrame):
         return "ecat"
-    if isinstance(frame.payload, bytes | bytearray):
+    if isinstance(message, bytes | bytearray):
         return "other"
     return "epl"
 
@@ -53,7 +55,8 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
     """
     data = bytes(data)
     dst, src, ethertype = ethernet.unpack_header(data)
-    payload = data[ethernet.HEADER_BYTES :]
+    tags, ethertype, head = encap.split(data)  # VLAN tags before the EtherType
+    payload = data[head:]
     findings: list[Finding] = []
     if len(data) < ethernet.MIN_FRAME_BYTES:
         msg = f"Ethernet: {len(data)}-byte frame is shorter than the 60-byte minimum (unpadded)"
@@ -69,14 +72,16 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
             )
         )
     decoder = DECODERS.get(ethertype)
+    name = PROTOCOL_NAMES.get(ethertype, "other")
+    if decoder is None and (inner := encap.decoder_for(ethertype, payload)) is not None:
+        decoder, name = inner  # EPL or EtherCAT over UDP/IPv4
     if decoder is None:
         if strict:
             raise UnknownProtocolError(
                 f"Ethernet: EtherType {ethertype:#06x} is not EPL or EtherCAT"
             )
-        body, trailer = _raw(data)
-        return ethernet.EthernetFrame(dst, src, body, ethertype, trailer, tuple(findings))
-    name = PROTOCOL_NAMES[ethertype]
+        body, trailer = _raw(data, head)
+        return ethernet.EthernetFrame(dst, src, body, ethertype, trailer, tuple(findings), tags)
     try:
         message, used, more = decoder(payload, strict=strict)
         if used > ethernet.MAX_PAYLOAD_BYTES:
@@ -84,17 +89,17 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
                 f"Ethernet: the {used}-byte {name} message exceeds the "
                 f"{ethernet.MAX_PAYLOAD_BYTES}-byte maximum payload",
                 field="payload",
-                offset=ethernet.HEADER_BYTES,
+                offset=head,
             )
     except DecodeError as exc:
         if strict:
             raise
         findings.append(error(f"{name}.undecodable", f"{exc}; kept as raw bytes"))
-        body, trailer = _raw(data)
-        return ethernet.EthernetFrame(dst, src, body, ethertype, trailer, tuple(findings))
+        body, trailer = _raw(data, head)
+        return ethernet.EthernetFrame(dst, src, body, ethertype, trailer, tuple(findings), tags)
     findings += more
     padding = payload[used:]
-    auto = ethernet.padding_for(ethernet.HEADER_BYTES + used)
+    auto = ethernet.padding_for(head + used)
     pad: bytes | None = padding
     fill = padding
     if len(padding) >= ethernet.FCS_BYTES and data[-4:] == ethernet.fcs(data[:-4]):
@@ -108,7 +113,7 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
                 f"Ethernet: {len(padding)} padding bytes after the {name} message are not all zero"
             )
             if strict:
-                raise InvalidFieldError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
+                raise InvalidFieldError(msg, field="padding", offset=head + used)
             findings.append(warning("eth.padding.nonzero", msg))
         if len(fill) > auto:
             msg = (
@@ -116,9 +121,9 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
                 f"{auto} would pad to the minimum"
             )
             if strict:
-                raise LengthMismatchError(msg, field="padding", offset=ethernet.HEADER_BYTES + used)
+                raise LengthMismatchError(msg, field="padding", offset=head + used)
             findings.append(info("eth.trailer", msg))
-    return ethernet.EthernetFrame(dst, src, message, ethertype, pad, tuple(findings))
+    return ethernet.EthernetFrame(dst, src, message, ethertype, pad, tuple(findings), tags)
 
 
 T = TypeVar("T")
@@ -164,7 +169,7 @@ class RepeatMemo(Generic[K, T]):
         return value
 
 
-def _raw(data: bytes) -> tuple[bytes, bytes]:
+def _raw(data: bytes, head: int = ethernet.HEADER_BYTES) -> tuple[bytes, bytes]:
     """(payload, trailer) of a frame kept as raw bytes: the payload stops at 1500 bytes."""
-    body = data[ethernet.HEADER_BYTES :]
+    body = data[head:]
     return body[: ethernet.MAX_PAYLOAD_BYTES], body[ethernet.MAX_PAYLOAD_BYTES :]

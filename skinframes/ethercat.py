@@ -4,6 +4,12 @@ Layouts: ETG.1000.4 / IEC 61158-4-12 section 5.3 (frame structure, Table 12 Ethe
 datagram) as Wireshark's ``packet-ethercat-frame.c`` / ``packet-ethercat-datagram.c`` and SOEM's
 ``ethercattype.h`` implement them. All integers little-endian.
 
+Frame types (the header's Type, ETG.1000.4 Table 12): 1 carries datagrams; 4 network variables
+(a publisher header and its variables, as Wireshark's ``packet-nv.c`` dissects them); 5 a mailbox
+(the mailbox header of ETG.1000.4 5.6 and its data, Wireshark ``packet-ecatmb.c``). The other
+types are reserved in ETG.1000.4 (Wireshark names 2 ADS and 3 RAW-IO, Beckhoff's): their bytes
+are kept and a warning says so.
+
 The construct schemas are the schema of record. Encoding and decoding of whole frames run on a
 ``struct`` fast path that the tests prove byte-identical to the schemas; a numpy batch path builds
 and parses many frames of one fixed layout at once (:func:`pack_frames_batch`).
@@ -43,6 +49,10 @@ __all__ = [
     "Datagram",
     "EcatFrame",
     "FrameType",
+    "Mailbox",
+    "NetworkVariable",
+    "NvPublication",
+    "content_fields",
     "data_offsets",
     "datagrams_per_frame",
     "decode",
@@ -138,8 +148,45 @@ frame_schema = cs.Struct(
     "datagrams" / cs.GreedyRange(datagram_schema),  # the M bits decide where the chain ends
 )
 
+# Type 4, network variables (Wireshark packet-nv.h NvParserHDR, ETYPE_88A4_NV_DATA_HEADER).
+NV_HEADER_BYTES: Final = 12
+NV_VARIABLE_HEADER_BYTES: Final = 8
+nv_header_schema = cs.Struct(
+    "publisher" / cs.Bytes(6),
+    "count" / cs.Int16ul,
+    "cycle_index" / cs.Int16ul,
+    "reserved" / cs.Int16ul,
+)
+nv_variable_schema = cs.Struct(
+    "id" / cs.Int16ul,
+    "hash" / cs.Int16ul,
+    "length" / cs.Rebuild(cs.Int16ul, cs.len_(cs.this.data)),
+    "quality" / cs.Int16ul,
+    "data" / cs.Bytes(cs.this.length),
+)
+
+# Type 5, mailbox (ETG.1000.4 5.6 Table 29 mailbox header; Wireshark packet-ecatmb.h).
+MAILBOX_HEADER_BYTES: Final = 6
+mailbox_header_schema = cs.Struct(
+    "length" / cs.Int16ul,
+    "address" / cs.Int16ul,
+    "control"
+    / cs.ByteSwapped(  # one LE word: counter:3 reserved:1 | type:4 | priority:2 channel:6
+        cs.BitStruct(
+            "reserved" / cs.Flag,
+            "counter" / cs.BitsInteger(3),
+            "type" / cs.BitsInteger(4),
+            "priority" / cs.BitsInteger(2),
+            "channel" / cs.BitsInteger(6),
+        )
+    ),
+)
+
 # --- fast path: struct, proven byte-identical to the schemas (tests/skinframes/test_ethercat.py) --
 _DG_HEAD = struct.Struct("<BBHHHH")  # cmd idx adp ado len|flags irq
+_NV_HEAD = struct.Struct("<6sHHH")
+_NV_VAR = struct.Struct("<HHHH")
+_MBX_HEAD = struct.Struct("<HHH")
 _U16 = struct.Struct("<H")
 _LEN_MASK: Final = 0x07FF
 _RESERVED_MASK: Final = 0x3800
@@ -210,11 +257,152 @@ class Datagram:
 
 
 @dataclass(frozen=True, slots=True)
-class EcatFrame:
-    """An EtherCAT frame: the 2-byte header (ETG.1000.4 Table 12) and its datagrams.
+class NetworkVariable:
+    """One network variable of a type-4 frame: id, hash, length, quality, then the data."""
 
-    ``length`` None means "the sum of the datagrams", which the encoder computes; a decoder sets it
-    only when the received header disagreed (kept for byte-exactness, reported as a finding).
+    id: int
+    data: bytes = b""
+    hash: int = 0
+    quality: int = 0
+
+    def to_bytes(self) -> bytes:
+        """The 8-byte variable header and the data."""
+        try:
+            return _NV_VAR.pack(self.id, self.hash, len(self.data), self.quality) + self.data
+        except struct.error as exc:
+            raise FieldRangeError(f"EtherCAT network variable: {exc}") from exc
+
+
+@dataclass(frozen=True, slots=True)
+class NvPublication:
+    """The content of a type-4 frame: the publisher header and its network variables.
+
+    ``count`` None means "the number of variables"; a decoder keeps a disagreeing value.
+    """
+
+    publisher: bytes
+    variables: tuple[NetworkVariable, ...] = ()
+    cycle_index: int = 0
+    reserved: int = 0
+    count: int | None = None
+
+    def __post_init__(self) -> None:
+        if len(self.publisher) != 6:
+            raise FieldRangeError("EtherCAT NV: the publisher is 6 bytes", field="publisher")
+        if not isinstance(self.variables, tuple):
+            object.__setattr__(self, "variables", tuple(self.variables))
+
+    def to_bytes(self) -> bytes:
+        """Publisher header (12 bytes) and the variables."""
+        count = len(self.variables) if self.count is None else self.count
+        try:
+            head = _NV_HEAD.pack(self.publisher, count, self.cycle_index, self.reserved)
+        except struct.error as exc:
+            raise FieldRangeError(f"EtherCAT NV header: {exc}") from exc
+        return head + b"".join(v.to_bytes() for v in self.variables)
+
+    @classmethod
+    def decode(cls, buf: bytes) -> NvPublication:
+        """Decode the bytes after the EtherCAT header (without padding past the variables).
+
+        Raises:
+            TruncatedError: the header or a variable runs past the bytes.
+        """
+        if len(buf) < NV_HEADER_BYTES:
+            raise TruncatedError(f"EtherCAT NV: {len(buf)} bytes, the header needs 12", offset=0)
+        publisher, count, cycle_index, reserved = _NV_HEAD.unpack_from(buf)
+        pos, variables = NV_HEADER_BYTES, []
+        for k in range(count):
+            if len(buf) - pos < NV_VARIABLE_HEADER_BYTES:
+                raise TruncatedError(f"EtherCAT NV: variable {k} of {count} missing", offset=pos)
+            ident, hsh, n, quality = _NV_VAR.unpack_from(buf, pos)
+            start = pos + NV_VARIABLE_HEADER_BYTES
+            if start + n > len(buf):
+                raise TruncatedError(
+                    f"EtherCAT NV: variable {k} length {n} runs past the frame", offset=pos + 4
+                )
+            variables.append(NetworkVariable(ident, buf[start : start + n], hsh, quality))
+            pos = start + n
+        return cls(publisher, tuple(variables), cycle_index, reserved)
+
+    @property
+    def size_bytes(self) -> int:
+        """Bytes the publication occupies."""
+        return NV_HEADER_BYTES + sum(NV_VARIABLE_HEADER_BYTES + len(v.data) for v in self.variables)
+
+
+@dataclass(frozen=True, slots=True)
+class Mailbox:
+    """The content of a type-5 frame (mailbox gateway): mailbox header (ETG.1000.4 5.6) + data.
+
+    ``mailbox_type``: 1 AoE, 2 EoE, 3 CoE, 4 FoE, 5 SoE, 15 VoE (ETG.1000.6 5.6 Table 29).
+    """
+
+    address: int
+    mailbox_type: int
+    data: bytes = b""
+    channel: int = 0
+    priority: int = 0
+    counter: int = 0
+    reserved: bool = False
+
+    def to_bytes(self) -> bytes:
+        """Header (length, address, control word) and data."""
+        if not (0 <= self.channel < 64 and 0 <= self.priority < 4 and 0 <= self.counter < 8):
+            raise FieldRangeError("EtherCAT mailbox: channel 6, priority 2, counter 3 bits")
+        if not 0 <= self.mailbox_type <= 0xF:
+            raise FieldRangeError("EtherCAT mailbox: type is 4 bits", field="mailbox_type")
+        control = self.channel | self.priority << 6 | self.mailbox_type << 8 | self.counter << 12
+        control |= 0x8000 if self.reserved else 0
+        try:
+            return _MBX_HEAD.pack(len(self.data), self.address, control) + self.data
+        except struct.error as exc:
+            raise FieldRangeError(f"EtherCAT mailbox: {exc}") from exc
+
+    @classmethod
+    def decode(cls, buf: bytes) -> Mailbox:
+        """Decode the mailbox header and its ``length`` data bytes.
+
+        Raises:
+            TruncatedError: the header or the data runs past the bytes.
+        """
+        if len(buf) < MAILBOX_HEADER_BYTES:
+            raise TruncatedError(f"EtherCAT mailbox: {len(buf)} bytes, the header needs 6")
+        n, address, control = _MBX_HEAD.unpack_from(buf)
+        if MAILBOX_HEADER_BYTES + n > len(buf):
+            raise TruncatedError(
+                f"EtherCAT mailbox: length {n} runs past the frame "
+                f"({len(buf) - MAILBOX_HEADER_BYTES} bytes left)",
+                field="length",
+                offset=0,
+            )
+        return cls(
+            address,
+            control >> 8 & 0xF,
+            buf[MAILBOX_HEADER_BYTES : MAILBOX_HEADER_BYTES + n],
+            control & 0x3F,
+            control >> 6 & 0x3,
+            control >> 12 & 0x7,
+            bool(control & 0x8000),
+        )
+
+    @property
+    def size_bytes(self) -> int:
+        """Bytes the mailbox occupies."""
+        return MAILBOX_HEADER_BYTES + len(self.data)
+
+
+Content = NvPublication | Mailbox | bytes
+
+
+@dataclass(frozen=True, slots=True)
+class EcatFrame:
+    """An EtherCAT frame: the 2-byte header (ETG.1000.4 Table 12) and its datagrams (type 1) or
+    its ``content`` (type 4 :class:`NvPublication`, type 5 :class:`Mailbox`, other types raw bytes).
+
+    ``length`` None means "the sum of the datagrams" (or the content's size), which the encoder
+    computes; a decoder sets it only when the received header disagreed (kept for
+    byte-exactness, reported as a finding).
     """
 
     ETHERTYPE: ClassVar[int] = ethernet.ETHERTYPE_ECAT
@@ -222,6 +410,7 @@ class EcatFrame:
     frame_type: int = FrameType.ECAT
     reserved: bool = False
     length: int | None = None
+    content: Content | None = None
 
     def __post_init__(self) -> None:
         if not isinstance(self.datagrams, tuple):
@@ -232,9 +421,22 @@ class EcatFrame:
         """Sum over the datagrams of 12 + data: the value of a consistent length field."""
         return sum(DATAGRAM_OVERHEAD_BYTES + len(d.data) for d in self.datagrams)
 
+    @property
+    def length_field(self) -> int:
+        """The header's Length as sent (Wireshark ``ecatf.length``)."""
+        if self.length is not None:
+            return self.length
+        if self.content is not None:
+            return len(_content_bytes(self.content))
+        return self.datagram_bytes
+
     def to_bytes(self) -> bytes:
-        """The EtherCAT bytes (header + datagrams), without Ethernet padding."""
-        total = self.datagram_bytes
+        """The EtherCAT bytes (header + datagrams or content), without Ethernet padding."""
+        if self.content is not None:
+            body = _content_bytes(self.content)
+            total = len(body)
+        else:
+            total = self.datagram_bytes
         if FRAME_HEADER_BYTES + total > ethernet.MAX_PAYLOAD_BYTES:
             raise FrameTooLargeError(
                 f"EtherCAT frame: {FRAME_HEADER_BYTES + total} bytes exceed the "
@@ -245,24 +447,106 @@ class EcatFrame:
         if not 0 <= length <= MAX_LENGTH_FIELD or not 0 <= self.frame_type <= 0xF:
             raise FieldRangeError("EtherCAT header: length is 11 bits, type 4 bits", field="header")
         header = length | (0x0800 if self.reserved else 0) | (self.frame_type << 12)
+        if self.content is not None:
+            return _U16.pack(header) + body
         last = len(self.datagrams) - 1
         parts = [_U16.pack(header)]
         parts += [d.to_bytes(more=i < last) for i, d in enumerate(self.datagrams)]
         return b"".join(parts)
 
 
+def content_fields(ecat: EcatFrame) -> dict[str, object]:
+    """JSON fields of a type-4 or type-5 frame's content, named as Wireshark's ``tc_nv.*`` and
+    ``ecat_mailbox.*`` fields; empty for datagram frames."""
+    c = ecat.content
+    if isinstance(c, NvPublication):
+        return {
+            "nv": {
+                "publisher": c.publisher.hex(":"),
+                "count": len(c.variables) if c.count is None else c.count,
+                "cycleindex": c.cycle_index,
+                "variables": [
+                    {"id": v.id, "hash": v.hash, "length": len(v.data), "quality": v.quality}
+                    for v in c.variables
+                ],
+            }
+        }
+    if isinstance(c, Mailbox):
+        return {
+            "mailbox": {
+                "length": len(c.data),
+                "address": c.address,
+                "priority": c.priority,
+                "type": c.mailbox_type,
+                "counter": c.counter,
+            }
+        }
+    if c is not None:
+        return {"content_length": len(c)}
+    return {}
+
+
+def _content_bytes(content: Content) -> bytes:
+    return bytes(content) if isinstance(content, bytes | bytearray) else content.to_bytes()
+
+
+RESERVED_TYPE_NAMES: Final = {2: "ADS", 3: "RAW-IO"}  # Wireshark's names for reserved types
+
+
+def _decode_content(
+    buf: bytes, frame_type: int, length: int, reserved: bool, strict: bool
+) -> tuple[EcatFrame, int, list[Finding]]:
+    """Frame types other than 1: network variables, mailbox, reserved (kept as bytes)."""
+    findings: list[Finding] = []
+    body = buf[FRAME_HEADER_BYTES:]
+    content: Content
+    if frame_type == FrameType.NV:
+        content = NvPublication.decode(body)
+        size = content.size_bytes
+        if content.reserved:
+            findings.append(warning("ecat.nv.reserved", "EtherCAT NV: reserved word not zero"))
+    elif frame_type == FrameType.MAILBOX:
+        content = Mailbox.decode(body)
+        size = content.size_bytes
+    else:
+        name = RESERVED_TYPE_NAMES.get(frame_type, "reserved")
+        msg = (
+            f"EtherCAT header: type {frame_type} ({name}) is reserved in ETG.1000.4 Table 12; "
+            "its bytes are kept undecoded"
+        )
+        if strict:
+            raise InvalidFieldError(msg, field="header.type", offset=0)
+        findings.append(warning("ecat.type.reserved", msg))
+        size = min(length, len(body))
+        content = body[:size]
+    explicit: int | None = None
+    if length != size:
+        msg = f"EtherCAT header: length {length}, the type-{frame_type} content occupies {size}"
+        if strict:
+            raise LengthMismatchError(msg, field="header.length", offset=0)
+        findings.append(error("ecat.header.length", msg))
+        explicit = length
+    frame = EcatFrame((), frame_type, reserved, explicit, content)
+    return frame, FRAME_HEADER_BYTES + size, findings
+
+
 def decode(payload: bytes, *, strict: bool = True) -> tuple[EcatFrame, int, list[Finding]]:
     """Decode the EtherCAT part of a frame (the bytes after the EtherType).
 
-    Datagrams are read as Wireshark reads them: while bytes remain and the previous datagram's
-    M bit is set. A chain whose last M bit is set ends where the header length says it ends.
+    Datagrams are read as Wireshark reads them (``packet-ethercat-datagram.c``): while the
+    previous datagram's M bit is set and bytes remain, whatever the header length says. Where
+    the chain and the header length disagree, one finding names both: ``ecat.more.last`` when
+    a datagram has its M bit set where the header length ends (or where the frame ends),
+    ``ecat.header.length`` otherwise; an M bit pointing at bytes too short for a datagram is
+    ``ecat.more.truncated`` (Wireshark: malformed). Types 4 and 5 decode their content
+    (:class:`NvPublication`, :class:`Mailbox`), reserved types are kept as bytes.
 
     Returns:
         The frame, how many bytes it occupies (the rest is padding), and findings.
 
     Raises:
-        DecodeError: truncated datagrams, a non-command frame type, or (strict) an inconsistent
-            header length, reserved bits, or a wrong more-follows chain.
+        DecodeError: a truncated first datagram or content, or (strict) an inconsistent header
+            length, reserved bits or types, or a wrong more-follows chain.
     """
     findings: list[Finding] = []
     buf = bytes(payload)
@@ -270,63 +554,82 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[EcatFrame, int, list
         raise TruncatedError(f"EtherCAT: {len(buf)} bytes, the header needs 2", offset=0)
     (header,) = _U16.unpack_from(buf)
     length, frame_type, reserved = header & _LEN_MASK, header >> 12, bool(header & 0x0800)
-    if frame_type != FrameType.ECAT:
-        raise InvalidFieldError(
-            f"EtherCAT: header type {frame_type} is not 1 (EtherCAT commands); not decoded",
-            field="header.type",
-            offset=0,
-        )
     if reserved:
         msg = "EtherCAT header: reserved bit 11 set"
         if strict:
             raise InvalidFieldError(msg, field="header.reserved", offset=0)
         findings.append(warning("ecat.header.reserved", msg))
+    if frame_type != FrameType.ECAT:
+        frame, used, more_findings = _decode_content(buf, frame_type, length, reserved, strict)
+        return frame, used, findings + more_findings
     datagrams: list[Datagram] = []
     append = datagrams.append
     unpack_head = _DG_HEAD.unpack_from
     buf_len = len(buf)
     pos = FRAME_HEADER_BYTES
     more = True
+    more_at_length: int | None = None  # the datagram whose M bit is set where the length ends
     while more and pos < buf_len:
-        if buf_len - pos < DATAGRAM_HEADER_BYTES:
-            raise TruncatedError(
-                f"EtherCAT datagram {len(datagrams)}: {buf_len - pos} bytes left, header needs 10",
-                field=f"datagrams[{len(datagrams)}]",
-                offset=pos,
+        k = len(datagrams)
+        n = (unpack_head(buf, pos)[4] & _LEN_MASK) if buf_len - pos >= DATAGRAM_HEADER_BYTES else 0
+        if buf_len - pos < DATAGRAM_HEADER_BYTES or pos + DATAGRAM_OVERHEAD_BYTES + n > buf_len:
+            left = buf_len - pos
+            text = (
+                f"EtherCAT datagram {k}: {left} bytes left, header needs 10"
+                if left < DATAGRAM_HEADER_BYTES
+                else f"EtherCAT datagram {k}: length {n} runs past the frame "
+                f"({left - DATAGRAM_OVERHEAD_BYTES} bytes left)"
             )
+            if strict or not datagrams:
+                raise TruncatedError(
+                    text, field=f"datagrams[{k}]", offset=pos if left < 10 else pos + 6
+                )
+            findings.append(
+                error(
+                    "ecat.more.truncated",
+                    f"EtherCAT datagram {k - 1}: M bit set, but {text[len('EtherCAT ') :]} "
+                    "(Wireshark: malformed); the bytes stay padding",
+                )
+            )
+            datagrams[-1] = _with_more(datagrams[-1])
+            break
         cmd, idx, adp, ado, word, irq = unpack_head(buf, pos)
-        n = word & _LEN_MASK
         end = pos + DATAGRAM_HEADER_BYTES + n
-        if end + WKC_BYTES > buf_len:
-            raise TruncatedError(
-                f"EtherCAT datagram {len(datagrams)}: length {n} runs past the frame "
-                f"({buf_len - pos - DATAGRAM_OVERHEAD_BYTES} bytes left)",
-                field=f"datagrams[{len(datagrams)}].length",
-                offset=pos + 6,
-            )
         more = word & _MORE != 0
         wkc = buf[end] | buf[end + 1] << 8  # little-endian u16, without a struct call
         res = (word & _RESERVED_MASK) >> 11
         if res:
-            msg = f"EtherCAT datagram {len(datagrams)}: reserved length bits {res:#x} set"
+            msg = f"EtherCAT datagram {k}: reserved length bits {res:#x} set"
             if strict:
-                raise InvalidFieldError(msg, field=f"datagrams[{len(datagrams)}].reserved")
+                raise InvalidFieldError(msg, field=f"datagrams[{k}].reserved")
             findings.append(warning("ecat.datagram.reserved", msg))
         command: int | None = _COMMAND_OF[cmd]
         if command is None:
-            msg = f"EtherCAT datagram {len(datagrams)}: unknown command {cmd:#04x}"
+            msg = f"EtherCAT datagram {k}: unknown command {cmd:#04x}"
             if strict:
-                raise InvalidFieldError(msg, field=f"datagrams[{len(datagrams)}].cmd", offset=pos)
+                raise InvalidFieldError(msg, field=f"datagrams[{k}].cmd", offset=pos)
             findings.append(error("ecat.cmd.unknown", msg))
             command = cmd
         pos = end + WKC_BYTES
         override: bool | None = None
         if more and (pos - FRAME_HEADER_BYTES == length or pos >= buf_len):
-            msg = f"EtherCAT datagram {len(datagrams)}: more-follows set on the last datagram"
             if strict:
-                raise InvalidFieldError(msg, field=f"datagrams[{len(datagrams)}].more")
-            findings.append(warning("ecat.more.last", msg))
-            override, more = True, False
+                raise InvalidFieldError(
+                    f"EtherCAT datagram {k}: more-follows set on the last datagram",
+                    field=f"datagrams[{k}].more",
+                )
+            if pos >= buf_len:
+                override = True  # nothing follows: the chain ends with the frame
+                if more_at_length is None:
+                    findings.append(
+                        warning(
+                            "ecat.more.last",
+                            f"EtherCAT datagram {k}: more-follows set on the last datagram "
+                            f"(the frame ends; header length {length})",
+                        )
+                    )
+            elif more_at_length is None:
+                more_at_length = k
         # What Datagram(command, adp, ado, ...) builds, in half the time (see _new_datagram).
         d = _new_datagram(Datagram)
         _set_cmd(d, command)
@@ -340,17 +643,39 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[EcatFrame, int, list
         _set_more(d, override)
         _set_reserved(d, res)
         append(d)
+    if datagrams and datagrams[-1].more is None and more and pos >= buf_len:
+        datagrams[-1] = _with_more(datagrams[-1])
     total = pos - FRAME_HEADER_BYTES
     explicit: int | None = None
     if length != total:
-        msg = f"EtherCAT header: length {length}, datagrams occupy {total}"
-        if strict:
-            raise LengthMismatchError(msg, field="header.length", offset=0)
-        findings.append(error("ecat.header.length", msg))
+        if more_at_length is not None:
+            findings.append(
+                warning(
+                    "ecat.more.last",
+                    f"EtherCAT datagram {more_at_length}: M bit set where the header length "
+                    f"({length}) ends; the M bits chain {len(datagrams)} datagrams of {total} "
+                    "bytes (Wireshark shows them all)",
+                )
+            )
+        else:
+            msg = (
+                f"EtherCAT header: length {length}, the M bits chain {len(datagrams)} "
+                f"datagrams of {total} bytes"
+            )
+            if strict:
+                raise LengthMismatchError(msg, field="header.length", offset=0)
+            findings.append(error("ecat.header.length", msg))
         explicit = length
     if not datagrams:
         findings.append(info("ecat.empty", "EtherCAT frame without datagrams"))
     return EcatFrame(tuple(datagrams), frame_type, reserved, explicit), pos, findings
+
+
+def _with_more(d: Datagram) -> Datagram:
+    """``d`` with its M bit kept set (it ends the chain although the bit says more follows)."""
+    return Datagram(
+        d.cmd, d.adp, d.ado, d.data, d.idx, d.irq, d.wkc, d.circulating, True, d.reserved
+    )
 
 
 # Command member per byte value, None for values that are no command: one index instead of a
@@ -452,10 +777,16 @@ def returned_mac(src: bytes) -> bytes:
 
 
 def frame(
-    ecat: EcatFrame, *, src: bytes = MASTER_MAC, returned: bool = False
+    ecat: EcatFrame,
+    *,
+    src: bytes = MASTER_MAC,
+    returned: bool = False,
+    tags: tuple[ethernet.Tag, ...] = (),
 ) -> ethernet.EthernetFrame:
-    """Wrap an EtherCAT frame in Ethernet as a master sends it (broadcast destination)."""
-    return ethernet.EthernetFrame(BROADCAST_MAC, returned_mac(src) if returned else src, ecat)
+    """Wrap an EtherCAT frame in Ethernet as a master sends it (broadcast destination), with
+    VLAN ``tags`` if given (ETG.1000.4 5.3: EtherCAT frames may carry an 802.1Q tag)."""
+    mac = returned_mac(src) if returned else src
+    return ethernet.EthernetFrame(BROADCAST_MAC, mac, ecat, tags=tags)
 
 
 # --- batch fast path: numpy, one fixed layout (k datagrams of B bytes) per call ------------------

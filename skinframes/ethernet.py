@@ -18,6 +18,7 @@ from skinframes.errors import FieldRangeError, FrameTooLargeError, TruncatedErro
 from skinframes.findings import Finding
 
 __all__ = [
+    "DEFAULT_BIT_RATE_BPS",
     "ETHERTYPE_ECAT",
     "ETHERTYPE_EPL",
     "FCS_BYTES",
@@ -30,6 +31,7 @@ __all__ = [
     "PREAMBLE_SFD_BYTES",
     "EthernetFrame",
     "Payload",
+    "Tag",
     "fcs",
     "flip_bit",
     "format_mac",
@@ -46,6 +48,9 @@ FCS_BYTES: Final = 4  # CRC-32, 802.3 3.2.9
 PREAMBLE_SFD_BYTES: Final = 8  # 7 preamble + 1 SFD, 802.3 3.2.1-3.2.2
 IFG_BYTES: Final = 12  # 96 bit times, 802.3 4.4.2
 MIN_PAYLOAD_BYTES: Final = 46  # minFrameSize 64 - header 14 - FCS 4
+DEFAULT_BIT_RATE_BPS: Final = (
+    100_000_000  # 100BASE-TX (802.3 clause 24/25): pcapng if_speed default
+)
 MAX_PAYLOAD_BYTES: Final = 1500
 MIN_FRAME_BYTES: Final = HEADER_BYTES + MIN_PAYLOAD_BYTES  # 60, as captured (no FCS)
 MAX_FRAME_BYTES: Final = HEADER_BYTES + MAX_PAYLOAD_BYTES  # 1514, as captured
@@ -137,6 +142,14 @@ def unpack_header(data: bytes) -> tuple[bytes, bytes, int]:
     return dst, src, ethertype
 
 
+class Tag(Protocol):
+    """What sits between source MAC and EtherType: a VLAN tag (:class:`skinframes.vlan.VlanTag`)."""
+
+    def to_bytes(self) -> bytes:
+        """The tag's 4 bytes."""
+        ...
+
+
 class Payload(Protocol):
     """What an Ethernet frame can carry besides raw bytes: an EPL or EtherCAT message."""
 
@@ -160,6 +173,10 @@ class EthernetFrame:
             what a decoder reports when the frame carries exactly that; any other trailing bytes
             are kept verbatim so that ``to_bytes()`` returns the captured frame.
         findings: what the decoder noticed; not part of equality.
+        tags: VLAN tags between source MAC and EtherType, outermost first (IEEE 802.1Q-2018
+            9.5; :mod:`skinframes.vlan`); ``ethertype`` is then the one after the tags. Padding
+            to the 60-byte minimum counts the tags (IEEE 802.3-2018 3.5: a tagged frame may be
+            as short as an untagged one).
     """
 
     dst: bytes
@@ -168,6 +185,7 @@ class EthernetFrame:
     ethertype: int | None = None
     padding: bytes | None = None
     findings: tuple[Finding, ...] = field(default=(), compare=False, repr=False)
+    tags: tuple[Tag, ...] = ()
 
     def __post_init__(self) -> None:
         if len(self.dst) != MAC_BYTES or len(self.src) != MAC_BYTES:
@@ -194,13 +212,15 @@ class EthernetFrame:
                 field="payload",
             )
         head = _HEADER.pack(self.dst, self.src, self.ethertype)
+        if self.tags:
+            head = head[:12] + b"".join(t.to_bytes() for t in self.tags) + head[12:]
         pad = self.padding
         if pad is None:
-            pad = bytes(padding_for(HEADER_BYTES + len(body)))
+            pad = bytes(padding_for(len(head) + len(body)))
         return head + body + pad
 
     def wire_bytes(self) -> int:
-        """Bytes on the wire for this frame (preamble, padded frame, FCS; no IFG)."""
+        """Bytes on the wire for this frame (preamble, padded frame with its tags, FCS; no IFG)."""
         return wire_bytes(len(self.to_bytes()))
 
     @classmethod

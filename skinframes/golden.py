@@ -1,7 +1,10 @@
 """The golden captures in ``pcaps/``: each built here from the codecs, deterministically.
 
-Every scenario returns ``(time_ns, frame bytes)`` records. Timestamps are a fixed 10 us apart from
-0: these files pin down bytes; timing is the emulator's business. MACs are locally administered
+Every scenario returns ``(time_ns, frame bytes)`` records. Timestamps are 10 us apart from 0, or
+further where a sender's previous frame is still on the wire: a frame starts no earlier than the
+end of its sender's previous frame plus the inter-frame gap at 100 Mbit/s (IEEE 802.3-2018 4.4.2;
+``skinframes check`` flags overlaps). These files pin down bytes; timing is the emulator's
+business. MACs are locally administered
 (``02:00:00:00:0a:NN`` for EPL node NN, ``00:00:5e:00:53:01`` for the EtherCAT master, RFC 7042) and taxel
 payloads come from the seeded :func:`skinframes.taxel.contact_pattern`.
 """
@@ -12,7 +15,7 @@ import ipaddress
 from collections.abc import Callable
 from typing import Final
 
-from skinframes import ethercat, powerlink, taxel
+from skinframes import ethercat, ethernet, powerlink, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 from skinframes.powerlink import (
     ASnd,
@@ -31,14 +34,30 @@ from skinframes.powerlink import (
     StatusResponse,
 )
 
-__all__ = ["SCENARIOS", "build"]
+__all__ = ["SCENARIOS", "build", "stamp"]
 
 STEP_NS: Final = 10_000
+BYTE_NS: Final = 8 * 1_000_000_000 // ethernet.DEFAULT_BIT_RATE_BPS  # 80 ns at 100 Mbit/s
 Records = list[tuple[int, bytes]]
 
 
 def _stamp(frames: list[bytes]) -> Records:
-    return [(i * STEP_NS, f) for i, f in enumerate(frames)]
+    """10 us apart, but never before the sender's (source MAC's) previous frame has left the
+    wire and the inter-frame gap has passed."""
+    out: Records = []
+    free_ns: dict[bytes, int] = {}  # source MAC -> when it may send again
+    t = 0
+    for i, f in enumerate(frames):
+        src = f[ethernet.MAC_BYTES : 2 * ethernet.MAC_BYTES]
+        t = max(t + STEP_NS if i else 0, free_ns.get(src, 0))
+        free_ns[src] = t + (ethernet.wire_bytes(len(f)) + ethernet.IFG_BYTES) * BYTE_NS
+        out.append((t, f))
+    return out
+
+
+def stamp(frames: list[bytes]) -> Records:
+    """Timestamps for ``frames`` as the golden files have them (see :func:`_stamp`)."""
+    return _stamp(frames)
 
 
 def _patches(n: int, seed: int = 0) -> list[bytes]:

@@ -25,6 +25,7 @@ from skinframes_cli import (
     serve,
     simulate,
     tables,
+    vectors,
     wireshark_plugin,
 )
 
@@ -43,6 +44,7 @@ COMMANDS: Final = (
     compare,
     serve,
     wireshark_plugin,
+    vectors,
 )
 
 

@@ -1,13 +1,19 @@
-"""``skinframes check PATH [--json]``: conformance findings; exit 1 when any is an error."""
+"""``skinframes check PATH [--json] [--verbose]``: conformance findings; exit 1 when any is an error.
+
+The text listing groups identical findings (same code, same EPL node) into one line with their
+count and first and last frame (Wireshark's 1-based numbers), errors first, then warnings; info
+findings only with ``--verbose``. ``--json`` keeps every instance.
+"""
 
 from __future__ import annotations
 
 import argparse
 import json
 import sys
+from dataclasses import dataclass
 from typing import Any
 
-from skinframes.check import check_capture
+from skinframes.check import FrameFinding, check_capture
 from skinframes.findings import Severity
 from skinframes.pcap import read_capture
 
@@ -18,36 +24,87 @@ def add_parser(sub: Any) -> None:
         "check",
         help="conformance findings for a capture (exit 1 on any error)",
         description="Check every frame of a capture against the EPL and EtherCAT frame rules: "
-        "size and length fields, the datagram chain, padding, node ids and the EPL cycle order. "
-        "Exit status 1 when any finding is an error.",
+        "size and length fields, the datagram chain, padding, node ids, the EPL cycle order and "
+        "frames of one sender overlapping on the wire. Identical findings are listed once, with "
+        "their count and first and last frame; errors first. Exit status 1 when any finding is "
+        "an error.",
     )
     p.add_argument("path", help="capture file (pcap, pcapng, gzip)")
-    p.add_argument("--json", action="store_true", help="one JSON document")
+    p.add_argument("--json", action="store_true", help="one JSON document (every finding)")
+    p.add_argument(
+        "--verbose",
+        "-v",
+        action="store_true",
+        help="list info findings too (by default only errors and warnings)",
+    )
     p.add_argument(
         "--min-severity",
         choices=[str(s) for s in Severity],
-        default="info",
-        help="hide findings below this severity in the listing (default: info)",
+        default=None,
+        help="hide findings below this severity (default: warning in the listing, "
+        "info with --verbose and in --json)",
     )
     p.set_defaults(run=run)
+
+
+@dataclass
+class Group:
+    """Identical findings: one severity, code and EPL node."""
+
+    severity: Severity
+    code: str
+    node: int | None
+    message: str  # the first instance's
+    count: int
+    first: int  # record indexes
+    last: int
+
+
+def group(findings: list[FrameFinding]) -> list[Group]:
+    """Identical findings (severity, code, node) as groups, worst severity first, then by the
+    first frame."""
+    groups: dict[tuple[Severity, str, int | None], Group] = {}
+    for f in findings:
+        key = (f.finding.severity, f.finding.code, f.node)
+        g = groups.get(key)
+        if g is None:
+            groups[key] = Group(*key, f.finding.message, 1, f.index, f.index)
+        else:
+            g.count += 1
+            g.last = f.index
+    return sorted(groups.values(), key=lambda g: (-g.severity, g.first))
+
+
+def _frames(g: Group) -> str:
+    # Wireshark numbers frames from 1; index -1 is the file itself
+    if g.first < 0:
+        return "file"
+    if g.count == 1:
+        return f"frame {g.first + 1}"
+    return f"frames {g.first + 1}..{g.last + 1}"
 
 
 def run(args: argparse.Namespace) -> int:
     """Check and report."""
     report = check_capture(read_capture(args.path))
-    floor = Severity[args.min_severity.upper()]
+    if args.min_severity is not None:
+        floor = Severity[args.min_severity.upper()]
+    else:
+        floor = Severity.INFO if args.json or args.verbose else Severity.WARNING
     if args.json:
         print(json.dumps(report.to_json(floor), indent=2))
     else:
-        for f in report.at_least(floor):
+        for g in group(report.at_least(floor)):
+            node = f"node {g.node}" if g.node is not None else ""
             print(
-                f"record {f.index:>6}  {f.finding.severity!s:<7} {f.finding.code:<22} "
-                f"{f.finding.message}"
+                f"{_frames(g)}  {g.severity!s:<7} {g.code:<22} x{g.count:<6} {node:<8} {g.message}".rstrip()
             )
         counts = ", ".join(f"{k} {v}" for k, v in sorted(report.counts.items()))
+        hidden = len(report.findings) - len(report.at_least(floor))
+        more = f", {hidden} below {floor} not listed (--verbose lists them)" if hidden else ""
         print(
             f"{report.path}: {report.total} records ({counts}): "
-            f"{report.errors} errors, {report.warnings} warnings",
+            f"{report.errors} errors, {report.warnings} warnings{more}",
             file=sys.stderr,
         )
     return 1 if report.errors else 0

@@ -71,6 +71,12 @@ def add_parser(sub: Any) -> None:
         "INIT->PREOP->SAFEOP->OP) on patches with a CoE mailbox",
     )
     p.add_argument("--seed", type=int, default=0, help="seed of the taxel contact patterns")
+    p.add_argument(
+        "--vlan",
+        type=int,
+        metavar="ID",
+        help="tag every frame with this 802.1Q VLAN id (0..4094); the 4 bytes count on the wire",
+    )
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.set_defaults(run=run)
 
@@ -112,6 +118,7 @@ def run(args: argparse.Namespace) -> int:
                 faults=faults,
                 pcap=args.pcap,
                 progress=bar,
+                vlan=args.vlan,
             )
         else:
             result = simulate_ecat(
@@ -126,6 +133,7 @@ def run(args: argparse.Namespace) -> int:
                 pcap=args.pcap,
                 progress=bar,
                 startup=args.startup,
+                vlan=args.vlan,
             )
     if args.json:
         print(json.dumps(result.to_json(), indent=2))

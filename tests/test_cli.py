@@ -68,11 +68,22 @@ def capture_with_error(tmp_path: Path) -> Path:
     pres[14 + 8 : 14 + 10] = struct.pack("<H", 192)
     frames = [epl_bytes(SoC()), epl_bytes(PReq(1)), bytes(pres), epl_bytes(SoA())]
     path = tmp_path / "size_error.pcap"
-    path.write_bytes(pcap_bytes([(i * 1000, f) for i, f in enumerate(frames)]))
+    path.write_bytes(pcap_bytes([(i * 10_000, f) for i, f in enumerate(frames)]))  # no overlap
     return path
 
 
 # --- decode ----------------------------------------------------------------------------------------
+# 10 us apart, except where the sender's previous frame is still on the wire: a 1444-byte frame
+# takes (8 + 1444 + 4) x 80 ns = 116.48 us, plus the 0.96 us gap (pcaps/README.md)
+STAMPS_NS = {
+    "ecat_23_slaves.pcap": [0, 117_440, 234_880, 352_320, 362_320, 479_760, 597_200, 714_640]
+}
+
+
+def stamp_ns(name: str, i: int) -> int:
+    return STAMPS_NS[name][i] if name in STAMPS_NS else i * 10_000
+
+
 @pytest.mark.parametrize("name", sorted(GOLDEN))
 def test_decode_text(name: str, capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = run(["decode", str(PCAPS / name)], capsys)
@@ -82,7 +93,7 @@ def test_decode_text(name: str, capsys: pytest.CaptureFixture[str]) -> None:
     for i, line in enumerate(lines):
         index, seconds, length = line.split()[:3]
         assert int(index) == i
-        assert float(seconds) == pytest.approx(i * 10e-6, abs=1e-9)
+        assert float(seconds) == pytest.approx(stamp_ns(name, i) * 1e-9, abs=1e-9)
         assert int(length) >= 60
     assert err.splitlines() == [
         f"skinframes: {GOLDEN[name]} records: {GOLDEN[name]} decoded, 0 skipped"
@@ -109,7 +120,7 @@ def test_decode_json_lines(name: str, capsys: pytest.CaptureFixture[str]) -> Non
     assert len(objs) == GOLDEN[name]
     for i, o in enumerate(objs):
         assert o.keys() >= FRAME_KEYS
-        assert (o["index"], o["time_ns"]) == (i, i * 10_000)
+        assert (o["index"], o["time_ns"]) == (i, stamp_ns(name, i))
         assert o["protocol"] == ("epl" if name.startswith("epl") else "ecat")
         assert o["findings"] == []
     assert len(err.splitlines()) == 1 and f"{GOLDEN[name]} records" in err  # the count line
@@ -209,7 +220,7 @@ def test_check_error_exit_1(capture_with_error: Path, capsys: pytest.CaptureFixt
     code, out, err = run(["check", str(capture_with_error)], capsys)
     assert code == 1
     assert len(out.splitlines()) == 1 and "error" in out  # the finding, on record 2
-    assert out.split()[:2] == ["record", "2"]
+    assert out.split()[:2] == ["frame", "3"]  # Wireshark's number of record 2
     assert err.splitlines()[-1].endswith(": 1 errors, 0 warnings")
     code, out, err = run(["check", "--json", str(capture_with_error)], capsys)
     assert code == 1
@@ -234,6 +245,26 @@ def test_check_min_severity_hides_but_keeps_the_exit_code(
     assert code == 0 and out == ""
     code, _, _ = run(["check", "--min-severity", "error", str(capture_with_error)], capsys)
     assert code == 1
+
+
+def test_check_groups_identical_findings(
+    shared_captures: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    # EPL_Example: 251 eth.trailer (CN 17) + 251 epl.reserved (MN) info, 2 eth.overlap warnings
+    path = str(shared_captures / "epl-viz_EPL_Example.cap")
+    code, out, err = run(["check", path], capsys)
+    assert code == 0
+    assert out.splitlines() == [
+        line for line in out.splitlines() if line.startswith("frames 225..842  warning eth.overlap")
+    ]
+    assert len(out.splitlines()) == 1 and " x2 " in out and "node 240" in out
+    assert "502 below warning not listed" in err
+    code, out, _ = run(["check", "--verbose", path], capsys)
+    lines = out.splitlines()
+    assert [line.split()[3] for line in lines] == ["eth.overlap", "eth.trailer", "epl.reserved"]
+    assert [line.split()[4] for line in lines] == ["x2", "x251", "x251"]
+    code, out, _ = run(["check", "--json", path], capsys)
+    assert len(json.loads(out)["findings"]) == 504  # every instance
 
 
 # --- bad input and usage ---------------------------------------------------------------------------

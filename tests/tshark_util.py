@@ -18,11 +18,13 @@ def run(tshark: str, path: Path | str, *args: str) -> str:
     return result.stdout
 
 
-def problems(tshark: str, path: Path | str) -> list[str]:
-    """Frames tshark calls malformed or flags with an expert item of warning or worse."""
+def problems(tshark: str, path: Path | str, *options: str) -> list[str]:
+    """Frames tshark calls malformed or flags with an expert item of warning or worse
+    (``options``: more tshark arguments, e.g. ``-o ip.check_checksum:TRUE``)."""
     out = run(
         tshark,
         path,
+        *options,
         "-Y",
         "_ws.malformed || _ws.expert.severity >= warning",
         "-T",
@@ -36,10 +38,20 @@ def problems(tshark: str, path: Path | str) -> list[str]:
 
 
 def fields(
-    tshark: str, path: Path | str, names: list[str], display_filter: str = ""
+    tshark: str, path: Path | str, names: list[str], display_filter: str = "", *options: str
 ) -> list[dict[str, list[str]]]:
     """One dict per frame: field -> all its occurrences (tshark -E occurrence=a)."""
-    args = ["-T", "fields", "-E", "occurrence=a", "-E", "separator=\t", "-E", "aggregator=,"]
+    args = [
+        *options,
+        "-T",
+        "fields",
+        "-E",
+        "occurrence=a",
+        "-E",
+        "separator=\t",
+        "-E",
+        "aggregator=,",
+    ]
     if display_filter:
         args += ["-Y", display_filter]
     for n in names:

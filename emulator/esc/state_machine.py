@@ -10,9 +10,19 @@ every transition to a lower state (OS, OP, OI, SP, SI, PI); INIT->BOOT only for 
 bootstrap mode. Anything else is refused with 0x0011 "invalid requested state change", an
 unknown state value with 0x0012, BOOT with 0x0013 "bootstrap not supported".
 
-While the error indication is set, a request without the acknowledge bit (0x0120 bit 4) is
-ignored unless it asks for INIT (what the Beckhoff slave stack does: "the error has to be
-acknowledged before"); a request with the acknowledge bit clears the indication first.
+Errors and their acknowledge (ETG.1000.6 6.4.1.4 "error indication" and the state transition
+table of 6.4.1; KickCAT's ``ESMStates.cc`` and the Beckhoff slave stack do the same):
+
+* while the error indication is set, a request without the acknowledge bit (0x0120 bit 4) is
+  ignored, except a request for INIT: the slave goes to INIT and clears the indication and the
+  code (INIT is always reachable, and entering it resets the error);
+* a request with the acknowledge bit clears the indication first, then is handled as any other;
+* a refused request in OP (a transition that does not exist, e.g. OP->BOOT, or an unknown
+  state) drops the slave to SAFEOP with the error indication and the code: an error in OP
+  stops the outputs (ETG.1000.6: "OP -> SAFEOP with error indication"); in the other states
+  the slave stays where it is, with the indication;
+* an error the application detects itself (:meth:`SkinPatchApplication.local_error`, e.g. a
+  SyncManager watchdog, 0x001B) does the same: OP drops to SAFEOP, other states keep theirs.
 """
 
 from __future__ import annotations
@@ -193,15 +203,16 @@ class SkinPatchApplication:
         current, error = status & STATE_MASK, bool(status & ERROR_INDICATION)
         requested, ack = value & STATE_MASK, bool(value & ACK)
         code = device.al_status_code
-        if ack:
+        if ack or (error and requested == AlState.INIT):
+            # acknowledged, or INIT without acknowledge: INIT resets the error (6.4.1.4)
             error, code = False, AlStatusCode.NO_ERROR
-        elif error and requested != AlState.INIT:
+        elif error:
             return  # an unacknowledged error blocks every request but INIT
         verdict = transition_code(current, requested)
         if verdict == AlStatusCode.NO_ERROR and requested != current:
             verdict = self._enter(device, current, requested)
         if verdict != AlStatusCode.NO_ERROR:
-            device.pdi_set_al_status(current, error=True, code=verdict)
+            self.local_error(device, verdict, current)
             if (current, requested) in (
                 (AlState.PREOP, AlState.SAFEOP),
                 (AlState.SAFEOP, AlState.OP),
@@ -212,6 +223,17 @@ class SkinPatchApplication:
         if ack and self.objects is not None:
             self.objects.error_register = 0
         device.pdi_set_al_status(requested, error=error, code=code)
+
+    def local_error(
+        self, device: EscDevice, code: AlStatusCode, current: int | None = None
+    ) -> None:
+        """The application reports an error: the indication and ``code`` in AL status; in OP
+        the slave drops to SAFEOP first (ETG.1000.6 6.4.1: an error in OP -> SAFEOP + error)."""
+        state = device.al_status & STATE_MASK if current is None else current
+        if state == AlState.OP:
+            self._enter(device, AlState.OP, AlState.SAFEOP)
+            state = AlState.SAFEOP
+        device.pdi_set_al_status(state, error=True, code=code)
 
     # --- inputs ------------------------------------------------------------------------------
     def publish(self, device: EscDevice, data: bytes) -> None:

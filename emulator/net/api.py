@@ -20,6 +20,7 @@ from emulator.net.result import SimResult
 from emulator.net.run import Engine, Sink, run
 from emulator.net.startup import StartupRecord
 from skinframes.pcap import CaptureWriter
+from skinframes.vlan import VlanTag
 
 __all__ = ["CaptureSink", "simulate_ecat", "simulate_epl"]
 
@@ -116,6 +117,15 @@ def _execute(
     return result, events
 
 
+def _tags(vid: int | None) -> tuple[VlanTag, ...]:
+    """One 802.1Q tag with VLAN id ``vid`` (0xFFF is reserved, IEEE 802.1Q-2018 Table 9-2)."""
+    if vid is None:
+        return ()
+    if not 0 <= vid <= 0xFFE:
+        raise TopologyError(f"VLAN id {vid}: 0..4094 (4095 is reserved)")
+    return (VlanTag(vid),)
+
+
 def simulate_ecat(
     nodes: int,
     data_bytes: int,
@@ -134,6 +144,7 @@ def simulate_ecat(
     fast: bool = True,
     every_cycle: bool = False,
     startup: bool = False,
+    vlan: int | None = None,
 ) -> SimResult:
     """Emulate ``cycles`` EtherCAT cycles reading ``data_bytes`` of taxels from each of
     ``nodes`` skin patches (see :mod:`emulator.net.ecat`).
@@ -152,6 +163,8 @@ def simulate_ecat(
         every_cycle: list every cycle in ``details`` (walking each), not only the changes.
         startup: patches with a CoE mailbox, and the frames of the master's start-up
             (:mod:`emulator.net.startup`) before the first cycle; open ring, no faults.
+        vlan: tag every frame with this 802.1Q VLAN id (0..4094); the 4 bytes count on the
+            wire.
     """
     if closed_ring is not None and redundant is not None and closed_ring != redundant:
         raise TopologyError("closed_ring and its old name redundant disagree")
@@ -165,6 +178,7 @@ def simulate_ecat(
         faults=faults,
         seed=seed,
         startup=startup,
+        tags=_tags(vlan),
     )
     result, events = _execute(
         engine,
@@ -206,6 +220,7 @@ def simulate_epl(
     progress: Callable[[int], None] | None = None,
     fast: bool = True,
     every_cycle: bool = False,
+    vlan: int | None = None,
 ) -> SimResult:
     """Emulate ``cycles`` EPL cycles: ``nodes`` CNs each answering with ``data_bytes`` of
     taxels (see :mod:`emulator.net.epl`; the other arguments as for :func:`simulate_ecat`).
@@ -213,6 +228,7 @@ def simulate_epl(
     Args:
         asnd: each SoA invites one CN in turn, which answers with a StatusResponse.
         pres_timeout_ps: the MN's PRes timeout; a CN that cannot meet it loses its PRes.
+        vlan: tag every frame with this 802.1Q VLAN id, as for :func:`simulate_ecat`.
     """
     engine = EplEngine(
         nodes,
@@ -222,6 +238,7 @@ def simulate_epl(
         pres_timeout_ps=pres_timeout_ps,
         faults=faults,
         seed=seed,
+        tags=_tags(vlan),
     )
     result, events = _execute(
         engine,

@@ -43,8 +43,9 @@ from emulator.model.units import PS_PER_US
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
 from emulator.net.faults import Fault, check_faults, corruption_mark
 from emulator.net.startup import StartupRecord, run_startup
-from skinframes import ethercat, ethernet
+from skinframes import ethercat, ethernet, vlan
 from skinframes.ethercat import Command, Datagram, EcatFrame
+from skinframes.vlan import VlanTag
 
 __all__ = [
     "DEFAULT_TIMEOUT_MARGIN_PS",
@@ -328,14 +329,18 @@ class EcatEngine(EcatTiming):
         faults: tuple[Fault, ...] = (),
         seed: int = 0,
         startup: bool = False,
+        tags: tuple[VlanTag, ...] = (),
     ) -> None:
         check_emulated_ecat(nodes, data_bytes)
         super().__init__(nodes, params, closed_ring=closed_ring, faults=faults, seed=seed)
+        self.tags = tags  # VLAN tags on every frame (IEEE 802.1Q); their bytes count on the wire
+        self.tag_shift = vlan.TAG_BYTES * len(tags)  # where the EtherCAT bytes move in a frame
         self.sent = frames_for(nodes, data_bytes, layout)
         self.data_bytes, self.layout = data_bytes, layout
-        self.out = [ethercat.frame(f).to_bytes() for f in self.sent]
+        self.out = [ethercat.frame(f, tags=tags).to_bytes() for f in self.sent]
         self.out2 = [
-            ethercat.frame(f, src=ethercat.MASTER_MAC_SECOND).to_bytes() for f in self.sent
+            ethercat.frame(f, src=ethercat.MASTER_MAC_SECOND, tags=tags).to_bytes()
+            for f in self.sent
         ]
         self.wire = [params.frame_ps(len(b)) for b in self.out]
         self._runs: dict[tuple[int, frozenset[int]], tuple[tuple[int, int, int], ...]] = {}
@@ -343,8 +348,10 @@ class EcatEngine(EcatTiming):
         # engine's walk (emulator.net.startup); else configured without frames on the wire
         self.startup: list[StartupRecord] = []
         if startup:
-            if faults or closed_ring:
-                raise TopologyError("the start-up runs on an open ring without faults only")
+            if faults or closed_ring or tags:
+                raise TopologyError(
+                    "the start-up runs on an open ring without faults or VLAN tags only"
+                )
             self.chain = EcatChain.skin(nodes, data_bytes, mailbox=True)
             self.startup = run_startup(
                 self.chain,
@@ -485,20 +492,21 @@ class EcatEngine(EcatTiming):
         key = (k, done)
         runs = self._runs.get(key)
         if runs is None:
-            runs = tuple(self.effects[k].taxel_runs(done))
+            shift = self.tag_shift
+            runs = tuple((at + shift, src, n) for at, src, n in self.effects[k].taxel_runs(done))
             if len(self._runs) < 4096:
                 self._runs[key] = runs
         if image is None:
             return None, runs
         back, mac = self.effects[k].returned(done, image)
         src = ethercat.MASTER_MAC if port == 0 else ethercat.MASTER_MAC_SECOND
-        return ethercat.frame(back, src=src, returned=mac).to_bytes(), runs
+        return ethercat.frame(back, src=src, returned=mac, tags=self.tags).to_bytes(), runs
 
     def _data_bit(self, k: int) -> int:
         """A bit of frame ``k``'s datagram data, drawn at random: a bit error hits the data,
         not the headers, so that Wireshark still dissects the frame it captured."""
         spans = [
-            (at, len(d.data))
+            (at + self.tag_shift, len(d.data))
             for at, d in zip(
                 ethercat.data_offsets(self.sent[k]), self.sent[k].datagrams, strict=True
             )

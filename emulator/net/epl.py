@@ -22,6 +22,7 @@ are not modelled, so such a PRes is counted as a loss and left out of the captur
 
 from __future__ import annotations
 
+import dataclasses
 import random
 from collections import Counter
 from collections.abc import Callable
@@ -37,13 +38,15 @@ from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net.cycle import FILL_FRAME, FILL_NONE, Cycle, Record
 from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS, Ps
 from emulator.net.faults import Fault, check_faults, corruption_mark
-from skinframes import ethernet, powerlink
+from skinframes import ethernet, powerlink, vlan
 from skinframes.pcap import NS_PER_S
 from skinframes.powerlink import RequestedService
+from skinframes.vlan import VlanTag
 
 __all__ = ["EPOCH_S", "EplEngine", "hops_to", "pres_length", "soc_frame"]
 
 EPOCH_S: Final = 1_700_000_000  # NetTime of cycle 0 in the SoC (a fixed, reproducible epoch)
+SOC_EPL_BYTES: Final = len(powerlink.SoC().to_bytes())  # 22, DS 301 4.6.1.1.1
 
 
 def hops_to(cn: int) -> int:
@@ -96,8 +99,10 @@ class EplEngine:
         pres_timeout_ps: int | None = None,
         faults: tuple[Fault, ...] = (),
         seed: int = 0,
+        tags: tuple[VlanTag, ...] = (),
     ) -> None:
         check_epl(nodes, data_bytes)
+        self.tags = tags  # VLAN tags on every frame (IEEE 802.1Q); their bytes count on the wire
         check_faults(faults, nodes, nodes, "epl")
         if pres_timeout_ps is not None and pres_timeout_ps < 0:
             raise TopologyError(f"EPL: a PRes timeout of {pres_timeout_ps} ps")
@@ -107,18 +112,18 @@ class EplEngine:
         self.period = nodes if asnd else 1
         self.expected_wkc = nodes
         self.rng = random.Random(seed)
-        self.preq = [powerlink.frame(powerlink.PReq(i)).to_bytes() for i in range(1, nodes + 1)]
-        self.soa_plain = powerlink.frame(powerlink.SoA()).to_bytes()
+        self.preq = [self._bytes(powerlink.PReq(i)) for i in range(1, nodes + 1)]
+        self.soa_plain = self._bytes(powerlink.SoA())
         self.soa_invite = [
-            powerlink.frame(powerlink.SoA(RequestedService.STATUS_REQUEST, i)).to_bytes()
+            self._bytes(powerlink.SoA(RequestedService.STATUS_REQUEST, i))
             for i in range(1, nodes + 1)
         ]
         self.status = [
-            powerlink.frame(powerlink.ASnd(powerlink.StatusResponse(), src=i)).to_bytes()
+            self._bytes(powerlink.ASnd(powerlink.StatusResponse(), src=i))
             for i in range(1, nodes + 1)
         ]
-        self.soc_len = len(soc_frame(0))
-        self.pres_len = pres_length(data_bytes)
+        self.soc_len = len(self._socs(np.zeros(1, dtype=np.int64))[0])
+        self.pres_len = len(self._bytes(powerlink.PRes(1, bytes(data_bytes))))
         self.needed = [
             2 * hops_to(i) * p.hop_ps + p.gap_ps(p.epl_cn_delay_ps) for i in range(1, nodes + 1)
         ]
@@ -130,6 +135,20 @@ class EplEngine:
         self.chance = tuple(f for f in faults if f.kind in ("biterr", "drop") and f.value > 0)
         self.broken: dict[int, int] = {}  # link -> the cycle it broke
         self.dead: dict[int, int] = {}  # CN -> the cycle it lost power
+
+    def _bytes(self, message: powerlink.EplMessage) -> bytes:
+        """The frame of ``message`` as the MN or a CN sends it, with the VLAN tags."""
+        return dataclasses.replace(powerlink.frame(message), tags=self.tags).to_bytes()
+
+    def _socs(self, starts_ps: npt.NDArray[np.int64]) -> npt.NDArray[np.uint8]:
+        """The SoCs of cycles starting at ``starts_ps``, with the VLAN tags."""
+        return vlan.tag_frames(soc_frames(starts_ps), self.tags, SOC_EPL_BYTES)
+
+    def _pres(self, taxels: npt.NDArray[np.uint8], cns: npt.ArrayLike) -> npt.NDArray[np.uint8]:
+        """The PRes frames of CNs ``cns`` carrying ``taxels``, with the VLAN tags."""
+        frames = powerlink.pack_pres_frames(taxels, cns)
+        size = powerlink.PDO_HEADER_BYTES + taxels.shape[1]
+        return vlan.tag_frames(frames, self.tags, size)
 
     def event_at(self, cycle: int) -> bool:
         """Does the fault plan change the network at the start of ``cycle``?"""
@@ -146,9 +165,9 @@ class EplEngine:
         """(k, length) uint8: a FILL_FRAME record's frame in k cycles starting at ``starts_ps``
         with ``taxels`` (k, nodes, data_bytes): the SoC (node -1) or CN node + 1's PRes."""
         if record.node < 0:
-            return soc_frames(starts_ps)
+            return self._socs(starts_ps)
         cn = np.full(len(starts_ps), record.node + 1)
-        return powerlink.pack_pres_frames(np.ascontiguousarray(taxels[:, record.node, :]), cn)
+        return self._pres(np.ascontiguousarray(taxels[:, record.node, :]), cn)
 
     def cycle(self, c: int, start_ps: int, taxels: npt.NDArray[np.uint8] | None) -> Cycle:
         """Walk cycle ``c`` starting at ``start_ps``; ``taxels`` (nodes x data_bytes) to build
@@ -177,9 +196,7 @@ class EplEngine:
                 Record(t - start_ps, 0, out, length, p.frame_ps(length), data, fill, (), node, mark)
             )
 
-        pres = (
-            powerlink.pack_pres_frames(taxels, np.arange(1, n + 1)) if taxels is not None else None
-        )
+        pres = self._pres(taxels, np.arange(1, n + 1)) if taxels is not None else None
         end, received = self._timeline(
             c, start_ps, p.frame_ps(self.pres_len), events, add, pres, bytes_on
         )
@@ -219,7 +236,8 @@ class EplEngine:
         ``add``; returns when the next cycle starts and the PRes received. ``pres_wire``: the
         PRes wire time, an int or an array of them (then every time is an array)."""
         p, n = self.params, self.nodes
-        add(start_ps, soc_frame(start_ps) if bytes_on else b"", self.soc_len, True, FILL_FRAME)
+        soc = bytes(self._socs(np.array([start_ps], dtype=np.int64))[0]) if bytes_on else b""
+        add(start_ps, soc, self.soc_len, True, FILL_FRAME)
         t: Ps = start_ps + p.frame_ps(self.soc_len) + p.ifg_ps
         received = 0
         for i in range(1, n + 1):
@@ -298,7 +316,7 @@ class EplEngine:
         """A bit error flips one bit of the frame's data (the ``data_bytes`` after the EPL
         header, or its padding when it carries none), drawn at random, so that Wireshark still
         dissects the frame."""
-        lo = ethernet.HEADER_BYTES + powerlink.PDO_HEADER_BYTES
+        lo = ethernet.HEADER_BYTES + vlan.TAG_BYTES * len(self.tags) + powerlink.PDO_HEADER_BYTES
         hi = lo + data_bytes if data_bytes else ethernet.MIN_FRAME_BYTES
         bit = self.rng.randrange(8 * lo, 8 * hi)  # drawn in timing-only runs too: same chances
         return ethernet.flip_bit(frame, bit) if frame else frame

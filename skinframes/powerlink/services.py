@@ -37,10 +37,57 @@ from skinframes.powerlink.schemas import (
 )
 
 NO_ADDRESS: Final = ipaddress.IPv4Address(0)  # IdentResponse IP fields not set
+# openPOWERLINK C_DLL_MINSIZE_STATUSRES (oplk/dll.h): the MN drops a shorter StatusResponse and
+# marks the CN NotActive. 72 frame bytes = 14 Ethernet + 4 ASnd + 54 service bytes: the 14 fixed
+# ones and a 40-byte error entry list that an all-zero entry ends (empty).
+STATUS_RESPONSE_MIN_FRAME_BYTES: Final = 72
+STATUS_RESPONSE_MIN_SERVICE_BYTES: Final = (
+    STATUS_RESPONSE_MIN_FRAME_BYTES - ethernet.HEADER_BYTES - ASND_HEADER_BYTES
+)
+
+
+class _WiresharkFlags:
+    """Wireshark's names for the flag bits of IdentResponse and StatusResponse
+    (``epl.asnd.ires.*``, ``epl.asnd.sres.*``): flags1 EN 0x10, EC 0x08; flags2 FLS 0x80,
+    SLS 0x40, PR 0x38, RS 0x07. Aliases: ``flags1`` and ``flags2`` stay the fields."""
+
+    __slots__ = ()
+    flags1: int
+    flags2: int
+
+    @property
+    def en(self) -> bool:
+        """Exception New (flags1 bit 4), Wireshark ``epl.asnd.sres.en`` / ``ires.en``."""
+        return bool(self.flags1 & 0x10)
+
+    @property
+    def ec(self) -> bool:
+        """Exception Clear (flags1 bit 3), Wireshark ``epl.asnd.sres.ec`` / ``ires.ec``."""
+        return bool(self.flags1 & 0x08)
+
+    @property
+    def fls(self) -> bool:
+        """First Link Status (flags2 bit 7), Wireshark ``epl.asnd.sres.fls`` / ``ires.fls``."""
+        return bool(self.flags2 & 0x80)
+
+    @property
+    def sls(self) -> bool:
+        """Second Link Status (flags2 bit 6), Wireshark ``epl.asnd.sres.sls`` / ``ires.sls``."""
+        return bool(self.flags2 & 0x40)
+
+    @property
+    def pr(self) -> int:
+        """Priority (flags2 bits 3-5), Wireshark ``epl.asnd.sres.pr`` / ``ires.pr``."""
+        return (self.flags2 >> 3) & 0x7
+
+    @property
+    def rs(self) -> int:
+        """RequestToSend (flags2 bits 0-2), Wireshark ``epl.asnd.sres.rs`` / ``ires.rs``."""
+        return self.flags2 & 0x7
 
 
 @dataclass(frozen=True, slots=True)
-class IdentResponse:
+class IdentResponse(_WiresharkFlags):
     """IdentResponse (DS 301 7.3.3.2.1): a node's identity, 162 EPL bytes."""
 
     SERVICE_ID: ClassVar[int] = ServiceId.IDENT_RESPONSE
@@ -101,12 +148,17 @@ class ErrorEntry:
 
 
 @dataclass(frozen=True, slots=True)
-class StatusResponse:
+class StatusResponse(_WiresharkFlags):
     """StatusResponse (DS 301 7.3.3.3.1): NMT state, static error bits and error entries.
 
     The entry list has no length field; a decoder reads 20-byte entries until the frame ends or an
     all-zero entry starts (the rest is padding). Wireshark instead counts every 20 bytes, padding
     included, so a 60-byte frame shows one phantom all-zero entry there.
+
+    Built 72 frame bytes long by default (:data:`STATUS_RESPONSE_MIN_FRAME_BYTES`, what an
+    openPOWERLINK MN accepts): the entry list is padded with zeros to 54 service bytes. ``short``
+    builds only the entries (18 EPL bytes without entries, a 60-byte frame after Ethernet
+    padding), as a decoder reports a captured frame shorter than 72 bytes (``epl.sres.short``).
     """
 
     SERVICE_ID: ClassVar[int] = ServiceId.STATUS_RESPONSE
@@ -116,12 +168,17 @@ class StatusResponse:
     static_error_bit_field: bytes = bytes(8)
     error_entries: tuple[ErrorEntry, ...] = ()
     reserved_7: bytes = bytes(3)
+    short: bool = False
 
     def to_bytes(self) -> bytes:
-        """The service bytes after the 4-byte ASnd header."""
+        """The service bytes after the 4-byte ASnd header: at least 54 unless ``short``."""
         d = field_values(self)
+        del d["short"]
         d["error_entries"] = [field_values(e) for e in self.error_entries]
-        return build("EPL StatusResponse", status_response_schema, d)
+        body = build("EPL StatusResponse", status_response_schema, d)
+        if self.short:
+            return body
+        return body.ljust(STATUS_RESPONSE_MIN_SERVICE_BYTES, b"\x00")
 
     @classmethod
     def _decode(cls, body: bytes) -> tuple[StatusResponse, int]:
@@ -135,7 +192,11 @@ class StatusResponse:
             pos += ERROR_ENTRY_BYTES
         kw = init_kwargs(cls, c, skip=("error_entries",))
         kw["nmt_status"] = known(NmtState, kw["nmt_status"])
-        return cls(**kw, error_entries=tuple(entries)), pos
+        # the zeros up to 54 bytes end the (empty) entry list of a full-size StatusResponse
+        end = STATUS_RESPONSE_MIN_SERVICE_BYTES
+        short = not (len(body) >= end and not any(body[pos:end]))
+        kw["short"] = short
+        return cls(**kw, error_entries=tuple(entries)), pos if short else max(pos, end)
 
 
 @dataclass(frozen=True, slots=True)
@@ -363,6 +424,15 @@ def decode_service(
     if service_id == ServiceId.IDENT_RESPONSE:
         return IdentResponse._decode(body)
     if service_id == ServiceId.STATUS_RESPONSE:
+        if len(body) < STATUS_RESPONSE_MIN_SERVICE_BYTES:
+            findings.append(
+                warning(
+                    "epl.sres.short",
+                    f"EPL StatusResponse: a {ethernet.HEADER_BYTES + ASND_HEADER_BYTES + len(body)}"
+                    f"-byte frame; an openPOWERLINK MN needs {STATUS_RESPONSE_MIN_FRAME_BYTES} "
+                    "(C_DLL_MINSIZE_STATUSRES) and marks the CN NotActive",
+                )
+            )
         return StatusResponse._decode(body)
     if service_id == ServiceId.SDO:
         return Sdo._decode(body, findings)

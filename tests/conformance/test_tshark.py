@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 import tshark_util
 
-from conformance.fields import ALL_FIELDS
-from skinframes import decode_frame, ethercat, golden, powerlink, read_capture
+from conformance.fields import ALL_FIELDS, Extract
+from skinframes import decode_frame, ethercat, golden, powerlink, protocol_of, read_capture
 from skinframes.pcap import write_pcap
 
 pytestmark = pytest.mark.tshark
@@ -17,20 +17,39 @@ PCAPS = Path(__file__).resolve().parents[2] / "pcaps"
 STACKS = {"epl": "eth:ethertype:epl", "ecat": "eth:ethertype:ecatf:ecat"}
 
 
-def assert_fields_agree(tshark: str, path: Path) -> int:
-    """tshark's value of every mapped field equals ours, frame by frame; returns frames compared."""
-    names = list(ALL_FIELDS)
-    rows = tshark_util.fields(tshark, path, names)
+def assert_fields_agree(
+    tshark: str, path: Path, table: dict[str, Extract] = ALL_FIELDS, *options: str
+) -> int:
+    """tshark's value of every field of ``table`` equals ours, frame by frame (``options``: more
+    tshark arguments); returns frames compared."""
+    names = list(table)
+    rows = tshark_util.fields(tshark, path, names, "", *options)
     records = list(read_capture(path))
     assert len(rows) == len(records)
     for rec, row in zip(records, rows, strict=True):
         frame = decode_frame(rec.data)
-        for name, extract in ALL_FIELDS.items():
+        for name, extract in table.items():
             theirs = [int(v, 0) for v in row[name]]
             assert extract(frame) == theirs, (
                 f"record {rec.index}: {name} ours {extract(frame)} tshark {theirs}"
             )
     return len(rows)
+
+
+def assert_protocols_agree(tshark: str, path: Path) -> int:
+    """Where tshark names EPL or EtherCAT we decode EPL or EtherCAT, and nowhere else; returns
+    the number of such frames."""
+    stacks = tshark_util.run(tshark, path, "-T", "fields", "-e", "frame.protocols").split()
+    records = list(read_capture(path))
+    assert len(stacks) == len(records)
+    ours_total = 0
+    for rec, stack in zip(records, stacks, strict=True):
+        layers = stack.split(":")
+        theirs = "epl" if "epl" in layers else "ecat" if "ecatf" in layers else "other"
+        ours = protocol_of(decode_frame(rec.data)) if rec.linktype == 1 else "other"
+        assert ours == theirs, f"record {rec.index}: ours {ours}, tshark {stack}"
+        ours_total += ours != "other"
+    return ours_total
 
 
 @pytest.mark.parametrize("name", sorted(golden.SCENARIOS))
@@ -41,6 +60,7 @@ def test_golden_pcap_is_clean_and_agrees(tshark: str, name: str) -> None:
     want = STACKS[name.split("_")[0]]
     assert stacks <= {want, want + ":data"}, stacks
     assert assert_fields_agree(tshark, path) > 0
+    assert assert_protocols_agree(tshark, path) == len(golden.build(name))
 
 
 @pytest.mark.parametrize(
@@ -55,6 +75,7 @@ def test_golden_pcap_is_clean_and_agrees(tshark: str, name: str) -> None:
 )
 def test_real_capture_fields_agree(tshark: str, shared_captures: Path, name: str) -> None:
     assert assert_fields_agree(tshark, shared_captures / name) > 0
+    assert assert_protocols_agree(tshark, shared_captures / name) > 0
 
 
 def test_enums_equal_tshark_values(tshark: str) -> None:

@@ -229,7 +229,7 @@ def test_asnd_phase_costs_frame_turnaround_and_hub_chain() -> None:
     n = 4
     r, recs = records(simulate_epl, n, 192, PAPER, cycles=3 * n, asnd=True)
     base = simulate_epl(n, 192, PAPER, cycles=1).details[0].cycle_ps
-    asnd_frame_ps = (8 + 60 + 4) * 80_000  # a 60-byte StatusResponse on the wire
+    asnd_frame_ps = (8 + 72 + 4) * 80_000  # a 72-byte StatusResponse (openPOWERLINK minimum)
     assert [d.cycle for d in r.details] == list(range(n))  # one period listed, then repeated
     for c, detail in enumerate(r.details):
         k = c + 1  # the CN invited in cycle c

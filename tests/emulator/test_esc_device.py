@@ -15,7 +15,7 @@ import pytest
 from emulator.esc.chain import EcatChain
 from emulator.esc.device import EscDevice
 from emulator.esc.sii import SlaveInfo, build_sii, crc8
-from emulator.esc.state_machine import AlStatusCode
+from emulator.esc.state_machine import AlStatusCode, SkinPatchApplication
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command as C  # noqa: N817 (short, the spec's table style)
 from skinframes.ethercat import Datagram, EcatFrame
@@ -406,8 +406,8 @@ def test_state_machine_transitions_and_error_codes() -> None:
     assert al(chain) == (0x02, 0x0000)
     request(chain, 0x05)
     assert al(chain) == (0x12, 0x0012)  # unknown requested state
-    request(chain, 0x01)  # INIT without ack is accepted, the indication stays
-    assert al(chain) == (0x11, 0x0012)
+    request(chain, 0x01)  # INIT without ack is accepted and resets the error (ETG.1000.6 6.4.1.4)
+    assert al(chain) == (0x01, 0x0000)
     request(chain, 0x13)  # BOOT from INIT: not supported
     assert al(chain) == (0x11, 0x0013)
     request(chain, 0x12)
@@ -426,9 +426,28 @@ def test_state_machine_transitions_and_error_codes() -> None:
     assert al(chain) == (0x04, 0x0000)
     request(chain, 0x08)
     assert al(chain) == (0x08, 0x0000)
-    request(chain, 0x03)  # OP -> BOOT
-    assert al(chain) == (0x18, 0x0011)
-    request(chain, 0x11)  # OP -> INIT with acknowledge
+    request(chain, 0x03)  # OP -> BOOT: refused, and an error in OP drops to SAFEOP
+    assert al(chain) == (0x14, 0x0011)
+    request(chain, 0x08)  # OP without acknowledge: ignored
+    assert al(chain) == (0x14, 0x0011)
+    request(chain, 0x18)  # acknowledged: back to OP
+    assert al(chain) == (0x08, 0x0000)
+    request(chain, 0x05)  # unknown state in OP: SAFEOP + error (KickCAT does the same)
+    assert al(chain) == (0x14, 0x0012)
+    request(chain, 0x11)  # SAFEOP -> INIT with acknowledge
+    assert al(chain) == (0x01, 0x0000)
+
+
+def test_local_error_in_op_drops_to_safeop_with_the_indication() -> None:
+    chain = EcatChain.configured(1, 16)
+    dev = chain.devices[0]
+    request(chain, 0x08)
+    assert al(chain) == (0x08, 0x0000)
+    app = dev.app
+    assert isinstance(app, SkinPatchApplication)
+    app.local_error(dev, AlStatusCode.SM_WATCHDOG)
+    assert al(chain) == (0x14, 0x001B)  # SAFEOP, error indication, SyncManager watchdog
+    request(chain, 0x01)  # INIT without acknowledge: accepted, the error reset
     assert al(chain) == (0x01, 0x0000)
 
 

@@ -259,11 +259,126 @@ def test_frames_longer_than_an_ethernet_payload_are_not_decoded() -> None:
     assert frame.to_bytes() == raw
 
 
-@given(st.integers(2, 15), st.binary(max_size=40))
-def test_other_frame_types_are_not_decoded(frame_type: int, rest: bytes) -> None:
-    body = (0x000E | frame_type << 12).to_bytes(2, "little") + rest
+RESERVED_TYPES = [t for t in range(16) if t not in (1, 4, 5)]
+
+
+@given(st.sampled_from(RESERVED_TYPES), st.binary(max_size=40))
+def test_reserved_frame_types_are_kept_with_a_warning(frame_type: int, rest: bytes) -> None:
+    body = (len(rest) | frame_type << 12).to_bytes(2, "little") + rest
     with pytest.raises(InvalidFieldError):
-        ethercat.decode(body, strict=False)
+        ethercat.decode(body, strict=True)
+    frame, used, findings = ethercat.decode(body, strict=False)
+    assert [(f.code, str(f.severity)) for f in findings] == [("ecat.type.reserved", "warning")]
+    assert (frame.content, frame.frame_type, used) == (rest, frame_type, len(body))
+    assert frame.to_bytes() == body
+    raw = ethercat.frame(frame).to_bytes()
+    assert decode_frame(raw).to_bytes() == raw
+
+
+nv_variables = st.builds(
+    ethercat.NetworkVariable, u16, st.binary(max_size=40), hash=u16, quality=u16
+)
+nv_publications = st.builds(
+    ethercat.NvPublication,
+    st.binary(min_size=6, max_size=6),
+    st.lists(nv_variables, max_size=5).map(tuple),
+    cycle_index=u16,
+)
+mailboxes = st.builds(
+    ethercat.Mailbox,
+    u16,
+    st.integers(0, 15),
+    st.binary(max_size=100),
+    channel=st.integers(0, 63),
+    priority=st.integers(0, 3),
+    counter=st.integers(0, 7),
+    reserved=st.booleans(),
+)
+
+
+@given(nv_publications)
+def test_network_variables_round_trip_and_equal_the_schema(nv: ethercat.NvPublication) -> None:
+    ecat = EcatFrame((), ethercat.FrameType.NV, content=nv)
+    body = ecat.to_bytes()
+    parsed = ethercat.nv_header_schema.parse(body[2:])
+    assert (parsed.publisher, parsed.count, parsed.cycle_index) == (
+        nv.publisher,
+        len(nv.variables),
+        nv.cycle_index,
+    )
+    at = 2 + ethercat.NV_HEADER_BYTES
+    for v in nv.variables:
+        got = ethercat.nv_variable_schema.parse(body[at:])
+        assert (got.id, got.hash, got.quality, got.data) == (v.id, v.hash, v.quality, v.data)
+        assert ethercat.nv_variable_schema.build(got) == v.to_bytes()
+        at += len(v.to_bytes())
+    assert ethercat.frame_header_schema.parse(body[:2]).length == len(body) - 2
+    decoded, used, findings = ethercat.decode(body + bytes(7), strict=True)
+    assert (decoded, used, findings) == (ecat, len(body), [])
+
+
+@given(mailboxes)
+def test_mailbox_round_trips_and_equals_the_schema(mbx: ethercat.Mailbox) -> None:
+    ecat = EcatFrame((), ethercat.FrameType.MAILBOX, content=mbx)
+    body = ecat.to_bytes()
+    head = ethercat.mailbox_header_schema.parse(body[2:])
+    assert (head.length, head.address) == (len(mbx.data), mbx.address)
+    c = head.control
+    assert (c.type, c.channel, c.priority, c.counter, c.reserved) == (
+        mbx.mailbox_type,
+        mbx.channel,
+        mbx.priority,
+        mbx.counter,
+        mbx.reserved,
+    )
+    assert ethercat.mailbox_header_schema.build(head) == body[2:8]
+    decoded, used, findings = ethercat.decode(body, strict=True)
+    assert (decoded, used, findings) == (ecat, len(body), [])
+
+
+def test_mailbox_longer_than_the_frame_is_undecodable() -> None:
+    body = ethercat.EcatFrame(
+        (), ethercat.FrameType.MAILBOX, content=ethercat.Mailbox(0x1001, 3, bytes(10))
+    ).to_bytes()
+    with pytest.raises(TruncatedError):
+        ethercat.decode(body[:-1], strict=False)
+
+
+def _chain(*words: int, header_length: int, tail: bytes = b"") -> bytes:
+    """An EtherCAT body of FPRD datagrams with 4 data bytes and the given length|M words."""
+    parts = [struct.pack("<H", header_length | 0x1000)]
+    for i, word in enumerate(words):
+        parts.append(struct.pack("<BBHHHH", 4, i, 0x1001 + i, 0x130, word, 0) + bytes(6))
+    return b"".join(parts) + tail
+
+
+@pytest.mark.parametrize(
+    ("body", "idx", "code"),
+    [
+        # M clear on the first of two: Wireshark shows one datagram, the length says two
+        (_chain(4, 4, header_length=32), [0], "ecat.header.length"),
+        # M set on the last, zero padding follows: Wireshark reads a NOP from the padding
+        (_chain(0x8004, 0x8004, header_length=32, tail=bytes(20)), [0, 1, 0], "ecat.more.last"),
+        # the length says one datagram, the M bits chain two
+        (_chain(0x8004, 4, header_length=16), [0, 1], "ecat.more.last"),
+        # the length says three, the M bits chain two
+        (_chain(0x8004, 4, header_length=48, tail=bytes(20)), [0, 1], "ecat.header.length"),
+        # M set on the last, 5 bytes follow: too short for a datagram (Wireshark: malformed)
+        (_chain(0x8004, 0x8004, header_length=32, tail=bytes(5)), [0, 1], "ecat.more.truncated"),
+    ],
+)
+def test_the_m_bit_chain_is_followed_like_wireshark(body: bytes, idx: list[int], code: str) -> None:
+    """Which datagrams Wireshark 4.0 shows for these bodies was read off tshark (see
+    tests/conformance/test_encapsulation.py, which asks tshark the same for every case)."""
+    frame, _, findings = ethercat.decode(body, strict=False)
+    assert [d.idx for d in frame.datagrams] == idx
+    assert [f.code for f in findings] == [code]
+    assert str(findings[0].severity) in ("warning", "error")
+    raw = ethercat.frame(frame).to_bytes()
+    eth = raw[:14] + body
+    assert decode_frame(eth).to_bytes() == eth
+    with pytest.raises((InvalidFieldError, LengthMismatchError, TruncatedError)):
+        ethercat.decode(body, strict=True)
 
 
 @given(ecat_frames, st.data())

@@ -8,9 +8,10 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from skinframes import decode_frame, ethernet, protocol_of
+from skinframes import decode_frame, ethercat, ethernet, powerlink, protocol_of
 from skinframes.errors import FieldRangeError, FrameTooLargeError, TruncatedError
 from skinframes.ethernet import EthernetFrame
+from skinframes.vlan import TPID_STAG, VlanTag, tag_schema
 
 macs = st.binary(min_size=6, max_size=6)
 ethertypes = st.integers(0, 0xFFFF)
@@ -193,8 +194,43 @@ def test_a_vlan_tagged_full_size_frame_survives_capture_decoding() -> None:
     assert len(raw) == 1518
     frame = decode_frame(raw)
     assert protocol_of(frame) == "other"
-    assert frame.ethertype == 0x8100
+    # the tag is peeled (IEEE 802.1Q-2018 9.5): the EtherType is the one after it
+    assert (frame.tags, frame.ethertype) == ((VlanTag(5),), 0x0800)
     assert frame.to_bytes() == raw
+
+
+def test_tagged_epl_and_ecat_frames_decode_like_untagged_ones() -> None:
+    soa = powerlink.frame(powerlink.SoA())
+    lrd = ethercat.frame(
+        ethercat.EcatFrame((ethercat.Datagram.logical(ethercat.Command.LRD, 0, bytes(192)),))
+    )
+    for plain in (soa, lrd):
+        for tags in ((VlanTag(7, pcp=5),), (VlanTag(100, tpid=TPID_STAG), VlanTag(7, dei=True))):
+            tagged = EthernetFrame(plain.dst, plain.src, plain.payload, tags=tags)
+            raw = tagged.to_bytes()
+            # 4 bytes per tag between source MAC and EtherType; padding counts them
+            assert raw[12 : 12 + 4 * len(tags)] == b"".join(t.to_bytes() for t in tags)
+            assert len(raw) == max(60, 14 + 4 * len(tags) + len(plain.payload_bytes))
+            back = decode_frame(raw, strict=True)
+            assert (back.tags, back.payload, back.to_bytes()) == (tags, plain.payload, raw)
+            assert tagged.wire_bytes() == 8 + max(60, len(raw)) + 4
+
+
+@pytest.mark.parametrize("tpid", [0x8100, 0x88A8, 0x9100])
+def test_vlan_tag_bytes_equal_the_schema(tpid: int) -> None:
+    tag = VlanTag(0xABC, pcp=6, dei=True, tpid=tpid)
+    parsed = tag_schema.parse(tag.to_bytes())
+    assert (parsed.tpid, parsed.tci.pcp, parsed.tci.dei, parsed.tci.vid) == (tpid, 6, True, 0xABC)
+    assert tag_schema.build(parsed) == tag.to_bytes()
+    assert VlanTag.from_bytes(tag.to_bytes()) == tag
+
+
+@pytest.mark.parametrize(
+    "kwargs", [{"vid": 4096}, {"vid": -1}, {"vid": 1, "pcp": 8}, {"vid": 1, "tpid": 0x0800}]
+)
+def test_vlan_tag_fields_out_of_range(kwargs: dict[str, int]) -> None:
+    with pytest.raises(FieldRangeError):
+        VlanTag(**kwargs)
 
 
 # --- bit errors ------------------------------------------------------------------------------------
@@ -230,3 +266,22 @@ def test_flip_bit_changes_one_bit_and_the_fcs(frame: bytes, data: st.DataObject)
 def test_flip_bit_out_of_range(frame: bytes, bit: int) -> None:
     with pytest.raises(FieldRangeError):
         ethernet.flip_bit(frame, bit)
+
+
+@pytest.mark.parametrize("size", [0, 1, 24, 27, 28, 36, 192, 1490])
+@pytest.mark.parametrize("ntags", [1, 2])
+def test_tag_frames_batch_equals_the_codec(size: int, ntags: int) -> None:
+    import numpy as np
+
+    from skinframes.vlan import tag_frames
+
+    tags = (VlanTag(100, tpid=TPID_STAG), VlanTag(7, pcp=5))[-ntags:]
+    messages = [
+        powerlink.PRes(i + 1, bytes(range(size % 256)) * (size // 256) + bytes(size % 256))
+        for i in range(3)
+    ]
+    plain = [powerlink.frame(m) for m in messages]
+    rows = np.array([np.frombuffer(f.to_bytes(), np.uint8) for f in plain])
+    got = tag_frames(rows, tags, len(messages[0].to_bytes()))
+    want = [EthernetFrame(f.dst, f.src, f.payload, tags=tags).to_bytes() for f in plain]
+    assert [bytes(r) for r in got] == want

@@ -468,8 +468,13 @@ def test_size_constants() -> None:
     assert powerlink.BROADCAST_NODE_ID == 255
     assert len(ASnd(IdentResponse()).to_bytes()) == 162  # a 176-byte frame (frames.md 1.2)
     assert len(ASnd(SyncResponse()).to_bytes()) == 30
-    assert len(ASnd(StatusResponse()).to_bytes()) == 18
-    assert len(ASnd(StatusResponse(error_entries=(ErrorEntry(1, 2),))).to_bytes()) == 38
+    # openPOWERLINK C_DLL_MINSIZE_STATUSRES: 72-byte frames = 14 + 58 EPL bytes, unless short
+    assert len(ASnd(StatusResponse()).to_bytes()) == 72 - 14
+    assert len(ASnd(StatusResponse(error_entries=(ErrorEntry(1, 2),))).to_bytes()) == 72 - 14
+    assert len(ASnd(StatusResponse(short=True)).to_bytes()) == 18
+    entry = (ErrorEntry(1, 2),)
+    assert len(ASnd(StatusResponse(error_entries=entry, short=True)).to_bytes()) == 38
+    assert len(ASnd(StatusResponse(error_entries=entry * 3)).to_bytes()) == 78
 
 
 # --- strict mode rejects, capture mode records ----------------------------------------------------
@@ -846,3 +851,28 @@ def test_service_enum_values() -> None:
     assert int(RequestedService.SYNC_REQUEST) == 6
     assert int(RequestedService.UNSPECIFIED_INVITE) == 255
     assert [int(m) for m in MessageType] == [0x01, 0x03, 0x04, 0x05, 0x06, 0x07, 0x0D]
+
+
+def test_status_response_is_72_frame_bytes_and_a_short_one_is_a_finding() -> None:
+    full = powerlink.frame(ASnd(StatusResponse(), src=1)).to_bytes()
+    assert len(full) == 72  # openPOWERLINK C_DLL_MINSIZE_STATUSRES
+    assert full[14 + 18 :] == bytes(40)  # an empty error entry list: zeros end it
+    frame = decode_frame(full, strict=True)
+    assert (frame.findings, frame.to_bytes()) == ((), full)
+    assert frame.payload == ASnd(StatusResponse(), src=1)
+    short = powerlink.frame(ASnd(StatusResponse(short=True), src=1)).to_bytes()
+    assert len(short) == 60
+    frame = decode_frame(short)
+    assert [(f.code, str(f.severity)) for f in frame.findings] == [("epl.sres.short", "warning")]
+    assert frame.to_bytes() == short
+    assert frame.payload == ASnd(StatusResponse(short=True), src=1)
+
+
+def test_wireshark_flag_names_are_aliases_of_the_flag_bytes() -> None:
+    # DS 301 7.3.3.3.1 / Wireshark masks: flags1 EN 0x10 EC 0x08; flags2 FLS 0x80 SLS 0x40 PR 0x38 RS 0x07
+    s = StatusResponse(flags1=0x10, flags2=0x80 | 0x28 | 0x06)
+    assert (s.en, s.ec, s.fls, s.sls, s.pr, s.rs) == (True, False, True, False, 5, 6)
+    i = IdentResponse(flags1=0x08, flags2=0x40 | 0x01)
+    assert (i.en, i.ec, i.fls, i.sls, i.pr, i.rs) == (False, True, False, True, 0, 1)
+    raw = ASnd(s).to_bytes()
+    assert (raw[4], raw[5]) == (0x10, 0xAE)
