@@ -3,10 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import signal
 import sys
 import threading
+import traceback
 from types import FrameType
 from typing import Any
 
@@ -45,6 +47,13 @@ def add_parser(sub: Any) -> None:
         default=1.0,
         help="time between two taxel samples in ms (default 1)",
     )
+    p.add_argument(
+        "--pcap",
+        metavar="FILE",
+        help="record every frame received and sent, with this host's timestamps (pcapng for a "
+        ".pcapng name: direction per frame; else classic pcap); the file appears complete "
+        "when serving stops",
+    )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
     p.set_defaults(run=run)
 
@@ -53,6 +62,8 @@ def run(args: argparse.Namespace) -> int:
     """Serve until a signal arrives."""
     from emulator.esc.chain import EcatChain
     from emulator.live import RawSocket, TaxelFeed, serve
+    from skinframes.capture_writer import CaptureWriter
+    from skinframes.errors import CaptureError
 
     period_s = args.period_ms / 1000.0
     check_served_ecat(args.nodes, args.bytes, args.samples, period_s)
@@ -65,20 +76,29 @@ def run(args: argparse.Namespace) -> int:
         period_s=period_s,
     )
     stop = threading.Event()
+    if args.pcap == "":
+        raise CaptureError("--pcap: an empty file name")
+
+    def on_error(exc: BaseException, frame: bytes) -> None:
+        if args.debug:  # the summary counts them; --debug shows each one as it happens
+            print(f"frame {frame.hex()}:", file=sys.stderr)
+            traceback.print_exception(exc, file=sys.stderr)
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        with RawSocket(args.iface) as sock:
+        with contextlib.ExitStack() as stack:
+            sock = stack.enter_context(RawSocket(args.iface))
+            capture = None if args.pcap is None else stack.enter_context(CaptureWriter(args.pcap))
             print(
                 f"serving {args.nodes} EtherCAT slaves x {args.bytes} bytes on {args.iface} "
                 "(SIGINT/SIGTERM to stop)",
                 file=sys.stderr,
                 flush=True,
             )
-            stats = serve(chain, sock, stop, feed=feed)
+            stats = serve(chain, sock, stop, feed=feed, capture=capture, on_error=on_error)
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
@@ -88,14 +108,21 @@ def run(args: argparse.Namespace) -> int:
         "nodes": args.nodes,
         "bytes": args.bytes,
         **stats.summary(),
+        "error_messages": stats.error_messages,
     }
+    if args.pcap is not None:
+        summary["pcap"] = args.pcap
     if args.json:
         print(json.dumps(summary))
     else:
         print(
             f"served {summary['frames_out']} of {summary['frames_in']} frames "
-            f"({summary['dropped']} dropped), {summary['publications']} taxel samples; "
+            f"({summary['dropped']} dropped, {summary['errors']} not processed), "
+            f"{summary['publications']} taxel samples; "
             f"processing median {summary['process_us_median']} us, "
-            f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us"
+            f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us; "
+            f"CPU max {summary['cpu_us_max']} us per frame"
         )
+        for message in stats.error_messages:
+            print(f"  not processed: {message}")
     return 0

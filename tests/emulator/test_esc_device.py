@@ -11,9 +11,12 @@ from __future__ import annotations
 import struct
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from emulator.esc.chain import EcatChain
+from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
+from emulator.esc.hostile import hostile_frames, master_reset_frames
 from emulator.esc.sii import SlaveInfo, build_sii, crc8
 from emulator.esc.state_machine import AlStatusCode
 from skinframes import ethercat, taxel
@@ -603,3 +606,112 @@ def test_lower_numbered_fmmu_wins_a_logical_byte() -> None:
         chain, Datagram(C.APWR, 0, 0x0610, struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0x0F82, 0, 1, 1))
     )
     assert one(chain, Datagram.logical(C.LRD, 0, bytes(2))).data == b"\x11\x22"
+
+
+# --- every configuration a frame can set is legal input (issue 11) ------------------------------
+def test_bitwise_fmmu_at_the_end_of_the_address_space_maps_only_existing_bits() -> None:
+    # the crash of issue 11: a bit-wise write FMMU with physical start 0xFFFF.3, then an LWR.
+    # Physical bits 0xFFFF.3 .. 0xFFFF.7 exist (5 bits, datasheet I 1.1: 64 KiB), so logical
+    # bits 0x0.0 .. 0x0.4 are mapped and the rest of the 2-byte mapping is not.
+    chain = bare_chain()
+    fmmu = struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0xFFFF, 3, 2, 1)
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu))
+    d = one(chain, Datagram.logical(C.LWR, 0, b"\xff\xff"))
+    assert d.wkc == 1
+    assert chain.devices[0].registers(0xFFFE, 2) == b"\x00\xf8"  # bits 3-7 of 0xFFFF
+    # read the same bits back: physical 0xFFFF = 0b1010_1xxx -> logical bits 0-4 = 1,0,1,0,1
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu[:11] + b"\x01" + fmmu[12:]))
+    send(chain, Datagram(C.APWR, 0, 0xFFFF, b"\xa8"))
+    d = one(chain, Datagram.logical(C.LRD, 0, b"\xff\xff"))
+    assert (d.data, d.wkc) == (b"\xf5\xff", 1)  # 0b111_10101: bits 5-7 and byte 1 untouched
+
+
+def test_bytewise_fmmu_and_syncmanager_beyond_64_kib_are_clipped() -> None:
+    chain = bare_chain()
+    # byte-wise FMMU: 0x10 logical bytes from physical 0xFFFC: only 4 exist
+    fmmu = struct.pack("<IHBBHBBB3x", 0x100, 0x10, 0, 7, 0xFFFC, 0, 3, 1)
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu))
+    d = one(chain, Datagram.logical(C.LWR, 0x100, bytes(range(1, 0x11))))
+    assert d.wkc == 1
+    assert chain.devices[0].registers(0xFFFC, 4) == b"\x01\x02\x03\x04"
+    d = one(chain, Datagram.logical(C.LRD, 0x100, b"\xee" * 0x10))
+    assert d.data == b"\x01\x02\x03\x04" + b"\xee" * 12
+    # a write SyncManager (buffered, ECAT writes) from 0xFFFE with length 0xFFFF: 2 bytes exist;
+    # writing both is writing its end address: the buffer is exchanged after the frame
+    sm = struct.pack("<HHBBBB", 0xFFFE, 0xFFFF, 0x04, 0, 1, 0)
+    send(chain, Datagram(C.APWR, 0, 0x0800, sm))
+    assert one(chain, Datagram(C.APWR, 0, 0xFFFE, b"\x5a\xa5")).wkc == 1
+    assert chain.devices[0].registers(0xFFFE, 2) == b"\x5a\xa5"
+
+
+def test_broadcast_register_writes_keep_masks_and_locked_syncmanagers() -> None:
+    # one BWR of 0xFF over 0x0300-0x089F: read-only bits keep their values, the enabled SM's
+    # configuration bytes 0-4 keep theirs (datasheet II 2.14.1), the disabled one takes it
+    chain = bare_chain()
+    send(chain, Datagram(C.APWR, 0, 0x0800, struct.pack("<HHBBBB", 0x1000, 4, 0x20, 0, 1, 0)))
+    before = chain.devices[0].registers(0, 0x0F80)
+    assert one(chain, Datagram(C.BWR, 0, 0x0300, b"\xff" * 0x05A0)).wkc == 1
+    after = chain.devices[0].registers(0, 0x0F80)
+    assert after[0x0300:0x0314] == bytes(0x14)  # error counters cleared by the write
+    assert after[0x0400:0x0402] == b"\xff\xff"  # watchdog divider
+    assert after[0x0440] == before[0x0440]  # watchdog status: read-only
+    fmmu_mask = bytes((0xFF,) * 6 + (0x07, 0x07, 0xFF, 0xFF, 0x07, 0x03, 0x01, 0, 0, 0))
+    assert after[0x0600:0x0610] == fmmu_mask  # datasheet II 2.13: reserved bits stay 0
+    assert after[0x0800:0x0805] == before[0x0800:0x0805]  # SM0 enabled: locked
+    assert after[0x0806] & 0xC3 == 0xC3
+    assert after[0x0808:0x080D] == b"\xff\xff\xff\xff\x7f"  # SM1 was disabled: masked write
+
+
+AREAS = [(0x0600, 0x0700), (0x0800, 0x0880), (0x0120, 0x0122), (0x0500, 0x0510)]
+
+
+@st.composite
+def aimed_datagram(draw: st.DrawFn) -> Datagram:
+    lo, hi = draw(st.sampled_from(AREAS))
+    ado = draw(st.integers(lo, hi - 1))
+    data = bytearray(draw(st.binary(min_size=1, max_size=hi - ado + 4)))
+    if ado <= 0x0502 < ado + len(data):
+        data[0x0502 - ado] &= 0xFE  # no EEPROM write enable: the SII itself survives
+    cmd = draw(st.sampled_from([C.APWR, C.FPWR, C.BWR, C.APRW, C.BRW, C.ARMW, C.FRMW]))
+    return Datagram(cmd, draw(st.sampled_from([0, 0xFFFF, 0x1001])), ado, bytes(data))
+
+
+@st.composite
+def any_datagram(draw: st.DrawFn) -> Datagram:
+    return Datagram(
+        draw(st.integers(0, 255)),
+        draw(st.integers(0, 0xFFFF)),
+        draw(st.integers(0, 0xFFFF)),
+        draw(st.binary(max_size=64)),
+    )
+
+
+def configured_read_works(chain: EcatChain, size: int) -> None:
+    """A master resets and configures the line again; an LRD returns every patch's inputs."""
+    nodes = len(chain)
+    for frame in master_reset_frames(nodes) + configure_frames(chain.devices[0].info, nodes):
+        chain.process_frame(frame)
+    rows = taxel.sample_payloads(nodes, 1, size, seed=9)[0]
+    chain.publish(rows)
+    d = one(chain, Datagram.logical(C.LRD, 0, bytes(nodes * size)))
+    assert (d.wkc, d.data) == (nodes, rows.tobytes())
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(frames=st.lists(st.lists(aimed_datagram() | any_datagram(), min_size=1, max_size=4)))
+def test_hostile_register_writes_never_raise_and_a_master_recovers(
+    frames: list[list[Datagram]],
+) -> None:
+    chain = EcatChain.configured(3, 8)
+    for dgs in frames:
+        chain.process_frame(ethercat.frame(EcatFrame(tuple(dgs))).to_bytes())
+    configured_read_works(chain, 8)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_seeded_hostile_frames_never_raise_and_a_master_recovers(seed: int) -> None:
+    nodes, size = 8, 16
+    chain = EcatChain.configured(nodes, size)
+    for frame in hostile_frames(1500, nodes=nodes, input_bytes=size, seed=seed):
+        chain.process_frame(frame)
+    configured_read_works(chain, size)
