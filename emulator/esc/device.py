@@ -736,7 +736,8 @@ class EscDevice:
         is bounded by the bytes written, whatever they ask for.
         """
         mem = self.mem
-        sm_enabled = [mem[REG_SM + SM_BYTES * y + 6] & 1 for y in range(self.config.syncmanagers)]
+        n_sm = self.config.syncmanagers
+        sm_enabled = bytes(mem[REG_SM + 6 : REG_SM + SM_BYTES * n_sm : SM_BYTES])  # bit 0
         flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
         for addr, data in self._pending:
             pos, end = addr, addr + len(data)
@@ -788,7 +789,7 @@ class EscDevice:
         if lo < REG_FMMU + FMMU_BYTES * self.config.fmmus and hi > REG_FMMU:
             flags[3] = True
 
-    def _special_write(self, lo: int, data: bytes, sm_enabled: list[int], flags: list[bool]) -> int:
+    def _special_write(self, lo: int, data: bytes, sm_enabled: bytes, flags: list[bool]) -> int:
         """Write the part of ``data`` (at ``lo``) in one special register block; its end.
 
         Error counters are cleared by any write (datasheet II 2.6), the EEPROM interface obeys
@@ -821,7 +822,7 @@ class EscDevice:
         part = bytearray(data[: hi - lo])
         for y, enabled in enumerate(sm_enabled):
             a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
-            if enabled and a < b:  # the written value is the current one: nothing changes
+            if enabled & 1 and a < b:  # the written value is the current one: nothing changes
                 part[a - lo : b - lo] = mem[a:b]
         self._masked_write(lo, bytes(part), flags)
         flags[4] = True
@@ -905,7 +906,7 @@ class EscDevice:
             (min(f[0] for f in fmmus), max(f[1] for f in fmmus)) if fmmus else (0, 0)
         )
 
-    def _rebuild_sms(self, enabled_before: list[int] | None = None) -> None:
+    def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
         """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.
 
         A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
@@ -922,7 +923,7 @@ class EscDevice:
                 self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
                 continue
             old = self._sms[y]
-            toggled = enabled_before is not None and not enabled_before[y]
+            toggled = enabled_before is not None and not enabled_before[y] & 1
             if old is None or toggled or (old.start, old.length) != (start, length):
                 old = _Sm(y, start, length, control)
                 self._sms[y] = old
