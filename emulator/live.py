@@ -383,9 +383,11 @@ def serve(
     Every frame the wire carries is legal input: one that still hits an internal error is
     counted (``errors``), handed to ``on_error`` with the frame, and not answered; serving
     goes on. ``capture`` records every received frame (inbound) and every answer (outbound)
-    with the host's clock (``time.time_ns``) as it happens.
+    with the host's clock (``time.time_ns``) as it happens. The chain's distributed clocks run
+    on ``time.monotonic_ns`` from here on.
     """
     stats = ServeStats()
+    chain.clock_ns = time.monotonic_ns  # the ESCs' clocks (distributed clocks) run in host time
     fd = sock.fileno()
     clock = time.perf_counter
     cpu = time.thread_time_ns

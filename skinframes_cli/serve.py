@@ -12,6 +12,7 @@ import traceback
 from types import FrameType
 from typing import Any
 
+from emulator.esc.dc import DEFAULT_DRIFT_PPM
 from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
 
@@ -48,6 +49,13 @@ def add_parser(sub: Any) -> None:
         help="time between two taxel samples in ms (default 1)",
     )
     p.add_argument(
+        "--drift-ppm",
+        type=float,
+        default=DEFAULT_DRIFT_PPM,
+        help="largest clock drift of a patch's distributed clock in ppm, each patch's drawn "
+        "with --seed (0..200, default 25)",
+    )
+    p.add_argument(
         "--pcap",
         metavar="FILE",
         help="record every frame received and sent, with this host's timestamps (pcapng for a "
@@ -61,6 +69,7 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Serve until a signal arrives."""
     from emulator.esc.chain import EcatChain
+    from emulator.esc.dc import seed_clocks
     from emulator.live import RawSocket, TaxelFeed, serve
     from skinframes.capture_writer import CaptureWriter
     from skinframes.errors import CaptureError
@@ -68,6 +77,7 @@ def run(args: argparse.Namespace) -> int:
     period_s = args.period_ms / 1000.0
     check_served_ecat(args.nodes, args.bytes, args.samples, period_s)
     chain = EcatChain.skin(args.nodes, args.bytes)
+    seed_clocks([dev.dc for dev in chain.devices], args.drift_ppm, args.seed)
     feed = TaxelFeed(
         args.nodes,
         args.bytes,

@@ -20,7 +20,7 @@ once per frame of a cycle what each ESC does to it, and applies that to the ESCs
 from __future__ import annotations
 
 import struct
-from collections.abc import Container, Iterable, Sequence
+from collections.abc import Callable, Container, Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import Final
 
@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
 from emulator.esc.sii import SlaveInfo
 from emulator.esc.state_machine import AlState, SkinPatchApplication
@@ -60,6 +61,10 @@ _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
 
 
+def _frozen_clock() -> int:
+    return 0
+
+
 class EcatChain:
     """Emulated ESCs in a line, the first one's port 0 facing the master.
 
@@ -71,9 +76,14 @@ class EcatChain:
         if not 1 <= len(devices) <= MAX_SLAVES:
             raise TopologyError(f"EtherCAT chain: {len(devices)} slaves (1..{MAX_SLAVES})")
         self.devices = list(devices)
+        self.timebase = DcTimebase(line_length=len(self.devices))  # distributed clocks (dc.py)
+        # host time (ns) at which each frame arrives: frozen at 0 (deterministic, for the timing
+        # engine and tests) until a live transport sets a real clock (emulator.live.serve)
+        self.clock_ns: Callable[[], int] = _frozen_clock
         for i, dev in enumerate(self.devices):
             dev.position = i
             dev.set_port1_link(i < len(self.devices) - 1)
+            dev.dc.timebase, dev.dc.position = self.timebase, i
         self.frames = 0
         self.dropped = 0
 
@@ -160,6 +170,7 @@ class EcatChain:
 
     def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
         self.frames += 1
+        self.timebase.frame_ns = self.clock_ns()
         buf = bytearray(frame)
         parsed = self._parse(buf)
         if parsed is None:

@@ -43,6 +43,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
+from emulator.esc.dc import REG_DC_END, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU, DcClock
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     EE_ACK_ERROR,
@@ -188,7 +189,10 @@ class EscDevice:
             (0x0442, 0x0444),
             (REG_EEPROM_CONFIG, 0x0510),
             (REG_SM, REG_SM + SM_BYTES * self.config.syncmanagers),
+            (REG_DC_RECEIVE, REG_DC_RECEIVE_PU),
         )
+        self.dc = DcClock()  # distributed clocks (dc.py); the chain shares its timebase
+        self._dc_written: tuple[int, int] | None = None
         self.position = 0  # set by the chain; used in traces
         self.port1_link = False  # set by the chain: a neighbour on port 1
         self.onward: bool | None = False  # cached forwards()
@@ -241,6 +245,7 @@ class EscDevice:
         self._sms = [None] * cfg.syncmanagers
         self._active, self._fmmus, self._pending, self._completed = [], [], [], []
         self.fmmu_span = (0, 0)
+        self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
         mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS  # the links came up
         self._update_dl_status()
@@ -293,6 +298,11 @@ class EscDevice:
     def al_status_code(self) -> int:
         """AL status code (0x0134)."""
         return self.mem[REG_AL_CODE] | self.mem[REG_AL_CODE + 1] << 8
+
+    @property
+    def dc_sampling(self) -> bool:
+        """SYNC0 is active and the application samples at its pulses (dc.py)."""
+        return self.dc.sync0_active(self.mem) and hasattr(self.app, "sync0")
 
     @property
     def changes_source_mac(self) -> bool:
@@ -476,6 +486,8 @@ class EscDevice:
         pos = addr
         if pos < REGISTER_END:
             hi = min(end, REGISTER_END)
+            if pos < REG_DC_END and hi > REG_DC_RECEIVE:
+                self.dc.refresh(mem, pos, hi)  # DC registers run with the clock
             out.append((0, bytes(mem[pos:hi]), -1, 0))
             if pos <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS:
                 self._clear_event(EVENT_DL_STATUS)
@@ -516,6 +528,10 @@ class EscDevice:
         if lo == sm.start:
             if sm.mailbox and not sm.full:
                 return  # "read w. failure (mailbox empty)"
+            if not sm.mailbox and self.dc_sampling:
+                pulse = self.dc.sample_due(self.mem)
+                if pulse is not None:  # a SYNC0 pulse since the last sample (dc.py)
+                    self.app.sync0(self, pulse)  # type: ignore[attr-defined]
             sm.open = True
             sm.buf = (
                 sm.latest
@@ -756,6 +772,9 @@ class EscDevice:
             self._rebuild_sms(sm_enabled)
         if dl_changed:
             self._update_dl_status()
+        if self._dc_written is not None:
+            self.dc.configured(mem, *self._dc_written)
+            self._dc_written = None
         self._update_irq()
         if eeprom_command:
             self._eeprom_command()
@@ -788,6 +807,9 @@ class EscDevice:
             flags[2] = True
         if lo < REG_FMMU + FMMU_BYTES * self.config.fmmus and hi > REG_FMMU:
             flags[3] = True
+        if lo < REG_DC_END and hi > REG_DC_OFFSET:
+            w = self._dc_written
+            self._dc_written = (lo, hi) if w is None else (min(w[0], lo), max(w[1], hi))
 
     def _special_write(self, lo: int, data: bytes, sm_enabled: bytes, flags: list[bool]) -> int:
         """Write the part of ``data`` (at ``lo``) in one special register block; its end.
@@ -817,6 +839,10 @@ class EscDevice:
                 self._masked_write(lo, data[: hi - lo], flags)
                 if lo < REG_EEPROM_CONTROL + 2:
                     flags[1] = True
+            return hi
+        if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
+            hi = min(end, REG_DC_RECEIVE_PU)
+            self.dc.write(mem, lo, data[: hi - lo])
             return hi
         hi = min(end, REG_SM + SM_BYTES * len(sm_enabled))
         part = bytearray(data[: hi - lo])

@@ -20,6 +20,7 @@ from __future__ import annotations
 from enum import IntEnum
 from typing import TYPE_CHECKING, Final, Protocol
 
+from emulator.esc.dc import REG_SAMPLE_TIME
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 
 if TYPE_CHECKING:
@@ -165,11 +166,23 @@ class SkinPatchApplication:
 
     # --- inputs ------------------------------------------------------------------------------
     def publish(self, device: EscDevice, data: bytes) -> None:
-        """Write a complete input buffer through the PDI (a buffer exchange of SM inputs)."""
+        """Write a complete input buffer through the PDI (a buffer exchange of SM inputs).
+
+        While SYNC0 is active (emulator.esc.dc) the data is what the sensor holds; the patch
+        samples it at the next SYNC0 pulse (:meth:`sync0`).
+        """
         if len(data) != self._input_bytes or self._input_start is None:
             raise ValueError(f"inputs: {len(data)} bytes, the PDO has {self._input_bytes}")
         self.inputs = bytes(data)
-        device.pdi_write(self._input_start, self.inputs)
+        if not device.dc_sampling:
+            device.pdi_write(self._input_start, self.inputs)
+
+    def sync0(self, device: EscDevice, pulse_ns: int) -> None:
+        """A SYNC0 pulse at system time ``pulse_ns``: sample the taxels, stamp the sample
+        (user RAM 0x0F80, emulator.esc.dc.REG_SAMPLE_TIME)."""
+        if self._input_start is not None:
+            device.pdi_write(REG_SAMPLE_TIME, pulse_ns.to_bytes(8, "little"))
+            device.pdi_write(self._input_start, self.inputs)
 
     # --- transitions --------------------------------------------------------------------------
     def _enter(self, device: EscDevice, current: int, requested: int) -> AlStatusCode:

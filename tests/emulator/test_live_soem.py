@@ -133,11 +133,11 @@ def serving(
             result["summary"] = json.loads(out)
 
 
-def run_soem(net: VethPair, inputs: Path, cycles: int = 1000) -> dict[str, Any]:
+def run_soem(net: VethPair, inputs: Path, cycles: int = 1000, *options: str) -> dict[str, Any]:
     done = subprocess.run(
         [
             *("ip", "netns", "exec", net.netns, sys.executable, str(TESTS / "soem_master.py")),
-            *(net.master, "--cycles", str(cycles), "--inputs-out", str(inputs)),
+            *(net.master, "--cycles", str(cycles), "--inputs-out", str(inputs), *options),
         ],
         cwd=ROOT,
         env=ENV,
@@ -241,6 +241,36 @@ def test_pysoem_runs_the_emulated_skin(
         f"{doc['config_map_s']} s, cycle {doc['cycle_us']} us, {distinct} samples seen, "
         f"{frames} frames captured, chain processing {summary['process_us_median']} us median"
     )
+
+
+@pytest.mark.tshark
+def test_pysoem_distributed_clocks(net: VethPair, tshark: str, tmp_path: Path) -> None:
+    """config_dc finds DC on every patch, dc_sync(True, 1 ms) starts SYNC0, and after 1,000
+    cycles (each with SOEM's FRMW of the reference clock) the system time difference (0x092C)
+    of every patch that follows the reference is below 100 ns, although each patch's clock
+    drifts by up to 25 ppm."""
+    nodes, size = 21, 192
+    pcap = tmp_path / "dc.pcapng"
+    with serving(net, nodes, size, pcap) as server:
+        doc = run_soem(net, tmp_path / "inputs.bin", 1000, "--dc")
+    assert server["rc"] == 0, server["stderr"]
+    assert doc["config_dc"] == 1  # SOEM: TRUE, DC slaves found
+    # SOEM wrote a propagation delay to every patch but the reference: one ESC pass and cable
+    # (WIRE: 540.05 ns) per hop, measured from the latched receive times
+    delays = doc["dc_delays"]
+    assert delays[0] == 0
+    assert all(abs(d - 540 * p) <= p + 1 for p, d in enumerate(delays)), delays
+    assert doc["dc_activation"] == [3] * nodes  # cyclic operation + SYNC0
+    assert doc["wkc"] == [nodes] * 1000
+    # every patch compares its clock with the reference's (patch 0, which SOEM's FRMW reads and
+    # so never compares: its 0x092C keeps the compare of SOEM's BWR 0x0910 = 0 at start-up)
+    assert all(abs(d) < 100 for d in doc["dc_diff_ns"][1:]), doc["dc_diff_ns"]
+    assert doc["dc_sync0_status"] == [1] * nodes  # pulses fired since dc_sync
+    assert doc["dc_time"] > 0
+    check_capture(tshark, pcap)  # clean: no malformed frame, no warning but SOEM's source MAC
+    frmw = tshark_util.run(tshark, pcap, "-Y", "ecat.cmd == 14 && ecat.ado == 0x0910")
+    assert len(frmw.splitlines()) >= 2000  # the FRMW of every cycle, out and back
+    print(f"\nDC: differences after 1,000 cycles {doc['dc_diff_ns']} ns")
 
 
 def test_independent_master_over_the_wire(net: VethPair) -> None:
