@@ -29,8 +29,13 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
   0x0210 ORed into each datagram's IRQ field through the mask 0x0200 (datasheet I Table 3),
   and the ESC reset sequence 'R','E','S' in 0x0040.
 
-Not modelled: distributed clocks (0x0008 bit 2 reads 0, 0x0900-0x09FF read 0 and ignore
-writes), watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
+* distributed clocks 0x0900-0x09FF in :mod:`emulator.esc.dc` (its hooks: reads refresh the
+  registers, writes of 0x0900-0x0917 are events, SYNC0 samples when the inputs are opened);
+* every configuration a frame can set is legal input: FMMU and SyncManager mappings are
+  clipped to the 64 KiB address space, register writes are masked as whole integers, so the
+  work per frame is bounded by the frame, not by what the configuration asks for.
+
+Not modelled: watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
 circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI is a
 :class:`emulator.esc.state_machine.PdiApplication`; the skin patch's is
 :class:`SkinPatchApplication`.
