@@ -3,7 +3,9 @@
 1. In process (default): ``--frames`` seeded hostile frames (:func:`emulator.esc.hostile.
    hostile_frames`: register writes aimed at FMMU, SM, AL and EEPROM registers, random commands,
    logical accesses, mutated configuration frames) through a configured chain of ``--nodes``
-   patches; each frame's CPU time (this thread's clock) is measured. Printed: median, p99 and
+   patches, with a master's reset (:func:`emulator.esc.hostile.master_reset_frames`) every
+   ``--reset-every`` frames, so that loops the hostile frames closed open again and every frame
+   keeps meeting all slaves; each hostile frame's CPU time (this thread's clock) is measured. Printed: median, p99 and
    maximum, frames above 2 ms, the costliest frames' datagrams, and for reference the CPU of an
    ordinary LRD of the whole process image in the same run. Afterwards a master resets and
    configures the line again and an LRD must return every patch's inputs.
@@ -27,6 +29,7 @@ import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import numpy as np
@@ -58,7 +61,16 @@ def describe(frame: bytes) -> str:
     return " ".join(f"{int(d.cmd)}@{d.ado:#06x}+{len(d.data)}" for d in ecat.datagrams)
 
 
-def in_process(nodes: int, size: int, frames: int, seed: int) -> None:
+def with_resets(frames: int, nodes: int, size: int, seed: int, every: int) -> Iterator[bytes]:
+    """The hostile frames, and the master's reset frames after every ``every`` of them."""
+    reset = master_reset_frames(nodes)
+    for i, frame in enumerate(hostile_frames(frames, nodes=nodes, input_bytes=size, seed=seed)):
+        yield frame
+        if every and i % every == every - 1:
+            yield from reset
+
+
+def in_process(nodes: int, size: int, frames: int, seed: int, every: int) -> None:
     chain = EcatChain.configured(nodes, size)
     cpu = time.thread_time_ns
     ref = lrd_frame(nodes, size)
@@ -68,13 +80,16 @@ def in_process(nodes: int, size: int, frames: int, seed: int) -> None:
         chain.process_frame(ref)
         ref_us.append((cpu() - c0) / 1e3)
     costs: list[tuple[float, int, bytes]] = []
-    for i, frame in enumerate(hostile_frames(frames, nodes=nodes, input_bytes=size, seed=seed)):
+    for i, frame in enumerate(with_resets(frames, nodes, size, seed, every)):
         c0 = cpu()
         chain.process_frame(frame)
         costs.append(((cpu() - c0) / 1e3, i, frame))
     us = np.array([c[0] for c in costs])
     ref_median = float(np.median(ref_us))
-    print(f"in process: {frames} hostile frames, {nodes} slaves x {size} bytes")
+    print(
+        f"in process: {frames} hostile frames (master reset every {every}), "
+        f"{nodes} slaves x {size} bytes"
+    )
     print(
         f"  CPU per frame: median {np.median(us):.0f} us, p99 {np.percentile(us, 99):.0f} us, "
         f"max {us.max():.0f} us; {int((us > BUDGET_US).sum())} frames above {BUDGET_US:.0f} us"
@@ -97,7 +112,7 @@ def in_process(nodes: int, size: int, frames: int, seed: int) -> None:
     print(f"  afterwards a configured LRD answers correctly: {ok}")
 
 
-def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float) -> None:
+def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every: int) -> None:
     from emulator.live import netns_socket, veth_netns
 
     with veth_netns(prefix="skf-bench") as net:
@@ -127,9 +142,7 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float) -> No
                                 return back
                     return None
 
-                for i, frame in enumerate(
-                    hostile_frames(frames, nodes=nodes, input_bytes=size, seed=seed)
-                ):
+                for i, frame in enumerate(with_resets(frames, nodes, size, seed, every)):
                     if exchange(frame) is None:
                         lost += 1
                     else:
@@ -175,12 +188,15 @@ def main() -> None:
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--live", action="store_true", help="send them to serve over veth (root)")
     ap.add_argument("--timeout-ms", type=float, default=50.0)
+    ap.add_argument(
+        "--reset-every", type=int, default=500, help="hostile frames between master resets"
+    )
     args = ap.parse_args()
     if args.live:
         with contextlib.suppress(KeyboardInterrupt):
-            live(args.nodes, args.bytes, args.frames, args.seed, args.timeout_ms)
+            live(args.nodes, args.bytes, args.frames, args.seed, args.timeout_ms, args.reset_every)
     else:
-        in_process(args.nodes, args.bytes, args.frames, args.seed)
+        in_process(args.nodes, args.bytes, args.frames, args.seed, args.reset_every)
 
 
 if __name__ == "__main__":

@@ -118,6 +118,7 @@ __all__ = [
 _APRD, _APWR, _APRW, _FPRD, _FPWR, _FPRW, _BRD, _BWR, _BRW = range(1, 10)
 _LRD, _LWR, _LRW, _ARMW, _FRMW = range(10, 15)
 _RESET_SEQUENCE: Final = b"RES"
+_SM_TABLE: Final = struct.Struct("<HHBBBB")  # one SyncManager's registers (datasheet II 2.14)
 
 
 @dataclass(frozen=True, slots=True)
@@ -758,7 +759,10 @@ class EscDevice:
         """
         mem = self.mem
         n_sm = self.config.syncmanagers
-        sm_enabled = bytes(mem[REG_SM + 6 : REG_SM + SM_BYTES * n_sm : SM_BYTES])  # bit 0
+        sm_end, fmmu_end = REG_SM + SM_BYTES * n_sm, REG_FMMU + FMMU_BYTES * self.config.fmmus
+        sm_before = bytes(mem[REG_SM:sm_end])  # rebuild caches only when these change
+        fmmu_before = bytes(mem[REG_FMMU:fmmu_end])
+        sm_enabled = sm_before[6::SM_BYTES]  # bit 0
         flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
         for addr, data in self._pending:
             pos, end = addr, addr + len(data)
@@ -771,9 +775,9 @@ class EscDevice:
                     pos = self._special_write(pos, data[pos - addr :], sm_enabled, flags)
         self._pending.clear()
         al_written, eeprom_command, dl_changed, fmmu_changed, sm_changed = flags
-        if fmmu_changed:
+        if fmmu_changed and mem[REG_FMMU:fmmu_end] != fmmu_before:
             self._rebuild_fmmus()
-        if sm_changed:
+        if sm_changed and mem[REG_SM:sm_end] != sm_before:
             self._rebuild_sms(sm_enabled)
         if dl_changed:
             self._update_dl_status()
@@ -852,9 +856,10 @@ class EscDevice:
         hi = min(end, REG_SM + SM_BYTES * len(sm_enabled))
         part = bytearray(data[: hi - lo])
         for y, enabled in enumerate(sm_enabled):
-            a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
-            if enabled & 1 and a < b:  # the written value is the current one: nothing changes
-                part[a - lo : b - lo] = mem[a:b]
+            if enabled & 1:  # configuration bytes 0-4 keep their value: nothing changes
+                a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
+                if a < b:
+                    part[a - lo : b - lo] = mem[a:b]
         self._masked_write(lo, bytes(part), flags)
         flags[4] = True
         return hi
@@ -945,10 +950,11 @@ class EscDevice:
         """
         active: list[_Sm] = []
         locked: list[_Sm] = []
-        for y in range(self.config.syncmanagers):
-            start, length, control, activate = self.sm_registers(y)
+        n_sm = self.config.syncmanagers
+        table = _SM_TABLE.iter_unpack(self.mem[REG_SM : REG_SM + SM_BYTES * n_sm])
+        for y, (start, length, control, _, activate, pdi) in enumerate(table):
             length = min(length, ADDRESS_SPACE - start)  # no memory beyond 0xFFFF (I 1.1)
-            pdi_locked = self.mem[REG_SM + SM_BYTES * y + 7] & 0x01
+            pdi_locked = pdi & 0x01
             if not activate & 0x01 or length < 2:
                 self._sms[y] = None
                 self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
