@@ -38,9 +38,12 @@ import numpy.typing as npt
 import pytest
 import tshark_util
 
-from emulator.esc.chain import EcatChain
+from emulator.esc.chain import EcatChain, configure_frames
+from emulator.esc.hostile import hostile_frames, master_reset_frames
+from emulator.esc.sii import SlaveInfo
 from emulator.live import ServeStats, TaxelFeed, VethPair, netns_socket, serve, veth_netns
-from skinframes import taxel
+from skinframes import ethercat, taxel
+from skinframes.ethercat import Command, Datagram, EcatFrame
 
 ROOT = Path(__file__).resolve().parents[2]
 TESTS = ROOT / "tests"
@@ -271,6 +274,48 @@ def test_pysoem_distributed_clocks(net: VethPair, tshark: str, tmp_path: Path) -
     frmw = tshark_util.run(tshark, pcap, "-Y", "ecat.cmd == 14 && ecat.ado == 0x0910")
     assert len(frmw.splitlines()) >= 2000  # the FRMW of every cycle, out and back
     print(f"\nDC: differences after 1,000 cycles {doc['dc_diff_ns']} ns")
+
+
+def test_serve_survives_hostile_frames_and_answers_a_configured_read(net: VethPair) -> None:
+    """A CI-sized version of issue 11's acceptance run (benchmarks/bench_serve_hostile.py
+    --live sends 100,000): hostile frames to 160 patches, then a master resets and configures
+    the line and an LRD returns published samples of every patch."""
+    nodes, size = 160, 8
+    answered = 0
+    with serving(net, nodes, size) as server, netns_socket(net.master, net.netns) as sock:
+
+        def exchange(frame: bytes) -> bytes | None:
+            sock.send(frame)
+            deadline = time.monotonic() + 2.0
+            while (left := deadline - time.monotonic()) > 0:
+                if select.select([sock.fileno()], [], [], left)[0]:
+                    back = sock.recv()
+                    if back is not None and len(back) == len(frame):
+                        return back
+            return None
+
+        for frame in hostile_frames(1000, nodes=nodes, input_bytes=size, seed=7):
+            sock.send(frame)  # answers (or none, for frames the line drops) are not awaited
+        while select.select([sock.fileno()], [], [], 2.0)[0]:  # until serve fell quiet
+            while sock.recv() is not None:
+                answered += 1
+        for frame in master_reset_frames(nodes) + configure_frames(
+            SlaveInfo.skin_patch(size), nodes
+        ):
+            exchange(frame)
+        lrd = ethercat.frame(
+            EcatFrame((Datagram.logical(Command.LRD, 0, bytes(nodes * size)),))
+        ).to_bytes()
+        back = exchange(lrd)
+    assert server["rc"] == 0, server["stderr"]
+    summary = server["summary"]
+    assert summary["frames_in"] >= 1000 and summary["errors"] == 0, summary["error_messages"]
+    assert back is not None
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    assert d.wkc == nodes
+    rows = np.frombuffer(d.data, dtype=np.uint8).reshape(nodes, size)
+    sample_of_rows(rows, taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED))
+    print(f"\nhostile: {answered} answers, serve CPU max {summary['cpu_us_max']} us per frame")
 
 
 def test_independent_master_over_the_wire(net: VethPair) -> None:
