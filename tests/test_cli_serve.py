@@ -63,6 +63,9 @@ def test_link_problems_are_one_error_line(
         (["--nodes", "2", "--bytes", "16", "--samples", "0"], "taxel feed: 0 samples"),
         (["--nodes", "2", "--bytes", "16", "--period-ms", "0"], "taxel feed: a period of 0.0 s"),
         (["--nodes", "2", "--bytes", "16", "--pcap", ""], "--pcap: an empty file name"),
+        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "nan"], "clock drift: nan ppm (0..200)"),
+        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "1e400"], "clock drift: inf ppm"),
+        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "-1"], "clock drift: -1.0 ppm"),
     ],
 )
 def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
