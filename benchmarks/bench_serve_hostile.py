@@ -11,7 +11,8 @@
    configures the line again and an LRD must return every patch's inputs.
 2. ``--live``: the same frames sent to ``skinframes serve ecat --nodes N`` over a veth pair in a
    private network namespace (needs root), one at a time (the next after the answer, or after
-   ``--timeout-ms`` for a frame the chain drops); then the reset, the configuration and an LRD
+   ``--timeout-ms`` for a frame the chain drops); then, once late answers stopped coming, the
+   reset, the configuration and an LRD
    whose rows must each be a sample the server published; serve's own summary (frames it could
    not process, its maximum CPU per frame) is printed.
 
@@ -149,6 +150,9 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every
                         answered += 1
                     if i % 10_000 == 9_999:
                         print(f"  {i + 1} frames, {time.monotonic() - t0:.0f} s", file=sys.stderr)
+                while select.select([sock.fileno()], [], [], 2.0)[0]:  # late answers
+                    while sock.recv() is not None:
+                        pass
                 info = SlaveInfo.skin_patch(size)
                 for frame in master_reset_frames(nodes) + configure_frames(info, nodes):
                     exchange(frame)
