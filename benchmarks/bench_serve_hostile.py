@@ -133,9 +133,9 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every
             t0 = time.monotonic()
             with netns_socket(net.master, net.netns) as sock:
 
-                def exchange(frame: bytes) -> bytes | None:
+                def exchange(frame: bytes, wait_ms: float = timeout_ms) -> bytes | None:
                     sock.send(frame)
-                    deadline = time.monotonic() + timeout_ms / 1000
+                    deadline = time.monotonic() + wait_ms / 1000
                     while (left := deadline - time.monotonic()) > 0:
                         if select.select([sock.fileno()], [], [], left)[0]:
                             back = sock.recv()
@@ -155,17 +155,20 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every
                         pass
                 info = SlaveInfo.skin_patch(size)
                 for frame in master_reset_frames(nodes) + configure_frames(info, nodes):
-                    exchange(frame)
-                back = exchange(lrd_frame(nodes, size))
+                    exchange(frame, 2000)
+                back = exchange(lrd_frame(nodes, size), 2000)
             assert proc.poll() is None, "serve ended"
             ok = False
-            if back is not None:
+            if back is None:
+                print("  LRD: no answer")
+            else:
                 (d,) = ethercat.decode(back[14:])[0].datagrams
                 payloads = taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED)
                 rows = np.frombuffer(d.data, np.uint8).reshape(nodes, size)
-                ok = d.wkc == nodes and all(
-                    (payloads[:, p, :] == rows[p]).all(axis=1).any() for p in range(nodes)
-                )
+                bad = [p for p in range(nodes) if not (payloads[:, p] == rows[p]).all(1).any()]
+                ok = d.wkc == nodes and not bad
+                if not ok:
+                    print(f"  LRD: wkc {d.wkc}, rows that are no published sample: {bad[:20]}")
         finally:
             proc.send_signal(signal.SIGINT)
             out, err = proc.communicate(timeout=120)

@@ -11,7 +11,7 @@ A quarter of the frames are mutations of ordinary configuration and process-data
 
 :func:`master_reset_frames` is what a master sends before it configures a line it knows nothing
 about (SOEM's ``ecx_config_init``: loop control auto, no alias, ECAT owns the EEPROM, event
-mask, FMMUs and SyncManagers cleared, INIT with acknowledge), so that a chain that received
+mask, FMMUs and SyncManagers cleared, SYNC0/SYNC1 deactivated, INIT with acknowledge), so that a chain that received
 hostile frames can be configured again (:func:`emulator.esc.chain.configure_frames`).
 """
 
@@ -58,6 +58,7 @@ def master_reset_frames(nodes: int) -> list[bytes]:
         (0x0806, b"\x00"),  # SyncManagers off (their configuration is locked while enabled)
         *((0x0806 + 8 * y, b"\x00") for y in range(1, 16)),
         (0x0800, bytes(8 * 16)),
+        (0x0980, b"\x00\x00"),  # distributed clocks: SYNC units to ECAT, deactivated
         (0x0120, struct.pack("<H", 0x11)),  # INIT + error acknowledge
     ]
     return [

@@ -192,8 +192,8 @@ class SkinPatchApplication:
                 return code
             for i, _ in self._pd_sms:
                 device.pdi_deactivate_sm(i, False)
-            if self._input_sm is not None:
-                self.publish(device, self.inputs)  # valid inputs before acknowledging SAFEOP
+            if self._input_start is not None:  # valid inputs before acknowledging SAFEOP
+                device.pdi_write(self._input_start, self.inputs)
         elif requested in (AlState.PREOP, AlState.INIT):
             for i, _ in self._pd_sms:
                 device.pdi_deactivate_sm(i, True)
