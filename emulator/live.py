@@ -31,7 +31,7 @@ import socket
 import subprocess
 import threading
 import time
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from types import FrameType
 from typing import Final
@@ -39,8 +39,10 @@ from typing import Final
 from emulator.errors import LinkError
 from emulator.esc.chain import EcatChain
 from skinframes import taxel
+from skinframes.capture_writer import CaptureWriter
 
 __all__ = [
+    "CPU_BUDGET_US",
     "ETH_P_ECAT",
     "LinkError",
     "RawSocket",
@@ -315,12 +317,22 @@ class TaxelFeed:
 
 @dataclass
 class ServeStats:
-    """What :func:`serve` did, with the processing time per frame in microseconds."""
+    """What :func:`serve` did, with the processing time per frame in microseconds.
+
+    ``errors`` counts the frames the chain could not process (an internal error: the frame is
+    not answered, the ESCs finish it and serving goes on); ``error_messages`` keeps the first
+    few (exception type and message). ``cpu_us_max`` is the largest CPU time one frame took
+    (this thread's CPU clock), ``over_budget`` the frames above ``CPU_BUDGET_US``.
+    """
 
     frames_in: int = 0
     frames_out: int = 0
     dropped: int = 0
     publications: int = 0
+    errors: int = 0
+    error_messages: list[str] = field(default_factory=list)
+    cpu_us_max: float = 0.0
+    over_budget: int = 0
     process_us: list[float] = field(default_factory=list)
 
     def summary(self) -> dict[str, float | int]:
@@ -334,11 +346,25 @@ class ServeStats:
             "frames_in": self.frames_in,
             "frames_out": self.frames_out,
             "dropped": self.dropped,
+            "errors": self.errors,
             "publications": self.publications,
             "process_us_median": pct(0.5),
             "process_us_p99": pct(0.99),
             "process_us_max": round(times[-1], 1) if times else 0.0,
+            "cpu_us_max": round(self.cpu_us_max, 1),
+            "over_budget": self.over_budget,
         }
+
+
+CPU_BUDGET_US: Final = 2000.0  # issue 11: at most 2 ms of CPU per frame at 160 slaves
+MAX_ERROR_MESSAGES: Final = 10
+
+
+def _abandon_frame(chain: EcatChain) -> None:
+    """After an internal error: let every ESC finish the frame as far as it can."""
+    for dev in chain.devices:
+        with contextlib.suppress(Exception):
+            dev.end_frame()
 
 
 def serve(
@@ -349,11 +375,23 @@ def serve(
     feed: TaxelFeed | None = None,
     poll_s: float = 0.05,
     keep_times: int = 200_000,
+    capture: CaptureWriter | None = None,
+    on_error: Callable[[BaseException, bytes], None] | None = None,
 ) -> ServeStats:
-    """Answer frames until ``stop`` is set; publish taxels from ``feed`` between frames."""
+    """Answer frames until ``stop`` is set; publish taxels from ``feed`` between frames.
+
+    Every frame the wire carries is legal input: one that still hits an internal error is
+    counted (``errors``), handed to ``on_error`` with the frame, and not answered; serving
+    goes on. ``capture`` records every received frame (inbound) and every answer (outbound)
+    with the host's clock (``time.time_ns``) as it happens. The chain's distributed clocks run
+    on ``time.monotonic_ns`` from here on.
+    """
     stats = ServeStats()
+    chain.clock_ns = time.monotonic_ns  # the ESCs' clocks (distributed clocks) run in host time
     fd = sock.fileno()
     clock = time.perf_counter
+    cpu = time.thread_time_ns
+    wall_ns = time.time_ns
     while not stop.is_set():
         if feed is not None and feed.publish(chain, time.monotonic()):
             stats.publications += 1
@@ -363,12 +401,31 @@ def serve(
             continue
         while (frame := sock.recv()) is not None:
             stats.frames_in += 1
-            t0 = clock()
-            back = chain.process_frame(frame)
+            if capture is not None:
+                capture.write(wall_ns(), frame, outbound=False)
+            t0, c0 = clock(), cpu()
+            try:
+                back = chain.process_frame(frame)
+            except Exception as exc:  # every frame is legal input: count it and go on
+                _abandon_frame(chain)
+                stats.errors += 1
+                if len(stats.error_messages) < MAX_ERROR_MESSAGES:
+                    stats.error_messages.append(f"{type(exc).__name__}: {exc}")
+                if on_error is not None:
+                    on_error(exc, frame)
+                continue
+            finally:
+                cpu_us = (cpu() - c0) / 1000.0
+                if cpu_us > stats.cpu_us_max:
+                    stats.cpu_us_max = cpu_us
+                if cpu_us > CPU_BUDGET_US:
+                    stats.over_budget += 1
             if back is None:
                 stats.dropped += 1
                 continue
             sock.send(back)
+            if capture is not None:
+                capture.write(wall_ns(), back, outbound=True)
             stats.frames_out += 1
             if len(stats.process_us) < keep_times:
                 stats.process_us.append((clock() - t0) * 1e6)

@@ -3,13 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import signal
 import sys
 import threading
+import traceback
 from types import FrameType
 from typing import Any
 
+from emulator.esc.dc import DEFAULT_DRIFT_PPM
 from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
 
@@ -50,6 +53,20 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="patches without a mailbox (no CoE; PDOs from the SII only), as before CoE existed",
     )
+    p.add_argument(
+        "--drift-ppm",
+        type=float,
+        default=DEFAULT_DRIFT_PPM,
+        help="largest clock drift of a patch's distributed clock in ppm, each patch's drawn "
+        "with --seed (0..200, default 25)",
+    )
+    p.add_argument(
+        "--pcap",
+        metavar="FILE",
+        help="record every frame received and sent, with this host's timestamps (pcapng for a "
+        ".pcapng name: direction per frame; else classic pcap); the file appears complete "
+        "when serving stops",
+    )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
     p.set_defaults(run=run)
 
@@ -57,11 +74,15 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Serve until a signal arrives."""
     from emulator.esc.chain import EcatChain
+    from emulator.esc.dc import seed_clocks
     from emulator.live import RawSocket, TaxelFeed, serve
+    from skinframes.capture_writer import CaptureWriter
+    from skinframes.errors import CaptureError
 
     period_s = args.period_ms / 1000.0
     check_served_ecat(args.nodes, args.bytes, args.samples, period_s)
     chain = EcatChain.skin(args.nodes, args.bytes, mailbox=not args.no_mailbox)
+    seed_clocks([dev.dc for dev in chain.devices], args.drift_ppm, args.seed)
     feed = TaxelFeed(
         args.nodes,
         args.bytes,
@@ -70,20 +91,29 @@ def run(args: argparse.Namespace) -> int:
         period_s=period_s,
     )
     stop = threading.Event()
+    if args.pcap == "":
+        raise CaptureError("--pcap: an empty file name")
+
+    def on_error(exc: BaseException, frame: bytes) -> None:
+        if args.debug:  # the summary counts them; --debug shows each one as it happens
+            print(f"frame {frame.hex()}:", file=sys.stderr)
+            traceback.print_exception(exc, file=sys.stderr)
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
     previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
-        with RawSocket(args.iface) as sock:
+        with contextlib.ExitStack() as stack:
+            sock = stack.enter_context(RawSocket(args.iface))
+            capture = None if args.pcap is None else stack.enter_context(CaptureWriter(args.pcap))
             print(
                 f"serving {args.nodes} EtherCAT slaves x {args.bytes} bytes on {args.iface} "
                 "(SIGINT/SIGTERM to stop)",
                 file=sys.stderr,
                 flush=True,
             )
-            stats = serve(chain, sock, stop, feed=feed)
+            stats = serve(chain, sock, stop, feed=feed, capture=capture, on_error=on_error)
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
@@ -94,14 +124,21 @@ def run(args: argparse.Namespace) -> int:
         "bytes": args.bytes,
         "mailbox": not args.no_mailbox,
         **stats.summary(),
+        "error_messages": stats.error_messages,
     }
+    if args.pcap is not None:
+        summary["pcap"] = args.pcap
     if args.json:
         print(json.dumps(summary))
     else:
         print(
             f"served {summary['frames_out']} of {summary['frames_in']} frames "
-            f"({summary['dropped']} dropped), {summary['publications']} taxel samples; "
+            f"({summary['dropped']} dropped, {summary['errors']} not processed), "
+            f"{summary['publications']} taxel samples; "
             f"processing median {summary['process_us_median']} us, "
-            f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us"
+            f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us; "
+            f"CPU max {summary['cpu_us_max']} us per frame"
         )
+        for message in stats.error_messages:
+            print(f"  not processed: {message}")
     return 0

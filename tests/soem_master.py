@@ -121,6 +121,7 @@ def main() -> None:
     p.add_argument("--timeout-us", type=int, default=100_000)
     p.add_argument("--coe", action="store_true")
     p.add_argument("--assign-triangles", type=int, default=0)
+    p.add_argument("--dc", action="store_true", help="config_dc, SYNC0 every 1 ms on each slave")
     args = p.parse_args()
     t = pysoem.settings.timeouts
     t.ret, t.safe, t.eeprom, t.state = 50_000, 500_000, 500_000, 20_000_000
@@ -146,6 +147,12 @@ def main() -> None:
         out["iomap_bytes"] = master.config_map()
         out["config_map_s"] = round(time.perf_counter() - t1, 3)
         out["expected_wkc"] = master.expected_wkc
+        if args.dc:
+            out["config_dc"] = master.config_dc()
+            for s in slaves:
+                s.dc_sync(True, 1_000_000)
+            out["dc_delays"] = [int.from_bytes(s._fprd(0x0928, 4), "little") for s in slaves]
+            out["dc_activation"] = [s._fprd(0x0981, 1)[0] for s in slaves]
         out["safeop"] = master.state_check(pysoem.SAFEOP_STATE, 10_000_000)
         master.state = pysoem.OP_STATE
         master.write_state()
@@ -167,6 +174,11 @@ def main() -> None:
                 cycle_us.append((time.perf_counter() - c0) * 1e6)
                 f.write(b"".join(bytes(s.input) for s in slaves))
         out["wkc"] = wkcs
+        if args.dc:  # system time difference 0x092C: bit 31 sign (1: local smaller), 0-30 ns
+            raw = [int.from_bytes(s._fprd(0x092C, 4), "little") for s in slaves]
+            out["dc_diff_ns"] = [-(v & 0x7FFFFFFF) if v & 0x80000000 else v for v in raw]
+            out["dc_sync0_status"] = [s._fprd(0x098E, 1)[0] for s in slaves]
+            out["dc_time"] = master.dc_time
         out["cycle_us"] = {
             "median": round(statistics.median(cycle_us), 1),
             "p99": round(sorted(cycle_us)[int(0.99 * len(cycle_us))], 1),

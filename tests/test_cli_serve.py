@@ -5,9 +5,17 @@ from __future__ import annotations
 
 import errno
 import socket
+import threading
+from pathlib import Path
 
 import pytest
+import tshark_util
 
+from emulator.esc.chain import EcatChain
+from emulator.live import serve
+from skinframes import ethercat
+from skinframes.capture_writer import CaptureWriter
+from skinframes.ethercat import Command, Datagram, EcatFrame
 from skinframes_cli import main
 
 
@@ -54,6 +62,10 @@ def test_link_problems_are_one_error_line(
         (["--nodes", "2", "--bytes", "1487"], "EtherCAT: 1487 bytes per slave (1..1486)"),
         (["--nodes", "2", "--bytes", "16", "--samples", "0"], "taxel feed: 0 samples"),
         (["--nodes", "2", "--bytes", "16", "--period-ms", "0"], "taxel feed: a period of 0.0 s"),
+        (["--nodes", "2", "--bytes", "16", "--pcap", ""], "--pcap: an empty file name"),
+        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "nan"], "clock drift: nan ppm (0..200)"),
+        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "1e400"], "clock drift: inf ppm"),
+        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "-1"], "clock drift: -1.0 ppm"),
     ],
 )
 def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
@@ -62,3 +74,62 @@ def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], mess
     err = capsys.readouterr().err
     assert err.startswith(f"skinframes: error: {message}")
     assert err.count("\n") == 1
+
+
+class PairSocket:
+    """Stands in for :class:`emulator.live.RawSocket`: frames in from a list, answers kept; the
+    stop event is set once every frame was read."""
+
+    def __init__(self, frames: list[bytes], stop: threading.Event) -> None:
+        self.inbox, self.outbox, self.stop = list(frames), [], stop
+        self.r, self.w = socket.socketpair()
+        self.w.send(b"x")  # select() sees something to read
+
+    def fileno(self) -> int:
+        return self.r.fileno()
+
+    def recv(self) -> bytes | None:
+        if not self.inbox:
+            self.stop.set()
+            return None
+        return self.inbox.pop(0)
+
+    def send(self, frame: bytes) -> None:
+        self.outbox.append(frame)
+
+
+def test_serve_counts_a_frame_it_cannot_process_records_all_and_goes_on(
+    tmp_path: Path, tshark: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    chain = EcatChain.configured(2, 4)
+    brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
+    boom = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0EEE, bytes(2)),))).to_bytes()
+    real = chain.process_frame
+
+    def process(frame: bytes) -> bytes | None:  # an internal error on one frame
+        if frame == boom:
+            raise IndexError("simulated internal error")
+        return real(frame)
+
+    monkeypatch.setattr(chain, "process_frame", process)
+    stop = threading.Event()
+    sock = PairSocket([brd, boom, brd], stop)
+    seen: list[bytes] = []
+    path = tmp_path / "serve.pcapng"
+    with CaptureWriter(path) as capture:
+        stats = serve(
+            chain, sock, stop, capture=capture, on_error=lambda exc, frame: seen.append(frame)
+        )  # type: ignore[arg-type]
+    assert (stats.frames_in, stats.frames_out, stats.errors) == (3, 2, 1)
+    assert stats.error_messages == ["IndexError: simulated internal error"]
+    assert seen == [boom]
+    summary = stats.summary()
+    assert summary["errors"] == 1 and summary["cpu_us_max"] >= 0
+    # the answers: AL status OP (0x08) ORed over both slaves, working counter 2
+    (d,) = ethercat.decode(sock.outbox[0][14:])[0].datagrams
+    assert (d.data, d.wkc) == (b"\x08\x00", 2)
+    # tshark reads every frame in and out, in order, with its direction (1 in, 0 out)
+    rows = tshark_util.fields(tshark, path, ["frame.p2p_dir", "ecat.cnt"])
+    assert [r["frame.p2p_dir"] for r in rows] == [["1"], ["0"], ["1"], ["1"], ["0"]]
+    assert [r["ecat.cnt"] for r in rows] == [["0"], ["2"], ["0"], ["0"], ["2"]]
+    assert tshark_util.problems(tshark, path) == []

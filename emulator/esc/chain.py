@@ -20,7 +20,7 @@ once per frame of a cycle what each ESC does to it, and applies that to the ESCs
 from __future__ import annotations
 
 import struct
-from collections.abc import Container, Iterable, Sequence
+from collections.abc import Callable, Container, Iterable, Sequence
 from dataclasses import dataclass, replace
 from typing import Final
 
@@ -28,6 +28,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 from emulator.esc.state_machine import AlState, SkinPatchApplication
@@ -52,6 +53,16 @@ MAX_SLAVES: Final = 0xFFFF  # auto-increment addresses are 16 bits
 _VLAN_TPID: Final = 0x8100
 _ETH_HEADER: Final = ethernet.HEADER_BYTES
 _U16 = struct.Struct("<H")
+# command classes (ETG.1000.4 Table 14) for the frame plan of EcatChain._run_planned
+_AUTO_INCREMENT: Final = frozenset({1, 2, 3})
+_CONFIGURED: Final = frozenset({4, 5, 6})
+_LOGICAL: Final = frozenset({10, 11, 12})
+_EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
+_INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
+
+
+def _frozen_clock() -> int:
+    return 0
 
 
 class EcatChain:
@@ -65,9 +76,14 @@ class EcatChain:
         if not 1 <= len(devices) <= MAX_SLAVES:
             raise TopologyError(f"EtherCAT chain: {len(devices)} slaves (1..{MAX_SLAVES})")
         self.devices = list(devices)
+        self.timebase = DcTimebase(line_length=len(self.devices))  # distributed clocks (dc.py)
+        # host time (ns) at which each frame arrives: frozen at 0 (deterministic, for the timing
+        # engine and tests) until a live transport sets a real clock (emulator.live.serve)
+        self.clock_ns: Callable[[], int] = _frozen_clock
         for i, dev in enumerate(self.devices):
             dev.position = i
             dev.set_port1_link(i < len(self.devices) - 1)
+            dev.dc.timebase, dev.dc.position = self.timebase, i
         self.frames = 0
         self.dropped = 0
 
@@ -165,6 +181,7 @@ class EcatChain:
 
     def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
         self.frames += 1
+        self.timebase.frame_ns = self.clock_ns()
         buf = bytearray(frame)
         parsed = self._parse(buf)
         if parsed is None:
@@ -172,6 +189,8 @@ class EcatChain:
         if not parsed:
             self._drop(malformed=True)
             return None
+        if acted is None:
+            return self._run_planned(buf, parsed)
         mac_bit = False
         for dev in self.devices:
             self._pass(dev, buf, parsed, acted)
@@ -186,6 +205,110 @@ class EcatChain:
         if mac_bit:
             buf[6] |= ethercat.RETURNED_MAC_BIT
         return bytes(buf)
+
+    def _run_planned(
+        self, buf: bytearray, layout: list[tuple[int, int, int, int, int, int]]
+    ) -> bytes | None:
+        """The same processing as :meth:`_pass` ESC by ESC, but each ESC is handed only the
+        datagrams that can concern it: an auto-increment datagram the ESC whose position
+        makes ADP 0, a configured-address one the ESCs with that station address (or alias), a
+        logical one the ESCs whose FMMUs map part of it, broadcasts and read-multiple-writes
+        every ESC. Work per frame is thus bounded by what the frame asks of each ESC."""
+        devices = self.devices
+        everyone: list[int] = []
+        targets: dict[int, list[int]] = {}
+        adps = [buf[d[1]] | buf[d[1] + 1] << 8 for d in layout]
+        stations: dict[int, list[int]] | None = None
+        spans: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None
+        for k, (cmd, _, ado, _, n, _) in enumerate(layout):
+            adp = adps[k]
+            if cmd in _EVERYONE:
+                everyone.append(k)
+            elif cmd in _AUTO_INCREMENT:
+                pos = -adp & 0xFFFF
+                if pos < len(devices):
+                    targets.setdefault(pos, []).append(k)
+            elif cmd in _CONFIGURED:
+                if stations is None:
+                    stations = self._stations()
+                for pos in stations.get(adp, ()):
+                    targets.setdefault(pos, []).append(k)
+            elif cmd in _LOGICAL and n:
+                if spans is None:
+                    spans = (
+                        np.array([d.fmmu_span[0] for d in devices], dtype=np.int64),
+                        np.array([d.fmmu_span[1] for d in devices], dtype=np.int64),
+                    )
+                lad = adp | ado << 16
+                hit = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad))
+                for pos in hit.tolist():
+                    targets.setdefault(pos, []).append(k)
+        inc = [cmd in _INCREMENTS for cmd, *_ in layout]
+        irq_or = 0
+        mac_bit = False
+        passed = 0
+        for p, dev in enumerate(devices):
+            mine = targets.get(p)
+            work = everyone if mine is None else sorted(everyone + mine) if everyone else mine
+            process = dev.process
+            irq_before = dev.irq
+            last = -1
+            for k in work:
+                cmd, adp_at, ado, data_at, n, irq_at = layout[k]
+                adp = (adps[k] + p) & 0xFFFF if inc[k] else adps[k]
+                _, wkc_inc = process(cmd, adp, ado, buf, data_at, n)
+                if wkc_inc:
+                    wkc_at = data_at + n
+                    wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + wkc_inc
+                    buf[wkc_at] = wkc & 0xFF
+                    buf[wkc_at + 1] = (wkc >> 8) & 0xFF
+                irq = dev.irq
+                if irq != irq_before:  # the event request changed: OR it where it applied
+                    for j in range(last + 1, k):
+                        self._or_irq(buf, layout[j][5], irq_before)
+                    last, irq_before = k - 1, irq
+                if irq:
+                    self._or_irq(buf, irq_at, irq)
+            if last >= 0 and irq_before:
+                for j in range(last + 1, len(layout)):
+                    self._or_irq(buf, layout[j][5], irq_before)
+            else:
+                irq_or |= irq_before
+            mac_bit = mac_bit or dev.sets_mac
+            onward = dev.onward  # loop changes wait for the end of the frame (II 2.4.1)
+            dev.end_frame()
+            passed += 1
+            if onward is None:
+                self._drop(malformed=False)
+                return None
+            if not onward:
+                break
+        for k, (_, adp_at, _, _, _, irq_at) in enumerate(layout):
+            if inc[k]:
+                adp = (adps[k] + passed) & 0xFFFF
+                buf[adp_at] = adp & 0xFF
+                buf[adp_at + 1] = adp >> 8
+            if irq_or:
+                self._or_irq(buf, irq_at, irq_or)
+        if mac_bit:
+            buf[6] |= ethercat.RETURNED_MAC_BIT
+        return bytes(buf)
+
+    @staticmethod
+    def _or_irq(buf: bytearray, at: int, irq: int) -> None:
+        buf[at] |= irq & 0xFF
+        buf[at + 1] |= irq >> 8
+
+    def _stations(self) -> dict[int, list[int]]:
+        """Positions by configured station address, and by alias where DL control enables it."""
+        out: dict[int, list[int]] = {}
+        for p, dev in enumerate(self.devices):
+            out.setdefault(dev.station, []).append(p)
+            if dev.mem[0x0103] & 0x01:
+                alias = dev.alias
+                if alias != dev.station:
+                    out.setdefault(alias, []).append(p)
+        return out
 
     @staticmethod
     def _parse(buf: bytearray) -> list[tuple[int, int, int, int, int, int]] | None:
@@ -415,8 +538,9 @@ def configure_frames(
 ) -> list[bytes]:
     """The frames a master sends to take ``nodes`` slaves described by ``info`` to OP.
 
-    Station addresses by APWR, the input SyncManager and FMMU0 by FPWR, then BWR AL control
-    INIT+ack, PREOP, SAFEOP, OP: the essential steps of ETG.1000.6's start-up (5.4, 6.4).
+    Station addresses by APWR, the mailbox SyncManagers (if the SII has them), the input
+    SyncManager and FMMU0 by FPWR, then BWR AL control INIT+ack, PREOP, SAFEOP, OP: the
+    essential steps of ETG.1000.6's start-up (5.4, 6.4).
     """
     sm_index = info.sm_of_type(SyncManagerType.INPUTS)
     if sm_index is None:
@@ -429,6 +553,10 @@ def configure_frames(
     frames.append(Datagram(Command.BWR, 0, 0x0120, _U16.pack(AlState.INIT | 0x10)))
     for p in range(nodes):
         station = station_base + p
+        for i, mb in enumerate(info.sync_managers):  # mailbox SMs before PREOP (ETG.1000.6 5.6)
+            if mb.type in (SyncManagerType.MAILBOX_OUT, SyncManagerType.MAILBOX_IN):
+                regs = struct.pack("<HHBBBB", mb.start, mb.length, mb.control, 0, mb.enable, 0)
+                frames.append(Datagram(Command.FPWR, station, 0x0800 + 8 * i, regs))
         sm_regs = struct.pack("<HHBBBB", sm.start, size, sm.control, 0, sm.enable, 0)
         frames.append(Datagram(Command.FPWR, station, 0x0800 + 8 * sm_index, sm_regs))
         fmmu = struct.pack(

@@ -29,8 +29,13 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
   0x0210 ORed into each datagram's IRQ field through the mask 0x0200 (datasheet I Table 3),
   and the ESC reset sequence 'R','E','S' in 0x0040.
 
-Not modelled: distributed clocks (0x0008 bit 2 reads 0, 0x0900-0x09FF read 0 and ignore
-writes), watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
+* distributed clocks 0x0900-0x09FF in :mod:`emulator.esc.dc` (its hooks: reads refresh the
+  registers, writes of 0x0900-0x0917 are events, SYNC0 samples when the inputs are opened);
+* every configuration a frame can set is legal input: FMMU and SyncManager mappings are
+  clipped to the 64 KiB address space, register writes are masked as whole integers, so the
+  work per frame is bounded by the frame, not by what the configuration asks for.
+
+Not modelled: watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
 circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI is a
 :class:`emulator.esc.state_machine.PdiApplication`; the skin patch's is
 :class:`SkinPatchApplication`.
@@ -44,6 +49,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
+from emulator.esc.dc import REG_DC_END, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU, DcClock
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     EE_ACK_ERROR,
@@ -113,6 +119,7 @@ __all__ = [
 _APRD, _APWR, _APRW, _FPRD, _FPWR, _FPRW, _BRD, _BWR, _BRW = range(1, 10)
 _LRD, _LWR, _LRW, _ARMW, _FRMW = range(10, 15)
 _RESET_SEQUENCE: Final = b"RES"
+_SM_TABLE: Final = struct.Struct("<HHBBBB")  # one SyncManager's registers (datasheet II 2.14)
 
 
 @dataclass(frozen=True, slots=True)
@@ -184,6 +191,15 @@ class EscDevice:
         if len(self._sii_image) % 2 or len(self._sii_image) < 2 * 0x40:
             raise TopologyError(f"SII image of {len(self._sii_image)} bytes (even, >= 128)")
         self._masks = write_masks(self.config)
+        self._special = (  # registers written byte by byte (side effects), ascending
+            (REG_ERROR_COUNTERS, 0x0314),
+            (0x0442, 0x0444),
+            (REG_EEPROM_CONFIG, 0x0510),
+            (REG_SM, REG_SM + SM_BYTES * self.config.syncmanagers),
+            (REG_DC_RECEIVE, REG_DC_RECEIVE_PU),
+        )
+        self.dc = DcClock()  # distributed clocks (dc.py); the chain shares its timebase
+        self._dc_written: tuple[int, int] | None = None
         self.position = 0  # set by the chain; used in traces
         self.port1_link = False  # set by the chain: a neighbour on port 1
         self.onward: bool | None = False  # cached forwards()
@@ -197,6 +213,7 @@ class EscDevice:
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: list[tuple[int, ...]] = []
+        self.fmmu_span = (0, 0)
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
@@ -240,6 +257,8 @@ class EscDevice:
             mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
         self._sms = [None] * cfg.syncmanagers
         self._active, self._fmmus, self._pending, self._completed = [], [], [], []
+        self.fmmu_span = (0, 0)
+        self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
         mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS  # the links came up
         self._update_dl_status()
@@ -292,6 +311,11 @@ class EscDevice:
     def al_status_code(self) -> int:
         """AL status code (0x0134)."""
         return self.mem[REG_AL_CODE] | self.mem[REG_AL_CODE + 1] << 8
+
+    @property
+    def dc_sampling(self) -> bool:
+        """SYNC0 is active and the application samples at its pulses (dc.py)."""
+        return self.dc.sync0_active(self.mem) and hasattr(self.app, "sync0")
 
     @property
     def changes_source_mac(self) -> bool:
@@ -484,6 +508,8 @@ class EscDevice:
         pos = addr
         if pos < REGISTER_END:
             hi = min(end, REGISTER_END)
+            if pos < REG_DC_END and hi > REG_DC_RECEIVE:
+                self.dc.refresh(mem, pos, hi)  # DC registers run with the clock
             out.append((0, bytes(mem[pos:hi]), -1, 0))
             if pos <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS:
                 self._clear_event(EVENT_DL_STATUS)
@@ -524,6 +550,10 @@ class EscDevice:
         if lo == sm.start:
             if sm.mailbox and not sm.full:
                 return  # "read w. failure (mailbox empty)"
+            if not sm.mailbox and self.dc_sampling:
+                pulse = self.dc.sample_due(self.mem)
+                if pulse is not None:  # a SYNC0 pulse since the last sample (dc.py)
+                    self.app.sync0(self, pulse)  # type: ignore[attr-defined]
             sm.open = True
             sm.buf = (
                 sm.latest
@@ -652,6 +682,29 @@ class EscDevice:
             return w
         return r + 2 * w
 
+    @staticmethod
+    def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
+        """Trim [lo, hi) to the logical bytes no lower-numbered FMMU took (datasheet I 7)."""
+        if claimed is None or lo >= hi:
+            return lo, hi
+        first = claimed.find(0, lo - lad, hi - lad)
+        if first < 0:
+            return lo, lo
+        last = claimed.rfind(0, lo - lad, hi - lad)
+        lo, hi = lad + first, lad + last + 1
+        claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
+        return lo, hi
+
+    @staticmethod
+    def _bit_span(f: tuple[int, ...], lo: int, hi: int) -> tuple[int, int, int]:
+        """Logical bits [b0, b1] of bytes [lo, hi) that FMMU ``f`` maps, and the physical bit
+        of b0; b0 > b1 when none (the mapping is clipped to the 64 KiB address space)."""
+        log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
+        l0 = log_start * 8 + start_bit
+        l1 = min((log_end - 1) * 8 + stop_bit, l0 + f[9] - 1)  # inclusive
+        b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
+        return b0, b1, phys * 8 + phys_bit + (b0 - l0)
+
     def _fmmu_read(
         self,
         f: tuple[int, ...],
@@ -661,121 +714,94 @@ class EscDevice:
         n: int,
         claimed: bytearray | None,
     ) -> int:
-        log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
-        lo, hi = max(lad, log_start), min(lad + n, log_end)
-        if claimed is not None:  # the lower-numbered FMMU owns a logical byte (datasheet I 7)
-            while lo < hi and claimed[lo - lad]:
-                lo += 1
-            while hi > lo and claimed[hi - 1 - lad]:
-                hi -= 1
-            claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
+        log_start, log_end, phys = f[:3]
+        lo, hi = self._claim(claimed, lad, max(lad, log_start), min(lad + n, log_end))
         if lo >= hi:
             return 0
         if f[8]:  # byte-wise mapping
             at = phys + (lo - log_start)
             return self._read(at, buf, off + (lo - lad), hi - lo, False)
-        # bit-wise: logical bit b maps to physical bit p0 + (b - l0)
-        l0 = log_start * 8 + start_bit
-        l1 = (log_end - 1) * 8 + stop_bit  # inclusive
-        b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
+        # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
+        b0, b1, p0 = self._bit_span(f, lo, hi)
         if b0 > b1:
             return 0
-        p0 = phys * 8 + phys_bit + (b0 - l0)
-        p1 = p0 + (b1 - b0)
-        segments = self._read_phys(p0 // 8, p1 // 8 - p0 // 8 + 1)
+        first, last = p0 // 8, (p0 + b1 - b0) // 8
+        segments = self._read_phys(first, last - first + 1)
         if not segments:
             return 0
-        phys_bytes = bytearray(p1 // 8 - p0 // 8 + 1)
-        valid = bytearray(len(phys_bytes))
+        value = valid = 0
         for rel, data, _, _ in segments:
-            phys_bytes[rel : rel + len(data)] = data
-            valid[rel : rel + len(data)] = b"\x01" * len(data)
-        base = (p0 // 8) * 8
-        for b in range(b0, b1 + 1):
-            p = p0 + (b - b0) - base
-            if not valid[p // 8]:
-                continue
-            bit = (phys_bytes[p // 8] >> (p % 8)) & 1
-            at = off + b // 8 - lad
-            buf[at] = (buf[at] & ~(1 << (b % 8))) | (bit << (b % 8))
+            value |= int.from_bytes(data, "little") << (8 * rel)
+            valid |= ((1 << (8 * len(data))) - 1) << (8 * rel)
+        shift = (p0 - first * 8) - (b0 - lad * 8)  # physical bit position - frame bit position
+        if shift >= 0:
+            value, valid = value >> shift, valid >> shift
+        else:
+            value, valid = value << -shift, valid << -shift
+        mask = (((1 << (b1 - b0 + 1)) - 1) << (b0 - lad * 8)) & valid
+        frame = int.from_bytes(buf[off : off + n], "little")
+        frame = (frame & ~mask) | (value & mask)
+        buf[off : off + n] = frame.to_bytes(n, "little")
         return 1
 
     def _fmmu_write(
         self, f: tuple[int, ...], lad: int, data_in: bytes, claimed: bytearray | None
     ) -> int:
-        log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
+        log_start, log_end, phys = f[:3]
         n = len(data_in)
-        lo, hi = max(lad, log_start), min(lad + n, log_end)
-        if claimed is not None:
-            while lo < hi and claimed[lo - lad]:
-                lo += 1
-            while hi > lo and claimed[hi - 1 - lad]:
-                hi -= 1
-            claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
+        lo, hi = self._claim(claimed, lad, max(lad, log_start), min(lad + n, log_end))
         if lo >= hi:
             return 0
         if f[8]:
             return self._write(phys + (lo - log_start), data_in[lo - lad : hi - lad])
-        l0 = log_start * 8 + start_bit
-        l1 = (log_end - 1) * 8 + stop_bit
-        b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
+        b0, b1, p0 = self._bit_span(f, lo, hi)
         if b0 > b1:
             return 0
-        p0 = phys * 8 + phys_bit + (b0 - l0)
-        p1 = p0 + (b1 - b0)
-        first = p0 // 8
-        target = bytearray(self.mem[first : p1 // 8 + 1])  # unmapped bits keep their value
-        for b in range(b0, b1 + 1):
-            p = p0 + (b - b0) - first * 8
-            bit = (data_in[b // 8 - lad] >> (b % 8)) & 1
-            target[p // 8] = (target[p // 8] & ~(1 << (p % 8))) | (bit << (p % 8))
-        return self._write(first, bytes(target))
+        first, last = p0 // 8, (p0 + b1 - b0) // 8
+        target = int.from_bytes(self.mem[first : last + 1], "little")  # unmapped bits kept
+        shift = (p0 - first * 8) - (b0 - lad * 8)
+        value = int.from_bytes(data_in, "little")
+        value = value << shift if shift >= 0 else value >> -shift
+        mask = ((1 << (b1 - b0 + 1)) - 1) << (p0 - first * 8)
+        target = (target & ~mask) | (value & mask)
+        return self._write(first, target.to_bytes(last - first + 1, "little"))
 
     # --- shadow registers and their side effects ------------------------------------------------
     def _commit_registers(self) -> None:
-        mem, masks = self.mem, self._masks
-        sm_base, sm_end = REG_SM, REG_SM + SM_BYTES * self.config.syncmanagers
-        fmmu_end = REG_FMMU + FMMU_BYTES * self.config.fmmus
-        sm_enabled = [mem[REG_SM + SM_BYTES * y + 6] & 1 for y in range(self.config.syncmanagers)]
-        al_written = eeprom_command = dl_changed = fmmu_changed = sm_changed = False
+        """Apply the frame's register writes through the ECAT write masks (datasheet I 3.4).
+
+        Each write is cut at the registers with side effects (error counters, EEPROM interface,
+        SyncManager configuration); the plain parts are masked as whole integers, so the work
+        is bounded by the bytes written, whatever they ask for.
+        """
+        mem = self.mem
+        n_sm = self.config.syncmanagers
+        sm_end, fmmu_end = REG_SM + SM_BYTES * n_sm, REG_FMMU + FMMU_BYTES * self.config.fmmus
+        sm_before = bytes(mem[REG_SM:sm_end])  # rebuild caches only when these change
+        fmmu_before = bytes(mem[REG_FMMU:fmmu_end])
+        sm_enabled = sm_before[6::SM_BYTES]  # bit 0
+        flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
         for addr, data in self._pending:
-            for i, value in enumerate(data):
-                a = addr + i
-                if REG_ERROR_COUNTERS <= a < 0x0314 or a in (0x0442, 0x0443):
-                    if a < REG_PU_ERRORS:  # one write clears all RX error counters
-                        mem[REG_ERROR_COUNTERS:REG_PU_ERRORS] = bytes(REG_PU_ERRORS - 0x0300)
-                    else:
-                        mem[a] = 0
-                    continue
-                mask = masks[a]
-                if not mask:
-                    continue
-                if REG_EEPROM_CONTROL <= a < 0x0510 and not self._ecat_owns_eeprom():
-                    continue  # the PDI controls the EEPROM interface (datasheet I 11.2.2)
-                if sm_base <= a < sm_end:
-                    y, k = divmod(a - sm_base, SM_BYTES)
-                    if k <= 4 and sm_enabled[y]:
-                        continue  # configuration only while disabled (datasheet II 2.14.1)
-                    sm_changed = True
-                elif REG_FMMU <= a < fmmu_end:
-                    fmmu_changed = True
-                elif REG_DL_CONTROL <= a < REG_DL_CONTROL + 4:
-                    dl_changed = True
-                elif a in (REG_AL_CONTROL, REG_AL_CONTROL + 1):
-                    al_written = True
-                elif a in (REG_EEPROM_CONTROL, REG_EEPROM_CONTROL + 1):
-                    eeprom_command = True
-                elif a == REG_EEPROM_CONFIG and value & 0x02:
-                    mem[REG_EEPROM_PDI] &= ~0x01  # force ECAT access
-                mem[a] = (mem[a] & ~mask) | (value & mask)
+            pos, end = addr, addr + len(data)
+            while pos < end:
+                hi = min(end, self._next_special(pos))
+                if hi > pos:
+                    self._masked_write(pos, data[pos - addr : hi - addr], flags)
+                    pos = hi
+                if pos < end:
+                    pos = self._special_write(pos, data[pos - addr :], sm_enabled, flags)
         self._pending.clear()
-        if fmmu_changed:
+        al_written, eeprom_command, dl_changed, fmmu_changed, sm_changed = flags
+        if fmmu_changed and mem[REG_FMMU:fmmu_end] != fmmu_before:
             self._rebuild_fmmus()
-        if sm_changed:
+        if sm_changed and mem[REG_SM:sm_end] != sm_before:
             self._rebuild_sms(sm_enabled)
             self._mailbox_due = True
         if dl_changed:
             self._update_dl_status()
+        if self._dc_written is not None:
+            self.dc.configured(mem, *self._dc_written)
+            self._dc_written = None
         self._update_irq()
         if eeprom_command:
             self._eeprom_command()
@@ -785,6 +811,76 @@ class EscDevice:
                 self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
             else:
                 self.app.al_control(self, value)
+
+    def _next_special(self, pos: int) -> int:
+        """The first register at or after ``pos`` that a write cannot simply mask."""
+        for lo, hi in self._special:
+            if pos < hi:
+                return max(pos, lo)
+        return REGISTER_END
+
+    def _masked_write(self, lo: int, data: bytes, flags: list[bool]) -> None:
+        """Bytes [lo, lo + len(data)) without side effects but change flags: masked at once."""
+        hi = lo + len(data)
+        mask = int.from_bytes(self._masks[lo:hi], "little")
+        if not mask:
+            return
+        old = int.from_bytes(self.mem[lo:hi], "little")
+        new = (old & ~mask) | (int.from_bytes(data, "little") & mask)
+        self.mem[lo:hi] = new.to_bytes(hi - lo, "little")
+        if lo <= REG_AL_CONTROL < hi:
+            flags[0] = True
+        if lo < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL:
+            flags[2] = True
+        if lo < REG_FMMU + FMMU_BYTES * self.config.fmmus and hi > REG_FMMU:
+            flags[3] = True
+        if lo < REG_DC_END and hi > REG_DC_OFFSET:
+            w = self._dc_written
+            self._dc_written = (lo, hi) if w is None else (min(w[0], lo), max(w[1], hi))
+
+    def _special_write(self, lo: int, data: bytes, sm_enabled: bytes, flags: list[bool]) -> int:
+        """Write the part of ``data`` (at ``lo``) in one special register block; its end.
+
+        Error counters are cleared by any write (datasheet II 2.6), the EEPROM interface obeys
+        ECAT/PDI ownership (I 11.2.2), a SyncManager's configuration bytes 0-4 only change
+        while it is disabled (II 2.14.1).
+        """
+        mem = self.mem
+        end = lo + len(data)
+        if lo < REG_PU_ERRORS:  # one write clears all RX error counters
+            mem[REG_ERROR_COUNTERS:REG_PU_ERRORS] = bytes(REG_PU_ERRORS - REG_ERROR_COUNTERS)
+            return min(end, REG_PU_ERRORS)
+        if lo < 0x0314 or lo in (0x0442, 0x0443):
+            hi = min(end, 0x0314 if lo < 0x0314 else 0x0444)
+            mem[lo:hi] = bytes(hi - lo)
+            return hi
+        if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
+            value = data[0]
+            if lo == REG_EEPROM_CONFIG and value & 0x02:
+                mem[REG_EEPROM_PDI] &= ~0x01  # force ECAT access
+            self._masked_write(lo, data[:1], flags)
+            return lo + 1
+        if lo < 0x0510:
+            hi = min(end, 0x0510)
+            if self._ecat_owns_eeprom():
+                self._masked_write(lo, data[: hi - lo], flags)
+                if lo < REG_EEPROM_CONTROL + 2:
+                    flags[1] = True
+            return hi
+        if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
+            hi = min(end, REG_DC_RECEIVE_PU)
+            self.dc.write(mem, lo, data[: hi - lo])
+            return hi
+        hi = min(end, REG_SM + SM_BYTES * len(sm_enabled))
+        part = bytearray(data[: hi - lo])
+        for y, enabled in enumerate(sm_enabled):
+            if enabled & 1:  # configuration bytes 0-4 keep their value: nothing changes
+                a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
+                if a < b:
+                    part[a - lo : b - lo] = mem[a:b]
+        self._masked_write(lo, bytes(part), flags)
+        flags[4] = True
+        return hi
 
     def _ecat_owns_eeprom(self) -> bool:
         return not (self.mem[REG_EEPROM_CONFIG] & 0x01 or self.mem[REG_EEPROM_PDI] & 0x01)
@@ -824,20 +920,47 @@ class EscDevice:
         struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
 
     def _rebuild_fmmus(self) -> None:
-        """Cache the active FMMUs (datasheet II 2.13) in register order."""
+        """Cache the active FMMUs (datasheet II 2.13) in register order, clipped.
+
+        Every value a frame can write is legal: the logical side ends at 0xFFFFFFFF, and the
+        physical side ends with the 64 KiB address space (datasheet I 1.1): logical bytes (or
+        bits) whose physical counterpart would lie beyond 0xFFFF are not mapped, so they are
+        neither read nor written and do not count. Entry: (logical start, logical end,
+        physical start, start bit, stop bit, physical bit, read, write, byte-wise, mapped bits).
+        """
         fmmus: list[tuple[int, ...]] = []
         for y in range(self.config.fmmus):
             log, length, sbit, ebit, phys, pbit, kind, act = struct.unpack_from(
                 "<IHBBHBBB", self.mem, REG_FMMU + FMMU_BYTES * y
             )
-            if act & 0x01 and length and kind & 0x03:
-                bytewise = sbit == 0 and ebit == 7 and pbit == 0
+            if not (act & 0x01 and length and kind & 0x03):
+                continue
+            log_end = min(log + length, 1 << 32)
+            bytewise = sbit == 0 and ebit == 7 and pbit == 0
+            if bytewise:
+                log_end = min(log_end, log + ADDRESS_SPACE - phys)
+            phys_bits = ADDRESS_SPACE * 8 - (phys * 8 + pbit)  # bits left in the address space
+            if log_end > log:
                 fmmus.append(
-                    (log, log + length, phys, sbit, ebit, pbit, kind & 1, kind >> 1 & 1, bytewise)
+                    (
+                        log,
+                        log_end,
+                        phys,
+                        sbit,
+                        ebit,
+                        pbit,
+                        kind & 1,
+                        kind >> 1 & 1,
+                        bytewise,
+                        phys_bits,
+                    )
                 )
         self._fmmus = fmmus
+        self.fmmu_span = (  # logical bytes any FMMU maps: the chain skips the others
+            (min(f[0] for f in fmmus), max(f[1] for f in fmmus)) if fmmus else (0, 0)
+        )
 
-    def _rebuild_sms(self, enabled_before: list[int] | None = None) -> None:
+    def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
         """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.
 
         A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
@@ -845,15 +968,17 @@ class EscDevice:
         """
         active: list[_Sm] = []
         locked: list[_Sm] = []
-        for y in range(self.config.syncmanagers):
-            start, length, control, activate = self.sm_registers(y)
-            pdi_locked = self.mem[REG_SM + SM_BYTES * y + 7] & 0x01
+        n_sm = self.config.syncmanagers
+        table = _SM_TABLE.iter_unpack(self.mem[REG_SM : REG_SM + SM_BYTES * n_sm])
+        for y, (start, length, control, _, activate, pdi) in enumerate(table):
+            length = min(length, ADDRESS_SPACE - start)  # no memory beyond 0xFFFF (I 1.1)
+            pdi_locked = pdi & 0x01
             if not activate & 0x01 or length < 2:
                 self._sms[y] = None
                 self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
                 continue
             old = self._sms[y]
-            toggled = enabled_before is not None and not enabled_before[y]
+            toggled = enabled_before is not None and not enabled_before[y] & 1
             if old is None or toggled or (old.start, old.length) != (start, length):
                 old = _Sm(y, start, length, control)
                 self._sms[y] = old

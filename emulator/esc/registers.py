@@ -11,6 +11,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
+from emulator.esc.dc import dc_write_masks
 
 __all__ = [
     "ADDRESS_SPACE",
@@ -131,8 +132,8 @@ class EscConfig:
 
     Defaults: an ET1100-type register set (type 0x11, revision 0, 8 FMMUs, 8 SyncManagers) with
     the full 60 KiB of process RAM the address space allows, two MII ports (port descriptor
-    0x0F) and feature bits all 0: bit-oriented FMMUs, no distributed clocks, LRW and the
-    read-write commands supported.
+    0x0F) and features 0x000C: bit-oriented FMMUs, distributed clocks (bit 2) of 64 bits
+    (bit 3), LRW and the read-write commands supported.
     """
 
     esc_type: int = 0x11
@@ -142,7 +143,7 @@ class EscConfig:
     syncmanagers: int = 8
     ram_kib: int = 60
     port_descriptor: int = 0x0F
-    features: int = 0x0000
+    features: int = 0x000C  # emulator.esc.dc.DC_FEATURES
 
     def __post_init__(self) -> None:
         if not 1 <= self.fmmus <= 16 or not 1 <= self.syncmanagers <= 16:
@@ -178,4 +179,5 @@ def write_masks(cfg: EscConfig) -> bytes:
     for y in range(cfg.syncmanagers):
         # start, length, control (bit 7 sequential mode not supported), activate bits 0,1,6,7
         put(REG_SM + SM_BYTES * y, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F, 0x00, 0xC3, 0x00)
+    dc_write_masks(m)
     return bytes(m)

@@ -31,6 +31,7 @@ import struct
 from enum import IntEnum
 from typing import TYPE_CHECKING, Final, Protocol
 
+from emulator.esc.dc import REG_SAMPLE_TIME
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 from skinframes.ecat_mailbox import MailboxType
 
@@ -237,13 +238,31 @@ class SkinPatchApplication:
 
     # --- inputs ------------------------------------------------------------------------------
     def publish(self, device: EscDevice, data: bytes) -> None:
-        """Write a complete input buffer through the PDI (a buffer exchange of SM inputs)."""
+        """Write a complete input buffer through the PDI (a buffer exchange of SM inputs).
+
+        While SYNC0 is active (emulator.esc.dc) the data is what the sensor holds; the patch
+        samples it at the next SYNC0 pulse (:meth:`sync0`).
+        """
         if len(data) != self._input_bytes or self._input_start is None:  # the whole patch
             raise ValueError(f"inputs: {len(data)} bytes, the PDO has {self._input_bytes}")
         self.inputs = bytes(data)
+        if not device.dc_sampling:
+            self._write_inputs(device)
+
+    def sync0(self, device: EscDevice, pulse_ns: int) -> None:
+        """A SYNC0 pulse at system time ``pulse_ns``: sample the taxels, stamp the sample
+        (user RAM 0x0F80, emulator.esc.dc.REG_SAMPLE_TIME)."""
+        if self._input_start is not None:
+            device.pdi_write(REG_SAMPLE_TIME, pulse_ns.to_bytes(8, "little"))
+            self._write_inputs(device)
+
+    def _write_inputs(self, device: EscDevice) -> None:
+        """The held inputs into the input buffer, as the assigned PDOs map them."""
+        assert self._input_start is not None
         if self._image is None:
             device.pdi_write(self._input_start, self.inputs)
         else:
+            data = self.inputs
             device.pdi_write(self._input_start, b"".join(data[a : a + n] for a, n in self._image))
 
     # --- transitions --------------------------------------------------------------------------
@@ -259,8 +278,8 @@ class SkinPatchApplication:
                 return code
             for i, _ in self._pd_sms:
                 device.pdi_deactivate_sm(i, False)
-            if self._input_sm is not None:
-                self.publish(device, self.inputs)  # valid inputs before acknowledging SAFEOP
+            if self._input_start is not None:  # valid inputs before acknowledging SAFEOP
+                device.pdi_write(self._input_start, self.inputs)
         elif requested in (AlState.PREOP, AlState.INIT):
             for i, _ in self._pd_sms:
                 device.pdi_deactivate_sm(i, True)

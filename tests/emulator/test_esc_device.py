@@ -11,9 +11,12 @@ from __future__ import annotations
 import struct
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
-from emulator.esc.chain import EcatChain
+from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
+from emulator.esc.hostile import hostile_frames, master_reset_frames
 from emulator.esc.sii import SlaveInfo, build_sii, crc8
 from emulator.esc.state_machine import AlStatusCode, SkinPatchApplication
 from skinframes import ethercat, taxel
@@ -67,8 +70,8 @@ def test_identity_registers_and_reset_values() -> None:
     chain = EcatChain.skin(3, 192)
     d = one(chain, Datagram(C.BRD, 0, 0x0000, bytes(10)))
     # type 0x11 (ET1100), revision 0, build 0, 8 FMMUs, 8 SMs, 60 KiB RAM, ports 0/1 MII
-    # (0x0F = 11 11 00 00), features 0: bit-oriented FMMU, no DC (datasheet II 2.1)
-    assert d.data == bytes([0x11, 0, 0, 0, 8, 8, 60, 0x0F, 0, 0])
+    # (0x0F = 11 11 00 00), features 0x000C: bit-oriented FMMU, DC (bit 2), 64-bit DC (bit 3)
+    assert d.data == bytes([0x11, 0, 0, 0, 8, 8, 60, 0x0F, 0x0C, 0])
     assert (d.wkc, d.adp) == (3, 3)  # every slave reads and increments the position
     al = one(chain, Datagram(C.APRD, 0, 0x0130, bytes(6)))
     assert al.data == bytes([0x01, 0, 0, 0, 0, 0])  # INIT, no error, code 0
@@ -622,3 +625,251 @@ def test_lower_numbered_fmmu_wins_a_logical_byte() -> None:
         chain, Datagram(C.APWR, 0, 0x0610, struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0x0F82, 0, 1, 1))
     )
     assert one(chain, Datagram.logical(C.LRD, 0, bytes(2))).data == b"\x11\x22"
+
+
+# --- every configuration a frame can set is legal input (issue 11) ------------------------------
+def test_bitwise_fmmu_at_the_end_of_the_address_space_maps_only_existing_bits() -> None:
+    # the crash of issue 11: a bit-wise write FMMU with physical start 0xFFFF.3, then an LWR.
+    # Physical bits 0xFFFF.3 .. 0xFFFF.7 exist (5 bits, datasheet I 1.1: 64 KiB), so logical
+    # bits 0x0.0 .. 0x0.4 are mapped and the rest of the 2-byte mapping is not.
+    chain = bare_chain()
+    fmmu = struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0xFFFF, 3, 2, 1)
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu))
+    d = one(chain, Datagram.logical(C.LWR, 0, b"\xff\xff"))
+    assert d.wkc == 1
+    assert chain.devices[0].registers(0xFFFE, 2) == b"\x00\xf8"  # bits 3-7 of 0xFFFF
+    # read the same bits back: physical 0xFFFF = 0b1010_1xxx -> logical bits 0-4 = 1,0,1,0,1
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu[:11] + b"\x01" + fmmu[12:]))
+    send(chain, Datagram(C.APWR, 0, 0xFFFF, b"\xa8"))
+    d = one(chain, Datagram.logical(C.LRD, 0, b"\xff\xff"))
+    assert (d.data, d.wkc) == (b"\xf5\xff", 1)  # 0b111_10101: bits 5-7 and byte 1 untouched
+
+
+def test_bytewise_fmmu_and_syncmanager_beyond_64_kib_are_clipped() -> None:
+    chain = bare_chain()
+    # byte-wise FMMU: 0x10 logical bytes from physical 0xFFFC: only 4 exist
+    fmmu = struct.pack("<IHBBHBBB3x", 0x100, 0x10, 0, 7, 0xFFFC, 0, 3, 1)
+    send(chain, Datagram(C.APWR, 0, 0x0600, fmmu))
+    d = one(chain, Datagram.logical(C.LWR, 0x100, bytes(range(1, 0x11))))
+    assert d.wkc == 1
+    assert chain.devices[0].registers(0xFFFC, 4) == b"\x01\x02\x03\x04"
+    d = one(chain, Datagram.logical(C.LRD, 0x100, b"\xee" * 0x10))
+    assert d.data == b"\x01\x02\x03\x04" + b"\xee" * 12
+    # a write SyncManager (buffered, ECAT writes) from 0xFFFE with length 0xFFFF: 2 bytes exist;
+    # writing both is writing its end address: the buffer is exchanged after the frame
+    sm = struct.pack("<HHBBBB", 0xFFFE, 0xFFFF, 0x04, 0, 1, 0)
+    send(chain, Datagram(C.APWR, 0, 0x0800, sm))
+    assert one(chain, Datagram(C.APWR, 0, 0xFFFE, b"\x5a\xa5")).wkc == 1
+    assert chain.devices[0].registers(0xFFFE, 2) == b"\x5a\xa5"
+
+
+def test_broadcast_register_writes_keep_masks_and_locked_syncmanagers() -> None:
+    # one BWR of 0xFF over 0x0300-0x089F: read-only bits keep their values, the enabled SM's
+    # configuration bytes 0-4 keep theirs (datasheet II 2.14.1), the disabled one takes it
+    chain = bare_chain()
+    send(chain, Datagram(C.APWR, 0, 0x0800, struct.pack("<HHBBBB", 0x1000, 4, 0x20, 0, 1, 0)))
+    before = chain.devices[0].registers(0, 0x0F80)
+    assert one(chain, Datagram(C.BWR, 0, 0x0300, b"\xff" * 0x05A0)).wkc == 1
+    after = chain.devices[0].registers(0, 0x0F80)
+    assert after[0x0300:0x0314] == bytes(0x14)  # error counters cleared by the write
+    assert after[0x0400:0x0402] == b"\xff\xff"  # watchdog divider
+    assert after[0x0440] == before[0x0440]  # watchdog status: read-only
+    fmmu_mask = bytes((0xFF,) * 6 + (0x07, 0x07, 0xFF, 0xFF, 0x07, 0x03, 0x01, 0, 0, 0))
+    assert after[0x0600:0x0610] == fmmu_mask  # datasheet II 2.13: reserved bits stay 0
+    assert after[0x0800:0x0805] == before[0x0800:0x0805]  # SM0 enabled: locked
+    assert after[0x0806] & 0xC3 == 0xC3
+    assert after[0x0808:0x080D] == b"\xff\xff\xff\xff\x7f"  # SM1 was disabled: masked write
+
+
+AREAS = [(0x0600, 0x0700), (0x0800, 0x0880), (0x0120, 0x0122), (0x0500, 0x0510)]
+
+
+@st.composite
+def aimed_datagram(draw: st.DrawFn) -> Datagram:
+    lo, hi = draw(st.sampled_from(AREAS))
+    ado = draw(st.integers(lo, hi - 1))
+    data = bytearray(draw(st.binary(min_size=1, max_size=hi - ado + 4)))
+    if ado <= 0x0502 < ado + len(data):
+        data[0x0502 - ado] &= 0xFE  # no EEPROM write enable: the SII itself survives
+    cmd = draw(st.sampled_from([C.APWR, C.FPWR, C.BWR, C.APRW, C.BRW, C.ARMW, C.FRMW]))
+    return Datagram(cmd, draw(st.sampled_from([0, 0xFFFF, 0x1001])), ado, bytes(data))
+
+
+@st.composite
+def any_datagram(draw: st.DrawFn) -> Datagram:
+    return Datagram(
+        draw(st.integers(0, 255)),
+        draw(st.integers(0, 0xFFFF)),
+        draw(st.integers(0, 0xFFFF)),
+        draw(st.binary(max_size=64)),
+    )
+
+
+def configured_read_works(chain: EcatChain, size: int) -> None:
+    """A master resets and configures the line again; an LRD returns every patch's inputs."""
+    nodes = len(chain)
+    for frame in master_reset_frames(nodes) + configure_frames(chain.devices[0].info, nodes):
+        chain.process_frame(frame)
+    rows = taxel.sample_payloads(nodes, 1, size, seed=9)[0]
+    chain.publish(rows)
+    d = one(chain, Datagram.logical(C.LRD, 0, bytes(nodes * size)))
+    assert (d.wkc, d.data) == (nodes, rows.tobytes())
+
+
+@settings(max_examples=60, deadline=None, suppress_health_check=[HealthCheck.too_slow])
+@given(frames=st.lists(st.lists(aimed_datagram() | any_datagram(), min_size=1, max_size=4)))
+def test_hostile_register_writes_never_raise_and_a_master_recovers(
+    frames: list[list[Datagram]],
+) -> None:
+    chain = EcatChain.configured(3, 8)
+    for dgs in frames:
+        chain.process_frame(ethercat.frame(EcatFrame(tuple(dgs))).to_bytes())
+    configured_read_works(chain, 8)
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_seeded_hostile_frames_never_raise_and_a_master_recovers(seed: int) -> None:
+    nodes, size = 8, 16
+    chain = EcatChain.configured(nodes, size)
+    for frame in hostile_frames(1500, nodes=nodes, input_bytes=size, seed=seed):
+        chain.process_frame(frame)
+    configured_read_works(chain, size)
+
+
+# --- distributed clocks (emulator/esc/dc.py; datasheet I 9, II 2.20-2.22) -----------------------
+def clocked_chain(n: int, starts: list[int], drifts: list[float]) -> tuple[EcatChain, list[int]]:
+    """A chain whose host clock the test moves (``now[0]`` ns) and whose ESC clocks are set."""
+    chain = bare_chain(n)
+    now = [0]
+    chain.clock_ns = lambda: now[0]
+    for dev, start, drift in zip(chain.devices, starts, drifts, strict=True):
+        dev.dc.retune(drift, start)
+    return chain, now
+
+
+def u32(d: Datagram, at: int = 0) -> int:
+    return int(struct.unpack_from("<I", d.data, at)[0])
+
+
+def test_dc_receive_times_latch_the_propagation_of_the_frame() -> None:
+    # WIRE: one ESC pass 540 ns + 0.01 m of cable at 5 ns/m = 540.05 ns per hop both ways.
+    # The frame reaches the line at host 1,000,000 ns: port 0 of ESC p at 540.05 p ns; the last
+    # ESC (2) turns it around, port 1 of ESC p sees it at (2 + 1 + (1 - p)) x 540.05 ns.
+    chain, now = clocked_chain(3, [5000, 7000, 0], [0.0, 0.0, 100.0])
+    now[0] = 1_000_000
+    assert one(chain, Datagram(C.BWR, 0, 0x0900, bytes(4))).wkc == 3
+    now[0] = 9_999_999  # later reads return the latched values
+    times = [one(chain, Datagram(C.APRD, -p & 0xFFFF, 0x0900, bytes(16))) for p in range(3)]
+    pu = [one(chain, Datagram(C.APRD, -p & 0xFFFF, 0x0918, bytes(8))) for p in range(3)]
+    # ESC 0: 5000 + 1,000,000 and 5000 + 1,002,160.2 (4 hops)
+    assert [u32(times[0], 4 * k) for k in range(4)] == [1_005_000, 1_007_160, 0, 0]
+    # ESC 1: 7000 + 1,000,540.05 and 7000 + 1,001,620.15 (3 hops)
+    assert [u32(times[1], 4 * k) for k in range(4)] == [1_007_540, 1_008_620, 0, 0]
+    # ESC 2 (last, +100 ppm): 1,001,080.1 x 1.0001 = 1,001,180.2; no link at port 1
+    assert [u32(times[2], 4 * k) for k in range(4)] == [1_001_180, 0, 0, 0]
+    assert [int.from_bytes(d.data, "little") for d in pu] == [1_005_000, 1_007_540, 1_001_180]
+    # SOEM's propagation delay of ESC 1: ((t1 - t0) of ESC 0 - (t1 - t0) of ESC 1) / 2
+    assert ((1_007_160 - 1_005_000) - (1_008_620 - 1_007_540)) // 2 == 540
+
+
+def test_dc_system_time_compare_filter_and_control_loop() -> None:
+    chain, _ = clocked_chain(1, [1000], [0.0])  # host time frozen at 0: local time 1000
+    send(chain, Datagram(C.APWR, 0, 0x0920, struct.pack("<Q", 500)))  # offset
+    send(chain, Datagram(C.APWR, 0, 0x0928, struct.pack("<I", 100)))  # delay
+    send(chain, Datagram(C.APWR, 0, 0x0934, b"\x02"))  # mean over 2^2 compares
+    assert int.from_bytes(one(chain, Datagram(C.APRD, 0, 0x0910, bytes(8))).data, "little") == 1500
+
+    def compare(value: int) -> tuple[int, int]:
+        assert one(chain, Datagram(C.APWR, 0, 0x0910, struct.pack("<Q", value))).wkc == 1
+        d = one(chain, Datagram(C.APRD, 0, 0x092C, bytes(8)))
+        return u32(d), int(struct.unpack_from("<h", d.data, 6)[0])
+
+    # difference = local copy (1500) - received - delay (100); mean m += (d - m) / 4
+    diff, speed = compare(1000)  # d = 400: m = 100
+    assert diff == 100
+    # the loop's first correction: -(d / 4 + d) / tau with tau = 0x1000 x 5 us = 20.48 ms:
+    # -500 / 20,480,000 = -24.414 ppm, in units of 0.1 ppm
+    assert speed == -244
+    assert compare(2300)[0] == 0x80000000 | 150  # d = -900: m = 100 - 250 = -150 (local smaller)
+    assert compare(1150)[0] == 0x80000000 | 50  # d = 250: m = -150 + 100 = -50
+    # the system time register itself never jumps: the compare is no write
+    assert int.from_bytes(one(chain, Datagram(C.APRD, 0, 0x0910, bytes(8))).data, "little") == 1500
+
+
+def test_dc_drift_compensation_brings_every_clock_to_the_reference() -> None:
+    # what SOEM's config_dc and cycles do, with host time moving 1 ms per cycle: latch, offsets
+    # from the processing-unit receive times, delays from the port times, then one FRMW of the
+    # reference's system time per cycle. Clocks of 0, +25, -25 and +10 ppm.
+    chain, now = clocked_chain(4, [10**9, 3 * 10**9, 17, 5 * 10**8], [0.0, 25.0, -25.0, 10.0])
+    now[0] = 2_000_000
+    send(chain, Datagram(C.BWR, 0, 0x0900, bytes(4)))
+    master_ns = 7 * 10**12
+    rt = [one(chain, Datagram(C.APRD, -p & 0xFFFF, 0x0900, bytes(8))) for p in range(4)]
+    for p in range(4):
+        pu = int.from_bytes(
+            one(chain, Datagram(C.APRD, -p & 0xFFFF, 0x0918, bytes(8))).data, "little"
+        )
+        offset = (master_ns - pu) & ((1 << 64) - 1)
+        send(chain, Datagram(C.APWR, -p & 0xFFFF, 0x0920, struct.pack("<Q", offset)))
+    delay = 0
+    for p in range(1, 4):
+        parent, child = rt[p - 1], rt[p]
+        delay += (
+            (u32(parent, 4) - u32(parent)) - ((u32(child, 4) - u32(child)) if p < 3 else 0)
+        ) // 2
+        send(chain, Datagram(C.APWR, -p & 0xFFFF, 0x0928, struct.pack("<I", delay)))
+    send(chain, Datagram(C.BWR, 0, 0x0930, struct.pack("<H", 0x1000)))
+    send(chain, Datagram(C.BWR, 0, 0x0934, b"\x00\x0c"))
+
+    def differences() -> list[int]:
+        out = []
+        for p in range(1, 4):
+            v = u32(one(chain, Datagram(C.APRD, -p & 0xFFFF, 0x092C, bytes(4))))
+            out.append(-(v & 0x7FFFFFFF) if v & 0x80000000 else v)
+        return out
+
+    send(chain, *(Datagram(C.APWR, -p & 0xFFFF, 0x0010, u16(0x1001 + p)) for p in range(4)))
+    frmw = ethercat.frame(EcatFrame((Datagram(C.FRMW, 0x1001, 0x0910, bytes(8)),))).to_bytes()
+    first = None
+    for cycle in range(1000):
+        now[0] += 1_000_000
+        back = chain.process_frame(frmw)
+        assert back is not None
+        if cycle == 0:
+            first = differences()
+    assert first is not None and max(abs(d) for d in first) > 500  # work to do at the start
+    assert all(abs(d) < 100 for d in differences())
+
+
+def test_sync0_pulses_and_taxels_sampled_at_sync0() -> None:
+    chain = EcatChain.configured(2, 4)
+    now = [0]
+    chain.clock_ns = lambda: now[0]
+    for dev in chain.devices:
+        dev.dc.retune(0.0, 0)
+    # SYNC0 every 1 ms from system time 5 ms (offsets 0): SOEM's dc_sync order
+    send(chain, Datagram(C.BWR, 0, 0x0981, b"\x00"))
+    send(chain, Datagram(C.BWR, 0, 0x0990, struct.pack("<Q", 5_000_000)))
+    send(chain, Datagram(C.BWR, 0, 0x09A0, struct.pack("<I", 1_000_000)))
+    send(chain, Datagram(C.BWR, 0, 0x0981, b"\x03"))
+    d = one(chain, Datagram(C.APRD, 0, 0x0984, bytes(1)))
+    assert d.data == b"\x01"  # first pulse pending
+    lrd = Datagram.logical(C.LRD, 0, bytes(8))
+    chain.publish([b"\x01" * 4, b"\x02" * 4])  # what the sensors hold: sampled at SYNC0 only
+    assert one(chain, lrd).data == bytes(8)  # no pulse yet: the buffer SAFEOP wrote
+    now[0] = 5_300_000  # the first pulse (5 ms) fired
+    assert one(chain, lrd).data == b"\x01" * 4 + b"\x02" * 4
+    stamp = one(chain, Datagram(C.APRD, 0, 0x0F80, bytes(8)))
+    assert int.from_bytes(stamp.data, "little") == 5_000_000
+    regs = one(chain, Datagram(C.APRD, 0, 0x0984, bytes(0x14)))
+    assert regs.data[0] == 0  # activation done
+    assert regs.data[0x098E - 0x0984] == 1  # SYNC0 status: a pulse since the last read
+    assert int.from_bytes(regs.data[12:20], "little") == 6_000_000  # 0x0990: next pulse
+    assert one(chain, Datagram(C.APRD, 0, 0x098E, bytes(1))).data == b"\x00"  # read cleared it
+    chain.publish([b"\x03" * 4, b"\x04" * 4])
+    now[0] = 5_900_000  # no new pulse: the sample of 5 ms stays
+    assert one(chain, lrd).data == b"\x01" * 4 + b"\x02" * 4
+    now[0] = 8_200_000  # pulses at 6, 7 and 8 ms: the sample of 8 ms
+    assert one(chain, lrd).data == b"\x03" * 4 + b"\x04" * 4
+    stamp = one(chain, Datagram(C.APRD, 0, 0x0F80, bytes(8)))
+    assert int.from_bytes(stamp.data, "little") == 8_000_000

@@ -1,0 +1,407 @@
+"""Distributed clocks (DC) of one emulated ESC: local clock, latches, drift control, SYNC0/SYNC1.
+
+The ESC datasheet section I chapter 9 ("Distributed Clocks") and section II 2.19-2.22 (registers
+0x0900-0x09FF) state what a master sees:
+
+* every ESC has a 64-bit local clock in ns; here it runs at its own rate ``1 + drift_ppm e-6``
+  against the host's monotonic clock (a crystal's tolerance, seeded per patch), from a seeded
+  start value, so that a master's offset and drift compensation have work to do;
+* a write to 0x0900 (any length, usually a BWR) latches, in each ESC, the local time at which
+  the frame's first bit arrived at port 0 (0x0900) and, after the rest of the line, returned at
+  port 1 (0x0904; ports 2 and 3 are not implemented and read 0), and the 64-bit local time at
+  which it reached the processing unit (0x0918). The arrival times follow the propagation the
+  timing model computes (:class:`emulator.model.params.TimingParams`: one ESC pass
+  ``ecat_processing_ps`` plus a cable per hop, the way back ``ecat_forwarding_ps`` plus a cable);
+* the local copy of the system time (0x0910) is local time + system time offset (0x0920). A
+  write to 0x0910 (the master's ARMW/FRMW of the reference clock's time) is no store: the ESC
+  compares the written value plus the system time delay (0x0928) with its own system time at
+  that instant and feeds the difference to its time control loop; the mean difference is in
+  0x092C (bit 31 set: the local copy is smaller; bits 0-30 the magnitude), filtered over
+  2^(0x0934 bits 0-3) compares;
+* the time control loop slews the local clock's rate (it never jumps). Its law is the
+  emulator's own, a proportional-integral controller with a phase time constant of 0x0930
+  (speed counter start) x 5 us (20.5 ms for the 0x1000 SOEM writes; a larger value gives a
+  smaller bandwidth, as the datasheet says) and critical damping, its correction clamped to
+  +-500 ppm; 0x0932 (speed counter diff) shows the correction in units of 0.1 ppm. A write of
+  0x0930 resets it;
+* SYNC0/SYNC1: cyclic unit control 0x0980, activation 0x0981 (bit 0 cyclic operation, bit 1
+  SYNC0, bit 2 SYNC1), start time 0x0990 (read: the system time of the next SYNC0 pulse),
+  SYNC0/SYNC1 cycle times 0x09A0/0x09A4 (0: a single pulse; SYNC1 fires ``0x09A4`` after each
+  SYNC0 pulse), activation status 0x0984 (bit 0/1: first SYNC0/SYNC1 pulse pending), SYNC0 and
+  SYNC1 status 0x098E/0x098F (bit 0: a pulse since the last read; reading clears it), next
+  SYNC1 pulse 0x0998. Pulses are computed when something looks (a register read, a taxel
+  sample), never by a timer.
+
+Taxel samples at SYNC0: while SYNC0 is active, a skin patch takes the sample its sensor holds at
+each SYNC0 pulse; the system time of the pulse at which the sample in the input buffer was
+taken is in user RAM 0x0F80-0x0F87 (64 bits, little endian), where the master can read it in
+the same frame as the taxels (an FPRD, or a second FMMU mapping those 8 bytes). Without SYNC0
+those bytes read 0 and samples are taken when the host publishes them.
+
+Not modelled: latch units (0x09A8-0x09CF read 0), PDI control of the cyclic unit (0x0980
+bit 0 = 1 is stored but ECAT still writes), SYNC pulse outputs and their length (0x0982 reads
+the SII's sync impulse length), the start time plausibility check, 32-bit DC.
+"""
+
+from __future__ import annotations
+
+import random
+import struct
+from collections.abc import Sequence
+from dataclasses import dataclass
+from typing import Final
+
+from emulator.errors import TopologyError
+from emulator.model.params import WIRE, TimingParams
+
+__all__ = [
+    "DC_FEATURES",
+    "DEFAULT_DRIFT_PPM",
+    "MAX_CORRECTION",
+    "MAX_DRIFT_PPM",
+    "REG_DC_ACTIVATION",
+    "REG_DC_ACTIVATION_STATUS",
+    "REG_DC_CYCLIC_CONTROL",
+    "REG_DC_DELAY",
+    "REG_DC_DIFF",
+    "REG_DC_DIFF_FILTER",
+    "REG_DC_NEXT_SYNC1",
+    "REG_DC_OFFSET",
+    "REG_DC_RECEIVE",
+    "REG_DC_RECEIVE_PU",
+    "REG_DC_SPEED_DIFF",
+    "REG_DC_SPEED_FILTER",
+    "REG_DC_SPEED_START",
+    "REG_DC_START_TIME",
+    "REG_DC_SYNC0_CYCLE",
+    "REG_DC_SYNC0_STATUS",
+    "REG_DC_SYNC1_CYCLE",
+    "REG_DC_SYNC1_STATUS",
+    "REG_DC_SYSTEM_TIME",
+    "REG_SAMPLE_TIME",
+    "DcClock",
+    "DcTimebase",
+    "dc_write_masks",
+    "seed_clocks",
+]
+
+DC_FEATURES: Final = 0x000C  # ESC features 0x0008: bit 2 DC available, bit 3 DC width 64 bit
+
+REG_DC_RECEIVE: Final = 0x0900  # receive time ports 0-3, 4 x 32 bit
+REG_DC_SYSTEM_TIME: Final = 0x0910  # 64 bit
+REG_DC_RECEIVE_PU: Final = 0x0918  # receive time ECAT processing unit, 64 bit
+REG_DC_OFFSET: Final = 0x0920  # system time offset, 64 bit
+REG_DC_DELAY: Final = 0x0928  # system time delay, 32 bit
+REG_DC_DIFF: Final = 0x092C  # system time difference, sign + magnitude
+REG_DC_SPEED_START: Final = 0x0930  # speed counter start, 15 bit
+REG_DC_SPEED_DIFF: Final = 0x0932  # speed counter diff, signed 16 bit
+REG_DC_DIFF_FILTER: Final = 0x0934  # system time difference filter depth, bits 0-3
+REG_DC_SPEED_FILTER: Final = 0x0935  # speed counter filter depth, bits 0-3
+REG_DC_CYCLIC_CONTROL: Final = 0x0980
+REG_DC_ACTIVATION: Final = 0x0981
+REG_DC_PULSE_LENGTH: Final = 0x0982
+REG_DC_ACTIVATION_STATUS: Final = 0x0984
+REG_DC_SYNC0_STATUS: Final = 0x098E
+REG_DC_SYNC1_STATUS: Final = 0x098F
+REG_DC_START_TIME: Final = 0x0990  # write: start time; read: next SYNC0 pulse (system time)
+REG_DC_NEXT_SYNC1: Final = 0x0998
+REG_DC_SYNC0_CYCLE: Final = 0x09A0
+REG_DC_SYNC1_CYCLE: Final = 0x09A4
+REG_DC_END: Final = 0x0A00
+REG_SAMPLE_TIME: Final = 0x0F80  # user RAM: system time of the sample's SYNC0 pulse (emulator)
+
+# reset values (datasheet II 2.20): speed counter start 0x1000, filter depths 4 and 12
+SPEED_START_RESET: Final = 0x1000
+DIFF_FILTER_RESET: Final = 0x04
+SPEED_FILTER_RESET: Final = 0x0C
+PHASE_NS_PER_SPEED_COUNT: Final = 5_000  # the emulator's loop: tau = 0x0930 x 5 us
+INTEGRAL_FACTOR: Final = 4  # tau_i = 4 tau: critical damping of the PI loop
+MAX_CORRECTION: Final = 500e-6  # +-500 ppm
+MAX_DRIFT_PPM: Final = 200.0  # accepted oscillator drift, within what the loop can correct
+DEFAULT_DRIFT_PPM: Final = 25.0  # ET1100 datasheet: 25 MHz crystal, +-25 ppm
+SPEED_DIFF_UNIT: Final = 1e-7  # 0x0932 in 0.1 ppm
+MASK64: Final = (1 << 64) - 1
+_U64 = struct.Struct("<Q")
+_U32 = struct.Struct("<I")
+
+
+def dc_write_masks(masks: bytearray) -> None:
+    """Set the ECAT write masks of the DC registers (datasheet II 2.20-2.22) in ``masks``.
+
+    0x0900-0x0917 keep mask 0: writes there are events (latch, compare), handled by
+    :meth:`DcClock.write`, never stored.
+    """
+
+    def put(addr: int, *values: int) -> None:
+        masks[addr : addr + len(values)] = bytes(values)
+
+    put(REG_DC_OFFSET, *(0xFF,) * 8)
+    put(REG_DC_DELAY, *(0xFF,) * 4)
+    put(REG_DC_SPEED_START, 0xFF, 0x7F)
+    put(REG_DC_DIFF_FILTER, 0x0F, 0x0F)
+    put(REG_DC_CYCLIC_CONTROL, 0x31, 0xFF)  # SYNC out / latch unit control, activation
+    put(REG_DC_START_TIME, *(0xFF,) * 8)
+    put(REG_DC_SYNC0_CYCLE, *(0xFF,) * 8)
+
+
+@dataclass
+class DcTimebase:
+    """What every ESC of a line shares: the host time at which the current frame reached the
+    first ESC's port 0 (ns), the line's length and the propagation constants."""
+
+    frame_ns: int = 0
+    line_length: int = 1
+    params: TimingParams = WIRE
+
+    def port_times_ps(self, position: int) -> tuple[int, int | None]:
+        """When the frame's first bit arrives at port 0 of ``position`` and returns at its
+        port 1 (None for the last ESC), in ps after it reached the first ESC's port 0."""
+        p = self.params
+        forward = p.ecat_processing_ps + p.cable_ps  # one pass in processing direction
+        back = p.ecat_forwarding_ps + p.cable_ps  # one pass in forwarding direction
+        last = self.line_length - 1
+        t0 = position * forward
+        if position >= last:
+            return t0, None
+        # the last ESC turns the frame around (one processing pass and its cable back), then
+        # each ESC between it and ``position`` forwards it once
+        return t0, last * forward + forward + (last - 1 - position) * back
+
+
+class DcClock:
+    """The DC unit of one ESC; the ESC calls :meth:`refresh` before reads of 0x0900-0x09FF,
+    :meth:`write` for writes of 0x0900-0x0917, and :meth:`configured` after writes of its other
+    registers. ``drift_ppm``: the local oscillator's deviation; ``start_ns``: its value at the
+    host time 0."""
+
+    __slots__ = (
+        "_anchor_host",
+        "_anchor_local",
+        "_diff_ns",
+        "_integral",
+        "_last_compare",
+        "_last_pulse",
+        "_next_sync0",
+        "_next_sync1",
+        "_rate",
+        "_sampled_pulse",
+        "_sync0_status",
+        "_sync1_status",
+        "drift_ppm",
+        "position",
+        "timebase",
+    )
+
+    def __init__(
+        self,
+        *,
+        drift_ppm: float = 0.0,
+        start_ns: int = 0,
+        timebase: DcTimebase | None = None,
+        position: int = 0,
+    ) -> None:
+        self.drift_ppm = drift_ppm
+        self.timebase = timebase if timebase is not None else DcTimebase()
+        self.position = position
+        self._anchor_host = 0
+        self._anchor_local = start_ns
+        self._rate = 1.0 + drift_ppm * 1e-6
+        self._integral = 0.0
+        self._diff_ns = 0.0
+        self._last_compare: int | None = None
+        self._next_sync0: int | None = None
+        self._next_sync1: int | None = None
+        self._sync0_status = self._sync1_status = 0
+        self._last_pulse: int | None = None  # system time of the last SYNC0 pulse fired
+        self._sampled_pulse: int | None = None  # the pulse of the last taxel sample
+
+    # --- the clock ------------------------------------------------------------------------
+    def local_at(self, host_ns: float) -> int:
+        """The local time (64 bit) at host time ``host_ns``."""
+        elapsed = host_ns - self._anchor_host
+        return (self._anchor_local + round(elapsed * self._rate)) & MASK64
+
+    def _arrival_ns(self, port: int = 0) -> float | None:
+        t0, t1 = self.timebase.port_times_ps(self.position)
+        t = t0 if port == 0 else t1
+        return None if t is None else self.timebase.frame_ns + t / 1000
+
+    def system_time(self, mem: bytearray, host_ns: float) -> int:
+        """The local copy of the system time: local time + offset (0x0920)."""
+        offset: int = _U64.unpack_from(mem, REG_DC_OFFSET)[0]
+        return (self.local_at(host_ns) + offset) & MASK64
+
+    def _set_rate(self, host_ns: float, correction: float) -> None:
+        """Change the clock's rate from ``host_ns`` on (continuous: no jump)."""
+        self._anchor_local = self.local_at(host_ns)
+        self._anchor_host = round(host_ns)
+        self._rate = (1.0 + self.drift_ppm * 1e-6) * (1.0 + correction)
+
+    def retune(self, drift_ppm: float, start_ns: int) -> None:
+        """Another oscillator: ``drift_ppm`` from now on, local time ``start_ns`` at host 0."""
+        self.drift_ppm = drift_ppm
+        self._anchor_host, self._anchor_local = 0, start_ns
+        self._rate = 1.0 + drift_ppm * 1e-6
+
+    # --- the ESC's hooks --------------------------------------------------------------------
+    def power_on(self, mem: bytearray) -> None:
+        """Reset values of the DC registers (datasheet II 2.20-2.22)."""
+        mem[REG_DC_RECEIVE:REG_DC_END] = bytes(REG_DC_END - REG_DC_RECEIVE)
+        struct.pack_into("<H", mem, REG_DC_SPEED_START, SPEED_START_RESET)
+        mem[REG_DC_DIFF_FILTER] = DIFF_FILTER_RESET
+        mem[REG_DC_SPEED_FILTER] = SPEED_FILTER_RESET
+        mem[REG_SAMPLE_TIME : REG_SAMPLE_TIME + 8] = bytes(8)
+        self._integral = self._diff_ns = 0.0
+        self._last_compare = None
+        self._next_sync0 = self._next_sync1 = None
+        self._sync0_status = self._sync1_status = 0
+        self._last_pulse = self._sampled_pulse = None
+
+    def refresh(self, mem: bytearray, lo: int, hi: int) -> None:
+        """Bring the registers a read of [lo, hi) sees up to the current frame's time."""
+        t = self._arrival_ns()
+        assert t is not None
+        if lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME:
+            _U64.pack_into(mem, REG_DC_SYSTEM_TIME, self.system_time(mem, t))
+        if lo < REG_DC_END and hi > REG_DC_ACTIVATION_STATUS:
+            self._advance(mem, t)
+            active = self._next_sync0 is not None or self._last_pulse is not None
+            status = 0x01 if active and self._last_pulse is None else 0  # first pulse pending
+            if active and mem[REG_DC_ACTIVATION] & 0x04 and self._next_sync1 is None:
+                status |= 0x02
+            mem[REG_DC_ACTIVATION_STATUS] = status
+            mem[REG_DC_SYNC0_STATUS] = self._sync0_status
+            mem[REG_DC_SYNC1_STATUS] = self._sync1_status
+            if self._next_sync0 is not None:
+                _U64.pack_into(mem, REG_DC_START_TIME, self._next_sync0)
+            if self._next_sync1 is not None:
+                _U64.pack_into(mem, REG_DC_NEXT_SYNC1, self._next_sync1)
+            if lo <= REG_DC_SYNC0_STATUS < hi:
+                self._sync0_status = 0  # reading clears the status (datasheet II 2.22)
+            if lo <= REG_DC_SYNC1_STATUS < hi:
+                self._sync1_status = 0
+
+    def write(self, mem: bytearray, lo: int, data: bytes) -> None:
+        """A write into 0x0900-0x0917: the receive time latch or a system time compare."""
+        hi = lo + len(data)
+        if lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE:
+            self._latch(mem)
+        if lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME:
+            a, b = max(lo, REG_DC_SYSTEM_TIME), min(hi, REG_DC_RECEIVE_PU)
+            current = bytearray(_U64.pack(self.system_time(mem, self._arrival_ns() or 0)))
+            current[a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = data[a - lo : b - lo]
+            self.compare(mem, _U64.unpack(current)[0], wide=b - REG_DC_SYSTEM_TIME > 4)
+
+    def configured(self, mem: bytearray, lo: int, hi: int) -> None:
+        """After writes of [lo, hi) in 0x0920-0x09A7 took effect (end of the frame)."""
+        if lo < REG_DC_SPEED_START + 2 and hi > REG_DC_SPEED_START:
+            self._integral = 0.0  # a write resets the speed counter diff (datasheet II 2.20)
+            mem[REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = bytes(2)
+            self._set_rate(self._arrival_ns() or 0, 0.0)
+        if lo <= REG_DC_ACTIVATION < hi:
+            self._activate(mem)
+
+    # --- latch and compare --------------------------------------------------------------------
+    def _latch(self, mem: bytearray) -> None:
+        t0 = self._arrival_ns(0)
+        t1 = self._arrival_ns(1)
+        assert t0 is not None
+        port0 = self.local_at(t0)
+        _U32.pack_into(mem, REG_DC_RECEIVE, port0 & 0xFFFFFFFF)
+        _U32.pack_into(mem, REG_DC_RECEIVE + 4, 0 if t1 is None else self.local_at(t1) & 0xFFFFFFFF)
+        mem[REG_DC_RECEIVE + 8 : REG_DC_RECEIVE + 16] = bytes(8)
+        _U64.pack_into(mem, REG_DC_RECEIVE_PU, port0)
+
+    def compare(self, mem: bytearray, received: int, *, wide: bool = True) -> int:
+        """Compare a received system time with the local copy at this frame's arrival; feed the
+        time control loop; returns the difference (local copy - received - delay, ns)."""
+        host = self._arrival_ns()
+        assert host is not None
+        delay: int = _U32.unpack_from(mem, REG_DC_DELAY)[0]
+        mod = 1 << (64 if wide else 32)
+        diff: int = (self.system_time(mem, host) - received - delay) % mod
+        if diff >= mod // 2:
+            diff -= mod
+        depth = mem[REG_DC_DIFF_FILTER] & 0x0F
+        self._diff_ns += (diff - self._diff_ns) / (1 << depth)
+        mean = round(self._diff_ns)
+        magnitude = min(abs(mean), 0x7FFFFFFF)
+        _U32.pack_into(mem, REG_DC_DIFF, magnitude | (0x80000000 if mean < 0 else 0))
+        self._control(mem, host, diff)
+        return diff
+
+    def _control(self, mem: bytearray, host: float, diff: int) -> None:
+        """The PI time control loop (the emulator's law; see the module docstring)."""
+        speed_start = max(1, _U32.unpack_from(mem, REG_DC_SPEED_START)[0] & 0x7FFF)
+        tau_ns = speed_start * PHASE_NS_PER_SPEED_COUNT
+        dt = tau_ns if self._last_compare is None else min(host - self._last_compare, tau_ns)
+        self._last_compare = round(host)
+        self._integral -= diff * dt / (tau_ns * INTEGRAL_FACTOR * tau_ns)
+        self._integral = max(-MAX_CORRECTION, min(MAX_CORRECTION, self._integral))
+        correction = max(-MAX_CORRECTION, min(MAX_CORRECTION, self._integral - diff / tau_ns))
+        self._set_rate(host, correction)
+        units = max(-0x8000, min(0x7FFF, round(correction / SPEED_DIFF_UNIT)))
+        struct.pack_into("<h", mem, REG_DC_SPEED_DIFF, units)
+
+    # --- SYNC0 / SYNC1 ------------------------------------------------------------------------
+    def sync0_active(self, mem: bytearray) -> bool:
+        """Cyclic operation and SYNC0 activated (0x0981 bits 0 and 1)."""
+        return mem[REG_DC_ACTIVATION] & 0x03 == 0x03
+
+    def _activate(self, mem: bytearray) -> None:
+        self._sync0_status = self._sync1_status = 0
+        self._last_pulse = self._sampled_pulse = None
+        self._next_sync1 = None
+        if not self.sync0_active(mem):
+            self._next_sync0 = None
+            return
+        self._next_sync0 = _U64.unpack_from(mem, REG_DC_START_TIME)[0]
+
+    def _advance(self, mem: bytearray, host_ns: float) -> None:
+        """Fire the SYNC0 (and SYNC1) pulses due by ``host_ns``."""
+        nxt = self._next_sync0
+        if nxt is None:
+            return
+        now = self.system_time(mem, host_ns)
+        if now < nxt:
+            return
+        cycle = _U32.unpack_from(mem, REG_DC_SYNC0_CYCLE)[0]
+        if cycle == 0:  # single shot
+            last, self._next_sync0 = nxt, None
+        else:
+            last = nxt + (now - nxt) // cycle * cycle
+            self._next_sync0 = last + cycle
+        self._last_pulse = last
+        self._sync0_status = 1
+        if mem[REG_DC_ACTIVATION] & 0x04:
+            self._next_sync1 = last + _U32.unpack_from(mem, REG_DC_SYNC1_CYCLE)[0]
+            if now >= self._next_sync1:
+                self._sync1_status = 1
+
+    def sample_due(self, mem: bytearray) -> int | None:
+        """The system time of a SYNC0 pulse that fired since the last sample (the patch then
+        takes the sample its sensor holds), else None. Called when the master opens the input
+        buffer."""
+        if self._next_sync0 is None and self._last_pulse is None:
+            return None
+        t = self._arrival_ns()
+        assert t is not None
+        self._advance(mem, t)
+        if self._last_pulse is None or self._last_pulse == self._sampled_pulse:
+            return None
+        self._sampled_pulse = self._last_pulse
+        return self._last_pulse
+
+
+def seed_clocks(clocks: Sequence[DcClock], max_drift_ppm: float, seed: int) -> None:
+    """Give each clock a seeded drift in [-max_drift_ppm, +max_drift_ppm] and a seeded local
+    time at power-on (below 2^40 ns, about 18 minutes).
+
+    Raises:
+        TopologyError: ``max_drift_ppm`` not a finite number in 0..MAX_DRIFT_PPM.
+    """
+    if not 0 <= max_drift_ppm <= MAX_DRIFT_PPM:  # also refuses nan
+        raise TopologyError(f"clock drift: {max_drift_ppm} ppm (0..{MAX_DRIFT_PPM:g})")
+    rng = random.Random(seed)
+    for clock in clocks:
+        clock.retune(rng.uniform(-max_drift_ppm, max_drift_ppm), rng.randrange(1 << 40))
