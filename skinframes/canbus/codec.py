@@ -336,7 +336,16 @@ class TriangleSample:
         """The sample in the data of a head and a tail whose DLC and markers are checked (the
         fast path of :meth:`from_can` for :class:`~skinframes.canbus.Reassembler`)."""
         skin_class, board, triangle = parse_skin_id(arbitration_id)
-        return cls(board, triangle, *_unpack(head, tail), skin_class)
+        # every field comes from a bit field of its width or a byte: the checks of __init__ hold
+        sample = object.__new__(cls)
+        set_field = object.__setattr__
+        set_field(sample, "board", board)
+        set_field(sample, "triangle", triangle)
+        set_field(sample, "taxels", tuple(head[1 : 1 + HEAD_TAXELS] + tail[1 : 1 + TAIL_TAXELS]))
+        set_field(sample, "out_of_range", tail[6] << 4 | tail[7] >> 4)
+        set_field(sample, "error", tail[7] & 0xF)
+        set_field(sample, "skin_class", skin_class)
+        return sample
 
 
 # --- fast path: the two frames as bytes, equal to the schemas (tested with hypothesis) -----------
