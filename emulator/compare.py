@@ -175,11 +175,12 @@ def read_skin_samples(path: str | Path) -> SkinSamples:
     collected: list[canbus.BoardSample] = []
     r = canbus.Reassembler(on_board_sample=collected.append)
     reader = CanLogReader(path)
-    for item in reader.items():
-        if isinstance(item, canbus.CanFrame):
-            r.feed(item)
-        else:
-            r.feed_data(item[0], item[1], item[2])
+    for batch in reader.batches():
+        for item in batch:
+            if isinstance(item, tuple):
+                r.feed_data(item[0], item[1], item[2])
+            else:
+                r.feed(item)
     return _group(str(path), collected, r.finish(), reader.record_counts)
 
 

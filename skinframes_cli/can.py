@@ -20,7 +20,6 @@ from skinframes.canbus import (
     LEGACY_SKIN_CLASS,
     SKIN_CLASS,
     BoardCounts,
-    CanFrame,
     FrameCounts,
     Malformed,
     Reassembler,
@@ -94,10 +93,13 @@ def run_decode(args: argparse.Namespace) -> int:
     line = sample_json if args.json else sample_text
     write = sys.stdout.write
     feed, feed_data = r.feed, r.feed_data
-    for item in reader.items():
-        s = feed(item) if isinstance(item, CanFrame) else feed_data(item[0], item[1], item[2])
-        if s is not None:
-            write(line(s))
+    for batch in reader.batches():
+        lines = []
+        for item in batch:
+            s = feed_data(item[0], item[1], item[2]) if isinstance(item, tuple) else feed(item)
+            if s is not None:
+                lines.append(line(s))
+        write("".join(lines))
     counts = r.finish()
     records = reader.record_counts
     if records.decoded == 0:

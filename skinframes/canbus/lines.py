@@ -161,21 +161,22 @@ class LineTally:
             self.lines += 1
 
 
-def parse_asc_file(text: IO[str], tally: LineTally) -> Iterator[CanFrame | DataTuple]:
-    """The frames of :func:`parse_asc` of a text file, read in blocks of about
+def parse_asc_file(text: IO[str], tally: LineTally) -> Iterator[list[CanFrame | DataTuple]]:
+    """The frames of :func:`parse_asc` of a text file, a list per block of about
     :data:`BLOCK_CHARS` characters; the other lines go to ``tally``.
 
     The plain data frames of a block (``<t> <ch> <id> Rx|Tx d <dlc 0..8> <bytes>``,
-    hexadecimal) are read with one regular expression, the lines between them one by one.
+    hexadecimal, one space before each byte) are found with one regular expression, the lines
+    between them are read one by one.
     """
     state = _AscState()
     for block in _line_blocks(text):
         if block.endswith("\n"):
             first = tally.lines
-            yield from _asc_block(block, state, tally)
+            yield _asc_block(block, state, tally)
             tally.lines = first + block.count("\n")
         else:  # the last line, without its newline
-            yield from tally.take(block.split("\n"), state)
+            yield list(tally.take(block.split("\n"), state))
 
 
 def _line_blocks(text: IO[str]) -> Iterator[str]:
@@ -199,9 +200,11 @@ def _line_blocks(text: IO[str]) -> Iterator[str]:
         yield "".join(lines)
 
 
-def _asc_block(block: str, state: _AscState, tally: LineTally) -> Iterator[CanFrame | DataTuple]:
-    """A block of whole lines: the plain data frames with one regular expression, the lines
-    between them (headers, events, anything else) one by one."""
+def _asc_block(block: str, state: _AscState, tally: LineTally) -> list[CanFrame | DataTuple]:
+    """The frames of a block of whole lines: plain data frames found by :data:`_ASC_PLAIN`, the
+    lines between them (headers, events, anything else) read one by one."""
+    out: list[CanFrame | DataTuple] = []
+    append = out.append
     first = tally.lines
     pos = 0
     fromhex = bytes.fromhex
@@ -209,32 +212,45 @@ def _asc_block(block: str, state: _AscState, tally: LineTally) -> Iterator[CanFr
         start = m.start()
         if start != pos:
             tally.lines = first + block.count("\n", 0, pos)
-            yield from tally.take(block[pos : start - 1].split("\n"), state)
+            out.extend(tally.take(block[pos : start - 1].split("\n"), state))
             if state.base != 16:  # a "base dec" line: the rest is not hexadecimal
                 pos = start
                 break
         pos = m.end()
-        stamp, channel, ident, dlc_text, data_text = m.groups()
+        stamp, channel, ident, dlc_text, rest = m.groups()
         dlc = int(dlc_text)
-        data = fromhex(data_text)
-        if len(data) < dlc:  # fewer data bytes than the DLC: python-can reads further tokens
-            tally.lines = first + block.count("\n", 0, start)
-            yield from tally.take([m.group()[:-1]], state)
-            continue
-        yield (round(float(stamp) * NS_PER_S), int(ident, 16), data[:dlc], int(channel) - 1)
+        end = 3 * dlc  # " XX" per byte: python-can's first dlc tokens, each two hex digits
+        if rest[0:end:3] == _SPACES[dlc] and rest[end : end + 1] in _AFTER_DATA:
+            try:
+                append(
+                    (
+                        round(float(stamp) * NS_PER_S),
+                        int(ident, 16),
+                        fromhex(rest[:end]),
+                        int(channel) - 1,
+                    )
+                )
+                continue
+            except ValueError:
+                pass
+        tally.lines = first + block.count("\n", 0, start)  # any other layout: the general path
+        out.extend(tally.take([m.group()[:-1]], state))
     if pos != len(block):
         tally.lines = first + block.count("\n", 0, pos)
-        yield from tally.take(block[pos:-1].split("\n"), state)
+        out.extend(tally.take(block[pos:-1].split("\n"), state))
+    return out
 
 
 BLOCK_CHARS: Final = 1 << 18
-# a plain data frame line, as CANoe and python-can write it; every field within what
-# _ASC_MESSAGE and python-can's _process_classic_can_frame accept (a narrower set)
+# a plain data frame line up to its DLC, as CANoe and python-can write it; every field within
+# what _ASC_MESSAGE and python-can's _process_classic_can_frame accept (a narrower set)
 _ASC_PLAIN: Final = re.compile(
     r"^[ \t]*([0-9]+\.[0-9]+)[ \t]+([0-9]+)[ \t]+([0-9A-Fa-f]+)[ \t]+(?:Rx|Tx)[ \t]+d[ \t]+([0-8])"
-    r"((?:[ \t]+[0-9A-Fa-f]{2}(?![^ \t\n]))*)[^\n]*\n",
+    r"([^\n]*)\n",
     re.ASCII | re.MULTILINE,
 )
+_SPACES: Final = tuple(" " * n for n in range(MAX_DATA_BYTES + 1))
+_AFTER_DATA: Final = ("", " ", "\t")
 
 
 class _AscState:
@@ -367,18 +383,25 @@ def parse_candump(lines: Iterable[str]) -> Iterator[CanFrame | DataTuple | LineS
             yield LineSkip(CANDUMP_NOT_A_LINE, str(exc), True)
 
 
-def parse_candump_file(text: IO[str], tally: LineTally) -> Iterator[CanFrame | DataTuple]:
-    """The frames of :func:`parse_candump` of a text file; the other lines go to ``tally``."""
-    for raw in text:
-        line = raw.strip()
-        if not line:
-            tally.on_skip(tally.lines, _EMPTY)
-        else:
-            try:
-                yield _candump_line(line)
-            except (ValueError, IndexError) as exc:
-                tally.on_skip(tally.lines, LineSkip(CANDUMP_NOT_A_LINE, str(exc), True))
-        tally.lines += 1
+def parse_candump_file(text: IO[str], tally: LineTally) -> Iterator[list[CanFrame | DataTuple]]:
+    """The frames of :func:`parse_candump` of a text file, a list per block of about
+    :data:`BLOCK_CHARS` characters; the other lines go to ``tally``."""
+    for block in _line_blocks(text):
+        out: list[CanFrame | DataTuple] = []
+        lines = block.split("\n")
+        if block.endswith("\n"):
+            lines.pop()  # nothing after the last newline
+        for raw in lines:
+            line = raw.strip()
+            if not line:
+                tally.on_skip(tally.lines, _EMPTY)
+            else:
+                try:
+                    out.append(_candump_line(line))
+                except (ValueError, IndexError) as exc:
+                    tally.on_skip(tally.lines, LineSkip(CANDUMP_NOT_A_LINE, str(exc), True))
+            tally.lines += 1
+        yield out
 
 
 def _candump_line(line: str) -> CanFrame | DataTuple:
