@@ -248,3 +248,18 @@ def test_can_decode_reports_records_and_boards(
         "skinframes: board 14: 3 complete samples (4 triangles), 0 incomplete, 2 stray frames"
         " (0x4e1: 2)",
     ]
+
+
+def test_decode_lines_are_formatted_as_json_dumps_and_the_text_layout() -> None:
+    from skinframes_cli.can import sample_json, sample_text
+
+    s = TimedSample(
+        1_234_567_891,
+        TriangleSample(14, 3, [0, 1, 255, 16, 9, 10, 11, 12, 13, 14, 15, 240], 0xABC, 7),
+        0,
+    )
+    assert sample_json(s) == json.dumps(s.to_json()) + "\n"
+    assert sample_text(s) == (
+        "       1.234567891  board 14 triangle  3  00 01 ff 10 09 0a 0b 0c 0d 0e 0f f0"
+        "  error 7 out_of_range 0xabc\n"
+    )
