@@ -9,12 +9,15 @@ working. New code imports ``skinframes.canbus.log``, where the CAN log's names r
 """
 
 from skinframes.canbus import log as _new
+from skinframes.canbus.log import MAX_LISTED_DAMAGE as MAX_LISTED_DAMAGE
 from skinframes.canbus.log import NS_PER_S as NS_PER_S
 from skinframes.canbus.log import PCAP_SUFFIXES as PCAP_SUFFIXES
 from skinframes.canbus.log import PYTHON_CAN_SUFFIXES as PYTHON_CAN_SUFFIXES
 from skinframes.canbus.log import TEXT_SUFFIXES as TEXT_SUFFIXES
 from skinframes.canbus.log import TRACE_SUFFIXES as TRACE_SUFFIXES
 from skinframes.canbus.log import CanLog as CanLog
+from skinframes.canbus.log import CanLogReader as CanLogReader
+from skinframes.canbus.log import RecordCounts as RecordCounts
 from skinframes.canbus.log import Trace as Trace
 from skinframes.canbus.log import TraceFormatError as TraceFormatError
 from skinframes.canbus.log import UnsupportedFormatError as UnsupportedFormatError

@@ -12,17 +12,31 @@ data are counted on stderr (docs/interface.md).
 from __future__ import annotations
 
 import argparse
-import json
 import sys
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any, Final
 
-from skinframes.canbus import LEGACY_SKIN_CLASS, SKIN_CLASS, FrameCounts
-from skinframes.canbus.log import PCAP_SUFFIXES, PYTHON_CAN_SUFFIXES, CanLog, read_can_log
+from skinframes.canbus import (
+    LEGACY_SKIN_CLASS,
+    SKIN_CLASS,
+    BoardCounts,
+    FrameCounts,
+    Malformed,
+    Reassembler,
+    TimedSample,
+)
+from skinframes.canbus.log import (
+    PCAP_SUFFIXES,
+    PYTHON_CAN_SUFFIXES,
+    CanLogReader,
+    RecordCounts,
+)
+from skinframes.errors import TraceFormatError
+from skinframes.pcap import Skipped
 from skinframes_cli.can_convert import add_convert
 from skinframes_cli.options import int_list
 
-__all__ = ["SUBCOMMANDS", "add_decode", "add_parser"]
+__all__ = ["SUBCOMMANDS", "add_decode", "add_parser", "board_text", "report"]
 
 MAX_LISTED: Final = 10  # ids / malformed frames listed on stderr before "... N more"
 
@@ -69,30 +83,71 @@ def add_decode(sub: Any) -> None:
 
 
 def run_decode(args: argparse.Namespace) -> int:
-    """Decode and print the samples; the accounting goes to stderr."""
-    can_log = read_can_log(args.trace, boards=args.boards, skin_classes=(args.skin_class,))
-    out = sys.stdout
-    for s in can_log.samples:
-        if args.json:
-            out.write(json.dumps(s.to_json()) + "\n")
-        else:
-            t = s.sample
-            taxels = " ".join(f"{v:02x}" for v in t.taxels)
-            out.write(
-                f"{s.time_ns / 1e9:>18.9f}  board {t.board:>2} triangle {t.triangle:>2}  {taxels}"
-                f"  error {t.error} out_of_range {t.out_of_range:#05x}\n"
-            )
-    _report(can_log)
+    """Decode and print the samples as the log is read; the accounting goes to stderr.
+
+    Raises:
+        TraceFormatError: the log holds no CAN frame at all (exit 2).
+    """
+    reader = CanLogReader(args.trace)
+    r = Reassembler(boards=args.boards, skin_classes=(args.skin_class,))
+    line = sample_json if args.json else sample_text
+    write = sys.stdout.write
+    feed, feed_data = r.feed, r.feed_data
+    for batch in reader.batches():
+        lines = []
+        for item in batch:
+            s = feed_data(item[0], item[1], item[2]) if isinstance(item, tuple) else feed(item)
+            if s is not None:
+                lines.append(line(s))
+        write("".join(lines))
+    counts = r.finish()
+    records = reader.record_counts
+    if records.decoded == 0:
+        raise TraceFormatError(f"{args.trace}: no CAN frames in {_records_text(records)}")
+    report(counts, records, r.malformed, reader.damaged)
     return 0
 
 
-def _report(can_log: CanLog) -> None:
-    c: FrameCounts = can_log.counts
+def sample_text(s: TimedSample) -> str:
+    """One text line of ``can decode``."""
+    t = s.sample
+    return (
+        f"{s.time_ns / 1e9:>18.9f}  board {t.board:>2} triangle {t.triangle:>2}  "
+        f"{bytes(t.taxels).hex(' ')}  error {t.error} out_of_range {t.out_of_range:#05x}\n"
+    )
+
+
+def sample_json(s: TimedSample) -> str:
+    """One JSON line of ``can decode --json``: ``json.dumps(s.to_json())``, formatted directly."""
+    t = s.sample
+    return (
+        f'{{"time_ns": {s.time_ns}, "board": {t.board}, "triangle": {t.triangle}, '
+        f'"taxels": [{", ".join(map(str, t.taxels))}], "error": {t.error}, '
+        f'"out_of_range": {t.out_of_range}}}\n'
+    )
+
+
+def _records_text(records: RecordCounts) -> str:
+    reasons = "; ".join(f"{reason}: {n}" for reason, n in records.skipped_by_reason[:MAX_LISTED])
+    more = len(records.skipped_by_reason) - MAX_LISTED
+    return f"{records.records} records: {records.decoded} decoded, {records.skipped} skipped" + (
+        f" ({reasons}{f'; ... {more} more reasons' if more > 0 else ''})" if reasons else ""
+    )
+
+
+def report(
+    c: FrameCounts,
+    records: RecordCounts,
+    malformed: Sequence[Malformed],
+    damaged: Sequence[Skipped],
+) -> None:
+    """The accounting of a decoded CAN log on stderr: frames, records, boards."""
     err = sys.stderr
     print(
-        f"skinframes: {can_log.total} frames: {c.samples} skin samples ({c.sample_frames} frames), "
-        f"{c.other} not skin data, {c.error_frames} error frames, {c.orphan_heads} orphan heads, "
-        f"{c.orphan_tails} orphan tails, {c.malformed} malformed, {len(can_log.skipped)} skipped",
+        f"skinframes: {c.frames + records.damaged} frames: {c.samples} skin samples "
+        f"({c.sample_frames} frames), {c.other} not skin data, {c.error_frames} error frames, "
+        f"{c.orphan_heads} orphan heads, {c.orphan_tails} orphan tails, {c.malformed} "
+        f"malformed, {records.damaged} skipped",
         file=err,
     )
     if c.other_ids:
@@ -106,15 +161,32 @@ def _report(can_log: CanLog) -> None:
             + (f", ... {more} more" if more > 0 else ""),
             file=err,
         )
-    for m in can_log.malformed[:MAX_LISTED]:
+    for m in malformed[:MAX_LISTED]:
         print(
             f"skinframes: malformed skin frame {m.index} ({m.arbitration_id:#05x}): {m.reason}",
             file=err,
         )
-    if len(can_log.malformed) > MAX_LISTED:
-        print(f"skinframes: ... {len(can_log.malformed) - MAX_LISTED} more malformed", file=err)
-    for s in can_log.skipped:
+    if c.malformed > MAX_LISTED:
+        print(f"skinframes: ... {c.malformed - MAX_LISTED} more malformed", file=err)
+    for s in damaged[:MAX_LISTED]:
         print(f"skinframes: skipped record {s.index}: {s.reason}", file=err)
+    if records.damaged > MAX_LISTED:
+        print(f"skinframes: ... {records.damaged - MAX_LISTED} more skipped records", file=err)
+    print(f"skinframes: {_records_text(records)}", file=err)
+    for b in c.boards:
+        print(f"skinframes: {board_text(b, c.triangles)}", file=err)
+
+
+def board_text(b: BoardCounts, triangles: int) -> str:
+    """``board 14: 3 complete samples (16 triangles), 1 incomplete, 2 stray frames (0x4e0: 2)``."""
+    stray = ", ".join(f"{i.arbitration_id:#05x}: {i.count}" for i in b.stray[:MAX_LISTED])
+    more = len(b.stray) - MAX_LISTED
+    return (
+        f"board {b.board}{'' if b.skin_class == SKIN_CLASS else f' (class {b.skin_class})'}: "
+        f"{b.complete} complete samples ({triangles} triangles), {b.incomplete} incomplete, "
+        f"{b.stray_frames} stray frames"
+        + (f" ({stray}{f', ... {more} more' if more > 0 else ''})" if stray else "")
+    )
 
 
 SUBCOMMANDS: Final[tuple[Callable[[Any], None], ...]] = (add_decode, add_convert)

@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from typing import Any
 
 from emulator.model.params import PRESETS
@@ -14,6 +15,8 @@ def add_convert(sub: Any) -> None:
         "convert",
         help="carry a trace's skin samples over EPL or EtherCAT (pcap)",
         description="Every complete skin sample of the trace, in order, becomes one emulated cycle "
+        "(a cycle: one complete sample of each board; incomplete samples and stray frames are "
+        "left out and counted on stderr) "
         "on EPL (one CN per board, the board's taxels as PRes payload) or EtherCAT (one slave per "
         "board, its taxels in its datagram); the frames are timed by the emulator and written "
         "as a pcap. Boards are numbered in ascending address order (CN 1 / slave 0 = the lowest).",
@@ -34,15 +37,14 @@ def add_convert(sub: Any) -> None:
 
 def run_convert(args: argparse.Namespace) -> int:
     """Convert and report."""
-    from emulator.compare import samples_of
+    from emulator.compare import read_skin_samples
     from emulator.model.params import preset
     from emulator.net import simulate_ecat, simulate_epl
-    from skinframes.canbus.log import read_can_log
     from skinframes.errors import SkinframesError
 
     if args.target == "epl" and args.redundant:
         raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
-    s = samples_of(read_can_log(args.trace))
+    s = read_skin_samples(args.trace)
     params = preset(args.preset)
     n, size, cycles = len(s.boards), s.data_bytes, s.samples
     if args.target == "epl":
@@ -62,4 +64,6 @@ def run_convert(args: argparse.Namespace) -> int:
         f"{r.frames} frames, {r.protocol} {r.topology}, cycle {r.cycle_us()['median']:.2f} us "
         f"({args.preset} preset): {args.pcap}"
     )
+    if s.left_out.anything:
+        print(f"skinframes: {s.left_out.text()}", file=sys.stderr)
     return 0

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import json
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -44,11 +45,10 @@ def add_parser(sub: Any) -> None:
 
 def comparison(trace_path: str, preset_name: str) -> dict[str, Any]:
     """The comparison document for a trace file."""
-    from emulator.compare import compare, samples_of
+    from emulator.compare import compare, read_skin_samples
     from emulator.model.params import preset
-    from skinframes.canbus.log import read_can_log
 
-    return compare(samples_of(read_can_log(trace_path)), preset(preset_name))
+    return compare(read_skin_samples(trace_path), preset(preset_name))
 
 
 def _rows(doc: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
@@ -116,7 +116,13 @@ def plot(doc: dict[str, Any], out: Path) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     """Compare and report."""
-    doc = comparison(args.trace, args.preset)
+    from emulator.compare import compare, read_skin_samples
+    from emulator.model.params import preset
+
+    samples = read_skin_samples(args.trace)
+    doc = compare(samples, preset(args.preset))
+    if samples.left_out.anything:
+        print(f"skinframes: {samples.left_out.text()}", file=sys.stderr)
     if args.plot:
         plot(doc, Path(args.plot))
     if args.json:

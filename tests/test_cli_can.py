@@ -218,3 +218,48 @@ def test_decode_reports_socketcan_records_as_can(
     code, out, _ = run(["decode", str(path)], capsys)
     assert "CAN 4e0 data [8] 40 f0 f0" in out.splitlines()[0]
     assert "CAN 18ebff00 data [2] 01 02" in out.splitlines()[7]
+
+
+def test_can_decode_of_a_capture_without_can_records_says_so_once(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    path = Path(__file__).resolve().parent.parent / "pcaps" / "ecat_23_slaves.pcap"
+    code, out, err = run(["can", "decode", str(path)], capsys)
+    assert code == 2 and out == ""
+    line = one_error_line(err)
+    assert "no CAN frames" in line and "linktype 1 record, not SocketCAN" in line
+
+
+def test_can_decode_reports_records_and_boards(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from can_hand_log import hand_built_log
+
+    path = hand_built_log(tmp_path, ".asc")
+    code, out, err = run(["can", "decode", str(path)], capsys)
+    assert code == 0 and len(out.splitlines()) == 25
+    lines = err.splitlines()
+    header = 5 + 1  # date, base, internal events, Begin/End Triggerblock; Start of measurement
+    assert f"skinframes: {51 + header} records: 51 decoded, {header} skipped (" in err
+    assert lines[-3:] == [
+        "skinframes: board 10: 0 complete samples (4 triangles), 1 incomplete, 0 stray frames",
+        "skinframes: board 13: 2 complete samples (4 triangles), 1 incomplete, 1 stray frames"
+        " (0x4d2: 1)",
+        "skinframes: board 14: 3 complete samples (4 triangles), 0 incomplete, 2 stray frames"
+        " (0x4e1: 2)",
+    ]
+
+
+def test_decode_lines_are_formatted_as_json_dumps_and_the_text_layout() -> None:
+    from skinframes_cli.can import sample_json, sample_text
+
+    s = TimedSample(
+        1_234_567_891,
+        TriangleSample(14, 3, [0, 1, 255, 16, 9, 10, 11, 12, 13, 14, 15, 240], 0xABC, 7),
+        0,
+    )
+    assert sample_json(s) == json.dumps(s.to_json()) + "\n"
+    assert sample_text(s) == (
+        "       1.234567891  board 14 triangle  3  00 01 ff 10 09 0a 0b 0c 0d 0e 0f f0"
+        "  error 7 out_of_range 0xabc\n"
+    )

@@ -110,3 +110,45 @@ def test_compare_without_skin_data_is_one_error_line(
     assert main(["compare", str(path)]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("skinframes: error:")
+
+
+def test_convert_and_compare_keep_every_complete_sample_and_say_what_they_left_out(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from can_hand_log import TRIANGLES, hand_built_log, taxels_of
+
+    path = hand_built_log(tmp_path)
+    out = tmp_path / "hand.pcap"
+    assert main(["can", "convert", str(path), "--to", "ecat", "--pcap", str(out)]) == 0
+    captured = capsys.readouterr()
+    assert captured.out.startswith("3 samples of 2 boards (13, 14)")
+    (left,) = captured.err.splitlines()
+    assert left.startswith("skinframes: left out: 2 incomplete board samples; 3 stray skin frames")
+    assert "board 10: 1 incomplete, 0 stray" in left and "0x4e1: 2" in left
+    assert "not carried: 10" in left and "board 13: 1" in left
+    got = [
+        d.data
+        for rec in read_capture(out)
+        if (frame := decode_frame(rec.data)).src[0] & ethercat.RETURNED_MAC_BIT
+        and isinstance(frame.payload, ethercat.EcatFrame)
+        for d in frame.payload.datagrams
+    ]
+    no_load = bytes([taxel.NO_LOAD]) * (12 * TRIANGLES)
+    want = [
+        no_load
+        if (period, board) == (1, 13)
+        else b"".join(bytes(taxels_of(board, period, t)) for t in range(TRIANGLES))
+        for period in range(3)
+        for board in (13, 14)
+    ]
+    assert got == want
+    assert main(["compare", str(path), "--json"]) == 0
+    captured = capsys.readouterr()
+    doc = json.loads(captured.out)
+    assert doc["samples"] == 3 and doc["boards"] == [13, 14]
+    lo = doc["left_out"]
+    assert (lo["incomplete_samples"], lo["stray_frames"]) == (2, 3)
+    assert lo["boards_without_sample"] == [10]
+    assert lo["cycles_missing_board"] == {"13": 1}
+    assert [b["board"] for b in lo["boards"]] == [10, 13, 14]
+    assert captured.err.startswith("skinframes: left out:")

@@ -57,6 +57,8 @@ from skinframes.canbus.codec import OUT_OF_RANGE_BITS as OUT_OF_RANGE_BITS
 from skinframes.canbus.codec import TAIL_TAXELS as TAIL_TAXELS
 from skinframes.canbus.dbc import dbc_text
 from skinframes.canbus.reassembly import (
+    BoardCounts,
+    BoardSample,
     FrameCounts,
     IdCount,
     Malformed,
@@ -94,6 +96,8 @@ __all__ = [
     "SKIN_DLC",
     "SOCKETCAN_MTU",
     "TAIL_MARKER",
+    "BoardCounts",
+    "BoardSample",
     "CanFrame",
     "FrameCounts",
     "IdCount",

@@ -335,8 +335,18 @@ class TriangleSample:
     def _from_data(cls, arbitration_id: int, head: bytes, tail: bytes) -> TriangleSample:
         """The sample in the data of a head and a tail whose DLC and markers are checked (the
         fast path of :meth:`from_can` for :class:`~skinframes.canbus.Reassembler`)."""
-        skin_class, board, triangle = parse_skin_id(arbitration_id)
-        return cls(board, triangle, *_unpack(head, tail), skin_class)
+        if not 0 <= arbitration_id <= MAX_SFF_ID:
+            parse_skin_id(arbitration_id)  # raises
+        # every field comes from a bit field of its width or a byte: the checks of __init__ hold
+        sample = object.__new__(cls)
+        set_field = object.__setattr__
+        set_field(sample, "board", arbitration_id >> 4 & 0xF)
+        set_field(sample, "triangle", arbitration_id & 0xF)
+        set_field(sample, "taxels", tuple(head[1 : 1 + HEAD_TAXELS] + tail[1 : 1 + TAIL_TAXELS]))
+        set_field(sample, "out_of_range", tail[6] << 4 | tail[7] >> 4)
+        set_field(sample, "error", tail[7] & 0xF)
+        set_field(sample, "skin_class", arbitration_id >> 8)
+        return sample
 
 
 # --- fast path: the two frames as bytes, equal to the schemas (tested with hypothesis) -----------

@@ -32,13 +32,30 @@ traces. The old names stay as aliases: ``Trace`` = :class:`CanLog`, ``read_trace
 
 from __future__ import annotations
 
+import contextlib
+import gzip
+import io
+import itertools
 import logging
-from collections.abc import Collection, Iterable
+import zlib
+from collections import Counter
+from collections.abc import Collection, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Final
+from typing import IO, Any, Final, TextIO, cast
 
+from skinframes.atomic_file import atomic_path
 from skinframes.canbus.codec import SKIN_CLASS
+from skinframes.canbus.lines import (
+    ASC_NOT_A_LINE,
+    CANDUMP_NOT_A_LINE,
+    EMPTY,
+    DataTuple,
+    LineSkip,
+    LineTally,
+    parse_asc_file,
+    parse_candump_file,
+)
 from skinframes.canbus.reassembly import FrameCounts, Malformed, Reassembler, TimedSample
 from skinframes.canbus.wire import MAX_DATA_BYTES, MAX_DLC, CanFrame
 from skinframes.errors import (
@@ -54,6 +71,8 @@ __all__ = [
     "PYTHON_CAN_SUFFIXES",
     "TRACE_SUFFIXES",
     "CanLog",
+    "CanLogReader",
+    "RecordCounts",
     "Trace",
     "TraceFormatError",
     "UnsupportedFormatError",
@@ -94,7 +113,9 @@ class CanLog:
         samples: the skin samples reassembled from ``frames`` (see :class:`~skinframes.canbus.Reassembler`).
         counts: where each frame went; ``counts.frames == len(frames)``.
         malformed: frames with a skin identifier that were not skin data, with the reason.
-        skipped: what could not be read, with the reason (a damaged tail is one entry).
+        skipped: what could not be read, with the reason (a damaged tail is one entry; the
+            first :data:`MAX_LISTED_DAMAGE` damaged records).
+        records: every record of the file, decoded or skipped with its reason.
     """
 
     path: str
@@ -104,11 +125,14 @@ class CanLog:
     counts: FrameCounts
     malformed: tuple[Malformed, ...]
     skipped: tuple[Skipped, ...]
+    records: RecordCounts | None = None
 
     @property
     def total(self) -> int:
-        """Frames (records) found in the file: read + skipped."""
-        return self.counts.frames + len(self.skipped)
+        """Frames (records) found in the file: read + damaged (headers, comments and events
+        are not counted; :attr:`records` has every record)."""
+        damaged = len(self.skipped) if self.records is None else self.records.damaged
+        return self.counts.frames + damaged
 
 
 def can_log_format(path: str | Path) -> str:
@@ -195,18 +219,339 @@ def to_message(frame: CanFrame) -> Any:
 
 
 # --- reading ---------------------------------------------------------------------------------------
+MAX_LISTED_DAMAGE: Final = 1000  # damaged records kept with their index; the rest are counted
+
+
+@dataclass(frozen=True, slots=True)
+class RecordCounts:
+    """Where every record of a CAN log went: ``records == decoded + skipped``.
+
+    A record is a line of a text log (ASC, candump, TRC, CSV), an object of a BLF, a row of a
+    ``.db``, a record of a pcap.
+
+    Attributes:
+        records: records found in the file.
+        decoded: records that became a CAN frame.
+        skipped_by_reason: the others, ``(reason, count)``, most frequent first (a header, a
+            comment, an event line, a line that is not a frame, a pcap record of another link type).
+        damaged: how many of the skipped records are damage (not a header, comment, event or
+            empty line a log carries on purpose); the first ones are :attr:`CanLog.skipped`.
+    """
+
+    records: int = 0
+    decoded: int = 0
+    skipped_by_reason: tuple[tuple[str, int], ...] = ()
+    damaged: int = 0
+
+    @property
+    def skipped(self) -> int:
+        """Records that did not become a frame."""
+        return sum(n for _, n in self.skipped_by_reason)
+
+    def to_json(self) -> dict[str, Any]:
+        """``{"records", "decoded", "skipped", "skipped_by_reason": {reason: count}}``."""
+        return {
+            "records": self.records,
+            "decoded": self.decoded,
+            "skipped": self.skipped,
+            "skipped_by_reason": dict(self.skipped_by_reason),
+        }
+
+
+class CanLogReader:
+    """The frames of a CAN log file, read one record at a time (memory independent of its size).
+
+    Iterate once; the accounting is complete at the end (skipped records are counted as they
+    come): :attr:`record_counts` (every record decoded or skipped with a reason) and
+    :attr:`damaged` (the first :data:`MAX_LISTED_DAMAGE` damaged records with their index). ASC
+    and candump are read by :mod:`skinframes.canbus.lines`, the other python-can formats by
+    python-can's reader, pcaps by :func:`skinframes.pcap.read_capture`.
+
+    Raises (when iterated):
+        TraceFormatError: unknown suffix, unreadable file, or damaged before the first frame.
+    """
+
+    def __init__(self, path: str | Path) -> None:
+        self.path = str(path)
+        self.format = can_log_format(path)
+        self._records = 0
+        self._decoded = 0
+        self._reasons: Counter[str] = Counter()
+        self._damaged = 0
+        self.damaged: list[Skipped] = []
+        self._used = False
+
+    @property
+    def record_counts(self) -> RecordCounts:
+        """The accounting so far."""
+        return RecordCounts(
+            self._records,
+            self._decoded,
+            tuple(sorted(self._reasons.items(), key=lambda kv: (-kv[1], kv[0]))),
+            self._damaged,
+        )
+
+    def _skip(
+        self, index: int, reason: str, *, detail: str = "", damage: bool = True, count: int = 1
+    ) -> None:
+        """Count ``count`` records skipped for ``reason``; list damage with its ``detail``."""
+        self._reasons[reason] += count
+        self._records += count
+        if damage:
+            self._damaged += count
+            if len(self.damaged) < MAX_LISTED_DAMAGE:
+                text = f"{reason}: {detail}" if detail else reason
+                self.damaged.append(Skipped(index, text[:300]))
+
+    def __iter__(self) -> Iterator[CanFrame]:
+        for item in self.items():
+            yield item if isinstance(item, CanFrame) else _tuple_frame(item)
+
+    def items(self) -> Iterator[CanFrame | DataTuple]:
+        """The frames, plain 11-bit data frames left as :data:`~skinframes.canbus.lines.DataTuple`
+        (faster; :meth:`Reassembler.feed_data` takes them as they are)."""
+        for batch in self.batches():
+            yield from batch
+
+    def batches(self) -> Iterator[list[CanFrame | DataTuple]]:
+        """:meth:`items` in lists (a block of the file each): the fastest way through a log."""
+        if self._used:
+            raise TraceFormatError(f"{self.path}: a CanLogReader is read once")
+        self._used = True
+        base = self.format.removesuffix(".gz")
+        if base in PCAP_SUFFIXES:
+            return _batched(self._pcap())
+        if base in (".asc", ".log"):
+            return self._lines(base)
+        return _batched(self._python_can(base))
+
+    # ASC, candump: our line parsers
+    def _lines(self, base: str) -> Iterator[list[CanFrame | DataTuple]]:
+        skipped_before = self._records
+
+        def on_skip(index: int, skip: LineSkip) -> None:
+            self._skip(index, skip.reason, detail=skip.detail, damage=skip.damage)
+
+        tally = LineTally(on_skip)
+        with self._open_text() as text:
+            try:
+                if base == ".asc":
+                    yield from parse_asc_file(text, tally)
+                else:
+                    yield from parse_candump_file(text, tally)
+            except (OSError, EOFError, UnicodeDecodeError, zlib.error) as exc:
+                frames = tally.lines - (self._records - skipped_before)
+                if frames <= 0:
+                    raise TraceFormatError(
+                        f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
+                    ) from exc
+                self._count_frames(frames)
+                self._skip(
+                    self._records,
+                    f"reader stopped after {self._decoded} frames ({_describe(exc)}); "
+                    "rest of file unread",
+                )
+                return
+        self._count_frames(tally.lines - (self._records - skipped_before))
+        if self._decoded == 0 and self._damaged and not self._reasons.keys() - _DAMAGE_TEXT:
+            raise TraceFormatError(
+                f"{self.path}: not a readable {self.format} trace "
+                f"({self.damaged[0].reason if self.damaged else 'no frame'})"
+            )
+
+    def _count_frames(self, frames: int) -> None:
+        self._records += frames
+        self._decoded += frames
+
+    @contextlib.contextmanager
+    def _open_text(self) -> Iterator[IO[str]]:
+        try:
+            f = _open_text(self.path, self.format)
+        except OSError as exc:
+            raise TraceFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
+        with f:
+            yield f
+
+    # TRC, CSV, BLF, DB: python-can's readers, every line / object / row accounted
+    def _python_can(self, base: str) -> Iterator[CanFrame | DataTuple]:
+        import can  # python-can
+
+        lines: _CountingLines | None = None
+        reader: Any
+        try:
+            if base in (".trc", ".csv"):
+                lines = _CountingLines(_open_text(self.path, self.format), base)
+                reader = (can.TRCReader if base == ".trc" else can.CSVReader)(
+                    cast(TextIO, lines)  # a file for python-can: it only iterates and closes it
+                )
+            else:
+                reader = can.LogReader(self.path)
+        except OSError as exc:
+            raise TraceFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
+        except Exception as exc:  # python-can readers raise assorted types on bad headers
+            raise TraceFormatError(
+                f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
+            ) from exc
+        with reader:
+            try:
+                for msg in reader:
+                    if lines is not None:
+                        self._take_lines(lines, frame=True)
+                    self._records += 1
+                    self._decoded += 1
+                    yield from_message(msg)
+            except Exception as exc:  # ValueError, IndexError, struct.error, zlib, sqlite3 ...
+                if not self._decoded:
+                    raise TraceFormatError(
+                        f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
+                    ) from exc
+                if lines is not None:
+                    self._take_lines(lines, frame=False)
+                reason = (
+                    f"python-can's {self.format} reader stopped after {self._decoded} frames "
+                    f"({_describe(exc)}); rest of file unread"
+                )
+                self._skip(self._records, reason)
+                if lines is not None:
+                    self._drain(lines, "unread after python-can's reader stopped")
+            else:
+                if lines is not None:
+                    self._take_lines(lines, frame=False)
+            if base == ".blf":
+                self._blf_objects(reader)
+
+    def _take_lines(self, lines: _CountingLines, *, frame: bool) -> None:
+        """Account for the lines python-can consumed since the last frame."""
+        for reason, n in lines.benign.items():
+            self._skip(self._records, reason, damage=False, count=n)
+        lines.benign.clear()
+        others = lines.candidates - (1 if frame and lines.candidates else 0)
+        if others:  # TRC bus status lines, types python-can does not read: events, not damage
+            self._skip(
+                self._records,
+                f"{self.format.removesuffix('.gz')} line python-can reads as no frame "
+                "(status or unsupported type)",
+                damage=False,
+                count=others,
+            )
+        lines.candidates = 0
+
+    def _drain(self, lines: _CountingLines, reason: str) -> None:
+        try:
+            for _ in lines:
+                pass
+        except Exception:
+            pass
+        n = lines.candidates + sum(lines.benign.values())
+        if n:
+            self._skip(self._records, reason, damage=False, count=n)
+
+    def _blf_objects(self, reader: Any) -> None:
+        announced = getattr(reader, "file_size", None)
+        objects = getattr(reader, "object_count", None)
+        size = Path(self.path).stat().st_size
+        if isinstance(announced, int) and size < announced:
+            self._skip(
+                self._records,
+                f"truncated BLF: {size} of {announced} bytes; the header announces {objects} "
+                f"objects, {self._decoded} frames were read",
+            )
+        elif isinstance(objects, int) and objects > self._decoded:
+            self._skip(
+                self._records,
+                "BLF object that is not a CAN frame (python-can reads CAN, CAN FD and error "
+                "frames)",
+                damage=False,
+                count=objects - self._decoded,
+            )
+
+    # SocketCAN pcap
+    def _pcap(self) -> Iterator[CanFrame | DataTuple]:
+        capture = read_capture(self.path)  # raises PcapFormatError, a DecodeError
+        skipped = {s.index: s.reason for s in capture.skipped}
+        for rec in capture.records:
+            if rec.linktype != LINKTYPE_CAN_SOCKETCAN:
+                self._skip(rec.index, f"linktype {rec.linktype} record, not SocketCAN")
+                continue
+            try:
+                frame = CanFrame.from_socketcan(rec.data, rec.time_ns)
+            except DecodeError as exc:
+                self._skip(rec.index, str(exc))
+                continue
+            self._records += 1
+            self._decoded += 1
+            yield frame
+        for index, reason in sorted(skipped.items()):
+            self._skip(index, reason)
+        self.damaged.sort(key=lambda s: s.index)
+
+
+def _open_text(path: str, fmt: str) -> IO[str]:
+    """The text of a log (UTF-8), gunzipped when ``fmt`` ends in ``.gz``; the caller closes it."""
+    if fmt.endswith(".gz"):
+        return gzip.open(path, "rt", encoding="utf-8")
+    return open(path, encoding="utf-8")
+
+
+_DAMAGE_TEXT: Final = frozenset((ASC_NOT_A_LINE, CANDUMP_NOT_A_LINE, EMPTY))
+
+
+class _CountingLines:
+    """A text file for python-can's TRC/CSV readers that counts the lines they consume."""
+
+    def __init__(self, f: IO[str], base: str) -> None:
+        self._f = f
+        self._comment = ";" if base == ".trc" else None
+        self.benign: Counter[str] = Counter()
+        self.candidates = 0
+        self._first = base == ".csv"  # the CSV header line
+
+    def __iter__(self) -> Iterator[str]:
+        for line in self._f:
+            text = line.strip()
+            if not text:
+                self.benign[EMPTY] += 1
+            elif self._first or (self._comment and text.startswith(self._comment)):
+                self.benign["header or comment line"] += 1
+            else:
+                self.candidates += 1
+            self._first = False
+            yield line
+
+    def __next__(self) -> str:
+        return next(iter(self))
+
+    def readline(self) -> str:
+        return next(iter(self), "")
+
+    def close(self) -> None:
+        self._f.close()
+
+
+def _batched(items: Iterator[CanFrame | DataTuple]) -> Iterator[list[CanFrame | DataTuple]]:
+    while batch := list(itertools.islice(items, _BATCH_FRAMES)):
+        yield batch
+
+
+_BATCH_FRAMES: Final = 1024
+
+
+def _tuple_frame(item: DataTuple) -> CanFrame:
+    time_ns, ident, data, channel = item
+    return CanFrame(ident, data, time_ns=time_ns, channel=channel)
+
+
 def read_frames(path: str | Path) -> tuple[str, list[CanFrame], list[Skipped]]:
     """Every frame of a CAN log file, without interpretation: ``(format, frames, skipped)``.
+
+    ``skipped`` lists the damaged records (see :class:`CanLogReader`); the whole file is held.
 
     Raises:
         TraceFormatError: unknown suffix, unreadable file, or nothing readable.
     """
-    fmt = can_log_format(path)
-    if fmt.removesuffix(".gz") in PCAP_SUFFIXES:
-        frames, skipped = _read_pcap(path)
-    else:
-        frames, skipped = _read_python_can(path, fmt)
-    return fmt, frames, skipped
+    reader = CanLogReader(path)
+    frames = list(reader)
+    return reader.format, frames, reader.damaged
 
 
 def read_can_log(
@@ -215,7 +560,10 @@ def read_can_log(
     boards: Iterable[int] | None = None,
     skin_classes: Collection[int] = (SKIN_CLASS,),
 ) -> CanLog:
-    """Read a CAN log file and reassemble its skin samples.
+    """Read a CAN log file whole and reassemble its skin samples.
+
+    For long logs iterate a :class:`CanLogReader` into a
+    :class:`~skinframes.canbus.Reassembler` instead (``skinframes can decode`` does).
 
     Args:
         path: a CAN log in one of :data:`PYTHON_CAN_SUFFIXES` or :data:`PCAP_SUFFIXES` (text
@@ -227,79 +575,21 @@ def read_can_log(
     Raises:
         TraceFormatError: unknown suffix, unreadable file, or damaged before the first frame.
     """
-    fmt, frames, skipped = read_frames(path)
+    reader = CanLogReader(path)
     r = Reassembler(boards=boards, skin_classes=skin_classes)
+    frames = list(reader)
     samples = [s for s in map(r.feed, frames) if s is not None]
     counts = r.finish()
     return CanLog(
-        str(path), fmt, tuple(frames), tuple(samples), counts, r.malformed, tuple(skipped)
+        str(path),
+        reader.format,
+        tuple(frames),
+        tuple(samples),
+        counts,
+        r.malformed,
+        tuple(reader.damaged),
+        reader.record_counts,
     )
-
-
-def _read_pcap(path: str | Path) -> tuple[list[CanFrame], list[Skipped]]:
-    capture = read_capture(path)  # raises PcapFormatError, a DecodeError
-    frames: list[CanFrame] = []
-    skipped = list(capture.skipped)
-    for rec in capture.records:
-        if rec.linktype != LINKTYPE_CAN_SOCKETCAN:
-            skipped.append(Skipped(rec.index, f"linktype {rec.linktype} record, not SocketCAN"))
-            continue
-        try:
-            frames.append(CanFrame.from_socketcan(rec.data, rec.time_ns))
-        except DecodeError as exc:
-            skipped.append(Skipped(rec.index, str(exc)))
-    skipped.sort(key=lambda s: s.index)
-    return frames, skipped
-
-
-def _read_python_can(path: str | Path, fmt: str) -> tuple[list[CanFrame], list[Skipped]]:
-    import can  # python-can
-
-    frames: list[CanFrame] = []
-    skipped: list[Skipped] = []
-    try:
-        reader = can.LogReader(str(path))
-    except OSError as exc:
-        raise TraceFormatError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-    except Exception as exc:  # python-can readers raise assorted types on bad headers
-        raise TraceFormatError(f"{path}: not a readable {fmt} trace ({_describe(exc)})") from exc
-    with reader:
-        try:
-            for msg in reader:
-                frames.append(from_message(msg))
-        except Exception as exc:  # ValueError, IndexError, struct.error, zlib/gzip, sqlite3 ...
-            if not frames:
-                raise TraceFormatError(
-                    f"{path}: not a readable {fmt} trace ({_describe(exc)})"
-                ) from exc
-            skipped.append(
-                Skipped(
-                    len(frames),
-                    f"python-can's {fmt} reader stopped after {len(frames)} frames "
-                    f"({_describe(exc)}); rest of file unread",
-                )
-            )
-        if fmt == ".blf":
-            skipped.extend(_blf_damage(path, reader, len(frames)))
-    return frames, skipped
-
-
-def _blf_damage(path: str | Path, reader: Any, read: int) -> list[Skipped]:
-    """A BLF shorter than its header's file size lost objects at the end (python-can is silent)."""
-    announced = getattr(reader, "file_size", None)
-    if not isinstance(announced, int):
-        return []
-    size = Path(path).stat().st_size
-    if size >= announced:
-        return []
-    objects = getattr(reader, "object_count", None)
-    return [
-        Skipped(
-            read,
-            f"truncated BLF: {size} of {announced} bytes; the header announces {objects} "
-            f"objects, {read} frames were read",
-        )
-    ]
 
 
 def _describe(exc: BaseException) -> str:
@@ -310,11 +600,15 @@ def _describe(exc: BaseException) -> str:
 def write_can_log(path: str | Path, frames: Iterable[CanFrame], *, strict: bool = True) -> int:
     """Write ``frames`` (in the given order) to a CAN log file; the format follows the suffix.
 
-    python-can formats go through ``can.Logger`` with messages created by :func:`to_message`;
+    python-can formats go through python-can's writer for the suffix with messages created by
+    :func:`to_message`; ``.db`` is python-can's SQLite table (``messages``, the columns of its
+    ``SqliteWriter``), written here row for row (python-can's threaded writer loses rows);
     ``.pcap`` is a nanosecond SocketCAN pcap (LINKTYPE 227) from :class:`~skinframes.pcap.PcapWriter`.
+    The file is written beside ``path`` and renamed into place when complete
+    (:mod:`skinframes.atomic_file`): a refused or interrupted write leaves a previous file as it was.
 
     Args:
-        path: the file to create (overwritten).
+        path: the file to create or replace; its folder must exist.
         frames: the frames; ``time_ns`` >= 0.
         strict: refuse frames the format cannot store as given (``.trc``: CAN FD, remote and error
             frames; ``.log``: the DLC of a remote frame; ``.csv``/``.db``: the CAN FD flag). With
@@ -327,38 +621,111 @@ def write_can_log(path: str | Path, frames: Iterable[CanFrame], *, strict: bool 
         UnsupportedFormatError: an unknown or read-only suffix (``.pcapng``), or (strict) a frame
             the format would lose.
         FieldRangeError: a frame python-can or SocketCAN cannot hold.
+        CaptureError: ``path`` is refused (a symbolic link, a directory, a missing folder).
     """
     try:
         fmt = can_log_format(path)
     except TraceFormatError as exc:
         raise UnsupportedFormatError(str(exc)) from None
     base = fmt.removesuffix(".gz")
-    if base in PCAP_SUFFIXES:
-        if fmt != ".pcap":
-            raise UnsupportedFormatError(f"{path}: skinframes writes SocketCAN captures as .pcap")
-        with PcapWriter(path, LINKTYPE_CAN_SOCKETCAN) as w:
-            for f in frames:
-                w.write(f.time_ns, f.to_socketcan())
-            return w.count
+    if base in PCAP_SUFFIXES and fmt != ".pcap":
+        raise UnsupportedFormatError(f"{path}: skinframes writes SocketCAN captures as .pcap")
+    with atomic_path(path) as tmp:
+        if base in PCAP_SUFFIXES:
+            with PcapWriter(tmp, LINKTYPE_CAN_SOCKETCAN) as w:
+                for f in frames:
+                    w.write(f.time_ns, f.to_socketcan())
+                return w.count
+        messages = _messages(path, fmt, frames, strict)
+        if base == ".db":
+            return _write_db(tmp, messages)
+        return _write_python_can(tmp, Path(path).name, fmt, messages)
+
+
+def _messages(
+    path: str | Path, fmt: str, frames: Iterable[CanFrame], strict: bool
+) -> Iterator[Any]:
+    """python-can messages of ``frames``, lossy frames refused (strict) or left out (.trc)."""
+    base = fmt.removesuffix(".gz")
     lossy = _LOSSY.get(base, ())
+    for index, f in enumerate(frames):
+        loss = _loss(f, lossy)
+        if loss and strict:
+            raise UnsupportedFormatError(
+                f"{path}: frame {index} ({loss}) cannot be stored in {fmt} by python-can; "
+                "pass strict=False to write it anyway"
+            )
+        if loss and base == ".trc":
+            continue  # TRCWriter would drop it with a log line
+        msg = to_message(f)
+        if base == ".blf":  # BLFWriter truncates int((t - start) * 1e9): nudge by 0.5 ns
+            msg.timestamp += 0.5 / NS_PER_S
+        yield msg
+
+
+_WRITERS: Final = {  # python-can's writer class per suffix, and whether it writes text
+    ".asc": ("ASCWriter", True),
+    ".blf": ("BLFWriter", False),
+    ".csv": ("CSVWriter", True),
+    ".log": ("CanutilsLogWriter", True),
+    ".trc": ("TRCWriter", True),
+}
+_DB_TABLE: Final = "messages"  # python-can's SqliteWriter/SqliteReader default table
+_DB_BATCH: Final = 10_000
+
+
+def _write_python_can(tmp: Path, name: str, fmt: str, messages: Iterator[Any]) -> int:
+    """python-can's writer for ``fmt`` into the open temporary file (gzip as can.Logger does)."""
     import can  # python-can
 
+    cls_name, text = _WRITERS[fmt.removesuffix(".gz")]
     written = 0
-    with can.Logger(str(path)) as out:
-        for index, f in enumerate(frames):
-            loss = _loss(f, lossy)
-            if loss and strict:
-                raise UnsupportedFormatError(
-                    f"{path}: frame {index} ({loss}) cannot be stored in {fmt} by python-can; "
-                    "pass strict=False to write it anyway"
-                )
-            if loss and base == ".trc":
-                continue  # TRCWriter would drop it with a log line
-            msg = to_message(f)
-            if base == ".blf":  # BLFWriter truncates int((t - start) * 1e9): nudge by 0.5 ns
-                msg.timestamp += 0.5 / NS_PER_S
-            out.on_message_received(msg)
-            written += 1
+    with open(tmp, "wb") as raw:
+        stream = cast(
+            IO[bytes],
+            gzip.GzipFile(filename=name, mode="wb", fileobj=raw) if fmt.endswith(".gz") else raw,
+        )
+        out: IO[Any] = io.TextIOWrapper(stream, encoding="utf-8") if text else stream
+        writer = getattr(can, cls_name)(out)
+        try:
+            for msg in messages:
+                writer.on_message_received(msg)
+                written += 1
+        finally:
+            writer.stop()  # writes the BLF header and closes `out` (and the gzip stream)
+    return written
+
+
+def _write_db(tmp: Path, messages: Iterator[Any]) -> int:
+    """python-can's SQLite layout (``SqliteWriter``: one row per message, same columns and
+    values), every row, committed once."""
+    import sqlite3
+
+    written = 0
+    conn = sqlite3.connect(tmp)
+    try:
+        conn.execute(
+            f"CREATE TABLE {_DB_TABLE} (ts REAL, arbitration_id INTEGER, extended INTEGER, "
+            "remote INTEGER, error INTEGER, dlc INTEGER, data BLOB)"
+        )
+        insert = f"INSERT INTO {_DB_TABLE} VALUES (?, ?, ?, ?, ?, ?, ?)"
+        while batch := [
+            (
+                m.timestamp,
+                m.arbitration_id,
+                m.is_extended_id,
+                m.is_remote_frame,
+                m.is_error_frame,
+                m.dlc,
+                memoryview(m.data),
+            )
+            for m in itertools.islice(messages, _DB_BATCH)
+        ]:
+            conn.executemany(insert, batch)
+            written += len(batch)
+        conn.commit()
+    finally:
+        conn.close()
     return written
 
 

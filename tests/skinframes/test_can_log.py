@@ -198,16 +198,22 @@ def _skin_file(tmp_path: Path, suffix: str) -> Path:
     return path
 
 
-def test_junk_line_stops_the_reader_and_is_reported(tmp_path: Path) -> None:
+def test_junk_line_is_skipped_with_its_reason_and_reading_goes_on(tmp_path: Path) -> None:
     path = _skin_file(tmp_path, ".log")
     lines = path.read_text().splitlines()
     path.write_text("\n".join([*lines[:10], "this is not candump", *lines[10:]]) + "\n")
     can_log = read_can_log(path)
-    assert can_log.counts.frames == 10 and can_log.counts.samples == 5
+    assert can_log.counts.frames == 96 and can_log.counts.samples == 48
     (skipped,) = can_log.skipped
-    assert skipped.index == 10 and "stopped after 10 frames" in skipped.reason
-    assert can_log.total == 11
-    path.write_text("this is not candump\n" + "\n".join(lines) + "\n")
+    assert skipped.index == 10 and "not a candump line" in skipped.reason
+    assert can_log.total == 97
+    assert can_log.records is not None
+    assert (can_log.records.records, can_log.records.decoded, can_log.records.skipped) == (
+        97,
+        96,
+        1,
+    )
+    path.write_text("this is not candump\nnor this\n")
     with pytest.raises(TraceFormatError, match=r"not a readable \.log trace"):
         read_can_log(path)
 
