@@ -10,8 +10,9 @@ from typing import Any
 from emulator.model.paper_tables import FIGURE_MAX_NODES
 from emulator.model.params import PRESETS
 from skinframes import taxel
-from skinframes.atomic_file import atomic_path
+from skinframes.atomic_file import atomic_path, check_target
 from skinframes.errors import SkinframesError
+from skinframes_cli.options import bounded_int, out_path
 
 PAYLOADS = (2, 32, 128, 192, 256)
 PANELS = (
@@ -31,9 +32,16 @@ def add_parser(sub: Any) -> None:
         "EtherCAT) for several payloads: the analytic model as lines, the emulator as markers, "
         "and the paper's printed table cells.",
     )
-    p.add_argument("--out", default="cycle_time.png", help="output file, .png or .svg")
+    p.add_argument(
+        "--out", type=out_path, default="cycle_time.png", help="output file, .png or .svg"
+    )
     p.add_argument("--preset", choices=list(PRESETS), default="paper")
-    p.add_argument("--step", type=int, default=20, help="nodes between emulated points")
+    p.add_argument(
+        "--step",
+        type=bounded_int(1, max(FIGURE_MAX_NODES.values())),
+        default=20,
+        help="nodes between emulated points, 1..240 (default 20)",
+    )
     p.set_defaults(run=run)
 
 
@@ -55,6 +63,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
         raise SkinframesError(f"{out}: the plot is written as .png or .svg")
     if step < 1:
         raise SkinframesError("--step must be >= 1")
+    check_target(out)  # a refused path or a missing folder fails now, not after the work
     params = preset(preset_name)
     fig, axes = plt.subplots(1, 3, figsize=(16, 5.2), constrained_layout=True)
     points = [
@@ -75,8 +84,10 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
             else:
                 y = analytic.ecat_cycle_us(nodes, b, params, redundant=table == "ecat_redundant")
             ax.plot(nodes, np.asarray(y) / 1000, color=color, lw=1.5, label=f"{b} B analytic")
-            en, ey = zip(*emulated[(table, b)], strict=True)
-            ax.plot(en, np.asarray(ey) / 1000, "o", color=color, ms=4, mfc="none")
+            points_tb = emulated.get((table, b), [])  # none when --step exceeds this panel
+            if points_tb:
+                en, ey = zip(*points_tb, strict=True)
+                ax.plot(en, np.asarray(ey) / 1000, "o", color=color, ms=4, mfc="none")
         if preset_name == "paper":
             px = [(n, paper_value(table, n, b)) for n in NODES for b in BYTES]
             ax.plot(

@@ -12,7 +12,10 @@ from emulator.model.cycle_time import MODELS
 from emulator.model.paper_tables import paper_value
 from emulator.model.params import PRESETS, preset
 from emulator.model.tables import Cell, cycle_tables
-from skinframes_cli.options import int_list
+from skinframes_cli.options import int_list, int_list_in
+
+MAX_NODES = 65535  # the largest EtherCAT chain (16-bit position address); EPL stops at 239
+MAX_BYTES = 65535
 
 TITLES = {
     "epl": "Table I: Ethernet POWERLINK cycle time [us]",
@@ -44,13 +47,13 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--nodes",
-        type=int_list,
+        type=int_list_in(1, MAX_NODES),
         default=int_list("130:200:10"),
         help="start:stop:step (stop inclusive) or comma list (default: 130:200:10)",
     )
     p.add_argument(
         "--bytes",
-        type=int_list,
+        type=int_list_in(0, MAX_BYTES),
         default=int_list("2,32,128,256"),
         help="payload bytes per node, same syntax (default: 2,32,128,256)",
     )

@@ -339,3 +339,112 @@ def test_module_entry_point() -> None:
     )
     assert result.returncode == 2 and result.stdout == ""
     assert_one_error_line(result.stderr)
+
+
+# --- atomic output under signals (issue 11, Build 2) -----------------------------------------------
+def _temp_files(folder: Path) -> list[Path]:
+    return [p for p in folder.iterdir() if p.name.startswith(".") and p.name.endswith(".tmp")]
+
+
+@pytest.mark.parametrize(("sig", "code"), [("SIGINT", 130), ("SIGTERM", 143)])
+def test_signal_halfway_keeps_the_previous_pcap(tmp_path: Path, sig: str, code: int) -> None:
+    """A run killed while writing leaves the previous file byte-identical and no temporary file."""
+    import os
+    import signal
+    import time
+
+    target = tmp_path / "x.pcap"
+    previous = [sys.executable, "-m", "skinframes", "simulate", "ecat", "--nodes", "4"]
+    previous += ["--bytes", "8", "--cycles", "2", "--pcap", str(target)]
+    subprocess.run(previous, check=True, capture_output=True, timeout=300, cwd=ROOT)
+    before = target.read_bytes()
+    assert before[:4] == struct.pack("<I", 0xA1B23C4D)
+    argv = [sys.executable, "-m", "skinframes", "simulate", "ecat", "--nodes", "160"]
+    argv += ["--bytes", "192", "--cycles", "10000", "--pcap", str(target)]
+    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        grown = False
+        while proc.poll() is None and not grown:  # poll the temporary file, not the clock
+            grown = any(p.stat().st_size > 1 << 20 for p in _temp_files(tmp_path))
+            time.sleep(0.01)
+        assert grown, "the run ended before its temporary file grew"
+        proc.send_signal(getattr(signal, sig))
+        _out, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == code, err
+    lines = err.decode().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("skinframes: "), lines
+    assert "Traceback" not in err.decode()
+    assert target.read_bytes() == before
+    assert _temp_files(tmp_path) == []
+
+
+def test_demo_writes_only_its_own_files_and_no_picture_with_no_plot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from skinframes_cli.demo import MANIFEST, output_names
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    assert main(["demo", "--out", str(out), "--no-plot"]) == 0
+    capsys.readouterr()
+    written = {p.name for p in out.iterdir()}
+    assert written == {"notes.txt", MANIFEST, *output_names(plots=False)}
+    assert not any(name.endswith((".png", ".svg")) for name in written)
+    assert (out / "notes.txt").read_text() == "mine"
+    listed = (out / MANIFEST).read_text().splitlines()[1:]
+    assert sorted(listed) == sorted(output_names(plots=False))
+
+
+@pytest.mark.parametrize("kind", ["foreign", "symlink", "symlink-out"])
+def test_demo_refuses_a_file_it_did_not_write(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], kind: str
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    elsewhere = tmp_path / "elsewhere.txt"
+    elsewhere.write_text("keep")
+    victim = out / "skin_can.asc"
+    if kind == "foreign":
+        victim.write_text("a trace of my own")
+    elif kind == "symlink":
+        victim.symlink_to(elsewhere)
+    else:
+        victim = out / "epl_160x192_paper.pcap"
+        victim.symlink_to(elsewhere)
+    code, stdout, err = run(["demo", "--out", str(out), "--no-plot"], capsys)
+    assert code == 2 and stdout == ""
+    assert_one_error_line(err)
+    assert str(victim) in err
+    assert elsewhere.read_text() == "keep"
+    assert {p.name for p in out.iterdir()} == {victim.name}  # nothing written, not even a list
+
+
+def test_demo_force_replaces_links_never_their_targets(tmp_path: Path) -> None:
+    from skinframes_cli.demo import MANIFEST, prepare_out
+
+    out = tmp_path / "out"
+    out.mkdir()
+    elsewhere = tmp_path / "elsewhere.txt"
+    elsewhere.write_text("keep")
+    (out / "a.pcap").symlink_to(elsewhere)
+    (out / "b.pcap").write_text("foreign")
+    prepare_out(out, ["a.pcap", "b.pcap"], force=True)
+    assert not (out / "a.pcap").exists() and elsewhere.read_text() == "keep"
+    assert (out / MANIFEST).read_text().splitlines()[1:] == ["a.pcap", "b.pcap"]
+    # what demo wrote before may be replaced without --force
+    (out / "a.pcap").write_text("from demo")
+    prepare_out(out, ["a.pcap"], force=False)
+
+
+def test_demo_out_needs_an_existing_parent(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, _, err = run(["demo", "--out", str(tmp_path / "no" / "such"), "--no-plot"], capsys)
+    assert code == 2
+    assert_one_error_line(err)
+    assert not (tmp_path / "no").exists()
