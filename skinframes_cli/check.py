@@ -9,7 +9,8 @@ from typing import Any
 
 from skinframes.check import check_capture
 from skinframes.findings import Severity
-from skinframes.pcap import read_capture
+from skinframes.text import escape
+from skinframes_cli.decode import open_capture
 
 
 def add_parser(sub: Any) -> None:
@@ -21,7 +22,7 @@ def add_parser(sub: Any) -> None:
         "size and length fields, the datagram chain, padding, node ids and the EPL cycle order. "
         "Exit status 1 when any finding is an error.",
     )
-    p.add_argument("path", help="capture file (pcap, pcapng, gzip)")
+    p.add_argument("path", help="capture file (pcap, pcapng, gzip); - for standard input")
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.add_argument(
         "--min-severity",
@@ -33,21 +34,30 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Check and report."""
-    report = check_capture(read_capture(args.path))
+    """Check and report; the exit status survives a reader that leaves (``| head -1``)."""
+    report = check_capture(open_capture(args.path))
     floor = Severity[args.min_severity.upper()]
-    if args.json:
-        print(json.dumps(report.to_json(floor), indent=2))
-    else:
-        for f in report.at_least(floor):
-            print(
-                f"record {f.index:>6}  {f.finding.severity!s:<7} {f.finding.code:<22} "
-                f"{f.finding.message}"
-            )
+    status = 1 if report.errors else 0
+    try:
+        if args.json:
+            print(json.dumps(report.to_json(floor), indent=2))
+        else:
+            for f in report.at_least(floor):
+                where = f"frame {f.frame:>6}" if f.index >= 0 else "file        "
+                print(
+                    f"{where}  {f.finding.severity!s:<7} {f.finding.code:<22} "
+                    f"{escape(f.finding.message)}"
+                )
+        sys.stdout.flush()
+    except BrokenPipeError:
+        from skinframes_cli import _quiet_stdout
+
+        _quiet_stdout()
+    if not args.json:
         counts = ", ".join(f"{k} {v}" for k, v in sorted(report.counts.items()))
         print(
-            f"{report.path}: {report.total} records ({counts}): "
+            f"{escape(report.path)}: {report.total} records ({counts}): "
             f"{report.errors} errors, {report.warnings} warnings",
             file=sys.stderr,
         )
-    return 1 if report.errors else 0
+    return status

@@ -80,8 +80,8 @@ def test_decode_text(name: str, capsys: pytest.CaptureFixture[str]) -> None:
     lines = out.splitlines()
     assert len(lines) == GOLDEN[name]
     for i, line in enumerate(lines):
-        index, seconds, length = line.split()[:3]
-        assert int(index) == i
+        word, frame, seconds, length = line.split()[:4]
+        assert (word, int(frame)) == ("frame", i + 1)  # Wireshark's frame.number, from 1
         assert float(seconds) == pytest.approx(i * 10e-6, abs=1e-9)
         assert int(length) >= 60
     assert err.splitlines() == [
@@ -175,7 +175,8 @@ def test_decode_damaged_capture_prints_the_good_records(
     code, out, err = run(["decode", "--json", str(path)], capsys)
     assert code == 0
     assert [o["index"] for o in _json_lines(out)] == list(range(9))
-    assert "skipped record 9" in err
+    assert [o["frame"] for o in _json_lines(out)] == list(range(1, 10))
+    assert "skipped frame 10" in err
     assert err.splitlines()[-1] == "skinframes: 10 records: 9 decoded, 1 skipped"
     assert "Traceback" not in err
     # check calls the lost record an error
@@ -209,15 +210,15 @@ def test_check_error_exit_1(capture_with_error: Path, capsys: pytest.CaptureFixt
     code, out, err = run(["check", str(capture_with_error)], capsys)
     assert code == 1
     assert len(out.splitlines()) == 1 and "error" in out  # the finding, on record 2
-    assert out.split()[:2] == ["record", "2"]
+    assert out.split()[:2] == ["frame", "3"]  # index 2 is Wireshark's frame 3
     assert err.splitlines()[-1].endswith(": 1 errors, 0 warnings")
     code, out, err = run(["check", "--json", str(capture_with_error)], capsys)
     assert code == 1
     doc = json.loads(out)
     assert doc["errors"] == 1 and doc["records"] == 4
     (finding,) = doc["findings"]
-    assert finding["index"] == 2 and finding["severity"] == "error"
-    assert finding.keys() == {"index", "severity", "code", "message"}
+    assert finding["index"] == 2 and finding["frame"] == 3 and finding["severity"] == "error"
+    assert finding.keys() == {"index", "frame", "severity", "code", "message"}
 
 
 def test_check_min_severity_hides_but_keeps_the_exit_code(

@@ -112,7 +112,10 @@ def test_golden_pcaps_are_clean(name: str) -> None:
 
 
 def test_non_ethernet_records_and_short_records() -> None:
+    # a legal SocketCAN record (id 0, len 0, 8 padding bytes) is counted as "can" and is clean
     report = check([b"\x00" * 16], linktype=LINKTYPE_CAN_SOCKETCAN)
+    assert report.counts == Counter({"can": 1}) and report.findings == []
+    report = check([b"\x00" * 16], linktype=147)  # LINKTYPE_USER0: not ours to judge
     assert report.counts == Counter({"other": 1}) and report.findings == []
     report = check([epl(SoC()), b"\x01\x02\x03"])  # 3 bytes: not even an Ethernet header
     assert found(report, Severity.ERROR) == [(1, "eth.truncated")]
