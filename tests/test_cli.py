@@ -449,3 +449,69 @@ def test_demo_out_needs_an_existing_parent(
     assert code == 2
     assert_one_error_line(err)
     assert not (tmp_path / "no").exists()
+
+
+# --- streams, pipes and untrusted names (issue 11, Builds 3, 6, 7) ---------------------------------
+def many_errors(tmp_path: Path, count: int = 3000) -> Path:
+    """A capture whose every frame is a PRes in the asynchronous phase: one error each."""
+    frames = [epl_bytes(SoA())] + [epl_bytes(PRes(src=1))] * count
+    path = tmp_path / "errors.pcap"
+    path.write_bytes(pcap_bytes([(i * 1000, f) for i, f in enumerate(frames)]))
+    return path
+
+
+def test_check_keeps_exit_1_through_a_closed_pipe(tmp_path: Path) -> None:
+    path = many_errors(tmp_path)  # ~300 kB of findings: more than a pipe holds
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "skinframes", "check", str(path)],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=ROOT,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    first = proc.stdout.readline()  # `| head -1`
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=300) == 1
+    assert first.startswith(b"frame      2  error")
+    assert "BrokenPipe" not in err and "Traceback" not in err and "Exception" not in err
+
+
+def test_decode_and_check_read_standard_input() -> None:
+    raw = (PCAPS / "epl_cycle_4cn.pcap").read_bytes()
+    for cmd, code in (("decode", 0), ("check", 0)):
+        result = subprocess.run(
+            [sys.executable, "-m", "skinframes", cmd, "-"],
+            input=raw,
+            capture_output=True,
+            timeout=300,
+            check=False,
+            cwd=ROOT,
+        )
+        assert result.returncode == code, result.stderr
+        if cmd == "decode":
+            assert len(result.stdout.splitlines()) == 10
+            assert result.stdout.split()[:2] == [b"frame", b"1"]
+
+
+@pytest.mark.parametrize("kind", ["device", "fifo", "newline-name"])
+def test_special_inputs_end_with_one_error_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], kind: str
+) -> None:
+    import os
+
+    if kind == "device":
+        path = "/dev/zero"
+    elif kind == "fifo":
+        path = str(tmp_path / "fifo")
+        os.mkfifo(path)
+    else:  # a name that tries to forge a second line and recolour the terminal
+        path = str(tmp_path / "x\nskinframes: error: forged\x1b[31m.pcap")
+        Path(path).write_bytes(b"not a capture at all")
+    for cmd in ("decode", "check"):
+        code, out, err = run([cmd, path], capsys)
+        assert code == 2 and out == ""
+        assert_one_error_line(err)
+        assert "\x1b" not in err
+    if kind == "newline-name":
+        assert "x\\nskinframes: error: forged\\x1b[31m.pcap" in err
