@@ -12,6 +12,7 @@ from emulator.model.params import PRESETS
 from skinframes import taxel
 from skinframes.atomic_file import atomic_path, check_target
 from skinframes.errors import SkinframesError
+from skinframes.text import escape
 from skinframes_cli.options import bounded_int, out_path
 
 PAYLOADS = (2, 32, 128, 192, 256)
@@ -120,5 +121,5 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
 def run(args: argparse.Namespace) -> int:
     """Draw and report the file."""
     path = make_plot(Path(args.out), args.preset, args.step)
-    print(f"wrote {path}")
+    print(f"wrote {escape(path)}")
     return 0

@@ -189,5 +189,5 @@ def run(args: argparse.Namespace) -> int:
         for line in result.diagnosis:
             print(f"  diagnosis: {line}")
     if result.pcap:
-        print(f"  pcap: {result.pcap}")
+        print(f"  pcap: {escape(result.pcap)}")
     return 0
