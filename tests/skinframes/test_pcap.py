@@ -829,17 +829,17 @@ MAX_RSS_BYTES = 256 * 1024 * 1024
 
 
 def write_big_pcap(path: Path, size_bytes: int) -> int:
-    """A clean capture of about ``size_bytes``: golden EPL and EtherCAT frames, 1 ms apart."""
-    from skinframes import golden
+    """A clean capture of about ``size_bytes``: the benchmark's generator (golden frames, 1 ms
+    apart), loaded from benchmarks/bench_capture_memory.py so both measure the same file."""
+    import importlib.util
 
-    frames = [f for name in ("ecat_lrd_7x192", "epl_cycle_4cn") for _, f in golden.build(name)]
-    count = written = 0
-    with PcapWriter(path) as w:
-        while written < size_bytes:
-            f = frames[count % len(frames)]
-            w.write(count * 1_000_000, f)
-            count += 1
-            written += 16 + len(f)
+    spec = importlib.util.spec_from_file_location(
+        "bench_capture_memory", ROOT / "benchmarks" / "bench_capture_memory.py"
+    )
+    assert spec is not None and spec.loader is not None
+    bench = importlib.util.module_from_spec(spec)
+    spec.loader.exec_module(bench)
+    count: int = bench.write_capture(path, size_bytes)
     return count
 
 
