@@ -571,10 +571,11 @@ class _Source:
 
     def _block_body(self, e: str, total: int, read: int, where: int, what: str) -> bytes:
         """The rest of a block after its first ``read`` bytes, trailing length checked."""
-        if total < 12 or total % 4 or total > MAX_BLOCK_BYTES:
+        least = max(12, read + 4)  # a section header has read its byte-order magic already
+        if total < least or total % 4 or total > MAX_BLOCK_BYTES:
             why = (
-                "less than 12"
-                if total < 12
+                f"less than {least}"
+                if total < least
                 else "not a multiple of 4"
                 if total % 4
                 else f"more than {MAX_BLOCK_BYTES}"

@@ -441,6 +441,8 @@ def test_truncated_real_capture_keeps_what_tshark_keeps(
         pcap_file([(0, 0, eth_frame(1))], major=3),  # unknown major version
         ng_shb()[:20],  # pcapng magic, truncated section header
         b"\x0a\x0d\x0d\x0a" + bytes(40),  # pcapng magic, no byte-order magic
+        # a section header claiming 12 bytes: it holds its byte-order magic and no more (fuzzing)
+        b"\x0a\x0d\x0d\x0a" + struct.pack("<II", 12, 0x1A2B3C4D) + bytes(20),
         gzip.compress(b"not a capture"),
         gzip.compress(b""),
         gzip.compress(pcap_file([]))[:8],  # gzip header cut short: nothing decompresses
