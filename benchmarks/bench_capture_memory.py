@@ -3,7 +3,9 @@
 issue 11, Build 3: readers stream, so peak RSS stays <= 256 MB however large the capture.
 Writes a clean pcap of golden EPL and EtherCAT frames (1 ms apart) of about ``--bytes`` into a
 temporary folder, runs each reader in a child process and reports its peak RSS (``wait4``) and
-the seconds until its first line on stdout (``decode``). Run from the repository root::
+the seconds until its first line on stdout (``decode``). Peak RSS is the child's own ``VmHWM``
+(``/proc/self/status``, reset by exec): ``wait4``'s ``ru_maxrss`` would also count the parent's
+pages from before the exec. Run from the repository root::
 
     python benchmarks/bench_capture_memory.py                 # 300 MB
     python benchmarks/bench_capture_memory.py --bytes 2e9     # the issue's 2 GB case
@@ -26,7 +28,24 @@ from skinframes import golden  # noqa: E402
 from skinframes.pcap import PcapWriter  # noqa: E402
 
 LIMIT_BYTES = 256 * 1024 * 1024
-ITERATE = "import sys; from skinframes import read_capture\nprint(sum(1 for _ in read_capture(sys.argv[1])))"
+# run one reader, then report the process's peak RSS on stderr's last line
+CHILD = """
+import sys
+from skinframes import read_capture
+from skinframes_cli import main
+kind, path = sys.argv[1], sys.argv[2]
+if kind == "iterate":
+    print(sum(1 for _ in read_capture(path)))
+    code = 0
+else:
+    code = main([kind, path])
+    sys.stdout.flush()
+with open("/proc/self/status") as f:
+    hwm_kib = next(line.split()[1] for line in f if line.startswith("VmHWM"))
+sys.stderr.write(f"\\nVmHWM {hwm_kib}\\n")
+raise SystemExit(code)
+"""
+READERS = ("check", "decode", "iterate")
 
 
 def write_capture(path: Path, size_bytes: int) -> int:
@@ -42,18 +61,29 @@ def write_capture(path: Path, size_bytes: int) -> int:
     return count
 
 
-def measure(argv: list[str]) -> tuple[int, int, float, float]:
-    """(exit status, peak RSS bytes, seconds to the first stdout line, seconds in all)."""
+def measure(
+    kind: str, path: Path | str, stdin: Path | None = None
+) -> tuple[int, int, float, float]:
+    """(exit status, peak RSS bytes, seconds to the first stdout line, seconds in all) of one
+    reader (``check``, ``decode`` or ``iterate``) on ``path`` (``-``: ``stdin``)."""
     start = time.perf_counter()
-    proc = subprocess.Popen(argv, stdout=subprocess.PIPE, stderr=subprocess.DEVNULL, cwd=ROOT)
-    assert proc.stdout is not None
-    proc.stdout.readline()
-    first = time.perf_counter() - start
-    for _ in iter(lambda: proc.stdout.read(1 << 16), b""):  # type: ignore[union-attr]
-        pass
-    _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    return proc.returncode, usage.ru_maxrss * 1024, first, time.perf_counter() - start
+    with open(stdin or os.devnull, "rb") as inp:
+        proc = subprocess.Popen(
+            [sys.executable, "-c", CHILD, kind, str(path)],
+            stdin=inp,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            cwd=ROOT,
+        )
+        assert proc.stdout is not None and proc.stderr is not None
+        proc.stdout.readline()
+        first = time.perf_counter() - start
+        for _ in iter(lambda: proc.stdout.read(1 << 16), b""):  # type: ignore[union-attr]
+            pass
+        err = proc.stderr.read().decode()
+        code = proc.wait()
+    hwm_kib = int(err.rsplit("VmHWM", 1)[1].split()[0])
+    return code, hwm_kib * 1024, first, time.perf_counter() - start
 
 
 def main() -> int:
@@ -68,16 +98,12 @@ def main() -> int:
         print("| reader | exit | peak RSS [MB] | first line [s] | total [s] | <= 256 MB |")
         print("|---|---|---|---|---|---|")
         ok = True
-        for name, argv in (
-            ("check", [sys.executable, "-m", "skinframes", "check", str(path)]),
-            ("decode", [sys.executable, "-m", "skinframes", "decode", str(path)]),
-            ("read_capture iterator", [sys.executable, "-c", ITERATE, str(path)]),
-        ):
-            code, rss, first, total = measure(argv)
+        for kind in READERS:
+            code, rss, first, total = measure(kind, path)
             fits = rss <= LIMIT_BYTES
             ok &= fits and code == 0
             print(
-                f"| {name} | {code} | {rss / 1e6:.0f} | {first:.2f} | {total:.0f} | "
+                f"| {kind} | {code} | {rss / 1e6:.0f} | {first:.2f} | {total:.0f} | "
                 f"{'yes' if fits else 'NO'} |"
             )
     return 0 if ok else 1

@@ -26,6 +26,7 @@ import zlib
 from collections.abc import Sequence
 from decimal import Decimal
 from pathlib import Path
+from typing import Any
 
 import pytest
 import tshark_util
@@ -830,9 +831,9 @@ BIG_CAPTURE_BYTES = 30_000_000 if os.environ.get("CI", "").lower() == "true" els
 MAX_RSS_BYTES = 256 * 1024 * 1024
 
 
-def write_big_pcap(path: Path, size_bytes: int) -> int:
-    """A clean capture of about ``size_bytes``: the benchmark's generator (golden frames, 1 ms
-    apart), loaded from benchmarks/bench_capture_memory.py so both measure the same file."""
+def _bench() -> Any:
+    """benchmarks/bench_capture_memory.py: its capture generator and its RSS measurement, so the
+    test and the benchmark measure the same way."""
     import importlib.util
 
     spec = importlib.util.spec_from_file_location(
@@ -841,41 +842,22 @@ def write_big_pcap(path: Path, size_bytes: int) -> int:
     assert spec is not None and spec.loader is not None
     bench = importlib.util.module_from_spec(spec)
     spec.loader.exec_module(bench)
-    count: int = bench.write_capture(path, size_bytes)
-    return count
-
-
-def peak_rss_bytes(argv: list[str], stdin: Path | None = None) -> tuple[int, int]:
-    """(exit status, peak resident set size in bytes) of one child process."""
-    with open(stdin or os.devnull, "rb") as inp:
-        proc = subprocess.Popen(
-            argv, stdin=inp, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, cwd=ROOT
-        )
-        _, status, usage = os.wait4(proc.pid, 0)
-    proc.returncode = os.waitstatus_to_exitcode(status)
-    return proc.returncode, usage.ru_maxrss * 1024  # Linux reports KiB
+    return bench
 
 
 @pytest.mark.slow
 def test_memory_does_not_grow_with_the_capture(tmp_path: Path) -> None:
-    import sys
-
+    bench = _bench()
     small, big = tmp_path / "small.pcap", tmp_path / "big.pcap"
-    write_big_pcap(small, 500_000)
-    write_big_pcap(big, BIG_CAPTURE_BYTES)
+    bench.write_capture(small, 500_000)
+    bench.write_capture(big, BIG_CAPTURE_BYTES)
     added = big.stat().st_size - small.stat().st_size
-    iterate = "import sys; from skinframes import read_capture\n"
-    iterate += "n = sum(1 for _ in read_capture(sys.argv[1])); assert n > 0, n"
-    for argv in (
-        [sys.executable, "-m", "skinframes", "check", "{}"],
-        [sys.executable, "-m", "skinframes", "decode", "{}"],
-        [sys.executable, "-c", iterate, "{}"],
-    ):
-        code_s, rss_small = peak_rss_bytes([a.format(small) for a in argv])
-        code_b, rss_big = peak_rss_bytes([a.format(big) for a in argv])
-        assert (code_s, code_b) == (0, 0), argv
-        assert rss_big <= MAX_RSS_BYTES, (argv, rss_big)
+    for kind in bench.READERS:
+        code_s, rss_small, _, _ = bench.measure(kind, small)
+        code_b, rss_big, _, _ = bench.measure(kind, big)
+        assert (code_s, code_b) == (0, 0), kind
+        assert rss_big <= MAX_RSS_BYTES, (kind, rss_big)
         # the reader held the whole file before (24x its size); now 5 % of the added bytes at most
-        assert rss_big - rss_small < 0.05 * added, (argv, rss_small, rss_big)
-    code, rss = peak_rss_bytes([sys.executable, "-m", "skinframes", "check", "-"], stdin=big)
+        assert rss_big - rss_small < 0.05 * added, (kind, rss_small, rss_big)
+    code, rss, _, _ = bench.measure("check", "-", stdin=big)
     assert code == 0 and rss <= MAX_RSS_BYTES
