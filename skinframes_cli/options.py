@@ -19,8 +19,10 @@ __all__ = [
     "MAX_LIST_VALUES",
     "bounded_float",
     "bounded_int",
+    "finite_float",
     "int_list",
     "int_list_in",
+    "int_up_to",
     "out_path",
 ]
 
@@ -62,11 +64,32 @@ def bounded_float(lo: float, hi: float) -> Callable[[str], float]:
         if not math.isfinite(value):
             raise argparse.ArgumentTypeError(f"{escape(text)!r}: expected a finite number")
         if not lo <= value <= hi:
-            raise argparse.ArgumentTypeError(f"{value:g}: expected a number in {lo:g}..{hi:g}")
+            span = f"in {lo:g}..{hi:g}" if math.isfinite(lo) else f"up to {hi:g}"
+            raise argparse.ArgumentTypeError(f"{value:g}: expected a number {span}")
         return value
 
     parse.__name__ = "number"
     return parse
+
+
+def int_up_to(hi: int) -> Callable[[str], int]:
+    """An argparse ``type``: an integer no larger than ``hi`` (the command checks the lower end
+    with its own message)."""
+
+    def parse(text: str) -> int:
+        value = _int(text, "an integer")
+        if value > hi:
+            raise argparse.ArgumentTypeError(f"{value}: expected an integer up to {hi}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def finite_float(hi: float) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number no larger than ``hi`` (the command checks the
+    lower end with its own message)."""
+    return bounded_float(-math.inf, hi)
 
 
 def out_path(text: str) -> str:
