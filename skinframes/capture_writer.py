@@ -27,12 +27,12 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import BinaryIO, Final
+from typing import IO, BinaryIO, Final
 
 import numpy as np
 import numpy.typing as npt
 
-from skinframes.atomic_file import check_target, create_temp
+from skinframes.atomic_file import atomic_output, check_target, create_temp
 from skinframes.errors import (
     CaptureError,
     FieldRangeError,
@@ -93,13 +93,19 @@ def record_header(time_ns: int, length: int, orig_len: int | None = None) -> byt
 class PcapWriter:
     """Write a nanosecond, little-endian pcap: byte-deterministic for the same records.
 
-    Use as a context manager; ``write(time_ns, data)`` appends one record. It writes straight
-    to ``target``; :class:`CaptureWriter` writes atomically, pcapng too, and whole blocks fast.
+    Use as a context manager; ``write(time_ns, data)`` appends one record. A path is written
+    atomically (:mod:`skinframes.atomic_file`: the file appears when the writer closes, and an
+    exception leaves the previous file); :class:`CaptureWriter` writes pcapng too, and whole
+    blocks fast.
     """
 
     def __init__(self, target: str | Path | BinaryIO, linktype: int = LINKTYPE_ETHERNET):
         self._own = isinstance(target, str | Path)
-        self._f: BinaryIO = open(target, "wb") if isinstance(target, str | Path) else target  # noqa: SIM115
+        self._stack = contextlib.ExitStack()
+        if isinstance(target, str | Path):  # atomic: the file appears whole when closed
+            self._f: IO[bytes] = self._stack.enter_context(atomic_output(target, "wb"))
+        else:
+            self._f = target
         self._f.write(pcap_header(linktype))
         self.count = 0
 
@@ -110,9 +116,9 @@ class PcapWriter:
         self.count += 1
 
     def close(self) -> None:
-        """Flush, and close the file if this writer opened it."""
+        """Flush, and close (rename into place) the file if this writer opened it."""
         if self._own:
-            self._f.close()
+            self._stack.close()
         else:
             self._f.flush()
 
@@ -122,6 +128,9 @@ class PcapWriter:
     def __exit__(
         self, t: type[BaseException] | None, e: BaseException | None, tb: TracebackType | None
     ) -> None:
+        if e is not None and self._own:  # an error or interruption: no file, the old one stays
+            self._stack.__exit__(t, e, tb)
+            return
         self.close()
 
 

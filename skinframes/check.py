@@ -14,29 +14,17 @@ from dataclasses import dataclass, field
 from typing import Any, Final
 
 from skinframes import encap, ethercat, ethernet, ipv4udp, powerlink
+from skinframes.canbus.wire import CanFrame
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError
-from skinframes.findings import Finding, Severity, error, info, warning
-from skinframes.pcap import LINKTYPE_ETHERNET, Capture
+from skinframes.findings import Finding, FrameFinding, Severity, error, info, warning
+from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, Capture
 
 __all__ = ["CaptureReport", "FrameFinding", "OverlapChecker", "check_capture"]
 
 MN = powerlink.MN_NODE_ID
 CORRUPTED_MARK = "skinframes: corrupted"  # how the emulator's fault injection marks a frame
 BROADCAST = powerlink.BROADCAST_NODE_ID
-
-
-@dataclass(frozen=True, slots=True)
-class FrameFinding:
-    """A finding tied to a record of the capture (index -1: the file itself).
-
-    ``node``: the EPL node id of the frame's source (None for other frames), by which ``check``
-    groups identical findings.
-    """
-
-    index: int
-    finding: Finding
-    node: int | None = None
 
 
 @dataclass(slots=True)
@@ -74,7 +62,10 @@ class CaptureReport:
             "counts": dict(self.counts),
             "errors": self.errors,
             "warnings": self.warnings,
-            "findings": [{"index": f.index, **f.finding.to_json()} for f in self.at_least(floor)],
+            "findings": [
+                {"index": f.index, "frame": f.frame, **f.finding.to_json()}
+                for f in self.at_least(floor)
+            ],
         }
 
 
@@ -139,7 +130,12 @@ class _CycleChecker:
                 out.append(
                     warning(
                         "epl.cycle.unpolled",
-                        f"EPL: PRes from {m.src}, the last PReq went to {self.polled}",
+                        f"EPL: PRes from {m.src}, "
+                        + (
+                            f"the last PReq went to {self.polled}"
+                            if self.polled is not None
+                            else "but no PReq polled a CN since the last SoC or PRes"
+                        ),
                     )
                 )
             self.polled = None
@@ -213,17 +209,27 @@ class OverlapChecker:
         ]
 
 
+def _socketcan_findings(data: bytes) -> list[Finding]:
+    """A LINKTYPE_CAN_SOCKETCAN record: header, ``len`` against the frame type and the bytes."""
+    try:
+        CanFrame.from_socketcan(data)
+    except DecodeError as exc:
+        return [error("can.socketcan", str(exc))]
+    return []
+
+
 def check_capture(capture: Capture) -> CaptureReport:
-    """Run every check on every record of ``capture``."""
-    report = CaptureReport(capture.path, capture.total)
-    for s in capture.skipped:
-        report.findings.append(FrameFinding(s.index, error("pcap.skipped", s.reason)))
-        report.counts["skipped"] += 1
+    """Run every check on every record of ``capture``, reading it once (streamed)."""
+    report = CaptureReport(capture.path)
     cycle = _CycleChecker()
     decode = RepeatMemo(_decode, key=judged_bytes)  # each distinct frame decoded, judged once
     findings = report.findings
     overlap = OverlapChecker()
     for rec in capture:
+        if rec.linktype == LINKTYPE_CAN_SOCKETCAN:
+            report.counts["can"] += 1
+            report.findings += [FrameFinding(rec.index, f) for f in _socketcan_findings(rec.data)]
+            continue
         if rec.linktype != LINKTYPE_ETHERNET:
             report.counts["other"] += 1
             continue
@@ -252,6 +258,12 @@ def check_capture(capture: Capture) -> CaptureReport:
                     found = found + more
         if found:
             findings += [FrameFinding(rec.index, f, node) for f in found]
+    report.total = capture.total
+    for s in capture.skipped:
+        report.findings.append(FrameFinding(s.index, error(s.code, s.reason)))
+        report.counts["skipped"] += 1
+    report.findings += capture.findings
+    report.findings.sort(key=lambda f: f.index)  # capture order; the file's own findings first
     return report
 
 

@@ -169,7 +169,7 @@ class JsonDescriber:
 
 
 def _head(rec: Record) -> dict[str, Any]:
-    return {"index": rec.index, "time_ns": rec.time_ns, "length": len(rec.data)}
+    return {"index": rec.index, "frame": rec.frame, "time_ns": rec.time_ns, "length": len(rec.data)}
 
 
 def _fields(linktype: int, data: bytes, text: bool) -> tuple[dict[str, Any], str]:

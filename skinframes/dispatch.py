@@ -64,13 +64,10 @@ def decode_frame(data: bytes, *, strict: bool = False) -> ethernet.EthernetFrame
             raise TruncatedError(msg, offset=len(data))
         findings.append(info("eth.unpadded", msg + "; typical of a capture on the sending host"))
     if ethernet.is_group(src):
-        findings.append(
-            warning(
-                "eth.src.group",
-                f"Ethernet: source MAC {ethernet.format_mac(src)}"
-                " is a group address (Wireshark warns)",
-            )
-        )
+        msg = f"Ethernet: source MAC {ethernet.format_mac(src)} is a group address"
+        if strict:  # IEEE 802.3 3.2.3: the source address is an individual address
+            raise InvalidFieldError(msg, field="src", offset=6)
+        findings.append(warning("eth.src.group", msg + " (Wireshark warns)"))
     decoder = DECODERS.get(ethertype)
     name = PROTOCOL_NAMES.get(ethertype, "other")
     if decoder is None and (inner := encap.decoder_for(ethertype, payload)) is not None:

@@ -8,7 +8,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 from enum import IntEnum
 
-__all__ = ["Finding", "Severity"]
+__all__ = ["Finding", "FrameFinding", "Severity", "error", "info", "warning"]
 
 
 class Severity(IntEnum):
@@ -54,3 +54,22 @@ def warning(code: str, message: str) -> Finding:
 def error(code: str, message: str) -> Finding:
     """An ERROR finding."""
     return Finding(Severity.ERROR, code, message)
+
+
+@dataclass(frozen=True, slots=True)
+class FrameFinding:
+    """A finding tied to a record of a capture (index -1: the file itself).
+
+    ``index`` counts records from 0 as :class:`skinframes.pcap.Record` does; ``frame`` is
+    Wireshark's 1-based frame number (0 for the file itself). ``node``: the EPL node id of the
+    frame's source (None for other frames), by which ``check`` groups identical findings.
+    """
+
+    index: int
+    finding: Finding
+    node: int | None = None
+
+    @property
+    def frame(self) -> int:
+        """Wireshark's frame number: ``index + 1`` (0 for a finding about the whole file)."""
+        return self.index + 1 if self.index >= 0 else 0

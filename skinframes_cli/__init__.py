@@ -8,11 +8,16 @@ compute, and every limit and name it checks against, comes from the libraries.
 from __future__ import annotations
 
 import argparse
+import contextlib
+import signal
 import sys
-from collections.abc import Sequence
+import threading
+from collections.abc import Iterator, Sequence
+from types import FrameType
 from typing import Final
 
 from skinframes.errors import SkinframesError
+from skinframes.text import escape
 from skinframes_cli import (
     analyze,
     can,
@@ -29,7 +34,10 @@ from skinframes_cli import (
     wireshark_plugin,
 )
 
-__all__ = ["main"]
+__all__ = ["Terminated", "main"]
+
+EXIT_SIGINT: Final = 128 + signal.SIGINT  # 130, as a shell reports a process ended by SIGINT
+EXIT_SIGTERM: Final = 128 + signal.SIGTERM  # 143
 
 COMMANDS: Final = (
     demo,
@@ -52,8 +60,40 @@ class _Parser(argparse.ArgumentParser):
     """argparse that reports usage errors as one ``skinframes: error:`` line and exit 2."""
 
     def error(self, message: str) -> None:  # type: ignore[override]
-        print(f"skinframes: error: {message} (see '{self.prog} --help')", file=sys.stderr)
+        print(f"skinframes: error: {escape(message)} (see '{self.prog} --help')", file=sys.stderr)
         raise SystemExit(2)
+
+
+class Terminated(BaseException):
+    """SIGTERM arrived: raised in the main thread so ``with`` blocks (atomic files) clean up.
+
+    A BaseException, like KeyboardInterrupt, so that no ``except Exception`` swallows it.
+    """
+
+
+@contextlib.contextmanager
+def _sigterm_raises() -> Iterator[None]:
+    """While a command runs, SIGTERM raises :class:`Terminated` (main thread only)."""
+    if threading.current_thread() is not threading.main_thread():
+        yield
+        return
+
+    def terminate(signum: int, frame: FrameType | None) -> None:
+        raise Terminated
+
+    previous = signal.signal(signal.SIGTERM, terminate)
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+def _quiet_stdout() -> None:
+    """The reader of stdout left (``| head``): send the rest to /dev/null, print nothing more."""
+    import os
+
+    with contextlib.suppress(OSError, ValueError):
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
 def build_parser() -> argparse.ArgumentParser:
@@ -79,25 +119,26 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # usage errors (exit 2) and --help (exit 0), as a return code
         return exc.code if isinstance(exc.code, int) else 2
     try:
-        code: int = args.run(args)
+        with _sigterm_raises():
+            code: int = args.run(args)
         return code
     except SkinframesError as exc:
         if args.debug:
             raise
-        print(f"skinframes: error: {exc}", file=sys.stderr)
+        print(f"skinframes: error: {escape(exc)}", file=sys.stderr)
         return 2
     except BrokenPipeError:  # `skinframes decode x | head`: the reader left, stop quietly
-        import os
-
-        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
+        _quiet_stdout()
         return 0
     except OSError as exc:
         if args.debug:
             raise
-        print(
-            f"skinframes: error: {exc.strerror or exc}: {exc.filename or ''}".rstrip(": "),
-            file=sys.stderr,
-        )
+        text = f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")
+        print(f"skinframes: error: {escape(text)}", file=sys.stderr)
         return 2
     except KeyboardInterrupt:
-        return 130
+        print("skinframes: interrupted (SIGINT); no file was left half-written", file=sys.stderr)
+        return EXIT_SIGINT
+    except Terminated:
+        print("skinframes: terminated (SIGTERM); no file was left half-written", file=sys.stderr)
+        return EXIT_SIGTERM

@@ -15,7 +15,8 @@ from typing import Any
 
 from skinframes.check import FrameFinding, check_capture
 from skinframes.findings import Severity
-from skinframes.pcap import read_capture
+from skinframes.text import escape
+from skinframes_cli.decode import open_capture
 
 
 def add_parser(sub: Any) -> None:
@@ -29,7 +30,7 @@ def add_parser(sub: Any) -> None:
         "their count and first and last frame; errors first. Exit status 1 when any finding is "
         "an error.",
     )
-    p.add_argument("path", help="capture file (pcap, pcapng, gzip)")
+    p.add_argument("path", help="capture file (pcap, pcapng, gzip); - for standard input")
     p.add_argument("--json", action="store_true", help="one JSON document (every finding)")
     p.add_argument(
         "--verbose",
@@ -85,26 +86,33 @@ def _frames(g: Group) -> str:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Check and report."""
-    report = check_capture(read_capture(args.path))
+    """Check and report; the exit status survives a reader that leaves (``| head -1``)."""
+    report = check_capture(open_capture(args.path))
     if args.min_severity is not None:
         floor = Severity[args.min_severity.upper()]
     else:
         floor = Severity.INFO if args.json or args.verbose else Severity.WARNING
-    if args.json:
-        print(json.dumps(report.to_json(floor), indent=2))
-    else:
-        for g in group(report.at_least(floor)):
-            node = f"node {g.node}" if g.node is not None else ""
-            print(
-                f"{_frames(g)}  {g.severity!s:<7} {g.code:<22} x{g.count:<6} {node:<8} {g.message}".rstrip()
-            )
+    status = 1 if report.errors else 0
+    try:
+        if args.json:
+            print(json.dumps(report.to_json(floor), indent=2))
+        else:
+            for g in group(report.at_least(floor)):
+                node = f"node {g.node}" if g.node is not None else ""
+                line = f"{_frames(g)}  {g.severity!s:<7} {g.code:<22} x{g.count:<6} {node:<8} "
+                print(f"{line}{escape(g.message)}".rstrip())
+        sys.stdout.flush()
+    except BrokenPipeError:
+        from skinframes_cli import _quiet_stdout
+
+        _quiet_stdout()
+    if not args.json:
         counts = ", ".join(f"{k} {v}" for k, v in sorted(report.counts.items()))
         hidden = len(report.findings) - len(report.at_least(floor))
         more = f", {hidden} below {floor} not listed (--verbose lists them)" if hidden else ""
         print(
-            f"{report.path}: {report.total} records ({counts}): "
+            f"{escape(report.path)}: {report.total} records ({counts}): "
             f"{report.errors} errors, {report.warnings} warnings{more}",
             file=sys.stderr,
         )
-    return 1 if report.errors else 0
+    return status

@@ -13,8 +13,17 @@ import numpy as np
 from skinframes.atomic_file import atomic_output
 from skinframes.capture_taxels import taxels_from_capture
 from skinframes.describe import JsonDescriber, describe_record
-from skinframes.pcap import read_capture
+from skinframes.errors import PcapFormatError
+from skinframes.pcap import Capture, read_capture
+from skinframes.text import escape
 from skinframes_cli.options import add_skin_layout
+
+
+def open_capture(path: str) -> Capture:
+    """The capture named on the command line, streamed; ``-`` is standard input."""
+    if path == "-":
+        return read_capture(sys.stdin.buffer)
+    return read_capture(path)
 
 
 def add_parser(sub: Any) -> None:
@@ -26,7 +35,7 @@ def add_parser(sub: Any) -> None:
         "Skipped records are reported on stderr with their reason. With --taxels, write the "
         "capture's skin taxels as a numpy array instead.",
     )
-    p.add_argument("path", help="capture file")
+    p.add_argument("path", help="capture file; - for standard input")
     p.add_argument("--json", action="store_true", help="JSON Lines: one object per frame")
     p.add_argument(
         "--taxels",
@@ -39,26 +48,33 @@ def add_parser(sub: Any) -> None:
 
 
 def run(args: argparse.Namespace) -> int:
-    """Decode and print."""
+    """Decode and print, record by record as the capture is read."""
     if args.taxels:
         return _taxels(args)
-    capture = read_capture(args.path)
+    capture = open_capture(args.path)
     out = sys.stdout
+    decoded = 0
     if args.json:
         dumps = json.JSONEncoder(check_circular=False).encode
         describe = JsonDescriber()  # repeated frames: fields computed once
         for rec in capture:
+            decoded += 1
             out.write(dumps(describe(rec)) + "\n")
     else:
         for rec in capture:
+            decoded += 1
             _, text = describe_record(rec)
             sec, ns = divmod(rec.time_ns, 1_000_000_000)  # exact: a float has no room for ns
-            out.write(f"{rec.index:>6} {f'{sec}.{ns:09d}':>20} {len(rec.data):>5}  {text}\n")
+            out.write(
+                f"frame {rec.frame:<6} {f'{sec}.{ns:09d}':>20} {len(rec.data):>5}  {escape(text)}\n"
+            )
     for s in capture.skipped:
-        print(f"skinframes: skipped record {s.index}: {s.reason}", file=sys.stderr)
+        print(f"skinframes: skipped frame {s.frame}: {escape(s.reason)}", file=sys.stderr)
+    for f in capture.findings:
+        where = f"frame {f.frame}" if f.index >= 0 else "file"
+        print(f"skinframes: {where}: {escape(f.finding.message)}", file=sys.stderr)
     print(
-        f"skinframes: {capture.total} records: {len(capture.records)} decoded, "
-        f"{len(capture.skipped)} skipped",
+        f"skinframes: {capture.total} records: {decoded} decoded, {len(capture.skipped)} skipped",
         file=sys.stderr,
     )
     return 0
@@ -66,6 +82,8 @@ def run(args: argparse.Namespace) -> int:
 
 def _taxels(args: argparse.Namespace) -> int:
     """``--taxels``: the array, written atomically; a one-line summary on stderr."""
+    if args.path == "-":
+        raise PcapFormatError("decode --taxels reads a capture file, not standard input")
     result = taxels_from_capture(
         args.path, nodes=args.nodes, bytes_per_node=args.bytes, layout=args.layout
     )
@@ -77,7 +95,7 @@ def _taxels(args: argparse.Namespace) -> int:
     samples, nodes = result.taxels.shape[:2]
     missing = int(result.present.size - np.count_nonzero(result.present))
     print(
-        f"skinframes: {args.taxels}: {samples} samples x {nodes} nodes x 16 x 12 taxels "
+        f"skinframes: {escape(args.taxels)}: {samples} samples x {nodes} nodes x 16 x 12 taxels "
         f"({missing} node samples missing)",
         file=sys.stderr,
     )

@@ -4,11 +4,15 @@ from __future__ import annotations
 
 import argparse
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 from skinframes import golden, taxel
+from skinframes.atomic_file import atomic_output
 from skinframes.check import check_capture
+from skinframes.errors import CaptureError
 from skinframes.pcap import read_capture, write_pcap
+from skinframes.text import escape
+from skinframes_cli.options import out_path
 
 NODES = taxel.BODY_PATCHES  # 160 patches
 BYTES = taxel.PATCH_BYTES  # 192 bytes each
@@ -29,9 +33,91 @@ def add_parser(sub: Any) -> None:
         "open ring and closed ring with both timing presets; write the pcaps, a "
         "plot and the reference captures under DIR; print the cycle times.",
     )
-    p.add_argument("--out", default="out", help="output directory (default: ./out)")
-    p.add_argument("--no-plot", action="store_true", help="skip the figure (faster)")
+    p.add_argument(
+        "--out",
+        type=out_path,
+        default="out",
+        help="output directory (default: ./out); created if its parent exists",
+    )
+    p.add_argument("--no-plot", action="store_true", help="write no picture (faster)")
+    p.add_argument(
+        "--force",
+        action="store_true",
+        help="replace files of demo's names that demo did not write (and symbolic links)",
+    )
     p.set_defaults(run=run)
+
+
+MANIFEST: Final = ".skinframes-demo"  # in DIR: the names demo wrote there, one per line
+_MANIFEST_HEAD: Final = "# files written by 'skinframes demo'; it replaces only these\n"
+
+
+def output_names(plots: bool) -> list[str]:
+    """Every file name ``demo`` writes into its folder, in the order it writes them."""
+    from emulator.model.params import PRESETS
+
+    names = [f"{table}_{NODES}x{BYTES}_{p}.pcap" for table, _ in RUNS for p in PRESETS]
+    names.append("skin_can.asc")
+    if plots:
+        names.append("compare.png")
+    names += [f"{scenario}.pcap" for scenario in golden.SCENARIOS]
+    if plots:
+        names.append("cycle_time.png")
+    return names
+
+
+def _manifest(out: Path) -> set[str]:
+    path = out / MANIFEST
+    if path.is_symlink() or (path.exists() and not path.is_file()):
+        raise CaptureError(f"{path}: not a regular file; demo keeps its list of files there")
+    if not path.exists():
+        return set()
+    try:
+        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+    except OSError as exc:
+        raise CaptureError(f"{path}: cannot read ({exc.strerror or exc})") from exc
+    return {line for line in lines if line and not line.startswith("#")}
+
+
+def prepare_out(out: Path, names: list[str], force: bool) -> None:
+    """Make sure ``demo`` may write ``names`` into ``out``, and record them in the manifest.
+
+    Demo writes only its own files: a name that exists and is not in ``out/.skinframes-demo``
+    (the list of files an earlier demo wrote), or that is a symbolic link, is refused unless
+    ``force``; with ``force`` a symbolic link is removed (never followed). ``out`` is created
+    when its parent exists (never ``mkdir -p``).
+
+    Raises:
+        CaptureError: a name is refused, or ``out`` is not a folder demo can use.
+    """
+    if out.is_symlink() and not force:
+        raise CaptureError(f"{out}: is a symbolic link; demo does not write through it (--force)")
+    if out.exists() and not out.is_dir():
+        raise CaptureError(f"{out}: exists and is not a directory")
+    if not out.exists():
+        if not out.parent.is_dir():
+            raise CaptureError(f"{out}: directory {out.parent} does not exist")
+        try:
+            out.mkdir()
+        except OSError as exc:
+            raise CaptureError(f"{out}: cannot create ({exc.strerror or exc})") from exc
+    ours = _manifest(out)
+    for name in names:
+        path = out / name
+        if path.is_symlink():
+            if not force:
+                raise CaptureError(
+                    f"{path}: is a symbolic link; demo does not write through it (--force "
+                    "replaces the link)"
+                )
+            path.unlink()
+        elif path.exists() and name not in ours and not force:
+            raise CaptureError(
+                f"{path}: exists and was not written by demo (not in {MANIFEST}); "
+                "move it away or use --force"
+            )
+    with atomic_output(out / MANIFEST, "w") as f:
+        f.write(_MANIFEST_HEAD + "".join(f"{n}\n" for n in sorted(ours | set(names))))
 
 
 def _status(path: Path) -> str:
@@ -48,7 +134,7 @@ def run(args: argparse.Namespace) -> int:
     from skinframes_cli.plot import make_plot
 
     out = Path(args.out)
-    out.mkdir(parents=True, exist_ok=True)
+    prepare_out(out, output_names(not args.no_plot), args.force)
     print(f"A {NODES}-patch skin, {BYTES} taxel bytes per patch, measured at the master's port\n")
     print(
         f"{'network':<24}"
@@ -70,7 +156,7 @@ def run(args: argparse.Namespace) -> int:
         "\n('fits' uses the slower preset: a reactive loop of that period can read every taxel"
         " once per cycle)"
     )
-    files += _can_comparison(out)
+    files += _can_comparison(out, plots=not args.no_plot)
     for scenario in golden.SCENARIOS:
         path = out / f"{scenario}.pcap"
         write_pcap(path, golden.build(scenario))
@@ -81,7 +167,7 @@ def run(args: argparse.Namespace) -> int:
     print("\nFiles:")
     for path, what in files:
         status = _status(path) if path.suffix == ".pcap" else ""
-        print(f"  {path!s:<46} {what}  {status}")
+        print(f"  {escape(path)!s:<46} {what}  {status}")
     return 0
 
 
@@ -89,7 +175,7 @@ CAN_BOARDS = list(range(8, 15))  # a 7-board skin bus, as on the iCub's arm (can
 CAN_SAMPLES = 5
 
 
-def _can_comparison(out: Path) -> list[tuple[Path, str]]:
+def _can_comparison(out: Path, plots: bool = True) -> list[tuple[Path, str]]:
     """Write a legacy skin CAN trace (7 boards, 50 ms period) and compare the buses on it."""
     import math
 
@@ -116,8 +202,7 @@ def _can_comparison(out: Path) -> list[tuple[Path, str]]:
         f"{DEFAULT_PERIOD_MS} ms, so {math.ceil(NODES / per_bus)} buses; one EtherCAT ring "
         "carries them all in under 3 ms."
     )
-    png = plot(doc, out / "compare.png")
-    return [
-        (can_log_path, f"skin CAN trace: {len(CAN_BOARDS)} boards, {CAN_SAMPLES} samples"),
-        (png, "CAN vs EPL vs EtherCAT for that trace"),
-    ]
+    files = [(can_log_path, f"skin CAN trace: {len(CAN_BOARDS)} boards, {CAN_SAMPLES} samples")]
+    if plots:
+        files.append((plot(doc, out / "compare.png"), "CAN vs EPL vs EtherCAT for that trace"))
+    return files

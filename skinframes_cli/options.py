@@ -1,38 +1,154 @@
-"""Option parsers shared by several subcommands."""
+"""Option parsers shared by several subcommands: every value is checked where it is parsed.
+
+Integers are checked against their documented range, floats must be finite (``nan``, ``inf``
+and ``1e400`` are refused) and lists are bounded in length, so no option can ask for unbounded
+memory or time. argparse turns an ``ArgumentTypeError`` into one ``skinframes: error:`` line and
+exit status 2.
+"""
 
 from __future__ import annotations
 
 import argparse
+import math
+from collections.abc import Callable
+from typing import Final
+
+from skinframes.text import escape
+
+__all__ = [
+    "MAX_LIST_VALUES",
+    "bounded_float",
+    "bounded_int",
+    "finite_float",
+    "int_list",
+    "int_list_in",
+    "int_up_to",
+    "out_path",
+]
+
+MAX_LIST_VALUES: Final = 10_000  # values one start:stop:step or comma list may select
+MAX_INT_DIGITS: Final = 20  # longer integers are refused before int() converts them
 
 
-def int_list(text: str) -> list[int]:
-    """``start:stop:step`` (stop inclusive) or a comma list, e.g. ``130:200:10`` or ``2,32``."""
+def _int(text: str, what: str) -> int:
+    t = text.strip()
+    if len(t) > MAX_INT_DIGITS:
+        raise argparse.ArgumentTypeError(f"{escape(text)!r}: {what} too long to be sensible")
     try:
-        if ":" in text:
-            parts = [int(p) for p in text.split(":")]
-            if len(parts) not in (2, 3) or (len(parts) == 3 and parts[2] <= 0):
-                raise ValueError
-            start, stop = parts[0], parts[1]
-            step = parts[2] if len(parts) == 3 else 1
-            values = list(range(start, stop + 1, step))
-        else:
-            values = [int(p) for p in text.split(",") if p.strip()]
+        return int(t)
     except ValueError:
+        raise argparse.ArgumentTypeError(f"{escape(text)!r}: expected {what}") from None
+
+
+def bounded_int(lo: int, hi: int) -> Callable[[str], int]:
+    """An argparse ``type``: an integer in ``lo..hi`` (inclusive)."""
+
+    def parse(text: str) -> int:
+        value = _int(text, "an integer")
+        if not lo <= value <= hi:
+            raise argparse.ArgumentTypeError(f"{value}: expected an integer in {lo}..{hi}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def bounded_float(lo: float, hi: float) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number in ``lo..hi`` (inclusive)."""
+
+    def parse(text: str) -> float:
+        try:
+            value = float(text)
+        except ValueError:
+            raise argparse.ArgumentTypeError(f"{escape(text)!r}: expected a number") from None
+        if not math.isfinite(value):
+            raise argparse.ArgumentTypeError(f"{escape(text)!r}: expected a finite number")
+        if not lo <= value <= hi:
+            span = f"in {lo:g}..{hi:g}" if math.isfinite(lo) else f"up to {hi:g}"
+            raise argparse.ArgumentTypeError(f"{value:g}: expected a number {span}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
+
+
+def int_up_to(hi: int) -> Callable[[str], int]:
+    """An argparse ``type``: an integer no larger than ``hi`` (the command checks the lower end
+    with its own message)."""
+
+    def parse(text: str) -> int:
+        value = _int(text, "an integer")
+        if value > hi:
+            raise argparse.ArgumentTypeError(f"{value}: expected an integer up to {hi}")
+        return value
+
+    parse.__name__ = "integer"
+    return parse
+
+
+def finite_float(hi: float) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number no larger than ``hi`` (the command checks the
+    lower end with its own message)."""
+    return bounded_float(-math.inf, hi)
+
+
+def out_path(text: str) -> str:
+    """An argparse ``type`` for a file or folder to write: not empty."""
+    if not text.strip():
+        raise argparse.ArgumentTypeError("an empty file name")
+    return text
+
+
+def int_list(text: str, lo: int = 0, hi: int = 1 << 32) -> list[int]:
+    """``start:stop:step`` (stop inclusive) or a comma list, e.g. ``130:200:10`` or ``2,32``.
+
+    At most :data:`MAX_LIST_VALUES` values, each in ``lo..hi``.
+    """
+    syntax = (
+        f"{escape(text)!r}: expected start:stop:step (stop inclusive) or a comma list of integers"
+    )
+    if ":" in text:
+        try:
+            parts = [_int(p, "an integer") for p in text.split(":")]
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(syntax) from None
+        if len(parts) not in (2, 3) or (len(parts) == 3 and parts[2] <= 0):
+            raise argparse.ArgumentTypeError(syntax)
+        selected = range(parts[0], parts[1] + 1, parts[2] if len(parts) == 3 else 1)
+        count = len(selected)
+    else:
+        items = [p for p in text.split(",") if p.strip()]
+        count = len(items)
+    if count > MAX_LIST_VALUES:
         raise argparse.ArgumentTypeError(
-            f"{text!r}: expected start:stop:step (stop inclusive) or a comma list of integers"
-        ) from None
+            f"{escape(text)!r} selects {count} values, at most {MAX_LIST_VALUES} are allowed"
+        )
+    if ":" in text:
+        values = list(selected)
+    else:
+        try:
+            values = [_int(p, "an integer") for p in items]
+        except argparse.ArgumentTypeError:
+            raise argparse.ArgumentTypeError(syntax) from None
     if not values:
-        raise argparse.ArgumentTypeError(f"{text!r} selects no values")
+        raise argparse.ArgumentTypeError(f"{escape(text)!r} selects no values")
+    bad = [v for v in values if not lo <= v <= hi]
+    if bad:
+        raise argparse.ArgumentTypeError(f"{bad[0]}: each value must be in {lo}..{hi}")
     return values
 
 
 def add_skin_layout(p: argparse.ArgumentParser, what: str) -> None:
     """``--nodes N --bytes B --layout L``: where a capture's taxels sit (default: inferred)."""
     p.add_argument(
-        "--nodes", type=int, help=f"EPL CNs / EtherCAT slaves {what} (default: inferred)"
+        "--nodes",
+        type=bounded_int(1, 1024),
+        help=f"EPL CNs / EtherCAT slaves {what} (1..1024; default: inferred)",
     )
     p.add_argument(
-        "--bytes", type=int, help=f"taxel bytes per node {what} (default: inferred; 192 = a patch)"
+        "--bytes",
+        type=bounded_int(1, 1490),
+        help=f"taxel bytes per node {what} (1..1490; default: inferred; 192 = a patch)",
     )
     p.add_argument(
         "--layout",
@@ -40,3 +156,13 @@ def add_skin_layout(p: argparse.ArgumentParser, what: str) -> None:
         help=f"EtherCAT process image {what}: one LRD per slave, or one contiguous logical image "
         "(default: inferred)",
     )
+
+
+def int_list_in(lo: int, hi: int) -> Callable[[str], list[int]]:
+    """An argparse ``type``: :func:`int_list` with every value in ``lo..hi``."""
+
+    def parse(text: str) -> list[int]:
+        return int_list(text, lo, hi)
+
+    parse.__name__ = "list"
+    return parse

@@ -8,6 +8,7 @@ from typing import Any
 
 from emulator.model.params import PRESETS, preset
 from emulator.model.plan import plan
+from skinframes_cli.options import bounded_int
 
 NAMES = {"epl": "EPL", "ecat": "EtherCAT open ring", "ecat_redundant": "EtherCAT closed ring"}
 
@@ -20,8 +21,10 @@ def add_parser(sub: Any) -> None:
         description="For EPL and EtherCAT (open and closed ring), emulate each frame layout, "
         "pick the fastest and compare it with the physical limit: N x B bytes at 100 Mbit/s.",
     )
-    p.add_argument("--nodes", type=int, required=True)
-    p.add_argument("--bytes", type=int, required=True)
+    p.add_argument("--nodes", type=bounded_int(1, 65535), required=True, help="nodes, 1..65535")
+    p.add_argument(
+        "--bytes", type=bounded_int(0, 65535), required=True, help="bytes per node, 0..65535"
+    )
     p.add_argument(
         "--preset",
         choices=list(PRESETS),

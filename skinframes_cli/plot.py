@@ -10,8 +10,10 @@ from typing import Any
 from emulator.model.paper_tables import FIGURE_MAX_NODES
 from emulator.model.params import PRESETS
 from skinframes import taxel
-from skinframes.atomic_file import atomic_path
+from skinframes.atomic_file import atomic_path, check_target
 from skinframes.errors import SkinframesError
+from skinframes.text import escape
+from skinframes_cli.options import bounded_int, out_path
 
 PAYLOADS = (2, 32, 128, 192, 256)
 PANELS = (
@@ -33,11 +35,17 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--out",
+        type=out_path,
         default=None,
         help="output file, .png or .svg (default cycle_time.png, with --map map.png)",
     )
     p.add_argument("--preset", choices=list(PRESETS), default="paper")
-    p.add_argument("--step", type=int, default=20, help="nodes between emulated points")
+    p.add_argument(
+        "--step",
+        type=bounded_int(1, max(FIGURE_MAX_NODES.values())),
+        default=20,
+        help="nodes between emulated points, 1..240 (default 20)",
+    )
     p.add_argument(
         "--map",
         action="store_true",
@@ -46,15 +54,16 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--nodes",
-        type=int,
+        type=bounded_int(1, 1024),
         default=taxel.BODY_PATCHES,
-        help=f"--map: your configuration's nodes, drawn as a point (default {taxel.BODY_PATCHES})",
+        help=f"--map: your configuration's nodes, drawn as a point, 1..1024 "
+        f"(default {taxel.BODY_PATCHES})",
     )
     p.add_argument(
         "--bytes",
-        type=int,
+        type=bounded_int(1, 1490),
         default=taxel.PATCH_BYTES,
-        help=f"--map: your configuration's bytes per node (default {taxel.PATCH_BYTES})",
+        help=f"--map: your configuration's bytes per node, 1..1490 (default {taxel.PATCH_BYTES})",
     )
     p.set_defaults(run=run)
 
@@ -78,6 +87,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
         raise SkinframesError(f"{out}: the plot is written as .png or .svg")
     if step < 1:
         raise SkinframesError("--step must be >= 1")
+    check_target(out)  # a refused path or a missing folder fails now, not after the work
     params = preset(preset_name)
     fig, axes = plt.subplots(1, 3, figsize=(16, 5.2), constrained_layout=True)
     rows = [(t, n) for t, _ in PANELS for n in range(step, FIGURE_MAX_NODES[t] + 1, step)]
@@ -96,8 +106,10 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
             else:
                 y = analytic.ecat_cycle_us(nodes, b, params, redundant=table == "ecat_redundant")
             ax.plot(nodes, np.asarray(y) / 1000, color=color, lw=1.5, label=f"{b} B analytic")
-            en, ey = zip(*emulated[(table, b)], strict=True)
-            ax.plot(en, np.asarray(ey) / 1000, "o", color=color, ms=4, mfc="none")
+            points_tb = emulated.get((table, b), [])  # none when --step exceeds this panel
+            if points_tb:
+                en, ey = zip(*points_tb, strict=True)
+                ax.plot(en, np.asarray(ey) / 1000, "o", color=color, ms=4, mfc="none")
         if preset_name == "paper":
             px = [(n, paper_value(table, n, b)) for n in NODES for b in BYTES]
             ax.plot(
@@ -134,8 +146,8 @@ def run(args: argparse.Namespace) -> int:
 
         out = Path("map.png" if args.out is None else args.out)
         make_map(out, args.preset, args.nodes, args.bytes)
-        print(f"wrote {out}")
+        print(f"wrote {escape(out)}")
         return 0
     path = make_plot(Path(args.out or "cycle_time.png"), args.preset, args.step)
-    print(f"wrote {path}")
+    print(f"wrote {escape(path)}")
     return 0

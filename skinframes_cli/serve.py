@@ -15,6 +15,10 @@ from typing import Any
 from emulator.esc.dc import DEFAULT_DRIFT_PPM
 from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
+from skinframes_cli.options import bounded_int, finite_float, int_up_to
+
+MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
+MAX_INT_ARG = 1 << 31  # --nodes/--bytes: larger is refused at parse; the range is checked in run
 
 
 def add_parser(sub: Any) -> None:
@@ -30,21 +34,32 @@ def add_parser(sub: Any) -> None:
     p.add_argument("protocol", choices=["ecat"])
     p.add_argument("--iface", required=True, help="network interface the master is wired to")
     p.add_argument(
-        "--nodes", type=int, required=True, help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}"
+        "--nodes",
+        type=int_up_to(MAX_INT_ARG),
+        required=True,
+        help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}",
     )
     p.add_argument(
         "--bytes",
-        type=int,
+        type=int_up_to(MAX_INT_ARG),
         required=True,
         help=f"taxel bytes per slave, 1..{MAX_DATAGRAM_DATA_BYTES}",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the taxel contact patterns")
     p.add_argument(
-        "--samples", type=int, default=64, help="distinct taxel samples, cycled (default 64)"
+        "--seed",
+        type=bounded_int(0, 2**32 - 1),
+        default=0,
+        help="seed of the taxel contact patterns",
+    )
+    p.add_argument(
+        "--samples",
+        type=int_up_to(MAX_SAMPLES),
+        default=64,
+        help=f"distinct taxel samples, cycled, 1..{MAX_SAMPLES} (default 64)",
     )
     p.add_argument(
         "--period-ms",
-        type=float,
+        type=finite_float(60_000),
         default=1.0,
         help="time between two taxel samples in ms (default 1)",
     )

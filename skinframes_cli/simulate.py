@@ -7,10 +7,39 @@ import json
 import math
 from typing import Any
 
+from emulator.model.limits import MAX_SLAVES
 from emulator.model.params import PRESETS
 from emulator.net.ecat import LAYOUTS
 from skinframes.errors import SkinframesError
+from skinframes.text import escape
+from skinframes_cli.options import bounded_float, bounded_int, out_path
 from skinframes_cli.progress import progress_bar
+
+MAX_CYCLES = 1_000_000  # --cycles: 1..MAX_CYCLES
+MAX_SEED = 2**32 - 1  # numpy's legacy seed range
+MAX_NODE_BYTES = 65535  # --bytes at parse level; the protocol's own limit is checked when run
+MAX_TIMEOUT_US = 1e9  # --pres-timeout-us: 0..1e9 us
+MAX_LATE_US = 1e9  # --fault late:N:US
+MAX_FAULT_SPEC = 100  # characters
+
+
+def fault_spec(text: str) -> str:
+    """An argparse ``type`` for ``--fault``: a SPEC ``parse_fault`` accepts, with finite values."""
+    from emulator.net.faults import parse_fault
+
+    if text == "help":
+        return text
+    if len(text) > MAX_FAULT_SPEC:
+        raise argparse.ArgumentTypeError(f"a fault SPEC of {len(text)} characters")
+    try:
+        fault = parse_fault(text)
+    except (SkinframesError, ValueError, OverflowError) as exc:
+        raise argparse.ArgumentTypeError(escape(exc)) from None
+    if not math.isfinite(fault.value) or fault.value > MAX_LATE_US:
+        raise argparse.ArgumentTypeError(
+            f"fault {escape(text)!r}: {fault.value:g} is not a finite value up to {MAX_LATE_US:g}"
+        )
+    return text
 
 
 def add_parser(sub: Any) -> None:
@@ -23,8 +52,18 @@ def add_parser(sub: Any) -> None:
         "emulated frames' timestamps at the master's port.",
     )
     p.add_argument("protocol", choices=["epl", "ecat"])
-    p.add_argument("--nodes", type=int, required=True, help="CNs / slaves (patches)")
-    p.add_argument("--bytes", type=int, required=True, help="taxel bytes per node (192 = a patch)")
+    p.add_argument(
+        "--nodes",
+        type=bounded_int(1, MAX_SLAVES),
+        required=True,
+        help="CNs / slaves (patches): EPL 1..239, EtherCAT 1..1024",
+    )
+    p.add_argument(
+        "--bytes",
+        type=bounded_int(0, MAX_NODE_BYTES),
+        required=True,
+        help="taxel bytes per node (192 = a patch)",
+    )
     p.add_argument(
         "--closed-ring",
         "--redundant",
@@ -39,7 +78,12 @@ def add_parser(sub: Any) -> None:
         default="per-slave",
         help="EtherCAT: one LRD per slave (paper) or a contiguous logical image",
     )
-    p.add_argument("--cycles", type=int, default=4, help="cycles to emulate (default 4)")
+    p.add_argument(
+        "--cycles",
+        type=bounded_int(1, MAX_CYCLES),
+        default=4,
+        help=f"cycles to emulate, 1..{MAX_CYCLES} (default 4)",
+    )
     p.add_argument(
         "--asnd",
         action="store_true",
@@ -48,17 +92,19 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--pres-timeout-us",
-        type=float,
+        type=bounded_float(0, MAX_TIMEOUT_US),
         metavar="US",
         help="EPL: the MN's PRes timeout; rejected if a CN cannot meet it",
     )
     p.add_argument(
         "--pcap",
+        type=out_path,
         help="write the frames at the master's port to this pcap "
         "(.pcapng: with direction flags, and marks on deliberately corrupted frames)",
     )
     p.add_argument(
         "--fault",
+        type=fault_spec,
         action="append",
         default=[],
         metavar="SPEC",
@@ -70,10 +116,15 @@ def add_parser(sub: Any) -> None:
         help="EtherCAT: begin with the master's start-up (scan, SII, mailbox, CoE reads, "
         "INIT->PREOP->SAFEOP->OP) on patches with a CoE mailbox",
     )
-    p.add_argument("--seed", type=int, default=0, help="seed of the taxel contact patterns")
+    p.add_argument(
+        "--seed",
+        type=bounded_int(0, MAX_SEED),
+        default=0,
+        help="seed of the taxel contact patterns",
+    )
     p.add_argument(
         "--vlan",
-        type=int,
+        type=bounded_int(0, 4094),
         metavar="ID",
         help="tag every frame with this 802.1Q VLAN id (0..4094); the 4 bytes count on the wire",
     )
@@ -157,5 +208,5 @@ def run(args: argparse.Namespace) -> int:
         for line in result.diagnosis:
             print(f"  diagnosis: {line}")
     if result.pcap:
-        print(f"  pcap: {result.pcap}")
+        print(f"  pcap: {escape(result.pcap)}")
     return 0

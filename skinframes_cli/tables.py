@@ -17,8 +17,12 @@ from emulator.model.sweep import rows
 from emulator.model.tables import DECIMALS, iter_csv, iter_json, not_applicable
 from skinframes.atomic_file import atomic_output
 from skinframes.errors import SkinframesError
-from skinframes_cli.options import int_list
+from skinframes_cli.options import bounded_int, int_list, int_list_in
 from skinframes_cli.progress import progress_bar
+
+MAX_NODES = 65535  # the largest EtherCAT chain (16-bit position address); EPL stops at 239
+MAX_BYTES = 65535
+MAX_JOBS = 256
 
 TITLES = {
     "epl": "Table I: Ethernet POWERLINK cycle time [us]",
@@ -50,13 +54,13 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--nodes",
-        type=int_list,
+        type=int_list_in(1, MAX_NODES),
         default=int_list("130:200:10"),
         help="start:stop:step (stop inclusive) or comma list (default: 130:200:10)",
     )
     p.add_argument(
         "--bytes",
-        type=int_list,
+        type=int_list_in(0, MAX_BYTES),
         default=int_list("2,32,128,256"),
         help="payload bytes per node, same syntax (default: 2,32,128,256)",
     )
@@ -71,10 +75,11 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--jobs",
-        type=int,
+        type=bounded_int(1, MAX_JOBS),
         default=None,
         metavar="N",
-        help="--model emulated: processes to spread the cells over (default: every core)",
+        help=f"--model emulated: processes to spread the cells over, 1..{MAX_JOBS} "
+        "(default: every core)",
     )
     p.set_defaults(run=run)
 

@@ -91,8 +91,8 @@ def test_decode_text(name: str, capsys: pytest.CaptureFixture[str]) -> None:
     lines = out.splitlines()
     assert len(lines) == GOLDEN[name]
     for i, line in enumerate(lines):
-        index, seconds, length = line.split()[:3]
-        assert int(index) == i
+        word, frame, seconds, length = line.split()[:4]
+        assert (word, int(frame)) == ("frame", i + 1)  # Wireshark's frame.number, from 1
         assert float(seconds) == pytest.approx(stamp_ns(name, i) * 1e-9, abs=1e-9)
         assert int(length) >= 60
     assert err.splitlines() == [
@@ -186,7 +186,8 @@ def test_decode_damaged_capture_prints_the_good_records(
     code, out, err = run(["decode", "--json", str(path)], capsys)
     assert code == 0
     assert [o["index"] for o in _json_lines(out)] == list(range(9))
-    assert "skipped record 9" in err
+    assert [o["frame"] for o in _json_lines(out)] == list(range(1, 10))
+    assert "skipped frame 10" in err
     assert err.splitlines()[-1] == "skinframes: 10 records: 9 decoded, 1 skipped"
     assert "Traceback" not in err
     # check calls the lost record an error
@@ -227,8 +228,8 @@ def test_check_error_exit_1(capture_with_error: Path, capsys: pytest.CaptureFixt
     doc = json.loads(out)
     assert doc["errors"] == 1 and doc["records"] == 4
     (finding,) = doc["findings"]
-    assert finding["index"] == 2 and finding["severity"] == "error"
-    assert finding.keys() == {"index", "severity", "code", "message"}
+    assert finding["index"] == 2 and finding["frame"] == 3 and finding["severity"] == "error"
+    assert finding.keys() == {"index", "frame", "severity", "code", "message"}
 
 
 def test_check_min_severity_hides_but_keeps_the_exit_code(
@@ -370,3 +371,187 @@ def test_module_entry_point() -> None:
     )
     assert result.returncode == 2 and result.stdout == ""
     assert_one_error_line(result.stderr)
+
+
+# --- atomic output under signals (issue 11, Build 2) -----------------------------------------------
+def _temp_files(folder: Path) -> list[Path]:
+    return [p for p in folder.iterdir() if p.name.startswith(".") and p.name.endswith(".tmp")]
+
+
+@pytest.mark.parametrize(("sig", "code"), [("SIGINT", 130), ("SIGTERM", 143)])
+def test_signal_halfway_keeps_the_previous_pcap(tmp_path: Path, sig: str, code: int) -> None:
+    """A run killed while writing leaves the previous file byte-identical and no temporary file."""
+    import os
+    import signal
+    import time
+
+    target = tmp_path / "x.pcap"
+    previous = [sys.executable, "-m", "skinframes", "simulate", "ecat", "--nodes", "4"]
+    previous += ["--bytes", "8", "--cycles", "2", "--pcap", str(target)]
+    subprocess.run(previous, check=True, capture_output=True, timeout=300, cwd=ROOT)
+    before = target.read_bytes()
+    assert before[:4] == struct.pack("<I", 0xA1B23C4D)
+    argv = [sys.executable, "-m", "skinframes", "simulate", "ecat", "--nodes", "160"]
+    argv += ["--bytes", "192", "--cycles", "10000", "--pcap", str(target)]
+    proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE)
+    try:
+        grown = False
+        while proc.poll() is None and not grown:  # poll the temporary file, not the clock
+            grown = any(p.stat().st_size > 1 << 20 for p in _temp_files(tmp_path))
+            time.sleep(0.01)
+        assert grown, "the run ended before its temporary file grew"
+        proc.send_signal(getattr(signal, sig))
+        _out, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            os.kill(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == code, err
+    lines = err.decode().splitlines()
+    assert len(lines) == 1 and lines[0].startswith("skinframes: "), lines
+    assert "Traceback" not in err.decode()
+    assert target.read_bytes() == before
+    assert _temp_files(tmp_path) == []
+
+
+def test_demo_writes_only_its_own_files_and_no_picture_with_no_plot(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from skinframes_cli.demo import MANIFEST, output_names
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / "notes.txt").write_text("mine")
+    assert main(["demo", "--out", str(out), "--no-plot"]) == 0
+    capsys.readouterr()
+    written = {p.name for p in out.iterdir()}
+    assert written == {"notes.txt", MANIFEST, *output_names(plots=False)}
+    assert not any(name.endswith((".png", ".svg")) for name in written)
+    assert (out / "notes.txt").read_text() == "mine"
+    listed = (out / MANIFEST).read_text().splitlines()[1:]
+    assert sorted(listed) == sorted(output_names(plots=False))
+
+
+@pytest.mark.parametrize("kind", ["foreign", "symlink", "symlink-out"])
+def test_demo_refuses_a_file_it_did_not_write(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], kind: str
+) -> None:
+    out = tmp_path / "out"
+    out.mkdir()
+    elsewhere = tmp_path / "elsewhere.txt"
+    elsewhere.write_text("keep")
+    victim = out / "skin_can.asc"
+    if kind == "foreign":
+        victim.write_text("a trace of my own")
+    elif kind == "symlink":
+        victim.symlink_to(elsewhere)
+    else:
+        victim = out / "epl_160x192_paper.pcap"
+        victim.symlink_to(elsewhere)
+    code, stdout, err = run(["demo", "--out", str(out), "--no-plot"], capsys)
+    assert code == 2 and stdout == ""
+    assert_one_error_line(err)
+    assert str(victim) in err
+    assert elsewhere.read_text() == "keep"
+    assert {p.name for p in out.iterdir()} == {victim.name}  # nothing written, not even a list
+
+
+def test_demo_force_replaces_links_never_their_targets(tmp_path: Path) -> None:
+    from skinframes_cli.demo import MANIFEST, prepare_out
+
+    out = tmp_path / "out"
+    out.mkdir()
+    elsewhere = tmp_path / "elsewhere.txt"
+    elsewhere.write_text("keep")
+    (out / "a.pcap").symlink_to(elsewhere)
+    (out / "b.pcap").write_text("foreign")
+    prepare_out(out, ["a.pcap", "b.pcap"], force=True)
+    assert not (out / "a.pcap").exists() and elsewhere.read_text() == "keep"
+    assert (out / MANIFEST).read_text().splitlines()[1:] == ["a.pcap", "b.pcap"]
+    # what demo wrote before may be replaced without --force
+    (out / "a.pcap").write_text("from demo")
+    prepare_out(out, ["a.pcap"], force=False)
+
+
+def test_demo_out_needs_an_existing_parent(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    code, _, err = run(["demo", "--out", str(tmp_path / "no" / "such"), "--no-plot"], capsys)
+    assert code == 2
+    assert_one_error_line(err)
+    assert not (tmp_path / "no").exists()
+
+
+# --- streams, pipes and untrusted names (issue 11, Builds 3, 6, 7) ---------------------------------
+def many_errors(tmp_path: Path, count: int = 3000) -> Path:
+    """A capture whose every frame is a PRes in the asynchronous phase: one error each."""
+    frames = [epl_bytes(SoA())] + [epl_bytes(PRes(src=1))] * count
+    path = tmp_path / "errors.pcap"
+    path.write_bytes(pcap_bytes([(i * 1000, f) for i, f in enumerate(frames)]))
+    return path
+
+
+@pytest.mark.parametrize(
+    ("extra", "head"),
+    [
+        ([], b"frames 2..3001  error   epl.cycle.order        x3000"),  # grouped: one line
+        (["--json"], b"{"),  # every instance: ~500 kB, more than a pipe holds
+    ],
+)
+def test_check_keeps_exit_1_through_a_closed_pipe(
+    tmp_path: Path, extra: list[str], head: bytes
+) -> None:
+    path = many_errors(tmp_path)
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "skinframes", "check", str(path), *extra],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        cwd=ROOT,
+    )
+    assert proc.stdout is not None and proc.stderr is not None
+    first = proc.stdout.readline()  # `| head -1`
+    proc.stdout.close()
+    err = proc.stderr.read().decode()
+    assert proc.wait(timeout=300) == 1
+    assert first.startswith(head)
+    assert "BrokenPipe" not in err and "Traceback" not in err and "Exception" not in err
+
+
+def test_decode_and_check_read_standard_input() -> None:
+    raw = (PCAPS / "epl_cycle_4cn.pcap").read_bytes()
+    for cmd, code in (("decode", 0), ("check", 0)):
+        result = subprocess.run(
+            [sys.executable, "-m", "skinframes", cmd, "-"],
+            input=raw,
+            capture_output=True,
+            timeout=300,
+            check=False,
+            cwd=ROOT,
+        )
+        assert result.returncode == code, result.stderr
+        if cmd == "decode":
+            assert len(result.stdout.splitlines()) == 10
+            assert result.stdout.split()[:2] == [b"frame", b"1"]
+
+
+@pytest.mark.parametrize("kind", ["device", "fifo", "newline-name"])
+def test_special_inputs_end_with_one_error_line(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], kind: str
+) -> None:
+    import os
+
+    if kind == "device":
+        path = "/dev/zero"
+    elif kind == "fifo":
+        path = str(tmp_path / "fifo")
+        os.mkfifo(path)
+    else:  # a name that tries to forge a second line and recolour the terminal
+        path = str(tmp_path / "x\nskinframes: error: forged\x1b[31m.pcap")
+        Path(path).write_bytes(b"not a capture at all")
+    for cmd in ("decode", "check"):
+        code, out, err = run([cmd, path], capsys)
+        assert code == 2 and out == ""
+        assert_one_error_line(err)
+        assert "\x1b" not in err
+    if kind == "newline-name":
+        assert "x\\nskinframes: error: forged\\x1b[31m.pcap" in err

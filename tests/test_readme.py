@@ -8,6 +8,7 @@ parsed here, and tests/emulator/test_live_soem.py runs it against real masters.
 
 from __future__ import annotations
 
+import itertools
 import os
 import re
 import shlex
@@ -29,7 +30,10 @@ def _command_lines() -> list[str]:
 
 
 COMMANDS = _command_lines()
-EXIT = {"check": 0}  # the README's capture is clean: check exits 0
+# the README's "Exit status" paragraph: 0 ok, 1 check found an error, 2 bad input; every line of
+# the README runs on good input, and its capture is clean, so each documents exit status 0
+EXIT_STATUS = dict(re.findall(r"(\d) ([^,]+)", README.split("Exit status:", 1)[1].split("\n\n")[0]))
+EXIT = {"check": 0}
 
 
 @pytest.fixture(scope="module")
@@ -53,6 +57,38 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def test_the_readme_names_commands() -> None:
     assert len(COMMANDS) >= 20 and any(c.startswith("skinframes serve") for c in COMMANDS)
+    assert EXIT_STATUS["0"] == "ok" and EXIT_STATUS["1"].startswith("`check` found an error")
+
+
+def test_the_wire_table_line_covers_every_epl_node(
+    workdir: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import json
+
+    line = "skinframes tables --preset wire --nodes 1:239:1 --bytes 192 --json"
+    assert line in COMMANDS
+    assert main(shlex.split(line)[1:]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    for table in ("epl", "ecat", "ecat_redundant"):
+        assert list(doc[table]) == [str(n) for n in range(1, 240)], table
+    # growing with the nodes, as every cycle-time model must
+    epl = [doc["epl"][str(n)]["192"] for n in range(1, 240)]
+    assert all(a < b for a, b in itertools.pairwise(epl))
+
+
+def test_capture_mode_raises_only_below_an_ethernet_header() -> None:
+    """README: capture mode never loses a byte; it raises only for fewer than 14 bytes."""
+    from skinframes import decode_frame
+    from skinframes.errors import DecodeError, TruncatedError
+
+    with pytest.raises(TruncatedError):
+        decode_frame(bytes(13))
+    for n in (14, 15, 59, 60):
+        assert decode_frame(bytes(n)).to_bytes() == bytes(n)
+    group_src = bytes(6) + b"\x01" + bytes(5) + b"\x88\xa4" + bytes(46)
+    assert [f.code for f in decode_frame(group_src).findings if f.code == "eth.src.group"]
+    with pytest.raises(DecodeError, match="group address"):
+        decode_frame(group_src, strict=True)
 
 
 @pytest.mark.parametrize("line", COMMANDS)

@@ -27,7 +27,14 @@ from skinframes import ethercat, powerlink
 from skinframes.check import CaptureReport, check_capture
 from skinframes.ethercat import Command, Datagram, EcatFrame
 from skinframes.findings import Severity
-from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, parse_capture, pcap_bytes, read_capture
+from skinframes.pcap import (
+    LINKTYPE_CAN_SOCKETCAN,
+    MarkedRecord,
+    parse_capture,
+    pcap_bytes,
+    pcapng_bytes,
+    read_capture,
+)
 from skinframes.powerlink import (
     ASnd,
     IdentResponse,
@@ -112,7 +119,10 @@ def test_golden_pcaps_are_clean(name: str) -> None:
 
 
 def test_non_ethernet_records_and_short_records() -> None:
+    # a legal SocketCAN record (id 0, len 0, 8 padding bytes) is counted as "can" and is clean
     report = check([b"\x00" * 16], linktype=LINKTYPE_CAN_SOCKETCAN)
+    assert report.counts == Counter({"can": 1}) and report.findings == []
+    report = check([b"\x00" * 16], linktype=147)  # LINKTYPE_USER0: not ours to judge
     assert report.counts == Counter({"other": 1}) and report.findings == []
     report = check([epl(SoC()), b"\x01\x02\x03"])  # 3 bytes: not even an Ethernet header
     assert found(report, Severity.ERROR) == [(1, "eth.truncated")]
@@ -379,3 +389,51 @@ def test_multiwriteread_frames_really_end_with_their_fcs(shared_captures: Path) 
     assert len(capture.records) == 7
     for r in capture.records:
         assert r.data[-4:] == struct.pack("<I", zlib.crc32(r.data[:-4]))
+
+
+# --- SocketCAN records and the file itself (issue 11, Build 6) -------------------------------------
+def socketcan(can_id: int, length: int, data: bytes, flags: int = 0) -> bytes:
+    """struct can_frame as LINKTYPE_CAN_SOCKETCAN stores it: id big-endian, len, flags, 2 pad."""
+    return struct.pack(">IBBxx", can_id, length, flags) + data
+
+
+def test_socketcan_records_are_checked() -> None:
+    good = socketcan(0x410, 8, bytes(range(8)))
+    fd = socketcan(0x411, 64, bytes(64), flags=0x04)  # CANFD_FDF: up to 64 bytes
+    bad_len = socketcan(0x412, 9, bytes(8))  # a classic frame carries at most 8 bytes
+    short = socketcan(0x413, 8, bytes(4))  # len 8, 4 data bytes present
+    stub = b"\x00\x00\x04"  # not even the 8-byte header
+    report = check([good, fd, bad_len, short, stub], linktype=LINKTYPE_CAN_SOCKETCAN)
+    assert report.counts == Counter({"can": 5})
+    assert found(report, Severity.ERROR) == [
+        (2, "can.socketcan"),
+        (3, "can.socketcan"),
+        (4, "can.socketcan"),
+    ]
+    messages = [f.finding.message for f in report.findings]
+    assert "len 9 > 8" in messages[0] and "len 8 needs 16" in messages[1]
+
+
+def test_file_findings_reach_check_without_counting_as_records() -> None:
+    import gzip
+
+    raw = pcap_bytes([(0, epl(SoC())), (100_000, epl(SoA()))])  # 100 us apart: no overlap
+    report = check_capture(parse_capture(gzip.compress(raw) + b"junk", "trailing.gz"))
+    assert report.total == 2 and report.counts["skipped"] == 0
+    assert found(report) == [(-1, "pcap.gzip_trailing")]
+    assert report.findings[0].frame == 0
+    assert report.to_json()["findings"][0]["frame"] == 0
+
+
+def test_pcapng_block_damage_is_a_named_finding() -> None:
+    raw = pcapng_bytes([MarkedRecord(0, epl(SoC())), MarkedRecord(1, epl(SoA()))])
+    broken = raw[:-4] + struct.pack("<I", 0xDEAD)  # the last block's trailing length
+    report = check_capture(parse_capture(broken))
+    assert found(report, Severity.ERROR) == [(1, "pcapng.block")]
+
+
+def test_unpolled_pres_after_soc_names_no_none() -> None:
+    frames = [epl(SoC()), epl(PRes(src=3))]
+    report = check(frames)
+    (f,) = [f.finding for f in report.findings if f.finding.code == "epl.cycle.unpolled"]
+    assert "None" not in f.message and "no PReq" in f.message

@@ -203,7 +203,7 @@ DECODERS: dict[str, Callable[[bytes], object]] = {
     "decode_frame strict": lambda b: decode_frame(b, strict=True),
     "decode_frame capture": lambda b: decode_frame(b, strict=False),
     "EthernetFrame.from_bytes": EthernetFrame.from_bytes,
-    "parse_capture": parse_capture,
+    "parse_capture": lambda b: parse_capture(b).records,  # streams: read every record
     "patch_from_bytes": patch_from_bytes,
 }
 

@@ -1,4 +1,4 @@
-"""Volume fuzzing: 100,000 generated inputs per decoder under CI=true (3,000 otherwise).
+"""Volume fuzzing: 10^6 generated inputs per decoder and reader under CI=true (3,000 otherwise).
 
 Seeded mutations of real frames (the golden captures), frames with a valid header and a random
 tail, and plain random bytes. Every decoder may only raise our DecodeError subclasses; capture
@@ -8,6 +8,7 @@ hypothesis cannot reach in CI time.
 
 from __future__ import annotations
 
+import gzip
 import os
 import random
 import zlib
@@ -18,9 +19,9 @@ import pytest
 from skinframes import canbus, decode_frame, ethercat, golden, powerlink, taxel
 from skinframes.errors import DecodeError
 from skinframes.ethernet import EthernetFrame
-from skinframes.pcap import parse_capture, pcap_bytes
+from skinframes.pcap import MarkedRecord, parse_capture, pcap_bytes, pcapng_bytes
 
-COUNT = 100_000 if os.environ.get("CI", "").lower() == "true" else 3_000
+COUNT = 1_000_000 if os.environ.get("CI", "").lower() == "true" else 3_000
 SEEDS = [f for name in golden.SCENARIOS for _, f in golden.build(name)]
 
 
@@ -55,8 +56,33 @@ def _ecat(b: bytes) -> object:
     return ethercat.decode(b[14:], strict=bool(len(b) % 2))
 
 
+def _read_all(raw: bytes) -> object:
+    """Open and read every record: the readers stream, so opening alone reads only the header."""
+    capture = parse_capture(raw)
+    records = sum(1 for _ in capture)
+    return records, capture.skipped, capture.findings, capture.total
+
+
 def _capture(b: bytes) -> object:
-    return parse_capture(pcap_bytes([(0, b)])[: 24 + 16 + len(b) - len(b) % 5] + b[:3])
+    return _read_all(pcap_bytes([(0, b)])[: 24 + 16 + len(b) - len(b) % 5] + b[:3])
+
+
+def _mutate(raw: bytes, b: bytes) -> bytes:
+    """``raw`` with bytes overwritten at places the input ``b`` chooses (3 input bytes each)."""
+    buf = bytearray(raw)
+    for j in range(0, len(b) - 2, 3):
+        buf[(b[j] << 8 | b[j + 1]) % len(buf)] = b[j + 2]
+    return bytes(buf[: len(buf) - (b[0] % 7 if b else 0)])
+
+
+def _pcapng(b: bytes) -> object:
+    raw = pcapng_bytes([MarkedRecord(0, b[:40], 1, "c"), MarkedRecord(1, b[40:], None, None)])
+    return _read_all(_mutate(raw, b))
+
+
+def _gzip(b: bytes) -> object:
+    raw = gzip.compress(pcap_bytes([(0, b[:30]), (1, b[30:])]), mtime=0)
+    return _read_all(_mutate(raw, b[-12:]) + b[:2])
 
 
 DECODERS: dict[str, Callable[[bytes], object]] = {
@@ -65,6 +91,8 @@ DECODERS: dict[str, Callable[[bytes], object]] = {
     "powerlink.decode": _epl,
     "ethercat.decode": _ecat,
     "parse_capture": _capture,
+    "parse_capture pcapng": _pcapng,
+    "parse_capture gzip": _gzip,
     "socketcan record": canbus.CanFrame.from_socketcan,
     "patch_from_bytes": taxel.patch_from_bytes,
 }
