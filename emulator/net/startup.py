@@ -5,7 +5,11 @@ count the slaves (BRD 0x0000), INIT with the error acknowledge, station addresse
 the SII words a master needs from each slave (identity 0x08-0x0F, mailbox 0x18-0x1C; EEPROM
 command 0x0502 and data 0x0508), the mailbox SyncManagers SM0/SM1 from the SII, PRE-OP, the CoE
 reads of the identity 0x1018:01 and of the PDO assignment 0x1C12/0x1C13 (complete access), the
-process-data SyncManager and FMMU, SAFE-OP and OP, each state checked with BRD 0x0130.
+process-data SyncManager and FMMU, the distributed clocks as SOEM's ``ecx_configdc`` sets them up
+(a BWR to 0x0900 latches every port's receive time; per slave FPRD of the processing unit's
+receive time 0x0918 and the port times 0x0900, then FPWR of the system time offset 0x0920 and
+the propagation delay 0x0928), SAFE-OP and OP, each state checked with BRD 0x0130. SYNC0 is not
+activated: the emulated clocks of a timing run stand still (``EcatChain.clock_ns`` is 0).
 
 Each frame carries one datagram, built by ``skinframes`` (:mod:`skinframes.ethercat`,
 :mod:`skinframes.ecat_mailbox`), answered by the register-level ESC model
@@ -23,6 +27,7 @@ from typing import Final
 
 from emulator.errors import TopologyError
 from emulator.esc.chain import STATION_BASE, EcatChain
+from emulator.esc.dc import REG_DC_DELAY, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU
 from emulator.esc.sii import SyncManagerType
 from emulator.esc.state_machine import ACK, AlState
 from skinframes import ecat_mailbox as mb
@@ -38,6 +43,8 @@ SII_WORDS: Final = (0x08, 0x0C, 0x18, 0x1C)
 EEPROM_READ: Final = 0x0100  # 0x0502 command bits 8-10 = 1 (datasheet II 2.11.3)
 MAILBOX_POLLS: Final = 10  # SM1 status reads before the master gives up on an answer
 _U16 = struct.Struct("<H")
+_U32 = struct.Struct("<I")
+_U64 = struct.Struct("<Q")
 
 
 @dataclass(frozen=True, slots=True)
@@ -146,6 +153,29 @@ def run_startup(
             "<IHBBHBBBxxx", logical_base + p * size, size, 0, 7, sm.start, 0, 0x01, 0x01
         )
         m.x(Datagram(Command.FPWR, s, 0x0600, fmmu))
+    _config_dc(m, stations)
     m.state(AlState.SAFEOP, nodes)
     m.state(AlState.OP, nodes)
     return m.records
+
+
+def _config_dc(m: _Master, stations: list[int]) -> None:
+    """Distributed clocks on a line (ETG.1000.4 6.8, SOEM ``ecx_configdc``): latch the receive
+    times, read them, and give every slave the offset of its clock from the reference's (the
+    first slave) and its propagation delay from the reference: the difference of the port-0
+    receive times of the latching frame, which passes every slave on its way out."""
+    m.x(Datagram(Command.BWR, 0, REG_DC_RECEIVE, bytes(4)))
+    local_pu: list[int] = []
+    port0: list[int] = []
+    for s in stations:
+        local_pu.append(
+            _U64.unpack(m.x(Datagram(Command.FPRD, s, REG_DC_RECEIVE_PU, bytes(8))).data)[0]
+        )
+        port0.append(
+            _U32.unpack_from(m.x(Datagram(Command.FPRD, s, REG_DC_RECEIVE, bytes(16))).data)[0]
+        )
+    for p, s in enumerate(stations):
+        delay = (port0[p] - port0[0]) & 0xFFFFFFFF
+        offset = (local_pu[0] - local_pu[p] + delay) & 0xFFFFFFFFFFFFFFFF
+        m.x(Datagram(Command.FPWR, s, REG_DC_OFFSET, _U64.pack(offset)))
+        m.x(Datagram(Command.FPWR, s, REG_DC_DELAY, _U32.pack(delay)))

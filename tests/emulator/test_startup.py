@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import itertools
 from pathlib import Path
 
 import pytest
@@ -99,3 +100,25 @@ def test_startup_refuses_faults_and_the_closed_ring(capsys: pytest.CaptureFixtur
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("skinframes: error: --startup")
     assert main(["simulate", "epl", "--nodes", "3", "--bytes", "8", "--startup"]) == 2
+
+
+def test_startup_sets_up_the_distributed_clocks_as_soem_does() -> None:
+    # SOEM's ecx_configdc: BWR 0x0900 latches, FPRD 0x0918 and 0x0900 per slave, then FPWR of
+    # the offset 0x0920 and the delay 0x0928; the delay of slave p is the difference of the port-0
+    # receive times the latch left in slave p and in the reference (slave 0)
+    sink = MemorySink()
+    r = simulate_ecat(NODES, 16, PAPER, cycles=1, startup=True, sink=sink)
+    answers = []
+    for _, _, outbound, frame, _ in sink.records[: r.startup_frames]:
+        ecat = decode_frame(frame).payload
+        assert isinstance(ecat, EcatFrame)
+        (d,) = ecat.datagrams
+        if not outbound and 0x0900 <= d.ado < 0x0A00:
+            answers.append((int(d.cmd), d.ado, d.data, d.wkc))
+    assert answers[0] == (0x08, 0x0900, bytes(4), NODES)  # BWR: every slave latched
+    port0 = [int.from_bytes(a[2][:4], "little") for a in answers if a[:2] == (0x04, 0x0900)]
+    assert len(port0) == NODES and all(a[3] == 1 for a in answers[1:])
+    delays = [int.from_bytes(a[2], "little") for a in answers if a[:2] == (0x05, 0x0928)]
+    assert delays == [t - port0[0] for t in port0]
+    assert delays[0] == 0 and all(b > a for a, b in itertools.pairwise(delays))
+    assert len([a for a in answers if a[:2] == (0x05, 0x0920)]) == NODES
