@@ -172,7 +172,8 @@ class OverlapChecker:
 
     def __init__(self, bit_rate_bps: dict[int, int] | None = None) -> None:
         self.bit_rate_bps = bit_rate_bps or {}
-        self.last: dict[tuple[int, bytes], tuple[int, int, int]] = {}  # -> (index, time, wire)
+        # (interface, source) -> (index, time, wire, signature) of its last frame
+        self.last: dict[tuple[int, bytes], tuple[int, int, int, tuple[object, ...] | None]] = {}
 
     def wire_ns(self, interface: int, frame_bytes: int, fcs_captured: bool) -> int:
         """Time on the wire of a frame captured with ``frame_bytes`` (FCS included or not)."""
@@ -182,16 +183,32 @@ class OverlapChecker:
         return -(-octets * 8 * 1_000_000_000 // rate)  # rounded up to whole ns
 
     def feed(
-        self, index: int, time_ns: int, interface: int, src: bytes, length: int, fcs: bool
+        self,
+        index: int,
+        time_ns: int,
+        interface: int,
+        src: bytes,
+        length: int,
+        fcs: bool,
+        signature: tuple[object, ...] | None = None,
     ) -> list[Finding]:
-        """The finding for a frame that starts before its sender's previous one has ended."""
+        """The finding for a frame that starts before its sender's previous one has ended.
+
+        ``signature``: an EtherCAT frame's datagram headers. The master's frame coming back
+        through a closed ring keeps its source address (an ESC sets bit 1 of it only where the
+        frame passes its port 0 processing), so in one stream (classic pcap) it meets the copy
+        the master sent from its other port: a frame with the previous frame's signature is
+        that return, not a second frame the sender put on the wire.
+        """
         wire = self.wire_ns(interface, length, fcs)
         key = (interface, bytes(src))
         prev = self.last.get(key)
-        self.last[key] = (index, time_ns, wire)
+        if prev is not None and signature is not None and signature == prev[3]:
+            return []  # the return of the sender's last frame: its send stays the last
+        self.last[key] = (index, time_ns, wire, signature)
         if prev is None:
             return []
-        p_index, p_time, p_wire = prev
+        p_index, p_time, p_wire, _ = prev
         rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
         ifg = -(-ethernet.IFG_BYTES * 8 * 1_000_000_000 // rate)
         need = min(wire, p_wire) + ifg
@@ -241,7 +258,15 @@ def check_capture(capture: Capture) -> CaptureReport:
             continue
         report.counts[proto] += 1
         fcs = any(f.code == "eth.fcs" for f in frame.findings)
-        later = overlap.feed(rec.index, rec.time_ns, rec.interface, frame.src, rec.orig_len, fcs)
+        message = encap.message_of(frame) if proto == "ecat" else None
+        signature = (
+            tuple((d.cmd, d.idx, d.adp, d.ado, len(d.data)) for d in message.datagrams)
+            if isinstance(message, ethercat.EcatFrame) and message.datagrams
+            else None
+        )
+        later = overlap.feed(
+            rec.index, rec.time_ns, rec.interface, frame.src, rec.orig_len, fcs, signature
+        )
         if later:
             found = found + later  # never in place: a repeated frame shares ``found``
         if rec.comments:
