@@ -19,10 +19,11 @@ from emulator import WIRE, EmulatorError, simulate_ecat, simulate_epl
 from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_capture
 from skinframes.analysis.ecat import EcatAnalysis
 from skinframes.analysis.epl import EplAnalysis
-from skinframes.atomic_file import atomic_output, atomic_path
+from skinframes.atomic_file import atomic_output
 from skinframes.errors import SkinframesError
 from skinframes.pcap import read_capture
 from skinframes.powerlink import NmtState
+from skinframes_cli.figure import save_figure
 from skinframes_cli.progress import progress_bar
 
 MODEL_PRESET: Final = "wire"
@@ -364,6 +365,4 @@ def _plot(out: Path, a: Analysis) -> None:
     if ax_state.get_legend_handles_labels()[0]:
         ax_state.legend(fontsize="small")
     fig.tight_layout()
-    with atomic_path(out) as tmp:
-        fig.savefig(tmp, dpi=100, format=out.suffix.lstrip(".").lower() or "png")
-    plt.close(fig)
+    save_figure(fig, out, dpi=100)

@@ -10,8 +10,8 @@ from typing import Any
 
 from emulator.model.params import PRESETS
 from skinframes import taxel
-from skinframes.atomic_file import atomic_path
 from skinframes.errors import SkinframesError
+from skinframes_cli.figure import save_figure
 
 ROWS = (
     ("can", "CAN as recorded"),
@@ -106,11 +106,7 @@ def plot(doc: dict[str, Any], out: Path) -> Path:
         f"{len(doc['boards'])} skin boards: CAN vs EPL vs EtherCAT "
         f"(dotted 1 ms, dashed 5 ms, red: sample period)"
     )
-    try:
-        with atomic_path(out) as tmp:
-            fig.savefig(tmp, dpi=110, format=out.suffix.lstrip(".").lower() or "png")
-    finally:
-        plt.close(fig)
+    save_figure(fig, out)
     return out
 
 

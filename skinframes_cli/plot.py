@@ -10,9 +10,10 @@ from typing import Any
 from emulator.model.paper_tables import FIGURE_MAX_NODES
 from emulator.model.params import PRESETS
 from skinframes import taxel
-from skinframes.atomic_file import atomic_path, check_target
+from skinframes.atomic_file import check_target
 from skinframes.errors import SkinframesError
 from skinframes.text import escape
+from skinframes_cli.figure import save_figure
 from skinframes_cli.options import bounded_int, out_path
 
 PAYLOADS = (2, 32, 128, 192, 256)
@@ -131,11 +132,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
         f"Cycle time vs nodes, preset '{preset_name}' (dotted: 1 ms, dashed: 5 ms; "
         f"red: {taxel.BODY_PATCHES} patches)"
     )
-    try:
-        with atomic_path(out) as tmp:
-            fig.savefig(tmp, dpi=110, format=out.suffix.lstrip(".").lower() or "png")
-    finally:
-        plt.close(fig)
+    save_figure(fig, out)
     return out
 
 

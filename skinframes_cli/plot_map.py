@@ -13,8 +13,8 @@ from emulator.model.paper_tables import BYTES, FIGURE_MAX_NODES, NODES
 from emulator.model.params import preset
 from emulator.model.sweep import analytic_grid, cell_reason
 from skinframes import ethercat
-from skinframes.atomic_file import atomic_path
 from skinframes.errors import SkinframesError
+from skinframes_cli.figure import save_figure
 
 PANELS: Final = (
     ("epl", "Ethernet POWERLINK"),
@@ -129,9 +129,5 @@ def make_map(out: Path, preset_name: str, nodes: int, data_bytes: int) -> dict[s
         handles=handles, loc="outside lower center", ncol=len(handles), fontsize=10, facecolor="0.7"
     )
     fig.suptitle(f"Cycle time over nodes x bytes per node, preset '{preset_name}'")
-    try:
-        with atomic_path(out) as tmp:
-            fig.savefig(tmp, format=out.suffix.lstrip(".").lower())
-    finally:
-        plt.close(fig)
+    save_figure(fig, out, dpi=DPI)
     return panels
