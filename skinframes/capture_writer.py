@@ -27,10 +27,7 @@ from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from types import TracebackType
-from typing import IO, BinaryIO, Final
-
-import numpy as np
-import numpy.typing as npt
+from typing import IO, TYPE_CHECKING, BinaryIO, Final
 
 from skinframes.atomic_file import atomic_output, check_target, create_temp
 from skinframes.errors import (
@@ -39,6 +36,10 @@ from skinframes.errors import (
     FrameTooLargeError,
     PcapFormatError,
 )
+
+if TYPE_CHECKING:  # numpy is imported where an array is made: reading needs none
+    import numpy as np
+    import numpy.typing as npt
 
 __all__ = [
     "CAPTURE_SNAPLEN",
@@ -430,6 +431,8 @@ class CaptureWriter:
             FieldRangeError: a timestamp or port out of range.
             FrameTooLargeError: a length over the snaplen (65535).
         """
+        import numpy as np  # here, not at the top: reading captures needs no numpy
+
         f = self._open_file()
         times = _integers("times_ns", times_ns, 2)
         k, r = times.shape
@@ -486,6 +489,8 @@ class CaptureWriter:
             CaptureError: shapes disagree, or a fill leaves its frame; the writer is closed.
             FieldRangeError, FrameTooLargeError: as in :meth:`write_block`.
         """
+        import numpy as np  # here, not at the top: reading captures needs no numpy
+
         f = self._open_file()
         times = _integers("times_ns", times_ns, 2)
         k, r = times.shape
@@ -610,6 +615,8 @@ class CaptureWriter:
 
     def _stamp(self, layout: _Layout, t: npt.NDArray[np.int64]) -> None:
         """Write the timestamps ``t`` (rows, R) into the first rows of the layout's image."""
+        import numpy as np  # here, not at the top: reading captures needs no numpy
+
         rows, r = t.shape
         words = np.empty((rows, r, 2), dtype="<u4")  # the two u32 time words of each record
         if self._fmt == "pcap":
@@ -628,6 +635,8 @@ class CaptureWriter:
         layout: _Layout, offset: int, values: npt.NDArray[np.uint8], k: int
     ) -> tuple[int, npt.NDArray[np.uint8]]:
         """A fill's image column and values, checked: inside one frame, k rows of uint8."""
+        import numpy as np  # here, not at the top: reading captures needs no numpy
+
         v = np.asarray(values)
         if v.dtype != np.uint8:
             raise TypeError(f"fill values must be uint8, not {v.dtype}")
@@ -651,6 +660,8 @@ class CaptureWriter:
         r: int,
     ) -> _Layout:
         """The row layout of a block: built once from :meth:`_record`, reused while it holds."""
+        import numpy as np  # here, not at the top: reading captures needs no numpy
+
         lens = _integers("lengths", lengths, 1)
         if lens.shape != (r,):
             raise CaptureError(f"capture block: {lens.shape[0]} lengths for {r} records per row")
@@ -704,6 +715,8 @@ class CaptureWriter:
 
 def _integers(name: str, values: npt.ArrayLike, ndim: int) -> npt.NDArray[np.int64]:
     """``values`` as an int64 array of ``ndim`` dimensions (TypeError for another dtype)."""
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     arr = np.asarray(values)
     if arr.dtype.kind not in "iu":
         raise TypeError(f"{name} must be an integer array, not {arr.dtype}")

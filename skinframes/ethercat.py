@@ -21,11 +21,9 @@ import struct
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass, fields
 from enum import IntEnum
-from typing import ClassVar, Final
+from typing import TYPE_CHECKING, ClassVar, Final
 
 import construct as cs
-import numpy as np
-import numpy.typing as npt
 
 from skinframes import ethernet
 from skinframes.errors import (
@@ -36,6 +34,10 @@ from skinframes.errors import (
     TruncatedError,
 )
 from skinframes.findings import Finding, error, info, warning
+
+if TYPE_CHECKING:  # numpy is imported where an array is made: reading needs none
+    import numpy as np
+    import numpy.typing as npt
 
 __all__ = [
     "BROADCAST_MAC",
@@ -823,6 +825,8 @@ def pack_frames_batch(
     Returns:
         uint8 array (n, L): row i equals ``frame(EcatFrame(...)).to_bytes()`` for frame i.
     """
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     data = np.asarray(data)
     if data.dtype != np.uint8 or data.ndim != 3:
         raise TypeError("data must be a uint8 array of shape (n, k, B)")
@@ -878,6 +882,8 @@ def unpack_frames_batch(
     Returns:
         (cmds (n, k), addresses (n, k), data (n, k, size) as a read-only view, wkc (n, k)).
     """
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     frames = np.asarray(frames, dtype=np.uint8)
     body, stride, _ = _layout(k, size)
     if frames.ndim != 2 or frames.shape[1] < ethernet.HEADER_BYTES + body:

@@ -13,13 +13,15 @@ from __future__ import annotations
 
 import struct
 from dataclasses import dataclass
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
 import construct as cs
-import numpy as np
-import numpy.typing as npt
 
 from skinframes.errors import FieldRangeError, TruncatedError
+
+if TYPE_CHECKING:  # numpy is imported where an array is made: reading needs none
+    import numpy as np
+    import numpy.typing as npt
 
 __all__ = [
     "MAX_TAGS",
@@ -133,6 +135,8 @@ def tag_frames(
     Returns:
         (k, max(60, 14 + 4 x tags + payload_bytes)): the padding shrinks by what the tags add.
     """
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     frames = np.asarray(frames, dtype=np.uint8)
     if not tags:
         return frames

@@ -9,51 +9,53 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import importlib
 import signal
 import sys
 import threading
 from collections.abc import Iterator, Sequence
-from types import FrameType
-from typing import Final
+from types import FrameType, ModuleType
+from typing import TYPE_CHECKING, Any, Final
 
 from skinframes.errors import SkinframesError
 from skinframes.text import escape
-from skinframes_cli import (
-    analyze,
-    can,
-    check,
-    compare,
-    decode,
-    demo,
-    plan,
-    plot,
-    serve,
-    simulate,
-    tables,
-    vectors,
-    wireshark_plugin,
-)
 
 __all__ = ["Terminated", "main"]
 
 EXIT_SIGINT: Final = 128 + signal.SIGINT  # 130, as a shell reports a process ended by SIGINT
 EXIT_SIGTERM: Final = 128 + signal.SIGTERM  # 143
 
-COMMANDS: Final = (
-    demo,
-    tables,
-    simulate,
-    plan,
-    plot,
-    decode,
-    check,
-    analyze,
-    can,
-    compare,
-    serve,
-    wireshark_plugin,
-    vectors,
+# The command modules, in --help order; each registers one subcommand (``add_parser``). A run
+# imports only the module of its command (start-up time: ``check`` needs no numpy, emulator or
+# matplotlib); ``--help``, an unknown command and :func:`build_parser` import them all.
+COMMAND_MODULES: Final = (
+    "demo",
+    "tables",
+    "simulate",
+    "plan",
+    "plot",
+    "decode",
+    "check",
+    "analyze",
+    "can",
+    "compare",
+    "serve",
+    "wireshark_plugin",
+    "vectors",
 )
+
+
+def _command_module(name: str) -> ModuleType:
+    return importlib.import_module(f"{__name__}.{name}")
+
+
+if not TYPE_CHECKING:
+
+    def __getattr__(name: str) -> Any:
+        """``COMMANDS``, the command modules themselves, imported when first asked for."""
+        if name == "COMMANDS":
+            return tuple(_command_module(m) for m in COMMAND_MODULES)
+        raise AttributeError(f"module {__name__!r} has no attribute {name!r}")
 
 
 class _Parser(argparse.ArgumentParser):
@@ -96,8 +98,9 @@ def _quiet_stdout() -> None:
         os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())
 
 
-def build_parser() -> argparse.ArgumentParser:
-    """The full argument parser (exposed for documentation and tests)."""
+def build_parser(modules: Sequence[str] = COMMAND_MODULES) -> argparse.ArgumentParser:
+    """The full argument parser (exposed for documentation and tests); ``modules``: only the
+    subcommands of these :data:`COMMAND_MODULES`."""
     parser = _Parser(
         prog="skinframes",
         description="Build, check and time the EPL, EtherCAT and CAN frames of a robot skin.",
@@ -106,14 +109,30 @@ def build_parser() -> argparse.ArgumentParser:
     sub = parser.add_subparsers(
         dest="command", required=True, metavar="COMMAND", parser_class=_Parser
     )
-    for command in COMMANDS:
-        command.add_parser(sub)
+    for name in modules:
+        _command_module(name).add_parser(sub)
     return parser
+
+
+def _modules_for(argv: Sequence[str]) -> Sequence[str]:
+    """The command module ``argv`` runs, alone; all of them where argv names none plainly
+    (``--help``, an abbreviated option, a misspelt command: argparse then says what it always
+    says)."""
+    for arg in argv:
+        if arg == "--debug":
+            continue
+        name = arg.replace("-", "_")  # the command wireshark-plugin lives in wireshark_plugin
+        if name in COMMAND_MODULES and arg == name.replace("_", "-"):
+            return (name,)
+        break
+    return COMMAND_MODULES
 
 
 def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (0 ok, 1 problems found, 2 bad input)."""
-    parser = build_parser()
+    if argv is None:
+        argv = sys.argv[1:]
+    parser = build_parser(_modules_for(argv))
     try:
         args = parser.parse_args(argv)
     except SystemExit as exc:  # usage errors (exit 2) and --help (exit 0), as a return code

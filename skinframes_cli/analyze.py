@@ -10,13 +10,14 @@ from __future__ import annotations
 import argparse
 import csv
 import json
+import math
 import operator
 import sys
 from pathlib import Path
 from typing import Any, Final
 
 from emulator import WIRE, EmulatorError, simulate_ecat, simulate_epl
-from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_capture
+from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_file
 from skinframes.analysis.ecat import EcatAnalysis
 from skinframes.analysis.epl import EplAnalysis
 from skinframes.atomic_file import atomic_output
@@ -86,17 +87,18 @@ def run(args: argparse.Namespace) -> int:
     """Analyse and report."""
     if args.expected_wkc is not None and not 0 <= args.expected_wkc <= 0xFFFF:
         raise SkinframesError(f"--expected-wkc {args.expected_wkc}: a working counter is 0..65535")
-    if args.pres_timeout_us is not None and args.pres_timeout_us < 0:
-        raise SkinframesError(f"--pres-timeout-us {args.pres_timeout_us}: must be >= 0")
+    if args.pres_timeout_us is not None and not 0 <= args.pres_timeout_us < math.inf:
+        raise SkinframesError(f"--pres-timeout-us {args.pres_timeout_us}: must be >= 0, finite")
     if args.csv is not None and not Path(args.csv).is_dir():
         raise SkinframesError(f"{args.csv}: directory does not exist")
     if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".svg"):
         raise SkinframesError(f"{args.plot}: the plot is written as .png or .svg")
-    capture = read_capture(args.path)
     timeout_ns = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1000)
-    with progress_bar(operator.length_hint(capture), "frames") as advance:
-        analysis = analyze_capture(
-            capture, expected_wkc=args.expected_wkc, pres_timeout_ns=timeout_ns, progress=advance
+    # the bar's total costs a pass over the file: only where a bar is shown (a terminal)
+    total = operator.length_hint(read_capture(args.path)) if sys.stderr.isatty() else 0
+    with progress_bar(total, "frames") as advance:
+        analysis = analyze_file(
+            args.path, expected_wkc=args.expected_wkc, pres_timeout_ns=timeout_ns, progress=advance
         )
     models = {c.protocol: model_cycle_us(c) for c in analysis.config}
     doc = analysis.to_json()

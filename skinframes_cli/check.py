@@ -13,7 +13,7 @@ import sys
 from dataclasses import dataclass
 from typing import Any
 
-from skinframes.check import FrameFinding, check_capture
+from skinframes.check import FrameFinding, check_capture, check_file
 from skinframes.findings import Severity
 from skinframes.text import escape
 from skinframes_cli.decode import open_capture
@@ -87,7 +87,7 @@ def _frames(g: Group) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Check and report; the exit status survives a reader that leaves (``| head -1``)."""
-    report = check_capture(open_capture(args.path))
+    report = check_capture(open_capture("-")) if args.path == "-" else check_file(args.path)
     if args.min_severity is not None:
         floor = Severity[args.min_severity.upper()]
     else:

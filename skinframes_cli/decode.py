@@ -8,11 +8,6 @@ import json
 import sys
 from typing import Any
 
-import numpy as np
-
-from skinframes.atomic_file import atomic_output
-from skinframes.capture_taxels import taxels_from_capture
-from skinframes.describe import JsonDescriber, describe_record
 from skinframes.errors import PcapFormatError
 from skinframes.pcap import Capture, read_capture
 from skinframes.text import escape
@@ -51,6 +46,8 @@ def run(args: argparse.Namespace) -> int:
     """Decode and print, record by record as the capture is read."""
     if args.taxels:
         return _taxels(args)
+    from skinframes.describe import JsonDescriber, describe_record  # here: check needs none
+
     capture = open_capture(args.path)
     out = sys.stdout
     decoded = 0
@@ -82,6 +79,11 @@ def run(args: argparse.Namespace) -> int:
 
 def _taxels(args: argparse.Namespace) -> int:
     """``--taxels``: the array, written atomically; a one-line summary on stderr."""
+    import numpy as np  # here: ``check`` imports this module for open_capture alone
+
+    from skinframes.atomic_file import atomic_output
+    from skinframes.capture_taxels import taxels_from_capture
+
     if args.path == "-":
         raise PcapFormatError("decode --taxels reads a capture file, not standard input")
     result = taxels_from_capture(

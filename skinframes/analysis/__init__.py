@@ -11,13 +11,15 @@ from __future__ import annotations
 
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any, Final
 
 from skinframes import ethernet
 from skinframes.analysis.ecat import LOGICAL_WKC_PER_SLAVE, EcatAnalysis, EcatAnalyzer
 from skinframes.analysis.epl import EplAnalysis, EplAnalyzer
 from skinframes.analysis.stats import Series, Summary
-from skinframes.pcap import LINKTYPE_ETHERNET, Record
+from skinframes.pcap import LINKTYPE_ETHERNET, Record, read_capture
+from skinframes.pcap_plain import NotPlainError, RecordRow, iter_plain_pcap, record_rows
 
 __all__ = [
     "Analysis",
@@ -25,6 +27,7 @@ __all__ = [
     "Series",
     "Summary",
     "analyze_capture",
+    "analyze_file",
     "infer_config",
 ]
 
@@ -97,6 +100,38 @@ def analyze_capture(
         pres_timeout_ns: the MN's PRes timeout; a PRes later than this after its PReq is late.
         progress: called with the number of records read since the last call.
     """
+    return _analyze_rows(record_rows(records), expected_wkc, pres_timeout_ns, progress)
+
+
+def analyze_file(
+    path: str | Path,
+    *,
+    expected_wkc: int | None = None,
+    pres_timeout_ns: int | None = None,
+    progress: Callable[[int], None] | None = None,
+) -> Analysis:
+    """``analyze_capture(read_capture(path), ...)``: the same analysis, read faster where the
+    file is a plain classic pcap (:func:`~skinframes.pcap_plain.iter_plain_pcap`). Where it is
+    not, after all, the reader starts again from the first record (``progress`` then counts
+    the records read before that twice)."""
+    capture = read_capture(path)  # refuses what read_capture refuses, with its message
+    if capture.format == "pcap":
+        try:
+            return _analyze_rows(iter_plain_pcap(path), expected_wkc, pres_timeout_ns, progress)
+        except NotPlainError:
+            pass
+    return analyze_capture(
+        capture, expected_wkc=expected_wkc, pres_timeout_ns=pres_timeout_ns, progress=progress
+    )
+
+
+def _analyze_rows(
+    rows: Iterable[RecordRow],
+    expected_wkc: int | None,
+    pres_timeout_ns: int | None,
+    progress: Callable[[int], None] | None,
+) -> Analysis:
+    """:func:`analyze_capture` of the records as rows (:data:`~skinframes.pcap_plain.RecordRow`)."""
     epl = EplAnalyzer(pres_timeout_ns)
     ecat = EcatAnalyzer(expected_wkc)
     n = 0
@@ -104,21 +139,20 @@ def analyze_capture(
     ecat_feed = ecat.feed
     n_epl = n_ecat = n_other = 0
     header = ethernet.HEADER_BYTES
-    for rec in records:
+    for index, time_ns, data, linktype, _, interface, _ in rows:
         n += 1
         if progress is not None and n % PROGRESS_EVERY == 0:
             progress(PROGRESS_EVERY)
-        data = rec.data
-        if rec.linktype != LINKTYPE_ETHERNET or len(data) < header:
+        if linktype != LINKTYPE_ETHERNET or len(data) < header:
             n_other += 1
             continue
         kind = data[_ETHERTYPE]
         if kind == _EPL:
             n_epl += 1
-            epl_feed(rec.index + 1, rec.time_ns, data[header:])
+            epl_feed(index + 1, time_ns, data[header:])
         elif kind == _ECAT:
             n_ecat += 1
-            ecat_feed(rec.index + 1, rec.time_ns, rec.interface, data)
+            ecat_feed(index + 1, time_ns, interface, data)
         else:
             n_other += 1
     if progress is not None:

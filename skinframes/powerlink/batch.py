@@ -10,10 +10,7 @@ codec with hypothesis.
 
 from __future__ import annotations
 
-from typing import Final
-
-import numpy as np
-import numpy.typing as npt
+from typing import TYPE_CHECKING, Final
 
 from skinframes import ethernet
 from skinframes.errors import FieldRangeError, InvalidFieldError, TruncatedError
@@ -26,6 +23,10 @@ from skinframes.powerlink.schemas import (
     SOC_NET_TIME_OFFSET,
     SRC_OFFSET,
 )
+
+if TYPE_CHECKING:  # numpy is imported where an array is made: reading needs none
+    import numpy as np
+    import numpy.typing as npt
 
 # Columns of a PRes frame (Ethernet header, then the EPL bytes)
 _EPL: Final = ethernet.HEADER_BYTES  # 14: the EPL message starts after the EtherType
@@ -53,6 +54,8 @@ def pack_pres_frames(
         uint8 array of shape (n, max(14 + 10 + B, 60)): each row a frame as ``frame(PRes(...))``
         encodes it (destination 01:11:1e:00:00:02, source ``node_mac(src)``, zero padding).
     """
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     payloads = np.asarray(payloads)
     if payloads.dtype != np.uint8 or payloads.ndim != 2:
         raise TypeError("payloads must be a 2-D uint8 array")
@@ -86,6 +89,8 @@ def unpack_pres_frames(
     Raises:
         InvalidFieldError: a row is not a PRes, or the rows disagree on Size.
     """
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     frames = np.asarray(frames, dtype=np.uint8)
     if frames.ndim != 2 or frames.shape[1] < _PAYLOAD:
         raise TruncatedError("EPL PRes batch: rows shorter than the 24-byte PRes header")
@@ -124,6 +129,8 @@ def pack_soc_frames(
     Raises:
         FieldRangeError: a value does not fit its field, or the lengths disagree.
     """
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     fields = [
         _unsigned("net_time_s", net_time_s, 32),
         _unsigned("net_time_ns", net_time_ns, 32),
@@ -149,6 +156,8 @@ def pack_soc_frames(
 
 def _unsigned(name: str, values: npt.ArrayLike, bits: int) -> npt.NDArray[np.uint64]:
     """``values`` as a 1-D uint64 array, each checked to fit ``bits`` (numpy would wrap)."""
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
     # Python ints stay Python ints: np.asarray([0, 2**63]) would round them through float64
     numeric = isinstance(values, np.ndarray | np.generic)
     arr = np.atleast_1d(values if numeric else np.asarray(values, dtype=object))
