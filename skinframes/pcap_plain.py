@@ -14,9 +14,9 @@ note a finding, it raises :class:`NotPlainError` instead, and the caller starts 
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
-from typing import Final, TypeAlias
+from typing import BinaryIO, Final, TypeAlias
 
 from skinframes.capture_writer import MAGIC_NS, MAGIC_US, NS_PER_S, PCAP_HEADER_BYTES
 from skinframes.pcap import MAX_RECORD_BYTES, Record
@@ -51,7 +51,8 @@ def iter_plain_pcap(path: str | Path) -> Iterator[RecordRow]:
             note (truncated, too long, past the snap length, fraction out of range).
         OSError: the file cannot be read.
     """
-    with open(path, "rb") as f:
+    f = open(path, "rb")  # noqa: SIM115  # closed by _records when it ends
+    try:
         head = f.read(PCAP_HEADER_BYTES)
         if len(head) < PCAP_HEADER_BYTES:
             raise NotPlainError("short header")
@@ -64,43 +65,46 @@ def iter_plain_pcap(path: str | Path) -> Iterator[RecordRow]:
         major, _minor, _zone, _sig, snaplen, network = struct.unpack_from(order + "HHiIII", head, 4)
         if major != PCAP_MAJOR:
             raise NotPlainError(f"version {major}")
-        yield from _records(f.read, order, magic == MAGIC_NS, snaplen, network & 0xFFFF)
+    except BaseException:
+        f.close()
+        raise
+    return _records(f, order, magic == MAGIC_NS, snaplen, network & 0xFFFF)
 
 
-def _records(
-    read: Callable[[int], bytes], order: str, ns: bool, snaplen: int, linktype: int
-) -> Iterator[RecordRow]:
-    """The records after the file header (section 5), chunk by chunk."""
-    unpack_from = struct.Struct(order + "IIII").unpack_from
-    scale, frac_limit = (1, NS_PER_S) if ns else (1000, _US_PER_S)
-    limit = min(snaplen, MAX_RECORD_BYTES) if snaplen else MAX_RECORD_BYTES
-    buf: bytes = read(CHUNK_BYTES)
-    have = len(buf)
-    pos = 0
-    index = 0
-    while True:
-        if pos + RECORD_HEADER_BYTES > have:
-            more = read(CHUNK_BYTES)
-            if not more:
-                if pos < have:
-                    raise NotPlainError("truncated record header")
-                return
-            buf = buf[pos:] + more
-            have, pos = len(buf), 0
-            continue
-        sec, frac, incl, orig = unpack_from(buf, pos)
-        if incl > limit or frac >= frac_limit:
-            raise NotPlainError(f"record {index}: the reader skips or notes it")
-        start = pos + RECORD_HEADER_BYTES
-        end = start + incl
-        if end > have:
-            more = read(max(CHUNK_BYTES, end - have))
-            if not more:
-                raise NotPlainError("truncated record")
-            buf = buf[pos:] + more
-            have, pos = len(buf), 0
-            continue
-        time_ns = sec * NS_PER_S + frac * scale
-        yield index, time_ns, buf[start:end], linktype, max(orig, incl), 0, ()
-        pos = end
-        index += 1
+def _records(f: BinaryIO, order: str, ns: bool, snaplen: int, linktype: int) -> Iterator[RecordRow]:
+    """The records after the file header (section 5), chunk by chunk; closes ``f``."""
+    read = f.read
+    with f:
+        unpack_from = struct.Struct(order + "IIII").unpack_from
+        scale, frac_limit = (1, NS_PER_S) if ns else (1000, _US_PER_S)
+        limit = min(snaplen, MAX_RECORD_BYTES) if snaplen else MAX_RECORD_BYTES
+        buf: bytes = read(CHUNK_BYTES)
+        have = len(buf)
+        pos = 0
+        index = 0
+        while True:
+            if pos + RECORD_HEADER_BYTES > have:
+                more = read(CHUNK_BYTES)
+                if not more:
+                    if pos < have:
+                        raise NotPlainError("truncated record header")
+                    return
+                buf = buf[pos:] + more
+                have, pos = len(buf), 0
+                continue
+            sec, frac, incl, orig = unpack_from(buf, pos)
+            if incl > limit or frac >= frac_limit:
+                raise NotPlainError(f"record {index}: the reader skips or notes it")
+            start = pos + RECORD_HEADER_BYTES
+            end = start + incl
+            if end > have:
+                more = read(max(CHUNK_BYTES, end - have))
+                if not more:
+                    raise NotPlainError("truncated record")
+                buf = buf[pos:] + more
+                have, pos = len(buf), 0
+                continue
+            time_ns = sec * NS_PER_S + frac * scale
+            yield index, time_ns, buf[start:end], linktype, orig if orig > incl else incl, 0, ()
+            pos = end
+            index += 1

@@ -6,8 +6,6 @@ import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
 
-from tqdm import tqdm
-
 __all__ = ["progress_bar"]
 
 
@@ -15,12 +13,16 @@ __all__ = ["progress_bar"]
 def progress_bar(total: int, unit: str) -> Iterator[Callable[[int], None]]:
     """A callback that advances a bar by n; the bar shows itself after a second, and only on
     a terminal (tqdm's ``delay``), so short runs and pipes stay quiet."""
+    if not sys.stderr.isatty():  # no bar: tqdm is not even imported (start-up time)
+        yield _ignore
+        return
+    from tqdm import tqdm
+
     with tqdm(
         total=total,
         unit=f" {unit}",
         unit_scale=True,
         delay=1.0,
-        disable=not sys.stderr.isatty(),
         file=sys.stderr,
         leave=False,
     ) as bar:
@@ -29,3 +31,7 @@ def progress_bar(total: int, unit: str) -> Iterator[Callable[[int], None]]:
             bar.update(n)
 
         yield advance
+
+
+def _ignore(n: int) -> None:
+    """Progress nobody sees."""

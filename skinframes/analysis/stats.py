@@ -1,7 +1,7 @@
 """Bounded-memory series and their summary statistics (all times in integer nanoseconds).
 
-A :class:`Series` keeps its values in an int64 numpy array that grows in chunks (8 bytes per
-value, no Python object per value); :class:`Summary` is what the report prints: count, min,
+A :class:`Series` keeps its values in an int64 ``array.array`` (8 bytes per value, no Python
+object per value), :class:`Rows` in a numpy array that grows in chunks; :class:`Summary` is what the report prints: count, min,
 quartiles, median, mean, max and the population standard deviation. Quartiles are numpy's
 default ("linear", Hyndman and Fan type 7), the same as Python's
 ``statistics.quantiles(method="inclusive")``.
@@ -9,7 +9,8 @@ default ("linear", Hyndman and Fan type 7), the same as Python's
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+import array
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Final
 
@@ -19,6 +20,7 @@ import numpy.typing as npt
 __all__ = ["Rows", "Series", "Summary"]
 
 _FIRST_CHUNK: Final = 64  # rows; the array doubles when full
+_EMPTY: Final = np.empty(0, dtype=np.int64)
 
 
 class _Growing:
@@ -45,21 +47,27 @@ class _Growing:
         return view
 
 
-class Series(_Growing):
-    """A growing column of int64 values (appended one by one, read back as one array)."""
+class Series:
+    """A growing column of int64 values (appended one by one, read back as one array).
 
-    __slots__ = ()
+    Held in an ``array.array`` of C ``long long`` (8 bytes a value, as numpy's int64): ``append``
+    is the array's own, with no Python frame per value (analyze calls it once per frame).
+    """
+
+    __slots__ = ("_values", "append")
 
     def __init__(self) -> None:
-        super().__init__((), np.int64)
+        self._values = array.array("q")
+        self.append: Callable[[int], None] = self._values.append  # add one value
 
-    def append(self, value: int) -> None:
-        """Add one value."""
-        self._append(value)
+    def __len__(self) -> int:
+        return len(self._values)
 
     def array(self) -> npt.NDArray[np.int64]:
-        """The values so far (a read-only view; appending may replace the buffer)."""
-        return self._array()
+        """The values so far (a read-only copy: appending goes on)."""
+        out = np.frombuffer(self._values, dtype=np.int64).copy() if self._values else _EMPTY
+        out.flags.writeable = False
+        return out
 
 
 class Rows(_Growing):
