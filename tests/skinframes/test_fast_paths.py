@@ -261,3 +261,57 @@ def test_check_imports_no_numpy() -> None:
         [sys.executable, "-c", code], capture_output=True, text=True, check=False
     ).stdout
     assert out.splitlines()[-1] == "[]"
+
+
+# --- judged bytes --------------------------------------------------------------------------------
+def ecat_frame(*datagrams: Datagram, tail: bytes = b"") -> bytes:
+    return ethercat.frame(EcatFrame(datagrams)).to_bytes() + tail
+
+
+def lrd(data: bytes, wkc: int = 0, idx: int = 0, cmd: int = Command.LRD) -> Datagram:
+    return Datagram(cmd, 0, 0, data, idx=idx, wkc=wkc)
+
+
+SEQUENCE = [
+    ecat_frame(lrd(b"\x01" * 16), lrd(b"\x02" * 16)),
+    ecat_frame(lrd(b"\x03" * 16), lrd(b"\x04" * 16)),  # other data: the same judged bytes
+    ecat_frame(lrd(b"\x03" * 16, wkc=1), lrd(b"\x04" * 16)),  # another working counter
+    ecat_frame(lrd(b"\x03" * 16, idx=7), lrd(b"\x04" * 16)),  # another index
+    ecat_frame(lrd(b"\x03" * 16, cmd=Command.APRD), lrd(b"\x04" * 16)),  # not logical: whole
+    ecat_frame(lrd(b"\x03" * 16), lrd(b"\x04" * 16, cmd=Command.LRW)),
+    ecat_frame(lrd(b"\x03" * 8), lrd(b"\x04" * 24)),  # same length, other split
+    ecat_frame(lrd(b"\x03" * 16), lrd(b"\x04" * 16), tail=b"\xaa" * 4),  # an FCS: whole
+    ecat_frame(lrd(b"\x03" * 16), lrd(b"\x04" * 16), tail=b"\xaa" * 3),
+    ecat_frame(lrd(b"\x05" * 16), lrd(b"\x06" * 16), tail=b"\xbb" * 3),
+    powerlink.frame(PRes(src=1, payload=bytes(46))).to_bytes(),  # EPL of an equal length
+    ecat_frame(lrd(b"\x07" * 16), lrd(b"\x08" * 16)),
+]
+
+
+def test_judged_bytes_remembered_layout_is_exact() -> None:
+    """JudgedBytes (the last EtherCAT layout remembered) equals judged_bytes frame by frame:
+    on frames that differ from the one before in each judged field, and on every frame of the
+    conformance vectors, real and golden captures, in order."""
+    judged = check.JudgedBytes()
+    frames = SEQUENCE + [raw for _, _, raw in vectors.build()]
+    for path in REAL + GOLDEN:
+        frames += [r.data for r in read_capture(path) if r.linktype == 1]
+    for i, data in enumerate(frames):
+        for variant in (data, data[:-1], bytearray(data)):  # cut and mutable copies too
+            assert judged(bytes(variant)) == check.judged_bytes(bytes(variant)), i
+    keys = [check.judged_bytes(f) for f in SEQUENCE]
+    assert keys[0] == keys[1] and len(set(keys[1:7])) == 6 and keys[8] != keys[9]
+
+
+def test_overlap_shortcut_keeps_the_boundary() -> None:
+    """OverlapChecker's shortcut (apart by more than the previous frame's wire time + gap) and
+    its remembered wire times leave the boundary where IEEE 802.3 puts it: a long frame, then a
+    short one, need the short one's wire time + gap (100 Mbit/s: (8 + 60 + 4) x 80 ns + 960 ns
+    = 6720 ns), at every repetition."""
+    for dt, want in ((6719, ["eth.overlap"]), (6720, []), (20_000, []), (-5, [])):
+        checker = check.OverlapChecker()
+        for i in range(3):
+            t0 = i * 1_000_000 + 1  # nanosecond stamps: no tick of tolerance
+            assert checker.feed(2 * i, t0, 0, bytes(6), 1514, False) == []
+            found = checker.feed(2 * i + 1, t0 + dt, 0, bytes(6), 60, False)
+            assert [f.code for f in found] == want, (dt, i)
