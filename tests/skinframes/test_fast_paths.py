@@ -283,7 +283,7 @@ SEQUENCE = [
     ecat_frame(lrd(b"\x03" * 16), lrd(b"\x04" * 16), tail=b"\xaa" * 4),  # an FCS: whole
     ecat_frame(lrd(b"\x03" * 16), lrd(b"\x04" * 16), tail=b"\xaa" * 3),
     ecat_frame(lrd(b"\x05" * 16), lrd(b"\x06" * 16), tail=b"\xbb" * 3),
-    powerlink.frame(PRes(src=1, payload=bytes(46))).to_bytes(),  # EPL of an equal length
+    powerlink.frame(PRes(src=1, payload=bytes(48))).to_bytes(),  # EPL of an equal length (72)
     ecat_frame(lrd(b"\x07" * 16), lrd(b"\x08" * 16)),
 ]
 
@@ -299,6 +299,7 @@ def test_judged_bytes_remembered_layout_is_exact() -> None:
     for i, data in enumerate(frames):
         for variant in (data, data[:-1], bytearray(data)):  # cut and mutable copies too
             assert judged(bytes(variant)) == check.judged_bytes(bytes(variant)), i
+    assert len(SEQUENCE[-2]) == len(SEQUENCE[-1]) == len(SEQUENCE[0])  # EPL amid EtherCAT
     keys = [check.judged_bytes(f) for f in SEQUENCE]
     assert keys[0] == keys[1] and len(set(keys[1:7])) == 6 and keys[8] != keys[9]
 
