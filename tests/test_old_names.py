@@ -158,3 +158,10 @@ def test_streamed_json_copies_the_closed_ring_through_a_file(
     doc = tables.cycle_tables("analytic", WIRE, nodes, sizes)
     assert text == json.dumps(doc, indent=2) + "\n"
     assert json.loads(text)[OLD] == json.loads(text)[NEW] != {}
+
+
+@pytest.mark.parametrize("command", ["tables", "plan"])
+def test_help_names_the_old_key(command: str, capsys: pytest.CaptureFixture[str]) -> None:
+    assert main([command, "--help"]) == 0
+    text = " ".join(capsys.readouterr().out.split())
+    assert NEW in text and OLD in text

@@ -22,6 +22,7 @@ __all__ = [
     "ECAT",
     "ECAT_CLOSED_RING",
     "EPL",
+    "JSON_KEYS_HELP",
     "OLD_TABLE_NAMES",
     "TABLES",
     "closed_ring_flag",
@@ -38,6 +39,10 @@ TABLES: Final = (EPL, ECAT, ECAT_CLOSED_RING)
 # Old name -> name. Accepted wherever a table is named; written beside the name in JSON.
 OLD_TABLE_NAMES: Final[dict[str, str]] = {"ecat_redundant": ECAT_CLOSED_RING}
 _OLD_NAME_OF: Final = {new: old for old, new in OLD_TABLE_NAMES.items()}
+# For --help of the commands whose JSON is keyed by table.
+JSON_KEYS_HELP: Final = f"keys {', '.join(TABLES)}, and " + ", ".join(
+    f"{old}: the old name of {new}, same value" for old, new in OLD_TABLE_NAMES.items()
+)
 
 V = TypeVar("V")
 
