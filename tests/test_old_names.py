@@ -165,3 +165,14 @@ def test_help_names_the_old_key(command: str, capsys: pytest.CaptureFixture[str]
     assert main([command, "--help"]) == 0
     text = " ".join(capsys.readouterr().out.split())
     assert NEW in text and OLD in text
+
+
+def test_can_log_format_error_keeps_its_old_name() -> None:
+    from skinframes import cantrace, errors
+    from skinframes.canbus import log
+
+    assert errors.TraceFormatError is errors.CanLogFormatError
+    assert log.TraceFormatError is log.CanLogFormatError is errors.CanLogFormatError
+    assert cantrace.TraceFormatError is errors.CanLogFormatError
+    with pytest.raises(errors.TraceFormatError, match="unknown CAN log format"):
+        log.can_log_format("skin.unknown_suffix")
