@@ -123,6 +123,56 @@ class SoAFlag(IntFlag):
     AN_LOCAL = 0x10
 
 
+# --- Wireshark's names of the flag bits ------------------------------------------------------------
+# Per message: Wireshark field name (the last part of ``epl.<message>.<name>``, packet-epl.c, checked
+# with tshark 4.0 ``-G fields``) -> (the flags byte's attribute, mask). A one-bit mask reads as a
+# bool, a wider one as the number its bits hold (PR 0x38: 0..7, RS 0x07: 0..7). FLS/SLS (first and
+# second link status, DS 301 V1.4.0 4.6.1.1.3-4, 7.3.3.2.1, 7.3.3.3.1) sit in byte 5 (flags2).
+FlagBits = dict[str, tuple[str, int]]
+SOC_FLAG_BITS: Final[FlagBits] = {
+    "mc": ("flags", 0x80),
+    "ps": ("flags", 0x40),
+    "an": ("flags", 0x08),
+}
+PREQ_FLAG_BITS: Final[FlagBits] = {
+    "ms": ("flags1", 0x20),
+    "ea": ("flags1", 0x04),
+    "rd": ("flags1", 0x01),
+    "fls": ("flags2", 0x80),
+    "sls": ("flags2", 0x40),
+}
+PRES_FLAG_BITS: Final[FlagBits] = {
+    "ms": ("flags1", 0x20),
+    "en": ("flags1", 0x10),
+    "rd": ("flags1", 0x01),
+    "fls": ("flags2", 0x80),
+    "sls": ("flags2", 0x40),
+    "pr": ("flags2", 0x38),
+    "rs": ("flags2", 0x07),
+}
+SOA_FLAG_BITS: Final[FlagBits] = {"ea": ("flags1", 0x04), "er": ("flags1", 0x02)}
+# IdentResponse (epl.asnd.ires.*) and StatusResponse (epl.asnd.sres.*) share their flag bytes
+RESPONSE_FLAG_BITS: Final[FlagBits] = {
+    "en": ("flags1", 0x10),
+    "ec": ("flags1", 0x08),
+    "fls": ("flags2", 0x80),
+    "sls": ("flags2", 0x40),
+    "pr": ("flags2", 0x38),
+    "rs": ("flags2", 0x07),
+}
+
+
+def flag_bits(message: object, table: FlagBits) -> dict[str, bool | int]:
+    """The flag bits of ``message`` under Wireshark's names (``table``: one of the above)."""
+    out: dict[str, bool | int] = {}
+    for name, (attr, mask) in table.items():
+        bits = getattr(message, attr) & mask
+        out[name] = (
+            bool(bits) if mask & (mask - 1) == 0 else bits >> ((mask & -mask).bit_length() - 1)
+        )
+    return out
+
+
 def known(enum: type[IntEnum], value: int) -> int:
     """``enum(value)`` when the value is known, else the plain int (capture mode keeps it).
 
