@@ -163,14 +163,38 @@ RESPONSE_FLAG_BITS: Final[FlagBits] = {
 
 
 def flag_bits(message: object, table: FlagBits) -> dict[str, bool | int]:
-    """The flag bits of ``message`` under Wireshark's names (``table``: one of the above)."""
+    """The flag bits of ``message`` under Wireshark's names (``table``: one of the above).
+
+    Looked up per flags byte in tables built once per ``table`` (every PRes of a capture
+    passes here when it is described)."""
     out: dict[str, bool | int] = {}
-    for name, (attr, mask) in table.items():
-        bits = getattr(message, attr) & mask
-        out[name] = (
-            bool(bits) if mask & (mask - 1) == 0 else bits >> ((mask & -mask).bit_length() - 1)
-        )
+    for attr, lut in _lookup(table):
+        value = getattr(message, attr)
+        out.update(lut[value] if 0 <= value <= 0xFF else _bits(value, table, attr))
     return out
+
+
+def _bits(value: int, table: FlagBits, attr: str) -> dict[str, bool | int]:
+    """The bits of one flags byte: one-bit masks as bools, wider ones shifted down."""
+    out: dict[str, bool | int] = {}
+    for name, (field, mask) in table.items():
+        if field == attr:
+            shift = (mask & -mask).bit_length() - 1
+            out[name] = bool(value & mask) if mask >> shift == 1 else (value & mask) >> shift
+    return out
+
+
+_LUTS: dict[int, tuple[FlagBits, tuple[tuple[str, tuple[dict[str, bool | int], ...]], ...]]] = {}
+
+
+def _lookup(table: FlagBits) -> tuple[tuple[str, tuple[dict[str, bool | int], ...]], ...]:
+    """Per flags attribute of ``table``, the bits of each of the 256 byte values."""
+    hit = _LUTS.get(id(table))
+    if hit is None or hit[0] is not table:
+        attrs = dict.fromkeys(attr for attr, _ in table.values())
+        luts = tuple((a, tuple(_bits(v, table, a) for v in range(256))) for a in attrs)
+        hit = _LUTS[id(table)] = (table, luts)
+    return hit[1]
 
 
 def known(enum: type[IntEnum], value: int) -> int:
