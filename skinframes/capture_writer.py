@@ -161,6 +161,7 @@ BYTE_ORDER_MAGIC: Final = 0x1A2B3C4D
 OPT_ENDOFOPT: Final = 0
 OPT_COMMENT: Final = 1
 IF_NAME: Final = 2
+IF_SPEED: Final = 8  # u64 bits per second
 IF_TSRESOL: Final = 9
 EPB_FLAGS: Final = 2
 TSRESOL_NS: Final = 9  # if_tsresol: 10^-9 s
@@ -191,9 +192,14 @@ def _shb() -> bytes:
     )
 
 
-def _idb(linktype: int, snaplen: int, name: str | None = None) -> bytes:
-    """Interface Description Block (4.2) with nanosecond stamps and an optional ``if_name``."""
+def _idb(
+    linktype: int, snaplen: int, name: str | None = None, speed_bps: int | None = None
+) -> bytes:
+    """Interface Description Block (4.2) with nanosecond stamps and an optional ``if_name`` and
+    ``if_speed``."""
     opts = b"" if name is None else _option(IF_NAME, name.encode("utf-8"))
+    if speed_bps is not None:
+        opts += _option(IF_SPEED, struct.pack("<Q", speed_bps))
     opts += _option(IF_TSRESOL, bytes([TSRESOL_NS])) + struct.pack("<HH", OPT_ENDOFOPT, 0)
     return _block(BLOCK_IDB, struct.pack("<HHI", linktype, 0, snaplen) + opts)
 
@@ -280,7 +286,8 @@ class CaptureWriter:
     it cannot carry ports, directions or marks, so ``port`` and ``outbound`` are not written
     (a port is still checked against ``ports``, so that a program runs alike with either format)
     and a record with ``crc_error`` or ``comment`` raises. ``"pcapng"``: one interface per port
-    (LINKTYPE_ETHERNET, nanoseconds, ``if_name`` from ``port_names`` or ``"port N"``), direction
+    (LINKTYPE_ETHERNET, nanoseconds, ``if_name`` from ``port_names`` or ``"port N"``, ``if_speed``
+    from ``if_speed_bps`` when given), direction
     and CRC error in ``epb_flags`` and the comment in ``opt_comment`` of each Enhanced Packet
     Block (draft-ietf-opsawg-pcapng 4.2, 4.3). ``fmt=None`` takes pcapng for a ``.pcapng``
     suffix, classic pcap otherwise.
@@ -290,11 +297,14 @@ class CaptureWriter:
         fmt: ``"pcap"``, ``"pcapng"`` or None (from the suffix).
         ports: interfaces the records come from (pcapng interface ids 0 .. ports-1).
         port_names: one ``if_name`` per port (pcapng).
+        if_speed_bps: the ports' bit rate, written as each interface's ``if_speed`` (pcapng);
+            None writes no speed.
 
     Raises:
         CaptureError: ``path`` is a symbolic link, a directory or not a regular file, its
-            directory does not exist or is not writable, an unknown ``fmt``, or ``port_names``
-            of another length than ``ports``. Nothing is written then.
+            directory does not exist or is not writable, an unknown ``fmt``, ``port_names``
+            of another length than ``ports``, or an ``if_speed_bps`` outside 1 .. 2**64 - 1.
+            Nothing is written then.
     """
 
     def __init__(
@@ -304,6 +314,7 @@ class CaptureWriter:
         fmt: str | None = None,
         ports: int = 1,
         port_names: Sequence[str] | None = None,
+        if_speed_bps: int | None = None,
     ) -> None:
         self._file: BinaryIO | None = None
         self._tmp: Path | None = None
@@ -318,10 +329,14 @@ class CaptureWriter:
         names = [f"port {i}" for i in range(ports)] if port_names is None else list(port_names)
         if len(names) != ports:
             raise CaptureError(f"capture: {len(names)} port names for {ports} ports")
+        if if_speed_bps is not None and not 0 < operator.index(if_speed_bps) < 1 << 64:
+            raise CaptureError(f"capture: if_speed {if_speed_bps} bit/s, need 1 .. 2**64 - 1")
         if fmt == "pcap":
             header = pcap_header(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN)
         else:
-            header = _shb() + b"".join(_idb(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN, n) for n in names)
+            header = _shb() + b"".join(
+                _idb(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN, n, if_speed_bps) for n in names
+            )
         check_target(target)
         self._path = target
         self._fmt = fmt

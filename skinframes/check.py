@@ -166,8 +166,9 @@ class OverlapChecker:
     an error: captures stamped in software (on the sender) show legal frames closer than this.
 
     Args:
-        bit_rate_bps: the interface's speed by interface id (pcapng ``if_speed``); missing
-            interfaces run at :data:`~skinframes.ethernet.DEFAULT_BIT_RATE_BPS`.
+        bit_rate_bps: the interface's speed by interface id; missing interfaces run at
+            :data:`~skinframes.ethernet.DEFAULT_BIT_RATE_BPS`. A frame's own ``rate_bps`` (the
+            pcapng ``if_speed`` its record carries) takes precedence.
     """
 
     def __init__(self, bit_rate_bps: dict[int, int] | None = None) -> None:
@@ -175,9 +176,15 @@ class OverlapChecker:
         # (interface, source) -> (index, time, wire, signature) of its last frame
         self.last: dict[tuple[int, bytes], tuple[int, int, int, tuple[object, ...] | None]] = {}
 
-    def wire_ns(self, interface: int, frame_bytes: int, fcs_captured: bool) -> int:
+    def rate_bps(self, interface: int, rate_bps: int | None = None) -> int:
+        """The bit rate of ``interface``: ``rate_bps`` when given, else as configured."""
+        return rate_bps or self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
+
+    def wire_ns(
+        self, interface: int, frame_bytes: int, fcs_captured: bool, rate_bps: int | None = None
+    ) -> int:
         """Time on the wire of a frame captured with ``frame_bytes`` (FCS included or not)."""
-        rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
+        rate = self.rate_bps(interface, rate_bps)
         body = frame_bytes - (ethernet.FCS_BYTES if fcs_captured else 0)
         octets = ethernet.wire_bytes(body)
         return -(-octets * 8 * 1_000_000_000 // rate)  # rounded up to whole ns
@@ -191,6 +198,7 @@ class OverlapChecker:
         length: int,
         fcs: bool,
         signature: tuple[object, ...] | None = None,
+        rate_bps: int | None = None,
     ) -> list[Finding]:
         """The finding for a frame that starts before its sender's previous one has ended.
 
@@ -198,9 +206,11 @@ class OverlapChecker:
         through a closed ring keeps its source address (an ESC sets bit 1 of it only where the
         frame passes its port 0 processing), so in one stream (classic pcap) it meets the copy
         the master sent from its other port: a frame with the previous frame's signature is
-        that return, not a second frame the sender put on the wire.
+        that return, not a second frame the sender put on the wire. ``rate_bps``: the speed
+        of the interface the frame was captured on, when the capture says (pcapng ``if_speed``).
         """
-        wire = self.wire_ns(interface, length, fcs)
+        rate = self.rate_bps(interface, rate_bps)
+        wire = self.wire_ns(interface, length, fcs, rate)
         key = (interface, bytes(src))
         prev = self.last.get(key)
         if prev is not None and signature is not None and signature == prev[3]:
@@ -209,7 +219,6 @@ class OverlapChecker:
         if prev is None:
             return []
         p_index, p_time, p_wire, _ = prev
-        rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
         ifg = -(-ethernet.IFG_BYTES * 8 * 1_000_000_000 // rate)
         need = min(wire, p_wire) + ifg
         tick = 1000 if time_ns % 1000 == 0 and p_time % 1000 == 0 else 1
@@ -265,7 +274,14 @@ def check_capture(capture: Capture) -> CaptureReport:
             else None
         )
         later = overlap.feed(
-            rec.index, rec.time_ns, rec.interface, frame.src, rec.orig_len, fcs, signature
+            rec.index,
+            rec.time_ns,
+            rec.interface,
+            frame.src,
+            rec.orig_len,
+            fcs,
+            signature,
+            rec.if_speed_bps,
         )
         if later:
             found = found + later  # never in place: a repeated frame shares ``found``
