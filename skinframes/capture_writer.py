@@ -257,7 +257,7 @@ class _Layout:
     frames (the previous record's tail, then this record's header) are filled in once, so a
     chunk of rows only writes its timestamps (at ``stamp_index``, the flat byte positions of
     every record's two u32 time words, row by row) and its frames (``frames``: image offset,
-    data offset and length of each).
+    data offset and length of each; ``sources``: the data offsets alone, to look fills up).
     """
 
     key: tuple[bytes, bytes, bytes | None]
@@ -265,6 +265,7 @@ class _Layout:
     frames: tuple[tuple[int, int, int], ...]
     image: npt.NDArray[np.uint8]
     stamp_index: npt.NDArray[np.intp]
+    sources: tuple[int, ...]
 
 
 class CaptureWriter:
@@ -634,7 +635,7 @@ class CaptureWriter:
         if v.ndim != 2 or v.shape[0] != k:
             raise CaptureError(f"capture block: fill of shape {v.shape} for {k} rows")
         offset = operator.index(offset)
-        j = bisect.bisect_right([src for _, src, _ in layout.frames], offset) - 1
+        j = bisect.bisect_right(layout.sources, offset) - 1
         if j >= 0:
             at, src, n = layout.frames[j]
             if offset + v.shape[1] <= src + n:
@@ -698,7 +699,8 @@ class CaptureWriter:
             image[:, at : at + len(gap)] = np.frombuffer(gap, dtype=np.uint8)
         rows = np.arange(len(image), dtype=np.intp)[:, None, None] * row_bytes
         stamp_index = (rows + np.array(stamps, dtype=np.intp)[:, None] + np.arange(8)).reshape(-1)
-        self._layout = _Layout(key, src, tuple(frames), image, stamp_index)
+        sources = tuple(s for _, s, _ in frames)
+        self._layout = _Layout(key, src, tuple(frames), image, stamp_index, sources)
         return self._layout
 
 
