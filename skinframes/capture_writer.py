@@ -261,9 +261,10 @@ class _Layout:
 
     ``image`` holds as many rows as fit :data:`_CHUNK_BYTES`. The constant bytes between two
     frames (the previous record's tail, then this record's header) are filled in once, so a
-    chunk of rows only writes its timestamps (at ``stamp_index``, the flat byte positions of
-    every record's two u32 time words, row by row) and its frames (``frames``: image offset,
-    data offset and length of each).
+    chunk of rows only writes its timestamps (at ``stamp_index``, the flat positions of every
+    record's two u32 time words, row by row, in units of ``stamp_unit``: whole little-endian
+    u32 words where every stamp is 4-byte aligned in the image, else bytes) and its frames (``frames``: image offset,
+    data offset and length of each; ``sources``: the data offsets alone, to look fills up).
     """
 
     key: tuple[bytes, bytes, bytes | None]
@@ -271,6 +272,8 @@ class _Layout:
     frames: tuple[tuple[int, int, int], ...]
     image: npt.NDArray[np.uint8]
     stamp_index: npt.NDArray[np.intp]
+    stamp_unit: np.dtype[np.uint8] | np.dtype[np.uint32]
+    sources: tuple[int, ...]
 
 
 class CaptureWriter:
@@ -634,9 +637,9 @@ class CaptureWriter:
         else:
             words[:, :, 0] = t >> 32
             words[:, :, 1] = t & 0xFFFFFFFF
-        layout.image.reshape(-1)[layout.stamp_index[: words.nbytes]] = words.view(np.uint8).reshape(
-            -1
-        )
+        unit = layout.stamp_unit
+        at = layout.stamp_index[: words.nbytes // unit.itemsize]
+        layout.image.reshape(-1).view(unit)[at] = words.reshape(-1).view(unit)
 
     @staticmethod
     def _place(
@@ -649,7 +652,7 @@ class CaptureWriter:
         if v.ndim != 2 or v.shape[0] != k:
             raise CaptureError(f"capture block: fill of shape {v.shape} for {k} rows")
         offset = operator.index(offset)
-        j = bisect.bisect_right([src for _, src, _ in layout.frames], offset) - 1
+        j = bisect.bisect_right(layout.sources, offset) - 1
         if j >= 0:
             at, src, n = layout.frames[j]
             if offset + v.shape[1] <= src + n:
@@ -712,8 +715,14 @@ class CaptureWriter:
         for at, gap in gaps:
             image[:, at : at + len(gap)] = np.frombuffer(gap, dtype=np.uint8)
         rows = np.arange(len(image), dtype=np.intp)[:, None, None] * row_bytes
-        stamp_index = (rows + np.array(stamps, dtype=np.intp)[:, None] + np.arange(8)).reshape(-1)
-        self._layout = _Layout(key, src, tuple(frames), image, stamp_index)
+        # stamps at 4-byte aligned places (as in rows of frames whose lengths are multiples of
+        # 4): scatter u32 words, a quarter of the indices of a byte scatter
+        unit = 4 if row_bytes % 4 == 0 and all(x % 4 == 0 for x in stamps) else 1
+        places = rows + np.array(stamps, dtype=np.intp)[:, None] + np.arange(0, 8, unit)
+        stamp_index = places.reshape(-1) // unit
+        stamp_unit = np.dtype("<u4") if unit == 4 else np.dtype(np.uint8)
+        sources = tuple(s for _, s, _ in frames)
+        self._layout = _Layout(key, src, tuple(frames), image, stamp_index, stamp_unit, sources)
         return self._layout
 
 
