@@ -45,6 +45,7 @@ the SII's sync impulse length), the start time plausibility check, 32-bit DC.
 
 from __future__ import annotations
 
+import functools
 import random
 import struct
 from collections.abc import Sequence
@@ -156,16 +157,21 @@ class DcTimebase:
     def port_times_ps(self, position: int) -> tuple[int, int | None]:
         """When the frame's first bit arrives at port 0 of ``position`` and returns at its
         port 1 (None for the last ESC), in ps after it reached the first ESC's port 0."""
-        p = self.params
-        forward = p.ecat_processing_ps + p.cable_ps  # one pass in processing direction
-        back = p.ecat_forwarding_ps + p.cable_ps  # one pass in forwarding direction
-        last = self.line_length - 1
-        t0 = position * forward
-        if position >= last:
-            return t0, None
-        # the last ESC turns the frame around (one processing pass and its cable back), then
-        # each ESC between it and ``position`` forwards it once
-        return t0, last * forward + forward + (last - 1 - position) * back
+        return _port_times_ps(self.params, self.line_length, position)
+
+
+@functools.lru_cache(maxsize=1 << 16)
+def _port_times_ps(p: TimingParams, line_length: int, position: int) -> tuple[int, int | None]:
+    """:meth:`DcTimebase.port_times_ps`, computed once per line and position."""
+    forward = p.ecat_processing_ps + p.cable_ps  # one pass in processing direction
+    back = p.ecat_forwarding_ps + p.cable_ps  # one pass in forwarding direction
+    last = line_length - 1
+    t0 = position * forward
+    if position >= last:
+        return t0, None
+    # the last ESC turns the frame around (one processing pass and its cable back), then
+    # each ESC between it and ``position`` forwards it once
+    return t0, last * forward + forward + (last - 1 - position) * back
 
 
 class DcClock:
