@@ -738,8 +738,6 @@ def test_seeded_hostile_frames_never_raise_and_a_master_recovers(seed: int) -> N
 
 
 # --- broadcasts in seeded hostile traffic, against the documents' access rules -------------
-# Broadcast writes in seeded hostile traffic against ETG.1000.4 / datasheet access rules.
-#
 # Every ESC a broadcast reaches shares its bytes (emulator/esc/device.py decodes FMMU and
 # SyncManager tables once per distinct bytes and cuts writes once per address and length); these
 # tests check the outcome slave by slave with expectations written here from the documents:
@@ -749,9 +747,9 @@ def test_seeded_hostile_frames_never_raise_and_a_master_recovers(seed: int) -> N
 #   taking effect at the end of the frame;
 # * a BWR adds 1 to the working counter at every ESC it reaches where it writes a register
 #   (ETG.1000.4 Table 14; datasheet I Table 7: an access counts even where the mask keeps bits);
-# * an FMMU register byte (of the FMMUs 0x0004 says exist) after a write keeps its read-only/reserved bits and takes the written
-#   ones (datasheet II 2.13: bytes 0-5, 8-9 all bits, 6/7/10 bits 0-2, 11 bits 0-1, 12 bit 0,
-#   13-15 reserved).
+# * an FMMU register byte (of the FMMUs 0x0004 says exist) after a write keeps its read-only
+#   and reserved bits and takes the written ones (datasheet II 2.13: bytes 0-5, 8-9 all bits,
+#   6/7/10 bits 0-2, 11 bits 0-1, 12 bit 0, 13-15 reserved).
 
 FMMU_FIRST, FMMU_END = 0x0600, 0x0700  # 16 FMMUs of 16 bytes (datasheet II 2.13)
 FMMU_WRITABLE = bytes((0xFF,) * 6 + (0x07, 0x07, 0xFF, 0xFF, 0x07, 0x03, 0x01, 0, 0, 0))
