@@ -621,6 +621,11 @@ class EscDevice:
             return adp, self._logical(cmd, adp | ado << 16, buf, off, n)
         return adp, 0  # reserved command values: ignored
 
+    def broadcast_write(self, ado: int, data: bytes) -> int:
+        """A BWR at this ESC (ETG.1000.4 Table 14): ``data`` is what every ESC receives, as no
+        ESC changes a BWR's data; the working-counter increment. ADP is the chain's business."""
+        return self._write(ado, data)
+
     def _physical(
         self, kind: int, ado: int, buf: bytearray, off: int, n: int, *, broadcast: bool = False
     ) -> int:
