@@ -5,7 +5,10 @@
    file in the same directory (equal 8 MiB buffers), the two alternating, median of three each:
    the ratio emulator (whole process) / raw write (issue goal: at most 2), and the emulating
    process's peak RSS (goal: at most 256 MB). The ratio depends on the page cache: where the
-   kernel writes back at disk speed the raw write is slower and the ratio smaller.
+   kernel writes back at disk speed the raw write is slower and the ratio smaller. Also printed:
+   the CPU seconds (user + sys) of each side, and their ratio, which other jobs on a shared
+   machine disturb less than wall times (the emulator draws its taxels on a second thread, so
+   its wall time can be less than its CPU time on an idle machine).
 2. Timing only (no pcap): ``simulate ecat --redundant`` of a million cycles: simulated seconds per
    wall second, whole process (goal: at least 1,000), and its peak RSS.
 
@@ -34,12 +37,14 @@ from skinframes_cli import main
 t = time.perf_counter()
 code = main(sys.argv[1:])
 wall = time.perf_counter() - t
-print("BENCH", wall, resource.getrusage(resource.RUSAGE_SELF).ru_maxrss, code, file=sys.stderr)
+use = resource.getrusage(resource.RUSAGE_SELF)
+print("BENCH", wall, use.ru_maxrss, code, use.ru_utime + use.ru_stime, file=sys.stderr)
 """
 
 
-def emulate(argv: list[str]) -> tuple[float, float, str]:
-    """Run the CLI in a fresh process: (wall s of the whole process, peak RSS MB, stdout)."""
+def emulate(argv: list[str]) -> tuple[float, float, str, float]:
+    """Run the CLI in a fresh process: (wall s of the whole process, peak RSS MB, stdout, CPU s
+    of the whole process)."""
     t0 = time.perf_counter()
     done = subprocess.run(
         [sys.executable, "-c", CHILD, *argv], capture_output=True, text=True, check=True, cwd=ROOT
@@ -47,21 +52,22 @@ def emulate(argv: list[str]) -> tuple[float, float, str]:
     wall = time.perf_counter() - t0
     line = next(x for x in done.stderr.splitlines() if x.startswith("BENCH"))
     rss_mb = int(line.split()[2]) / 1024
-    return wall, rss_mb, done.stdout
+    return wall, rss_mb, done.stdout, float(line.split()[4])
 
 
-def raw_write(path: Path, size: int) -> float:
-    """One sequential write of ``size`` bytes (8 MiB buffers), flushed to the page cache."""
+def raw_write(path: Path, size: int) -> tuple[float, float]:
+    """One sequential write of ``size`` bytes (8 MiB buffers), flushed to the page cache:
+    (wall s, CPU s)."""
     buf = b"\x5a" * (8 << 20)
-    t0 = time.perf_counter()
+    t0, c0 = time.perf_counter(), time.process_time()
     with open(path, "wb") as f:
         left = size
         while left > 0:
             f.write(buf[: min(left, len(buf))])
             left -= len(buf)
-    wall = time.perf_counter() - t0
+    wall, cpu = time.perf_counter() - t0, time.process_time() - c0
     path.unlink()
-    return wall
+    return wall, cpu
 
 
 def main() -> None:
@@ -71,10 +77,11 @@ def main() -> None:
     ap.add_argument("--dir", default=None, help="where the pcaps go (default: a temp dir)")
     args = ap.parse_args()
     with tempfile.TemporaryDirectory(dir=args.dir) as tmp:
-        print(f"{NODES} patches x {BYTES} bytes, wire preset; pcaps in {tmp}\n")
+        load = os.getloadavg()[0]
+        print(f"{NODES} patches x {BYTES} bytes, wire preset; pcaps in {tmp}; load {load:.1f}\n")
         print(
             f"{'with a pcap':<22}{'cycles':>9}{'GB':>7}{'emulator s':>12}{'raw write s':>13}"
-            f"{'ratio':>7}{'peak MB':>9}"
+            f"{'ratio':>7}{'peak MB':>9}{'CPU s':>7}{'raw CPU s':>11}{'CPU ratio':>11}"
         )
         for name, extra in (("ecat closed ring", ["ecat", "--redundant"]), ("epl", ["epl"])):
             pcap = Path(tmp) / "bench.pcap"
@@ -84,23 +91,27 @@ def main() -> None:
             size = pcap.stat().st_size
             pcap.unlink()
             # raw write and emulator alternate, each on a fresh file: the median of three each
-            raws, walls, rsss = [], [], []
+            raws, walls, rsss, cpus, raw_cpus = [], [], [], [], []
             for _ in range(3):
-                raws.append(raw_write(Path(tmp) / "raw.bin", size))
-                wall, rss, _ = emulate(argv)
+                raw, raw_cpu = raw_write(Path(tmp) / "raw.bin", size)
+                wall, rss, _, cpu = emulate(argv)
                 pcap.unlink()
+                raws.append(raw)
+                raw_cpus.append(raw_cpu)
                 walls.append(wall)
                 rsss.append(rss)
+                cpus.append(cpu)
             raw, wall, rss = sorted(raws)[1], sorted(walls)[1], max(rsss)
+            cpu, raw_cpu = sorted(cpus)[1], sorted(raw_cpus)[1]
             print(
                 f"{name:<22}{args.cycles:>9}{size / 1e9:>7.2f}{wall:>12.2f}{raw:>13.2f}"
-                f"{wall / raw:>7.2f}{rss:>9.0f}"
+                f"{wall / raw:>7.2f}{rss:>9.0f}{cpu:>7.2f}{raw_cpu:>11.2f}{cpu / raw_cpu:>11.2f}"
             )
         print(
             f"\n{'timing only':<22}{'cycles':>9}{'sim s':>9}{'wall s':>9}{'x real time':>13}"
             f"{'peak MB':>9}"
         )
-        wall, rss, out = emulate(
+        wall, rss, out, _ = emulate(
             [
                 "simulate",
                 "ecat",

@@ -83,7 +83,7 @@ def emulated(every: int, jobs: int | None, tmp: Path) -> None:
     ana = json.loads((tmp / "ana.json").read_text())
     worst = max(
         abs(emu[t][n][b] - v)
-        for t in ("epl", "ecat", "ecat_redundant")
+        for t in ("epl", "ecat", "ecat_closed_ring")
         for n, row in ana[t].items()
         for b, v in row.items()
     )

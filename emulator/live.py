@@ -23,6 +23,7 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import errno
+import gc
 import os
 import secrets
 import select
@@ -388,45 +389,50 @@ def serve(
     """
     stats = ServeStats()
     chain.clock_ns = time.monotonic_ns  # the ESCs' clocks (distributed clocks) run in host time
-    fd = sock.fileno()
-    clock = time.perf_counter
-    cpu = time.thread_time_ns
-    wall_ns = time.time_ns
-    while not stop.is_set():
-        if feed is not None and feed.publish(chain, time.monotonic()):
-            stats.publications += 1
-        timeout = poll_s if feed is None else min(poll_s, feed.period_s)
-        readable, _, _ = select.select([fd], [], [], timeout)
-        if not readable:
-            continue
-        while (frame := sock.recv()) is not None:
-            stats.frames_in += 1
-            if capture is not None:
-                capture.write(wall_ns(), frame, outbound=False)
-            t0, c0 = clock(), cpu()
-            try:
-                back = chain.process_frame(frame)
-            except Exception as exc:  # every frame is legal input: count it and go on
-                _abandon_frame(chain)
-                stats.errors += 1
-                if len(stats.error_messages) < MAX_ERROR_MESSAGES:
-                    stats.error_messages.append(f"{type(exc).__name__}: {exc}")
-                if on_error is not None:
-                    on_error(exc, frame)
+    gc.collect()
+    gc.freeze()  # the chain's objects live as long as serve: no collection walks them per frame
+    try:
+        fd = sock.fileno()
+        clock = time.perf_counter
+        cpu = time.thread_time_ns
+        wall_ns = time.time_ns
+        while not stop.is_set():
+            if feed is not None and feed.publish(chain, time.monotonic()):
+                stats.publications += 1
+            timeout = poll_s if feed is None else min(poll_s, feed.period_s)
+            readable, _, _ = select.select([fd], [], [], timeout)
+            if not readable:
                 continue
-            finally:
-                cpu_us = (cpu() - c0) / 1000.0
-                if cpu_us > stats.cpu_us_max:
-                    stats.cpu_us_max = cpu_us
-                if cpu_us > CPU_BUDGET_US:
-                    stats.over_budget += 1
-            if back is None:
-                stats.dropped += 1
-                continue
-            sock.send(back)
-            if capture is not None:
-                capture.write(wall_ns(), back, outbound=True)
-            stats.frames_out += 1
-            if len(stats.process_us) < keep_times:
-                stats.process_us.append((clock() - t0) * 1e6)
+            while (frame := sock.recv()) is not None:
+                stats.frames_in += 1
+                if capture is not None:
+                    capture.write(wall_ns(), frame, outbound=False)
+                t0, c0 = clock(), cpu()
+                try:
+                    back = chain.process_frame(frame)
+                except Exception as exc:  # every frame is legal input: count it and go on
+                    _abandon_frame(chain)
+                    stats.errors += 1
+                    if len(stats.error_messages) < MAX_ERROR_MESSAGES:
+                        stats.error_messages.append(f"{type(exc).__name__}: {exc}")
+                    if on_error is not None:
+                        on_error(exc, frame)
+                    continue
+                finally:
+                    cpu_us = (cpu() - c0) / 1000.0
+                    if cpu_us > stats.cpu_us_max:
+                        stats.cpu_us_max = cpu_us
+                    if cpu_us > CPU_BUDGET_US:
+                        stats.over_budget += 1
+                if back is None:
+                    stats.dropped += 1
+                    continue
+                sock.send(back)
+                if capture is not None:
+                    capture.write(wall_ns(), back, outbound=True)
+                stats.frames_out += 1
+                if len(stats.process_us) < keep_times:
+                    stats.process_us.append((clock() - t0) * 1e6)
+    finally:
+        gc.unfreeze()
     return stats

@@ -16,6 +16,7 @@ from skinframes.canbus.log import PYTHON_CAN_SUFFIXES as PYTHON_CAN_SUFFIXES
 from skinframes.canbus.log import TEXT_SUFFIXES as TEXT_SUFFIXES
 from skinframes.canbus.log import TRACE_SUFFIXES as TRACE_SUFFIXES
 from skinframes.canbus.log import CanLog as CanLog
+from skinframes.canbus.log import CanLogFormatError as CanLogFormatError
 from skinframes.canbus.log import CanLogReader as CanLogReader
 from skinframes.canbus.log import RecordCounts as RecordCounts
 from skinframes.canbus.log import Trace as Trace

@@ -162,6 +162,7 @@ BYTE_ORDER_MAGIC: Final = 0x1A2B3C4D
 OPT_ENDOFOPT: Final = 0
 OPT_COMMENT: Final = 1
 IF_NAME: Final = 2
+IF_SPEED: Final = 8  # u64 bits per second
 IF_TSRESOL: Final = 9
 EPB_FLAGS: Final = 2
 TSRESOL_NS: Final = 9  # if_tsresol: 10^-9 s
@@ -192,9 +193,14 @@ def _shb() -> bytes:
     )
 
 
-def _idb(linktype: int, snaplen: int, name: str | None = None) -> bytes:
-    """Interface Description Block (4.2) with nanosecond stamps and an optional ``if_name``."""
+def _idb(
+    linktype: int, snaplen: int, name: str | None = None, speed_bps: int | None = None
+) -> bytes:
+    """Interface Description Block (4.2) with nanosecond stamps and an optional ``if_name`` and
+    ``if_speed``."""
     opts = b"" if name is None else _option(IF_NAME, name.encode("utf-8"))
+    if speed_bps is not None:
+        opts += _option(IF_SPEED, struct.pack("<Q", speed_bps))
     opts += _option(IF_TSRESOL, bytes([TSRESOL_NS])) + struct.pack("<HH", OPT_ENDOFOPT, 0)
     return _block(BLOCK_IDB, struct.pack("<HHI", linktype, 0, snaplen) + opts)
 
@@ -256,9 +262,10 @@ class _Layout:
 
     ``image`` holds as many rows as fit :data:`_CHUNK_BYTES`. The constant bytes between two
     frames (the previous record's tail, then this record's header) are filled in once, so a
-    chunk of rows only writes its timestamps (at ``stamp_index``, the flat byte positions of
-    every record's two u32 time words, row by row) and its frames (``frames``: image offset,
-    data offset and length of each).
+    chunk of rows only writes its timestamps (at ``stamp_index``, the flat positions of every
+    record's two u32 time words, row by row, in units of ``stamp_unit``: whole little-endian
+    u32 words where every stamp is 4-byte aligned in the image, else bytes) and its frames (``frames``: image offset,
+    data offset and length of each; ``sources``: the data offsets alone, to look fills up).
     """
 
     key: tuple[bytes, bytes, bytes | None]
@@ -266,6 +273,8 @@ class _Layout:
     frames: tuple[tuple[int, int, int], ...]
     image: npt.NDArray[np.uint8]
     stamp_index: npt.NDArray[np.intp]
+    stamp_unit: np.dtype[np.uint8] | np.dtype[np.uint32]
+    sources: tuple[int, ...]
 
 
 class CaptureWriter:
@@ -281,7 +290,8 @@ class CaptureWriter:
     it cannot carry ports, directions or marks, so ``port`` and ``outbound`` are not written
     (a port is still checked against ``ports``, so that a program runs alike with either format)
     and a record with ``crc_error`` or ``comment`` raises. ``"pcapng"``: one interface per port
-    (LINKTYPE_ETHERNET, nanoseconds, ``if_name`` from ``port_names`` or ``"port N"``), direction
+    (LINKTYPE_ETHERNET, nanoseconds, ``if_name`` from ``port_names`` or ``"port N"``, ``if_speed``
+    from ``if_speed_bps`` when given), direction
     and CRC error in ``epb_flags`` and the comment in ``opt_comment`` of each Enhanced Packet
     Block (draft-ietf-opsawg-pcapng 4.2, 4.3). ``fmt=None`` takes pcapng for a ``.pcapng``
     suffix, classic pcap otherwise.
@@ -291,11 +301,14 @@ class CaptureWriter:
         fmt: ``"pcap"``, ``"pcapng"`` or None (from the suffix).
         ports: interfaces the records come from (pcapng interface ids 0 .. ports-1).
         port_names: one ``if_name`` per port (pcapng).
+        if_speed_bps: the ports' bit rate, written as each interface's ``if_speed`` (pcapng);
+            None writes no speed.
 
     Raises:
         CaptureError: ``path`` is a symbolic link, a directory or not a regular file, its
-            directory does not exist or is not writable, an unknown ``fmt``, or ``port_names``
-            of another length than ``ports``. Nothing is written then.
+            directory does not exist or is not writable, an unknown ``fmt``, ``port_names``
+            of another length than ``ports``, or an ``if_speed_bps`` outside 1 .. 2**64 - 1.
+            Nothing is written then.
     """
 
     def __init__(
@@ -305,6 +318,7 @@ class CaptureWriter:
         fmt: str | None = None,
         ports: int = 1,
         port_names: Sequence[str] | None = None,
+        if_speed_bps: int | None = None,
     ) -> None:
         self._file: BinaryIO | None = None
         self._tmp: Path | None = None
@@ -319,10 +333,14 @@ class CaptureWriter:
         names = [f"port {i}" for i in range(ports)] if port_names is None else list(port_names)
         if len(names) != ports:
             raise CaptureError(f"capture: {len(names)} port names for {ports} ports")
+        if if_speed_bps is not None and not 0 < operator.index(if_speed_bps) < 1 << 64:
+            raise CaptureError(f"capture: if_speed {if_speed_bps} bit/s, need 1 .. 2**64 - 1")
         if fmt == "pcap":
             header = pcap_header(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN)
         else:
-            header = _shb() + b"".join(_idb(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN, n) for n in names)
+            header = _shb() + b"".join(
+                _idb(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN, n, if_speed_bps) for n in names
+            )
         check_target(target)
         self._path = target
         self._fmt = fmt
@@ -626,9 +644,9 @@ class CaptureWriter:
         else:
             words[:, :, 0] = t >> 32
             words[:, :, 1] = t & 0xFFFFFFFF
-        layout.image.reshape(-1)[layout.stamp_index[: words.nbytes]] = words.view(np.uint8).reshape(
-            -1
-        )
+        unit = layout.stamp_unit
+        at = layout.stamp_index[: words.nbytes // unit.itemsize]
+        layout.image.reshape(-1).view(unit)[at] = words.reshape(-1).view(unit)
 
     @staticmethod
     def _place(
@@ -643,7 +661,7 @@ class CaptureWriter:
         if v.ndim != 2 or v.shape[0] != k:
             raise CaptureError(f"capture block: fill of shape {v.shape} for {k} rows")
         offset = operator.index(offset)
-        j = bisect.bisect_right([src for _, src, _ in layout.frames], offset) - 1
+        j = bisect.bisect_right(layout.sources, offset) - 1
         if j >= 0:
             at, src, n = layout.frames[j]
             if offset + v.shape[1] <= src + n:
@@ -708,8 +726,14 @@ class CaptureWriter:
         for at, gap in gaps:
             image[:, at : at + len(gap)] = np.frombuffer(gap, dtype=np.uint8)
         rows = np.arange(len(image), dtype=np.intp)[:, None, None] * row_bytes
-        stamp_index = (rows + np.array(stamps, dtype=np.intp)[:, None] + np.arange(8)).reshape(-1)
-        self._layout = _Layout(key, src, tuple(frames), image, stamp_index)
+        # stamps at 4-byte aligned places (as in rows of frames whose lengths are multiples of
+        # 4): scatter u32 words, a quarter of the indices of a byte scatter
+        unit = 4 if row_bytes % 4 == 0 and all(x % 4 == 0 for x in stamps) else 1
+        places = rows + np.array(stamps, dtype=np.intp)[:, None] + np.arange(0, 8, unit)
+        stamp_index = places.reshape(-1) // unit
+        stamp_unit = np.dtype("<u4") if unit == 4 else np.dtype(np.uint8)
+        sources = tuple(s for _, s, _ in frames)
+        self._layout = _Layout(key, src, tuple(frames), image, stamp_index, stamp_unit, sources)
         return self._layout
 
 

@@ -183,20 +183,27 @@ class OverlapChecker:
     an error: captures stamped in software (on the sender) show legal frames closer than this.
 
     Args:
-        bit_rate_bps: the interface's speed by interface id (pcapng ``if_speed``); missing
-            interfaces run at :data:`~skinframes.ethernet.DEFAULT_BIT_RATE_BPS`.
+        bit_rate_bps: the interface's speed by interface id; missing interfaces run at
+            :data:`~skinframes.ethernet.DEFAULT_BIT_RATE_BPS`. A frame's own ``rate_bps`` (the
+            pcapng ``if_speed`` its record carries) takes precedence.
     """
 
     def __init__(self, bit_rate_bps: dict[int, int] | None = None) -> None:
         self.bit_rate_bps = bit_rate_bps or {}
         # (interface, source) -> (index, time, wire, signature) of its last frame
         self.last: dict[tuple[int, bytes], tuple[int, int, int, tuple[object, ...] | None]] = {}
-        # (interface, length, FCS captured) -> (wire_ns, inter-frame gap ns) of the lengths seen
+        # (bit rate, length, FCS captured) -> (wire_ns, inter-frame gap ns) of the lengths seen
         self._wire: dict[tuple[int, int, bool], tuple[int, int]] = {}
 
-    def wire_ns(self, interface: int, frame_bytes: int, fcs_captured: bool) -> int:
+    def rate_bps(self, interface: int, rate_bps: int | None = None) -> int:
+        """The bit rate of ``interface``: ``rate_bps`` when given, else as configured."""
+        return rate_bps or self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
+
+    def wire_ns(
+        self, interface: int, frame_bytes: int, fcs_captured: bool, rate_bps: int | None = None
+    ) -> int:
         """Time on the wire of a frame captured with ``frame_bytes`` (FCS included or not)."""
-        rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
+        rate = self.rate_bps(interface, rate_bps)
         body = frame_bytes - (ethernet.FCS_BYTES if fcs_captured else 0)
         octets = ethernet.wire_bytes(body)
         return -(-octets * 8 * 1_000_000_000 // rate)  # rounded up to whole ns
@@ -210,6 +217,7 @@ class OverlapChecker:
         length: int,
         fcs: bool,
         signature: tuple[object, ...] | None = None,
+        rate_bps: int | None = None,
     ) -> list[Finding]:
         """The finding for a frame that starts before its sender's previous one has ended.
 
@@ -217,15 +225,19 @@ class OverlapChecker:
         through a closed ring keeps its source address (an ESC sets bit 1 of it only where the
         frame passes its port 0 processing), so in one stream (classic pcap) it meets the copy
         the master sent from its other port: a frame with the previous frame's signature is
-        that return, not a second frame the sender put on the wire.
+        that return, not a second frame the sender put on the wire. ``rate_bps``: the speed
+        of the interface the frame was captured on, when the capture says (pcapng ``if_speed``).
         """
-        times = self._wire.get((interface, length, fcs))
+        rate = self.rate_bps(interface, rate_bps)
+        times = self._wire.get((rate, length, fcs))
         if times is None:
             if len(self._wire) >= _WIRE_MEMO:
                 self._wire.clear()
-            rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
             ifg = -(-ethernet.IFG_BYTES * 8 * 1_000_000_000 // rate)
-            times = self._wire[interface, length, fcs] = (self.wire_ns(interface, length, fcs), ifg)
+            times = self._wire[rate, length, fcs] = (
+                self.wire_ns(interface, length, fcs, rate),
+                ifg,
+            )
         wire, ifg = times
         key = (interface, bytes(src))
         prev = self.last.get(key)
@@ -237,7 +249,6 @@ class OverlapChecker:
         p_index, p_time, p_wire, _ = prev
         if time_ns - p_time > p_wire + ifg or time_ns < p_time:
             return []  # the common case, and never closer than need (<= p_wire + ifg) allows
-        rate = self.bit_rate_bps.get(interface, ethernet.DEFAULT_BIT_RATE_BPS)
         need = min(wire, p_wire) + ifg
         tick = 1000 if time_ns % 1000 == 0 and p_time % 1000 == 0 else 1
         if time_ns - p_time >= need - tick + 1 or time_ns < p_time:
@@ -309,7 +320,7 @@ def _check_records(
     findings = report.findings
     counts = report.counts
     n = 0
-    for index, time_ns, data, linktype, orig_len, interface, comments in rows:
+    for index, time_ns, data, linktype, orig_len, interface, comments, rate_bps in rows:
         n += 1
         if linktype != LINKTYPE_ETHERNET:
             if linktype == LINKTYPE_CAN_SOCKETCAN:
@@ -325,7 +336,7 @@ def _check_records(
             findings.append(FrameFinding(index, error("eth.truncated", str(exc))))
             continue
         counts[proto] += 1
-        later = overlap.feed(index, time_ns, interface, src, orig_len, fcs, signature)
+        later = overlap.feed(index, time_ns, interface, src, orig_len, fcs, signature, rate_bps)
         if later:
             found = found + later  # never in place: a repeated frame shares ``found``
         if comments:

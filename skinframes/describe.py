@@ -1,11 +1,14 @@
 """Human and JSON views of decoded frames and capture records, used by ``skinframes decode``.
 
 Field names in the JSON are skinframes' (snake_case spec names); ``tests/conformance/fields.py``
-maps them to tshark's.
+maps them to tshark's. Where Wireshark names a field skinframes had no key for (the EPL flag bits,
+the SDO pad size), the key is Wireshark's name: ``fls`` for ``epl.pres.fls``, ``sdo_data_padding``
+for ``epl.asnd.sdo.cmd.data.padding``.
 """
 
 from __future__ import annotations
 
+from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
 
@@ -14,6 +17,15 @@ from skinframes.canbus import CanFrame
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError, TruncatedError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, Record
+from skinframes.powerlink.enums import (
+    PREQ_FLAG_BITS,
+    PRES_FLAG_BITS,
+    RESPONSE_FLAG_BITS,
+    SOA_FLAG_BITS,
+    SOC_FLAG_BITS,
+    flag_bits,
+)
+from skinframes.powerlink.services import multi_param_entries
 
 __all__ = ["JsonDescriber", "describe_record", "frame_fields", "record_json", "summary"]
 
@@ -63,17 +75,29 @@ def frame_fields(frame: ethernet.EthernetFrame) -> dict[str, Any]:
 _MESSAGE_NAMES: dict[int, str] = {int(t): t.name for t in powerlink.MessageType}
 
 
+@dataclass(frozen=True, slots=True)
+class _AinvFlags:
+    """Byte 4 of an AInv, kept as bytes: it has the SoA's layout (DS 302-A), and Wireshark shows
+    its flags as ``epl.soa.*``."""
+
+    flags1: int
+
+
 def _epl_fields(m: Any) -> dict[str, Any]:
     """The JSON fields of an EPL message; one type test per message, not one per field group."""
     kind = type(m)
     if kind is powerlink.RawMessage:
-        return {
+        raw = {
             "message_type": m.message_type & 0x7F,
             "message": _name(m.message_type & 0x7F, powerlink.MessageType),
             "dest": m.dest,
             "src": m.src,
             "data_length": len(m.data),
         }
+        if raw["message_type"] == powerlink.MessageType.AINV and len(m.data) >= 2:
+            raw["flags1"] = m.data[1]
+            raw.update(flag_bits(_AinvFlags(m.data[1]), SOA_FLAG_BITS))
+        return raw
     out: dict[str, Any] = {
         "message_type": int(m.MESSAGE_TYPE),
         "message": _MESSAGE_NAMES[m.MESSAGE_TYPE],
@@ -84,17 +108,25 @@ def _epl_fields(m: Any) -> dict[str, Any]:
         out["size"] = len(m.payload)
         out["pdo_version"] = m.pdo_version
         out["flags1"] = int(m.flags1)
+        out["flags2"] = int(m.flags2)
         if kind is powerlink.PRes:
             out["nmt_status"] = int(m.nmt_status)
+            out.update(flag_bits(m, PRES_FLAG_BITS))
+        else:
+            out.update(flag_bits(m, PREQ_FLAG_BITS))
     elif kind is powerlink.SoA:
         out["nmt_status"] = int(m.nmt_status)
         out["requested_service"] = int(m.requested_service)
         out["requested_target"] = m.requested_target
         out["epl_version"] = m.epl_version
+        out["flags1"] = int(m.flags1)
+        out.update(flag_bits(m, SOA_FLAG_BITS))
     elif kind is powerlink.SoC:
         out["net_time_s"] = m.net_time_s
         out["net_time_ns"] = m.net_time_ns
         out["relative_time_us"] = m.relative_time_us
+        out["flags"] = int(m.flags)
+        out.update(flag_bits(m, SOC_FLAG_BITS))
     elif kind is powerlink.ASnd:
         out["service_id"] = m.service_id
         out["service"] = _name(m.service_id, powerlink.ServiceId)
@@ -103,9 +135,15 @@ def _epl_fields(m: Any) -> dict[str, Any]:
             out["command_id"] = int(s.command_id)
         if isinstance(s, powerlink.IdentResponse | powerlink.StatusResponse):
             out["nmt_status"] = int(s.nmt_status)
+            out["flags1"] = int(s.flags1)
+            out["flags2"] = int(s.flags2)
+            out.update(flag_bits(s, RESPONSE_FLAG_BITS))
         if isinstance(s, powerlink.Sdo) and s.command is not None:
             out["sdo_command_id"] = s.command.command_id
             out["sdo_segment_size"] = len(s.command.data)
+            entries = multi_param_entries(s.command)
+            if entries:
+                out["sdo_data_padding"] = [e.pad_size for e in entries]
     return out
 
 

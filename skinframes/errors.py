@@ -10,7 +10,8 @@ Every error the library raises on bad input comes from here::
     │   ├── ChecksumError               FCS / CRC
     │   ├── UnknownProtocolError        unregistered EtherType / link type
     │   ├── PcapFormatError             bad magic, version, truncated record
-    │   └── TraceFormatError            not a readable CAN trace (unknown suffix, damaged)
+    │   └── CanLogFormatError           not a readable CAN log (unknown suffix, damaged);
+    │                                   its old name TraceFormatError is the same class
     └── EncodeError(…, ValueError)      model -> bytes
         ├── FieldRangeError             a value does not fit its field (11-bit length > 2047, node id > 255)
         ├── FrameTooLargeError          > 1500-byte payload, too many datagrams
@@ -32,6 +33,7 @@ from contextlib import contextmanager
 import construct as cs
 
 __all__ = [
+    "CanLogFormatError",
     "CaptureError",
     "ChecksumError",
     "DecodeError",
@@ -94,8 +96,11 @@ class PcapFormatError(DecodeError):
     """A capture file is not a readable pcap / pcapng (magic, version, record header)."""
 
 
-class TraceFormatError(DecodeError):
-    """A file is not a readable CAN trace: unknown suffix, unreadable, or damaged from the start."""
+class CanLogFormatError(DecodeError):
+    """A file is not a readable CAN log: unknown suffix, unreadable, or damaged from the start."""
+
+
+TraceFormatError = CanLogFormatError  # its old name (docs/interface.md, Old names)
 
 
 class EncodeError(SkinframesError, ValueError):

@@ -4,7 +4,8 @@
 Formats: classic pcap (tcpdump.org, "draft-ietf-opsawg-pcap"): magic 0xA1B2C3D4 (microseconds) or
 0xA1B23C4D (nanoseconds), in either byte order; pcapng ("draft-ietf-opsawg-pcapng"): sections,
 several interfaces, ``if_tsresol`` (option 9, 10^-n or 2^-n s) and ``if_tsoffset`` (option 14,
-seconds added to every stamp), as Wireshark's wiretap/pcapng.c applies them. Either may be gzip
+seconds added to every stamp), as Wireshark's wiretap/pcapng.c applies them, and ``if_speed``
+(option 8, u64 bits per second; section 4.2), which each record carries as ``if_speed_bps``. Either may be gzip
 compressed, several members included (Wireshark reads such files transparently).
 
 Reading streams: records are read one by one from the file (or a pipe), so memory does not grow
@@ -104,6 +105,7 @@ _EPB: Final = 6
 _BYTE_ORDER_MAGIC: Final = 0x1A2B3C4D
 _OPT_ENDOFOPT: Final = 0
 _OPT_COMMENT: Final = 1
+_IF_SPEED: Final = 8
 _IF_TSRESOL: Final = 9
 _IF_TSOFFSET: Final = 14
 _DEFAULT_UNITS_PER_S: Final = 1_000_000  # no if_tsresol: microseconds
@@ -122,6 +124,8 @@ class Record:
         interface: pcapng interface id (0 for pcap).
         comments: pcapng packet comments (opt_comment), e.g. the mark of a deliberately corrupted
             frame written by the emulator.
+        if_speed_bps: the interface's ``if_speed`` (pcapng option 8, bits per second); None
+            when the capture does not say (classic pcap, no option, or 0).
     """
 
     index: int
@@ -131,6 +135,7 @@ class Record:
     orig_len: int
     interface: int = 0
     comments: tuple[str, ...] = ()
+    if_speed_bps: int | None = None
 
     @property
     def frame(self) -> int:
@@ -653,6 +658,8 @@ class _Source:
                 iface.units_per_s = 2 ** (v & 0x7F) if v & 0x80 else 10**v
             elif code == _IF_TSOFFSET and len(value) == 8:
                 iface.offset_s = struct.unpack(e + "q", value)[0]
+            elif code == _IF_SPEED and len(value) == 8:
+                iface.speed_bps = struct.unpack(e + "Q", value)[0] or None
         return iface
 
     def _packet(
@@ -717,7 +724,9 @@ class _Source:
         secs, frac = divmod(ts, units)
         time_ns = (secs + iface.offset_s) * NS_PER_S + frac * NS_PER_S // units
         data = body[start : start + incl]
-        return Record(index, time_ns, data, iface.linktype, max(orig, incl), intid, comments)
+        return Record(
+            index, time_ns, data, iface.linktype, max(orig, incl), intid, comments, iface.speed_bps
+        )
 
     def records(self, tally: _Tally) -> Iterator[Record]:
         """Every record; what could not be read goes to ``tally``."""
@@ -763,6 +772,7 @@ class _Interface:
     snaplen: int
     units_per_s: int = _DEFAULT_UNITS_PER_S
     offset_s: int = 0
+    speed_bps: int | None = None  # if_speed; None: not given
 
 
 @dataclass(slots=True)

@@ -3,7 +3,7 @@
 A plain classic pcap (draft-ietf-opsawg-pcap sections 4-5: uncompressed, every record whole,
 caplen within the snap length and :data:`~skinframes.pcap.MAX_RECORD_BYTES`, the fraction in
 range) is the common case, and there :mod:`skinframes.pcap`'s reader has nothing to report: no
-skipped record, no finding, interface 0, no comments. :func:`iter_plain_pcap` reads such a file
+skipped record, no finding, interface 0, no comments, no interface speed. :func:`iter_plain_pcap` reads such a file
 in large chunks (memory bounded by the chunk, as the reader's) and yields each record as a
 :data:`RecordRow`, a tuple of :class:`~skinframes.pcap.Record`'s fields and values, about five
 times cheaper to make than a ``Record``. Where the reader would skip a record or
@@ -33,14 +33,24 @@ class NotPlainError(Exception):
     """The file is not (or stops being) a plain classic pcap: read it with ``read_capture``."""
 
 
-# (index, time_ns, data, linktype, orig_len, interface, comments): a Record's fields, in order
-RecordRow: TypeAlias = tuple[int, int, bytes, int, int, int, tuple[str, ...]]
+# (index, time_ns, data, linktype, orig_len, interface, comments, if_speed_bps): a Record's
+# fields, in order
+RecordRow: TypeAlias = tuple[int, int, bytes, int, int, int, tuple[str, ...], int | None]
 
 
 def record_rows(records: Iterable[Record]) -> Iterator[RecordRow]:
     """The reader's records as rows, so that one loop reads both."""
     for r in records:
-        yield r.index, r.time_ns, r.data, r.linktype, r.orig_len, r.interface, r.comments
+        yield (
+            r.index,
+            r.time_ns,
+            r.data,
+            r.linktype,
+            r.orig_len,
+            r.interface,
+            r.comments,
+            r.if_speed_bps,
+        )
 
 
 def iter_plain_pcap(path: str | Path) -> Iterator[RecordRow]:
@@ -105,6 +115,15 @@ def _records(f: BinaryIO, order: str, ns: bool, snaplen: int, linktype: int) -> 
                 have, pos = len(buf), 0
                 continue
             time_ns = sec * NS_PER_S + frac * scale
-            yield index, time_ns, buf[start:end], linktype, orig if orig > incl else incl, 0, ()
+            yield (
+                index,
+                time_ns,
+                buf[start:end],
+                linktype,
+                orig if orig > incl else incl,
+                0,
+                (),
+                None,
+            )
             pos = end
             index += 1

@@ -241,6 +241,7 @@ class ContactStream:
         self.samples = samples
         self._seed, self._contacts, self._no_load = seed, contacts, no_load
         self._bits = _mt19937(np.random.RandomState(seed))
+        self._words = np.random.Generator(self._bits)
         self._length = patches * triangles * TAXELS_PER_TRIANGLE  # taxels (= bytes) per sample
         self._blobs: _Contacts | None = None
         self._first = 0
@@ -257,11 +258,13 @@ class ContactStream:
             self._blobs = _Contacts.draw(skipped, self._contacts, length, no_load)
         # RandomState.bytes(n): n // 4 32-bit outputs, little-endian (length is a multiple of
         # 12); drawn from the bit generator directly, 1.5x faster, the same bytes
+        # Generator.integers over the full 32-bit range returns the raw outputs as uint32 (no
+        # uint64 array to convert): the same words, 1.4x faster than random_raw
         values = np.empty(m * length, np.uint8)
         for lo in range(0, len(values), _NOISE_STEP):  # a cache's size at a time
             part = values[lo : lo + _NOISE_STEP]
-            words = self._bits.random_raw(len(part) // 4).astype("<u4")
-            _noise_values(words.view(np.uint8), no_load, out=part)
+            words = self._words.integers(0, 1 << 32, len(part) // 4, dtype=np.uint32)
+            _noise_values(words.astype("<u4", copy=False).view(np.uint8), no_load, out=part)
         if self._contacts:
             if self._blobs is None:  # one take: the generator has just drawn all the noise
                 rng = np.random.RandomState()
@@ -350,23 +353,30 @@ class _Contacts:
         return cls(start, speed, half, depth, length)
 
     def press(self, values: npt.NDArray[np.uint8], first: int, samples: int) -> None:
-        """Lower ``values`` (samples x length, from sample ``first``) under the blobs, in place."""
+        """Lower ``values`` (samples x length, from sample ``first``) under the blobs, in place.
+
+        Overlapping blobs sum their pressure and the taxel saturates at 0. The pressures are
+        never negative, so ``max(v - a - b, 0) == max(max(v - a, 0) - b, 0)``: the blobs press
+        one after the other, each a contiguous run of distinct taxels per sample (no sort).
+        """
         length = self.length
-        offsets = np.arange(-4 * TAXELS_PER_TRIANGLE, 4 * TAXELS_PER_TRIANGLE + 1)
-        t = np.arange(first, first + samples)[:, None, None]  # the absolute sample index
-        centre = (self.start[None, :, None] + self.speed[None, :, None] * t) % length
-        idx = centre + offsets[None, None, :]
-        dist = np.abs(offsets)[None, None, :]
-        half = self.half[None, :, None]
-        inside = (dist < half) & (idx >= 0) & (idx < length)
-        press = np.broadcast_to(self.depth[None, :, None] * (half - dist) // half, idx.shape)[
-            inside
-        ]
-        # sum overlapping blobs per taxel, then press only the touched taxels (sparse)
-        flat, inverse = np.unique(((t - first) * length + idx)[inside], return_inverse=True)
-        total = np.bincount(inverse, weights=press).astype(np.int64)
-        touched = values.reshape(-1)
-        touched[flat] = np.clip(touched[flat].astype(np.int64) - total, 0, 0xFF)
+        flat = values.reshape(-1)
+        t = np.arange(first, first + samples, dtype=np.int64)  # the absolute sample index
+        rows = ((t - first) * length)[:, None]
+        for start, speed, half, depth in zip(
+            self.start.tolist(),
+            self.speed.tolist(),
+            self.half.tolist(),
+            self.depth.tolist(),
+            strict=True,
+        ):
+            offsets = np.arange(1 - half, half, dtype=np.int64)  # the taxels under the blob
+            amount = depth * (half - np.abs(offsets)) // half  # deepest at the centre
+            idx = ((start + speed * t) % length)[:, None] + offsets[None, :]
+            inside = (idx >= 0) & (idx < length)
+            at = (rows + idx)[inside]
+            lowered = flat[at].astype(np.int64) - np.broadcast_to(amount, idx.shape)[inside]
+            flat[at] = np.maximum(lowered, 0)
 
 
 def sample_payloads(

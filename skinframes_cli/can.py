@@ -31,7 +31,7 @@ from skinframes.canbus.log import (
     CanLogReader,
     RecordCounts,
 )
-from skinframes.errors import TraceFormatError
+from skinframes.errors import CanLogFormatError
 from skinframes.pcap import Skipped
 from skinframes_cli.can_convert import add_convert
 from skinframes_cli.options import int_list
@@ -86,7 +86,7 @@ def run_decode(args: argparse.Namespace) -> int:
     """Decode and print the samples as the log is read; the accounting goes to stderr.
 
     Raises:
-        TraceFormatError: the log holds no CAN frame at all (exit 2).
+        CanLogFormatError: the log holds no CAN frame at all (exit 2).
     """
     reader = CanLogReader(args.trace)
     r = Reassembler(boards=args.boards, skin_classes=(args.skin_class,))
@@ -103,7 +103,7 @@ def run_decode(args: argparse.Namespace) -> int:
     counts = r.finish()
     records = reader.record_counts
     if records.decoded == 0:
-        raise TraceFormatError(f"{args.trace}: no CAN frames in {_records_text(records)}")
+        raise CanLogFormatError(f"{args.trace}: no CAN frames in {_records_text(records)}")
     report(counts, records, r.malformed, reader.damaged)
     return 0
 

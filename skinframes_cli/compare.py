@@ -56,7 +56,7 @@ def _rows(doc: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
     emulated = dict(can.pop("emulated"))
     emulated.pop("latency_us", None)
     emulated.update(
-        {k: can[k] for k in ("wire_bytes_per_sample", "max_patches_1ms", "max_patches_5ms")}
+        {k: can[k] for k in ("wire_bytes_per_sample", "max_nodes_1ms", "max_nodes_5ms")}
     )
     values = {"can": can, "can_emulated": emulated, "epl": doc["epl"], "ecat": doc["ecat"]}
     return [(label, values[key]) for key, label in ROWS]
@@ -70,15 +70,15 @@ def print_table(doc: dict[str, Any]) -> None:
         f"Ethernet preset {doc['preset']}\n"
     )
     print(
-        f"{'bus':<22}{'cycle':>13}{'bus load':>10}{'wire bytes':>12}{'patches in':>12}"
-        f"{'patches in':>12}"
+        f"{'bus':<22}{'cycle':>13}{'bus load':>10}{'wire bytes':>12}{'nodes in':>12}"
+        f"{'nodes in':>12}"
     )
     print(f"{'':<22}{'[us]':>13}{'':>10}{'per sample':>12}{'1 ms':>12}{'5 ms':>12}")
     for label, v in _rows(doc):
         print(
             f"{label:<22}{v['cycle_us']:>13.2f}{100 * v['bus_load']:>9.2f}%"
-            f"{v['wire_bytes_per_sample']:>12.0f}{v['max_patches_1ms']:>12}"
-            f"{v['max_patches_5ms']:>12}"
+            f"{v['wire_bytes_per_sample']:>12.0f}{v['max_nodes_1ms']:>12}"
+            f"{v['max_nodes_5ms']:>12}"
         )
 
 

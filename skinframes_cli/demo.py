@@ -6,6 +6,7 @@ import argparse
 from pathlib import Path
 from typing import Any, Final
 
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, old_name
 from skinframes import golden, taxel
 from skinframes.atomic_file import atomic_output
 from skinframes.check import check_capture
@@ -18,9 +19,9 @@ NODES = taxel.BODY_PATCHES  # 160 patches
 BYTES = taxel.PATCH_BYTES  # 192 bytes each
 LOOPS_MS = (1, 5)
 RUNS = (
-    ("epl", "EPL, MN + CNs via hubs"),
-    ("ecat", "EtherCAT open ring"),
-    ("ecat_redundant", "EtherCAT closed ring"),
+    (EPL, "EPL, MN + CNs via hubs"),
+    (ECAT, "EtherCAT open ring"),
+    (ECAT_CLOSED_RING, "EtherCAT closed ring"),
 )
 
 
@@ -52,11 +53,17 @@ MANIFEST: Final = ".skinframes-demo"  # in DIR: the names demo wrote there, one 
 _MANIFEST_HEAD: Final = "# files written by 'skinframes demo'; it replaces only these\n"
 
 
+def _pcap_name(table: str, preset_name: str) -> str:
+    """``ecat_redundant_160x192_wire.pcap``: the file names keep the closed ring's old name
+    (scripts open them by name; docs/interface.md, "Old names")."""
+    return f"{old_name(table)}_{NODES}x{BYTES}_{preset_name}.pcap"
+
+
 def output_names(plots: bool) -> list[str]:
     """Every file name ``demo`` writes into its folder, in the order it writes them."""
     from emulator.model.params import PRESETS
 
-    names = [f"{table}_{NODES}x{BYTES}_{p}.pcap" for table, _ in RUNS for p in PRESETS]
+    names = [_pcap_name(table, p) for table, _ in RUNS for p in PRESETS]
     names.append("skin_can.asc")
     if plots:
         names.append("compare.png")
@@ -145,7 +152,7 @@ def run(args: argparse.Namespace) -> int:
     for table, name in RUNS:
         cycle = {}
         for pname, params in PRESETS.items():
-            path = out / f"{table}_{NODES}x{BYTES}_{pname}.pcap"
+            path = out / _pcap_name(table, pname)
             r = simulate(table, NODES, BYTES, params, cycles=3, seed=1, pcap=path)
             files.append((path, f"{name}, {pname} preset, {r.cycles} cycles, {r.frames} frames"))
             cycle[pname] = r.cycle_us()["median"]

@@ -6,11 +6,12 @@ import argparse
 import json
 from typing import Any
 
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, JSON_KEYS_HELP
 from emulator.model.params import PRESETS, preset
 from emulator.model.plan import plan
 from skinframes_cli.options import bounded_int
 
-NAMES = {"epl": "EPL", "ecat": "EtherCAT open ring", "ecat_redundant": "EtherCAT closed ring"}
+NAMES = {EPL: "EPL", ECAT: "EtherCAT open ring", ECAT_CLOSED_RING: "EtherCAT closed ring"}
 
 
 def add_parser(sub: Any) -> None:
@@ -31,7 +32,7 @@ def add_parser(sub: Any) -> None:
         default="wire",
         help="timing constants (default: wire)",
     )
-    p.add_argument("--json", action="store_true", help="one JSON document")
+    p.add_argument("--json", action="store_true", help=f"one JSON document; {JSON_KEYS_HELP}")
     p.set_defaults(run=run)
 
 

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, is_closed_ring
 from emulator.model.paper_tables import FIGURE_MAX_NODES
 from emulator.model.params import PRESETS
 from skinframes import taxel
@@ -18,9 +19,9 @@ from skinframes_cli.options import bounded_int, out_path
 
 PAYLOADS = (2, 32, 128, 192, 256)
 PANELS = (
-    ("epl", "Ethernet POWERLINK (Fig. 9)"),
-    ("ecat", "EtherCAT, open ring (Fig. 10)"),
-    ("ecat_redundant", "EtherCAT, closed ring (Fig. 11)"),
+    (EPL, "Ethernet POWERLINK (Fig. 9)"),
+    (ECAT, "EtherCAT, open ring (Fig. 10)"),
+    (ECAT_CLOSED_RING, "EtherCAT, closed ring (Fig. 11)"),
 )
 
 
@@ -30,7 +31,7 @@ def add_parser(sub: Any) -> None:
         "plot",
         help="cycle time vs nodes, analytic and emulated overlaid (PNG or SVG)",
         description="Plot cycle time against the number of nodes "
-        f"(1..{FIGURE_MAX_NODES['epl']} for EPL, 1..{FIGURE_MAX_NODES['ecat']} for "
+        f"(1..{FIGURE_MAX_NODES[EPL]} for EPL, 1..{FIGURE_MAX_NODES[ECAT]} for "
         "EtherCAT) for several payloads: the analytic model as lines, the emulator as markers, "
         "and the paper's printed table cells.",
     )
@@ -102,10 +103,10 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
     for ax, (table, title) in zip(axes, PANELS, strict=True):
         nodes = np.arange(1, FIGURE_MAX_NODES[table] + 1)
         for b, color in zip(PAYLOADS, colors, strict=True):
-            if table == "epl":
+            if table == EPL:
                 y = analytic.epl_cycle_us(nodes, b, params)
             else:
-                y = analytic.ecat_cycle_us(nodes, b, params, redundant=table == "ecat_redundant")
+                y = analytic.ecat_cycle_us(nodes, b, params, closed_ring=is_closed_ring(table))
             ax.plot(nodes, np.asarray(y) / 1000, color=color, lw=1.5, label=f"{b} B analytic")
             points_tb = emulated.get((table, b), [])  # none when --step exceeds this panel
             if points_tb:

@@ -9,6 +9,7 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL
 from emulator.model.paper_tables import BYTES, FIGURE_MAX_NODES, NODES
 from emulator.model.params import preset
 from emulator.model.sweep import analytic_grid, cell_reason
@@ -17,9 +18,9 @@ from skinframes.errors import SkinframesError
 from skinframes_cli.figure import save_figure
 
 PANELS: Final = (
-    ("epl", "Ethernet POWERLINK"),
-    ("ecat", "EtherCAT, open ring"),
-    ("ecat_redundant", "EtherCAT, closed ring"),
+    (EPL, "Ethernet POWERLINK"),
+    (ECAT, "EtherCAT, open ring"),
+    (ECAT_CLOSED_RING, "EtherCAT, closed ring"),
 )
 LEVELS_US: Final = (1_000.0, 5_000.0)  # the 1 ms and 5 ms loops
 MAX_BYTES: Final = ethercat.MAX_DATAGRAM_DATA_BYTES  # 1486: the largest payload all three carry

@@ -11,6 +11,7 @@ from typing import IO, Any
 import numpy as np
 
 from emulator.model.cycle_time import MODELS
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, JSON_KEYS_HELP
 from emulator.model.paper_tables import paper_value
 from emulator.model.params import PRESETS, preset
 from emulator.model.sweep import rows
@@ -25,9 +26,9 @@ MAX_BYTES = 65535
 MAX_JOBS = 256
 
 TITLES = {
-    "epl": "Table I: Ethernet POWERLINK cycle time [us]",
-    "ecat": "Table II: EtherCAT cycle time, non-redundant (open ring) [us]",
-    "ecat_redundant": "Table III: EtherCAT cycle time, redundant (closed ring) [us]",
+    EPL: "Table I: Ethernet POWERLINK cycle time [us]",
+    ECAT: "Table II: EtherCAT cycle time, open ring (the paper's non-redundant) [us]",
+    ECAT_CLOSED_RING: "Table III: EtherCAT cycle time, closed ring (the paper's redundant) [us]",
 }
 
 
@@ -64,7 +65,7 @@ def add_parser(sub: Any) -> None:
         default=int_list("2,32,128,256"),
         help="payload bytes per node, same syntax (default: 2,32,128,256)",
     )
-    p.add_argument("--json", action="store_true", help="one JSON document")
+    p.add_argument("--json", action="store_true", help=f"one JSON document; {JSON_KEYS_HELP}")
     p.add_argument(
         "--csv",
         nargs="?",

@@ -220,8 +220,9 @@ def scan(transceive: Transceive, nodes: int) -> dict[str, Any]:
     return result
 
 
-def socket_transceive(iface: str, timeout_s: float = 0.5) -> Transceive:
-    """Send on a raw AF_PACKET socket and wait for the frame that comes back."""
+def socket_transceive(iface: str, timeout_s: float = 5.0) -> Transceive:
+    """Send on a raw AF_PACKET socket and wait for the frame that comes back (no answer is an
+    error, so the wait is long: a busy machine slows the test, never fails it)."""
     sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETHERTYPE))
     sock.bind((iface, ETHERTYPE))
 

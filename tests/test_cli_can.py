@@ -145,7 +145,7 @@ def test_can_decode_reports_malformed_and_orphans(
 @pytest.mark.parametrize(
     ("argv", "needle"),
     [
-        (["can", "decode", "trace.txt"], "unknown trace format"),
+        (["can", "decode", "trace.txt"], "unknown CAN log format"),
         (["can", "decode", "missing.asc"], "cannot read"),
         (["can", "decode", "junk.log"], "not a readable .log trace"),
         (["can"], "CAN_COMMAND"),

@@ -55,17 +55,20 @@ def test_can_figure_is_the_sum_of_exact_frame_times(
             "cycle_us",
             "bus_load",
             "wire_bytes_per_sample",
-            "max_patches_1ms",
-            "max_patches_5ms",
+            "max_nodes_1ms",
+            "max_nodes_5ms",
         }
+        # the old keys stay beside the new ones with the same values (interface doc, Old names)
+        assert doc[bus]["max_patches_1ms"] == doc[bus]["max_nodes_1ms"]
+        assert doc[bus]["max_patches_5ms"] == doc[bus]["max_nodes_5ms"]
     assert doc["ecat"]["cycle_us"] < doc["epl"]["cycle_us"] < doc["can"]["cycle_us"]
     # arbitration: lower board addresses have lower ids and finish first; the last one finishes
     # with the sample (per-board latency from the period start)
     latency = doc["can"]["emulated"]["latency_us"]
     assert list(latency) == [str(b) for b in BOARDS]
     assert latency["8"] < latency["9"] < latency["10"] == doc["can"]["emulated"]["cycle_us"]
-    assert doc["can"]["max_patches_1ms"] == 0  # 32 frames of ~115 bits > 1 ms per board
-    assert doc["ecat"]["max_patches_5ms"] > doc["epl"]["max_patches_5ms"] > 1
+    assert doc["can"]["max_nodes_1ms"] == 0  # 32 frames of ~115 bits > 1 ms per board
+    assert doc["ecat"]["max_nodes_5ms"] > doc["epl"]["max_nodes_5ms"] > 1
 
 
 @pytest.mark.parametrize("target", ["epl", "ecat"])

@@ -26,7 +26,7 @@ def test_map_png_and_its_contours(tmp_path: Path) -> None:
     out = tmp_path / "map.png"
     panels = make_map(out, "paper", 160, 192)
     assert png_size(out) == (round(FIGSIZE_IN[0] * DPI), round(FIGSIZE_IN[1] * DPI))
-    assert list(panels) == ["epl", "ecat", "ecat_redundant"]
+    assert list(panels) == ["epl", "ecat", "ecat_closed_ring"]
     for table, p in panels.items():
         assert sorted(p.contours) == sorted(LEVELS_US)
         for level, lines in p.contours.items():

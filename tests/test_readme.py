@@ -69,7 +69,7 @@ def test_the_wire_table_line_covers_every_epl_node(
     assert line in COMMANDS
     assert main(shlex.split(line)[1:]) == 0
     doc = json.loads(capsys.readouterr().out)
-    for table in ("epl", "ecat", "ecat_redundant"):
+    for table in ("epl", "ecat", "ecat_closed_ring", "ecat_redundant"):
         assert list(doc[table]) == [str(n) for n in range(1, 240)], table
     # growing with the nodes, as every cycle-time model must
     epl = [doc["epl"][str(n)]["192"] for n in range(1, 240)]

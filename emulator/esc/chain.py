@@ -59,6 +59,7 @@ _CONFIGURED: Final = frozenset({4, 5, 6})
 _LOGICAL: Final = frozenset({10, 11, 12})
 _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
+_BWR: Final = int(Command.BWR)
 
 
 def _frozen_clock() -> int:
@@ -244,19 +245,25 @@ class EcatChain:
                 for pos in hit.tolist():
                     targets.setdefault(pos, []).append(k)
         inc = [cmd in _INCREMENTS for cmd, *_ in layout]
+        # a BWR's data passes every ESC unchanged: one copy serves them all (datasheet I Table 7)
+        written = [bytes(buf[d[3] : d[3] + d[4]]) if d[0] == _BWR else None for d in layout]
         irq_or = 0
         mac_bit = False
         passed = 0
         for p, dev in enumerate(devices):
             mine = targets.get(p)
             work = everyone if mine is None else sorted(everyone + mine) if everyone else mine
-            process = dev.process
+            process, broadcast_write = dev.process, dev.broadcast_write
             irq_before = dev.irq
             last = -1
             for k in work:
                 cmd, adp_at, ado, data_at, n, irq_at = layout[k]
-                adp = (adps[k] + p) & 0xFFFF if inc[k] else adps[k]
-                _, wkc_inc = process(cmd, adp, ado, buf, data_at, n)
+                data = written[k]
+                if data is not None:
+                    wkc_inc = broadcast_write(ado, data)
+                else:
+                    adp = (adps[k] + p) & 0xFFFF if inc[k] else adps[k]
+                    _, wkc_inc = process(cmd, adp, ado, buf, data_at, n)
                 if wkc_inc:
                     wkc_at = data_at + n
                     wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + wkc_inc

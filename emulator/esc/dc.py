@@ -48,7 +48,7 @@ from __future__ import annotations
 import random
 import struct
 from collections.abc import Sequence
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from typing import Final
 
 from emulator.errors import TopologyError
@@ -152,20 +152,34 @@ class DcTimebase:
     frame_ns: int = 0
     line_length: int = 1
     params: TimingParams = WIRE
+    _times_key: tuple[TimingParams, int] | None = field(default=None, repr=False, compare=False)
+    _times: dict[int, tuple[int, int | None]] = field(
+        default_factory=dict, repr=False, compare=False
+    )
 
     def port_times_ps(self, position: int) -> tuple[int, int | None]:
         """When the frame's first bit arrives at port 0 of ``position`` and returns at its
         port 1 (None for the last ESC), in ps after it reached the first ESC's port 0."""
-        p = self.params
-        forward = p.ecat_processing_ps + p.cable_ps  # one pass in processing direction
-        back = p.ecat_forwarding_ps + p.cable_ps  # one pass in forwarding direction
-        last = self.line_length - 1
-        t0 = position * forward
-        if position >= last:
-            return t0, None
-        # the last ESC turns the frame around (one processing pass and its cable back), then
-        # each ESC between it and ``position`` forwards it once
-        return t0, last * forward + forward + (last - 1 - position) * back
+        key = self._times_key
+        if key is None or key[0] is not self.params or key[1] != self.line_length:
+            self._times_key, self._times = (self.params, self.line_length), {}  # a new line
+        found = self._times.get(position)
+        if found is None:
+            found = self._times[position] = _port_times_ps(self.params, self.line_length, position)
+        return found
+
+
+def _port_times_ps(p: TimingParams, line_length: int, position: int) -> tuple[int, int | None]:
+    """:meth:`DcTimebase.port_times_ps`, computed once per line and position."""
+    forward = p.ecat_processing_ps + p.cable_ps  # one pass in processing direction
+    back = p.ecat_forwarding_ps + p.cable_ps  # one pass in forwarding direction
+    last = line_length - 1
+    t0 = position * forward
+    if position >= last:
+        return t0, None
+    # the last ESC turns the frame around (one processing pass and its cable back), then
+    # each ESC between it and ``position`` forwards it once
+    return t0, last * forward + forward + (last - 1 - position) * back
 
 
 class DcClock:

@@ -46,7 +46,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Final
+from typing import ClassVar, Final, TypeVar
 
 from emulator.errors import TopologyError
 from emulator.esc.dc import REG_DC_END, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU, DcClock
@@ -120,6 +120,7 @@ _APRD, _APWR, _APRW, _FPRD, _FPWR, _FPRW, _BRD, _BWR, _BRW = range(1, 10)
 _LRD, _LWR, _LRW, _ARMW, _FRMW = range(10, 15)
 _RESET_SEQUENCE: Final = b"RES"
 _SM_TABLE: Final = struct.Struct("<HHBBBB")  # one SyncManager's registers (datasheet II 2.14)
+_FMMU_TABLE: Final = struct.Struct("<IHBBHBBB3x")  # one FMMU's registers (datasheet II 2.13)
 
 
 @dataclass(frozen=True, slots=True)
@@ -131,6 +132,61 @@ class TraceCopy:
     src: int  # offset in the SyncManager buffer
     dst: int  # offset in the frame buffer
     length: int
+
+
+_DECODE_CACHE_ENTRIES: Final = 4096  # distinct FMMU/SM tables remembered (memory bound)
+_FmmuTable = tuple[tuple[tuple[int, ...], ...], tuple[int, int]]
+_SmTable = tuple[tuple[int, int, int, int, int], ...]
+_FMMU_CACHE: dict[bytes, _FmmuTable] = {}
+_K = TypeVar("_K")
+_V = TypeVar("_V")
+_SM_CACHE: dict[bytes, _SmTable] = {}
+
+
+def _remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = _DECODE_CACHE_ENTRIES) -> _V:
+    """Store ``value`` under ``key``; the cache is emptied when full (bounded memory)."""
+    if len(cache) >= limit:
+        cache.clear()
+    cache[key] = value
+    return value
+
+
+def _decode_fmmus(table: bytes) -> _FmmuTable:
+    """The active FMMUs of the registers 0x0600+ (datasheet II 2.13) in register order, clipped,
+    and the logical span they map.
+
+    Every value a frame can write is legal: the logical side ends at 0xFFFFFFFF, and the
+    physical side ends with the 64 KiB address space (datasheet I 1.1): logical bytes (or
+    bits) whose physical counterpart would lie beyond 0xFFFF are not mapped, so they are
+    neither read nor written and do not count. Entry: (logical start, logical end,
+    physical start, start bit, stop bit, physical bit, read, write, byte-wise, mapped bits).
+    """
+    fmmus: list[tuple[int, ...]] = []
+    for log, length, sbit, ebit, phys, pbit, kind, act in _FMMU_TABLE.iter_unpack(table):
+        if not (act & 0x01 and length and kind & 0x03):
+            continue
+        log_end = min(log + length, 1 << 32)
+        bytewise = sbit == 0 and ebit == 7 and pbit == 0
+        if bytewise:
+            log_end = min(log_end, log + ADDRESS_SPACE - phys)
+        phys_bits = ADDRESS_SPACE * 8 - (phys * 8 + pbit)  # bits left in the address space
+        if log_end > log:
+            fmmus.append(
+                (log, log_end, phys, sbit, ebit, pbit, kind & 1, kind >> 1 & 1, bytewise, phys_bits)
+            )
+    span = (min(f[0] for f in fmmus), max(f[1] for f in fmmus)) if fmmus else (0, 0)
+    return tuple(fmmus), span  # span: logical bytes any FMMU maps (the chain skips the others)
+
+
+def _decode_sms(table: bytes) -> _SmTable:
+    """(index, start, length clipped to 64 KiB, control, PDI-locked) of the SyncManagers that
+    control memory: enabled, length >= 2 (datasheet I 8.5, II 2.14)."""
+    out = []
+    for y, (start, length, control, _, activate, pdi) in enumerate(_SM_TABLE.iter_unpack(table)):
+        length = min(length, ADDRESS_SPACE - start)  # no memory beyond 0xFFFF (I 1.1)
+        if activate & 0x01 and length >= 2:
+            out.append((y, start, length, control, pdi & 0x01))
+    return tuple(out)
 
 
 class _Sm:
@@ -166,6 +222,109 @@ class _Sm:
         self.buf: bytes | bytearray | None = None  # ECAT's buffer while open
 
 
+_TOUCHES_FMMU: Final = 1
+_TOUCHES_SM: Final = 2
+_PLAN_CACHE_ENTRIES: Final = 1 << 16  # distinct (address, length) remembered (memory bound)
+_Segment = tuple[int, int, int, bool]  # lo, hi, mask (-1: side effects), may set a flag
+_Plan = tuple[tuple[_Segment, ...], int]
+
+
+class _WritePlans:
+    """How a register write of (address, length) is cut for ESCs of one configuration.
+
+    Plain parts are masked as whole integers (their write mask, datasheet II "ECAT" column,
+    and whether they touch AL control, DL control, FMMUs or DC registers); the registers with
+    side effects (error counters 0x0300-0x0313, 0x0442-0x0443, the EEPROM interface
+    0x0500-0x050F byte 0x0500/0x0501 one by one, SyncManagers, DC receive times 0x0900-0x0917)
+    are cut into the parts :meth:`EscDevice._special_write` handles. One plan serves every
+    ESC a broadcast reaches.
+    """
+
+    _by_config: ClassVar[dict[EscConfig, _WritePlans]] = {}
+
+    @classmethod
+    def of(cls, config: EscConfig) -> _WritePlans:
+        plans = cls._by_config.get(config)
+        if plans is None:
+            plans = cls._by_config[config] = cls(config)
+        return plans
+
+    def __init__(self, config: EscConfig) -> None:
+        self.masks = write_masks(config)
+        self.fmmu_end = REG_FMMU + FMMU_BYTES * config.fmmus
+        self.sm_end = REG_SM + SM_BYTES * config.syncmanagers
+        self.special = (  # registers written in parts (side effects), ascending
+            (REG_ERROR_COUNTERS, 0x0314),
+            (0x0442, 0x0444),
+            (REG_EEPROM_CONFIG, 0x0510),
+            (REG_SM, self.sm_end),
+            (REG_DC_RECEIVE, REG_DC_RECEIVE_PU),
+        )
+        self._plans: dict[tuple[int, int], _Plan] = {}
+
+    def plan(self, addr: int, n: int) -> _Plan:
+        """The segments of a write of ``n`` bytes at ``addr`` (< 0x0F80, not beyond it)."""
+        key = (addr, n)
+        found = self._plans.get(key)
+        if found is None:
+            found = _remember(self._plans, key, self._cut(addr, addr + n), _PLAN_CACHE_ENTRIES)
+        return found
+
+    def _cut(self, pos: int, end: int) -> _Plan:
+        segments: list[_Segment] = []
+        touches = 0
+        while pos < end:
+            hi = min(end, self._next_special(pos))
+            if hi > pos:
+                mask = int.from_bytes(self.masks[pos:hi], "little")
+                marks = (
+                    pos <= REG_AL_CONTROL < hi
+                    or (pos < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL)
+                    or (pos < self.fmmu_end and hi > REG_FMMU)
+                    or (pos < REG_DC_END and hi > REG_DC_OFFSET)
+                )
+                segments.append((pos, hi, mask, marks))
+                if pos < self.fmmu_end and hi > REG_FMMU:
+                    touches |= _TOUCHES_FMMU
+                pos = hi
+            if pos < end:
+                hi = self._special_end(pos, end)
+                segments.append((pos, hi, -1, True))
+                if REG_SM <= pos < self.sm_end:
+                    touches |= _TOUCHES_SM
+                pos = hi
+        return tuple(segments), touches
+
+    def _next_special(self, pos: int) -> int:
+        """The first register at or after ``pos`` that a write cannot simply mask."""
+        for lo, hi in self.special:
+            if pos < hi:
+                return max(pos, lo)
+        return REGISTER_END
+
+    def _special_end(self, lo: int, end: int) -> int:
+        """Where the part of a write at ``lo`` (in a special block) that one call of
+        :meth:`EscDevice._special_write` handles ends."""
+        if lo < REG_PU_ERRORS:  # the RX error counters, cleared together
+            return min(end, REG_PU_ERRORS)
+        if lo < 0x0314:
+            return min(end, 0x0314)
+        if lo < REG_EEPROM_CONFIG:  # 0x0442-0x0443
+            return min(end, 0x0444)
+        if lo < REG_EEPROM_CONTROL:  # 0x0500, 0x0501: byte by byte
+            return lo + 1
+        if lo < 0x0510:
+            return min(end, 0x0510)
+        if lo >= REG_DC_RECEIVE:
+            return min(end, REG_DC_RECEIVE_PU)
+        return min(end, self.sm_end)
+
+
+def _sm_order(sm: _Sm) -> tuple[int, bool]:
+    """SyncManagers by start address, ECAT-controlled before PDI-locked ones at the same start."""
+    return sm.start, sm.locked
+
+
 class EscDevice:
     """An ESC with its SII EEPROM and the application behind its PDI.
 
@@ -190,14 +349,8 @@ class EscDevice:
         self._sii_image = sii if sii is not None else build_sii(info)
         if len(self._sii_image) % 2 or len(self._sii_image) < 2 * 0x40:
             raise TopologyError(f"SII image of {len(self._sii_image)} bytes (even, >= 128)")
-        self._masks = write_masks(self.config)
-        self._special = (  # registers written byte by byte (side effects), ascending
-            (REG_ERROR_COUNTERS, 0x0314),
-            (0x0442, 0x0444),
-            (REG_EEPROM_CONFIG, 0x0510),
-            (REG_SM, REG_SM + SM_BYTES * self.config.syncmanagers),
-            (REG_DC_RECEIVE, REG_DC_RECEIVE_PU),
-        )
+        self._plans = _WritePlans.of(self.config)
+        self._masks = self._plans.masks  # how register writes are cut (shared)
         self.dc = DcClock()  # distributed clocks (dc.py); the chain shares its timebase
         self._dc_written: tuple[int, int] | None = None
         self.position = 0  # set by the chain; used in traces
@@ -212,7 +365,7 @@ class EscDevice:
         self._completed: list[_Sm] = []
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
-        self._fmmus: list[tuple[int, ...]] = []
+        self._fmmus: tuple[tuple[int, ...], ...] = ()
         self.fmmu_span = (0, 0)
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
@@ -256,7 +409,7 @@ class EscDevice:
         for y in range(cfg.syncmanagers):
             mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
         self._sms = [None] * cfg.syncmanagers
-        self._active, self._fmmus, self._pending, self._completed = [], [], [], []
+        self._active, self._fmmus, self._pending, self._completed = [], (), [], []
         self.fmmu_span = (0, 0)
         self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
@@ -467,6 +620,11 @@ class EscDevice:
                 return adp, 0
             return adp, self._logical(cmd, adp | ado << 16, buf, off, n)
         return adp, 0  # reserved command values: ignored
+
+    def broadcast_write(self, ado: int, data: bytes) -> int:
+        """A BWR at this ESC (ETG.1000.4 Table 14): ``data`` is what every ESC receives, as no
+        ESC changes a BWR's data; the working-counter increment. ADP is the chain's business."""
+        return self._write(ado, data)
 
     def _physical(
         self, kind: int, ado: int, buf: bytearray, off: int, n: int, *, broadcast: bool = False
@@ -772,29 +930,38 @@ class EscDevice:
 
         Each write is cut at the registers with side effects (error counters, EEPROM interface,
         SyncManager configuration); the plain parts are masked as whole integers, so the work
-        is bounded by the bytes written, whatever they ask for.
+        is bounded by the bytes written, whatever they ask for. How a write of (address,
+        length) is cut, its masks and what it touches are worked out once per configuration
+        (:meth:`_WritePlans.plan`) and shared by every ESC of that configuration.
         """
         mem = self.mem
-        n_sm = self.config.syncmanagers
-        sm_end, fmmu_end = REG_SM + SM_BYTES * n_sm, REG_FMMU + FMMU_BYTES * self.config.fmmus
-        sm_before = bytes(mem[REG_SM:sm_end])  # rebuild caches only when these change
-        fmmu_before = bytes(mem[REG_FMMU:fmmu_end])
+        plans = self._plans
+        pending = [(addr, data, plans.plan(addr, len(data))) for addr, data in self._pending]
+        self._pending.clear()
+        touched = 0
+        for _, _, (_, touches) in pending:
+            touched |= touches
+        sm_before = fmmu_before = b""
+        if touched & _TOUCHES_SM:  # rebuild caches only when these change
+            sm_before = bytes(mem[REG_SM : plans.sm_end])
+        if touched & _TOUCHES_FMMU:
+            fmmu_before = bytes(mem[REG_FMMU : plans.fmmu_end])
         sm_enabled = sm_before[6::SM_BYTES]  # bit 0
         flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
-        for addr, data in self._pending:
-            pos, end = addr, addr + len(data)
-            while pos < end:
-                hi = min(end, self._next_special(pos))
-                if hi > pos:
-                    self._masked_write(pos, data[pos - addr : hi - addr], flags)
-                    pos = hi
-                if pos < end:
-                    pos = self._special_write(pos, data[pos - addr :], sm_enabled, flags)
-        self._pending.clear()
+        for addr, data, (segments, _) in pending:
+            for lo, hi, mask, marks in segments:
+                if mask < 0:  # a register with side effects
+                    self._special_write(lo, hi, data[lo - addr : hi - addr], sm_enabled, flags)
+                elif mask:
+                    old = int.from_bytes(mem[lo:hi], "little")
+                    value = int.from_bytes(data[lo - addr : hi - addr], "little")
+                    mem[lo:hi] = ((old & ~mask) | (value & mask)).to_bytes(hi - lo, "little")
+                    if marks:
+                        self._mark(lo, hi, flags)
         al_written, eeprom_command, dl_changed, fmmu_changed, sm_changed = flags
-        if fmmu_changed and mem[REG_FMMU:fmmu_end] != fmmu_before:
+        if fmmu_changed and mem[REG_FMMU : plans.fmmu_end] != fmmu_before:
             self._rebuild_fmmus()
-        if sm_changed and mem[REG_SM:sm_end] != sm_before:
+        if sm_changed and mem[REG_SM : plans.sm_end] != sm_before:
             self._rebuild_sms(sm_enabled)
             self._mailbox_due = True
         if dl_changed:
@@ -812,12 +979,17 @@ class EscDevice:
             else:
                 self.app.al_control(self, value)
 
-    def _next_special(self, pos: int) -> int:
-        """The first register at or after ``pos`` that a write cannot simply mask."""
-        for lo, hi in self._special:
-            if pos < hi:
-                return max(pos, lo)
-        return REGISTER_END
+    def _mark(self, lo: int, hi: int, flags: list[bool]) -> None:
+        """Note what a masked write of [lo, hi) changed: AL control, DL control, the FMMUs, DC."""
+        if lo <= REG_AL_CONTROL < hi:
+            flags[0] = True
+        if lo < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL:
+            flags[2] = True
+        if lo < self._plans.fmmu_end and hi > REG_FMMU:
+            flags[3] = True
+        if lo < REG_DC_END and hi > REG_DC_OFFSET:
+            w = self._dc_written
+            self._dc_written = (lo, hi) if w is None else (min(w[0], lo), max(w[1], hi))
 
     def _masked_write(self, lo: int, data: bytes, flags: list[bool]) -> None:
         """Bytes [lo, lo + len(data)) without side effects but change flags: masked at once."""
@@ -828,51 +1000,40 @@ class EscDevice:
         old = int.from_bytes(self.mem[lo:hi], "little")
         new = (old & ~mask) | (int.from_bytes(data, "little") & mask)
         self.mem[lo:hi] = new.to_bytes(hi - lo, "little")
-        if lo <= REG_AL_CONTROL < hi:
-            flags[0] = True
-        if lo < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL:
-            flags[2] = True
-        if lo < REG_FMMU + FMMU_BYTES * self.config.fmmus and hi > REG_FMMU:
-            flags[3] = True
-        if lo < REG_DC_END and hi > REG_DC_OFFSET:
-            w = self._dc_written
-            self._dc_written = (lo, hi) if w is None else (min(w[0], lo), max(w[1], hi))
+        self._mark(lo, hi, flags)
 
-    def _special_write(self, lo: int, data: bytes, sm_enabled: bytes, flags: list[bool]) -> int:
-        """Write the part of ``data`` (at ``lo``) in one special register block; its end.
+    def _special_write(
+        self, lo: int, hi: int, data: bytes, sm_enabled: bytes, flags: list[bool]
+    ) -> None:
+        """Write ``data`` to [lo, hi), a part of one special register block (cut by
+        :func:`_special_end`).
 
         Error counters are cleared by any write (datasheet II 2.6), the EEPROM interface obeys
         ECAT/PDI ownership (I 11.2.2), a SyncManager's configuration bytes 0-4 only change
         while it is disabled (II 2.14.1).
         """
         mem = self.mem
-        end = lo + len(data)
         if lo < REG_PU_ERRORS:  # one write clears all RX error counters
             mem[REG_ERROR_COUNTERS:REG_PU_ERRORS] = bytes(REG_PU_ERRORS - REG_ERROR_COUNTERS)
-            return min(end, REG_PU_ERRORS)
+            return
         if lo < 0x0314 or lo in (0x0442, 0x0443):
-            hi = min(end, 0x0314 if lo < 0x0314 else 0x0444)
             mem[lo:hi] = bytes(hi - lo)
-            return hi
+            return
         if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
-            value = data[0]
-            if lo == REG_EEPROM_CONFIG and value & 0x02:
+            if lo == REG_EEPROM_CONFIG and data[0] & 0x02:
                 mem[REG_EEPROM_PDI] &= ~0x01  # force ECAT access
-            self._masked_write(lo, data[:1], flags)
-            return lo + 1
+            self._masked_write(lo, data, flags)
+            return
         if lo < 0x0510:
-            hi = min(end, 0x0510)
             if self._ecat_owns_eeprom():
-                self._masked_write(lo, data[: hi - lo], flags)
+                self._masked_write(lo, data, flags)
                 if lo < REG_EEPROM_CONTROL + 2:
                     flags[1] = True
-            return hi
+            return
         if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
-            hi = min(end, REG_DC_RECEIVE_PU)
-            self.dc.write(mem, lo, data[: hi - lo])
-            return hi
-        hi = min(end, REG_SM + SM_BYTES * len(sm_enabled))
-        part = bytearray(data[: hi - lo])
+            self.dc.write(mem, lo, data)
+            return
+        part = bytearray(data)
         for y, enabled in enumerate(sm_enabled):
             if enabled & 1:  # configuration bytes 0-4 keep their value: nothing changes
                 a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
@@ -880,7 +1041,6 @@ class EscDevice:
                     part[a - lo : b - lo] = mem[a:b]
         self._masked_write(lo, bytes(part), flags)
         flags[4] = True
-        return hi
 
     def _ecat_owns_eeprom(self) -> bool:
         return not (self.mem[REG_EEPROM_CONFIG] & 0x01 or self.mem[REG_EEPROM_PDI] & 0x01)
@@ -920,75 +1080,49 @@ class EscDevice:
         struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
 
     def _rebuild_fmmus(self) -> None:
-        """Cache the active FMMUs (datasheet II 2.13) in register order, clipped.
-
-        Every value a frame can write is legal: the logical side ends at 0xFFFFFFFF, and the
-        physical side ends with the 64 KiB address space (datasheet I 1.1): logical bytes (or
-        bits) whose physical counterpart would lie beyond 0xFFFF are not mapped, so they are
-        neither read nor written and do not count. Entry: (logical start, logical end,
-        physical start, start bit, stop bit, physical bit, read, write, byte-wise, mapped bits).
-        """
-        fmmus: list[tuple[int, ...]] = []
-        for y in range(self.config.fmmus):
-            log, length, sbit, ebit, phys, pbit, kind, act = struct.unpack_from(
-                "<IHBBHBBB", self.mem, REG_FMMU + FMMU_BYTES * y
-            )
-            if not (act & 0x01 and length and kind & 0x03):
-                continue
-            log_end = min(log + length, 1 << 32)
-            bytewise = sbit == 0 and ebit == 7 and pbit == 0
-            if bytewise:
-                log_end = min(log_end, log + ADDRESS_SPACE - phys)
-            phys_bits = ADDRESS_SPACE * 8 - (phys * 8 + pbit)  # bits left in the address space
-            if log_end > log:
-                fmmus.append(
-                    (
-                        log,
-                        log_end,
-                        phys,
-                        sbit,
-                        ebit,
-                        pbit,
-                        kind & 1,
-                        kind >> 1 & 1,
-                        bytewise,
-                        phys_bits,
-                    )
-                )
-        self._fmmus = fmmus
-        self.fmmu_span = (  # logical bytes any FMMU maps: the chain skips the others
-            (min(f[0] for f in fmmus), max(f[1] for f in fmmus)) if fmmus else (0, 0)
-        )
+        """Cache the active FMMUs (datasheet II 2.13): decoded once per distinct register
+        bytes (:func:`_decode_fmmus`), so that a broadcast configuring every ESC alike costs
+        each ESC one lookup."""
+        table = bytes(self.mem[REG_FMMU : REG_FMMU + FMMU_BYTES * self.config.fmmus])
+        decoded = _FMMU_CACHE.get(table)
+        if decoded is None:
+            decoded = _remember(_FMMU_CACHE, table, _decode_fmmus(table))
+        self._fmmus, self.fmmu_span = decoded
 
     def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
         """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.
 
         A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
-        deactivated by the PDI locks its whole area (datasheet I 8.5, 8.7).
+        deactivated by the PDI locks its whole area (datasheet I 8.5, 8.7). The register table
+        is decoded once per distinct bytes (:func:`_decode_sms`).
         """
-        active: list[_Sm] = []
-        locked: list[_Sm] = []
-        n_sm = self.config.syncmanagers
-        table = _SM_TABLE.iter_unpack(self.mem[REG_SM : REG_SM + SM_BYTES * n_sm])
-        for y, (start, length, control, _, activate, pdi) in enumerate(table):
-            length = min(length, ADDRESS_SPACE - start)  # no memory beyond 0xFFFF (I 1.1)
-            pdi_locked = pdi & 0x01
-            if not activate & 0x01 or length < 2:
-                self._sms[y] = None
-                self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
-                continue
-            old = self._sms[y]
+        mem, sms = self.mem, self._sms
+        table = bytes(mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers])
+        decoded = _SM_CACHE.get(table)
+        if decoded is None:
+            decoded = _remember(_SM_CACHE, table, _decode_sms(table))
+        controlling: list[_Sm] = []
+        y_next = 0
+        for y, start, length, control, pdi_locked in decoded:
+            for z in range(y_next, y):  # disabled or too short: no buffer
+                if sms[z] is not None or mem[REG_SM + SM_BYTES * z + 5] != SM_NO_BUFFER:
+                    sms[z] = None
+                    mem[REG_SM + SM_BYTES * z + 5] = SM_NO_BUFFER
+            y_next = y + 1
+            old = sms[y]
             toggled = enabled_before is not None and not enabled_before[y] & 1
-            if old is None or toggled or (old.start, old.length) != (start, length):
+            if old is None or toggled or old.start != start or old.length != length:
                 old = _Sm(y, start, length, control)
-                self._sms[y] = old
-                self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
-            (locked if pdi_locked else active).append(old)
-        for sm in active:
-            sm.locked = False
-        for sm in locked:
-            sm.locked = True
-        self._active = sorted(active + locked, key=lambda s: s.start)
+                sms[y] = old
+                mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+            old.locked = bool(pdi_locked)
+            controlling.append(old)
+        for z in range(y_next, len(sms)):
+            if sms[z] is not None or mem[REG_SM + SM_BYTES * z + 5] != SM_NO_BUFFER:
+                sms[z] = None
+                mem[REG_SM + SM_BYTES * z + 5] = SM_NO_BUFFER
+        controlling.sort(key=_sm_order)
+        self._active = controlling
 
     def _update_dl_status(self) -> None:
         """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).

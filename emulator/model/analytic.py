@@ -13,6 +13,7 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
+from emulator.model.names import closed_ring_flag
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
 from skinframes import ethercat, ethernet, powerlink
@@ -162,24 +163,32 @@ def t_pad(n: Num, data: Num, p: TimingParams) -> Arr:
     return np.where((rest != 0) & (d_ecat < MIN_PL), (MIN_PL - d_ecat) / _b(p), 0.0)
 
 
-def t_ecat_fwd(p: TimingParams, redundant: bool) -> float:
+def t_ecat_fwd(p: TimingParams, closed_ring: bool) -> float:
     """T_ecat_fwd of eq. (12): both passes through each ESC in the open ring, one in the closed."""
-    if redundant:
+    if closed_ring:
         return _us(p, p.ecat_processing_ps)
     return _us(p, p.ecat_processing_ps + p.ecat_forwarding_ps)
 
 
-def ecat_cycle_us(n: Num, data: Num, p: TimingParams, redundant: bool = False) -> Arr:
+def ecat_cycle_us(
+    n: Num,
+    data: Num,
+    p: TimingParams,
+    closed_ring: bool | None = None,
+    *,
+    redundant: bool | None = None,
+) -> Arr:
     """Eq. (12): T_ecat = n (T_fwd + T_data) + N_cables T_medium + n_fr T_eth + T_ecat_ov + T_pad.
 
     N_cables is 2n in the open ring (every cable crossed out and back) and n + 1 in the closed
-    ring (Tables II and III).
+    ring (Tables II and III). ``redundant`` is the old name of ``closed_ring`` (the paper's word).
     """
+    ring = closed_ring_flag(closed_ring, redundant)
     n_arr = np.asarray(n, dtype=np.float64)
     t_data = np.asarray(data) / _b(p)  # eq. (13)
-    cables = n_arr + 1 if redundant else 2 * n_arr
+    cables = n_arr + 1 if ring else 2 * n_arr
     return np.asarray(
-        n_arr * (t_ecat_fwd(p, redundant) + t_data)
+        n_arr * (t_ecat_fwd(p, ring) + t_data)
         + cables * _us(p, p.cable_ps)
         + n_fr(n, data) * t_eth(p)
         + t_ecat_ov(n, data, p)

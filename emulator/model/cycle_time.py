@@ -5,16 +5,16 @@ from __future__ import annotations
 import os
 from typing import Final
 
-from emulator.errors import TopologyError
+from emulator.errors import PresetError
 from emulator.model import analytic
 from emulator.model.limits import check_ecat, check_epl
+from emulator.model.names import EPL, TABLES, is_closed_ring, table_name
 from emulator.model.params import TimingParams
 from emulator.net import simulate_ecat, simulate_epl
 from emulator.net.result import SimResult
 
 __all__ = ["MODELS", "TABLES", "cycle_us", "simulate", "validate"]
 
-TABLES: Final = ("epl", "ecat", "ecat_redundant")  # paper Tables I, II, III
 MODELS: Final = ("analytic", "emulated")
 
 
@@ -31,47 +31,40 @@ def simulate(
 ) -> SimResult:
     """Emulate one configuration named as the paper's tables name them (``pcap``: write the
     frames there as they come)."""
-    if table == "epl":
+    if table_name(table) == EPL:
         return simulate_epl(nodes, data_bytes, params, cycles=cycles, seed=seed, pcap=pcap)
-    if table in ("ecat", "ecat_redundant"):
-        return simulate_ecat(
-            nodes,
-            data_bytes,
-            params,
-            closed_ring=table == "ecat_redundant",
-            layout=layout,
-            cycles=cycles,
-            seed=seed,
-            pcap=pcap,
-        )
-    raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
+    return simulate_ecat(
+        nodes,
+        data_bytes,
+        params,
+        closed_ring=is_closed_ring(table),
+        layout=layout,
+        cycles=cycles,
+        seed=seed,
+        pcap=pcap,
+    )
 
 
 def validate(table: str, nodes: int, data_bytes: int) -> None:
-    """Raise TopologyError unless the network can exist (the emulators check the same)."""
-    if table == "epl":
+    """Raise TopologyError unless the network can exist (the emulators check the same);
+    PresetError for an unknown table."""
+    if table_name(table) == EPL:
         check_epl(nodes, data_bytes)
-    elif table in ("ecat", "ecat_redundant"):
-        check_ecat(nodes, data_bytes)
     else:
-        raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
+        check_ecat(nodes, data_bytes)
 
 
 def cycle_us(
     table: str, nodes: int, data_bytes: int, params: TimingParams, model: str = "analytic"
 ) -> float:
-    """Cycle time in us of ``table`` ("epl", "ecat", "ecat_redundant") by ``model``."""
+    """Cycle time in us of ``table`` (:data:`TABLES`, or an old name) by ``model``."""
     validate(table, nodes, data_bytes)
     if model == "analytic":
-        if table == "epl":
+        if table_name(table) == EPL:
             return float(analytic.epl_cycle_us(nodes, data_bytes, params))
-        if table in ("ecat", "ecat_redundant"):
-            return float(
-                analytic.ecat_cycle_us(
-                    nodes, data_bytes, params, redundant=table == "ecat_redundant"
-                )
-            )
-        raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
+        return float(
+            analytic.ecat_cycle_us(nodes, data_bytes, params, closed_ring=is_closed_ring(table))
+        )
     if model == "emulated":
         return simulate(table, nodes, data_bytes, params, cycles=1).cycle_us()["median"]
-    raise TopologyError(f"unknown model {model!r}; choose from {list(MODELS)}")
+    raise PresetError(f"unknown model {model!r}; choose from {list(MODELS)}")

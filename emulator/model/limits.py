@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL
 from skinframes import ethercat, powerlink
 
 __all__ = [
@@ -60,7 +61,7 @@ EPL_RANGE: Final = Range(
 ECAT_RANGE: Final = Range(
     "EtherCAT", 1, MAX_SLAVES, "slaves", 1, ethercat.MAX_DATAGRAM_DATA_BYTES, "bytes per slave"
 )
-RANGES: Final = {"epl": EPL_RANGE, "ecat": ECAT_RANGE, "ecat_redundant": ECAT_RANGE}
+RANGES: Final = {EPL: EPL_RANGE, ECAT: ECAT_RANGE, ECAT_CLOSED_RING: ECAT_RANGE}  # per table
 
 
 def _check(r: Range, nodes: int, data_bytes: int) -> None:

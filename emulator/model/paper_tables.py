@@ -8,6 +8,7 @@ from __future__ import annotations
 
 from typing import Final
 
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, table_name
 from skinframes import powerlink
 
 BYTES: Final = (2, 32, 128, 256)
@@ -16,12 +17,12 @@ NODES: Final = (130, 140, 150, 160, 170, 180, 190, 200)
 # (node 240 is the MN).
 PAPER_MAX_NODES: Final = 240
 FIGURE_MAX_NODES: Final = {
-    "epl": powerlink.MAX_CN_NODE_ID,
-    "ecat": PAPER_MAX_NODES,
-    "ecat_redundant": PAPER_MAX_NODES,
+    EPL: powerlink.MAX_CN_NODE_ID,
+    ECAT: PAPER_MAX_NODES,
+    ECAT_CLOSED_RING: PAPER_MAX_NODES,
 }
 _ROWS: Final = {
-    "epl": (
+    EPL: (
         (6967.65, 6967.65, 7924.45, 9255.65),
         (7923.21, 7923.21, 8953.61, 10387.21),
         (8938.88, 8938.88, 10042.88, 11578.88),
@@ -31,7 +32,7 @@ _ROWS: Final = {
         (13602.54, 13602.54, 15000.94, 16946.54),
         (14918.70, 14918.70, 16390.70, 18438.70),
     ),
-    "ecat": (
+    ECAT: (
         (327.63, 646.03, 1673.23, 3046.03),
         (352.34, 697.94, 1801.94, 3280.34),
         (377.05, 746.65, 1930.65, 3514.65),
@@ -41,7 +42,7 @@ _ROWS: Final = {
         (475.89, 944.69, 2445.49, 4451.89),
         (500.60, 993.40, 2574.20, 4686.20),
     ),
-    "ecat_redundant": (
+    ECAT_CLOSED_RING: (
         (239.82, 558.22, 1585.42, 2958.22),
         (257.77, 603.37, 1707.37, 3185.77),
         (275.73, 645.33, 1829.33, 3413.33),
@@ -55,7 +56,13 @@ _ROWS: Final = {
 
 
 def paper_value(table: str, nodes: int, data_bytes: int) -> float | None:
-    """The printed cell of Table I ("epl"), II ("ecat") or III ("ecat_redundant"), if any."""
-    if table not in _ROWS or nodes not in NODES or data_bytes not in BYTES:
+    """The printed cell of Table I ("epl"), II ("ecat") or III ("ecat_closed_ring", old name
+    "ecat_redundant"), if any.
+
+    Raises:
+        PresetError: no table has this name.
+    """
+    table = table_name(table)
+    if nodes not in NODES or data_bytes not in BYTES:
         return None
     return _ROWS[table][NODES.index(nodes)][BYTES.index(data_bytes)]

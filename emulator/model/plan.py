@@ -14,7 +14,8 @@ from typing import Any, Final
 import numpy as np
 import numpy.typing as npt
 
-from emulator.model.cycle_time import TABLES, simulate, validate
+from emulator.model.cycle_time import simulate, validate
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, TABLES, with_old_keys
 from emulator.model.params import WIRE, TimingParams
 from emulator.model.sweep import analytic_grid
 from emulator.model.units import PS_PER_US
@@ -25,9 +26,9 @@ __all__ = ["LayoutOption", "NetworkPlan", "Plan", "limit_us", "plan"]
 Num = npt.ArrayLike
 PER_SLAVE: Final = "per-slave"
 TABLE_LAYOUTS: Final[dict[str, tuple[str, ...]]] = {
-    "epl": (PER_SLAVE,),  # EPL has one layout: each CN answers its PReq with its own PRes
-    "ecat": LAYOUTS,
-    "ecat_redundant": LAYOUTS,
+    EPL: (PER_SLAVE,),  # EPL has one layout: each CN answers its PReq with its own PRes
+    ECAT: LAYOUTS,
+    ECAT_CLOSED_RING: LAYOUTS,
 }
 
 
@@ -83,7 +84,7 @@ class Plan:
     """The plan for ``nodes`` x ``data_bytes`` under one preset.
 
     Attributes:
-        networks: keyed by table name (``epl``, ``ecat``, ``ecat_redundant``), in that order.
+        networks: keyed by table name (``epl``, ``ecat``, ``ecat_closed_ring``), in that order.
     """
 
     nodes: int
@@ -93,13 +94,14 @@ class Plan:
     networks: dict[str, NetworkPlan]
 
     def to_json(self) -> dict[str, Any]:
-        """The ``skinframes plan --json`` document (docs/interface.md)."""
+        """The ``skinframes plan --json`` document (docs/interface.md); the closed ring also
+        under its old name ``ecat_redundant``."""
         return {
             "nodes": self.nodes,
             "bytes": self.data_bytes,
             "preset": self.preset,
             "limit_us": self.limit_us,
-            **{table: n.to_json() for table, n in self.networks.items()},
+            **with_old_keys({table: n.to_json() for table, n in self.networks.items()}),
         }
 
 
@@ -138,5 +140,5 @@ def _emulate(
 ) -> LayoutOption:
     """One fault-free cycle of ``table`` in ``layout``: its time and frames sent per cycle."""
     r = simulate(table, nodes, data_bytes, params, layout=layout, cycles=1)
-    frames = r.frames_sent_per_cycle if table != "epl" else r.frames // r.cycles
+    frames = r.frames_sent_per_cycle if table != EPL else r.frames // r.cycles
     return LayoutOption(layout, r.cycle_us()["median"], frames)

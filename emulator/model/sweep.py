@@ -18,9 +18,10 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
-from emulator.errors import TopologyError
+from emulator.errors import PresetError, TopologyError
 from emulator.model import analytic
 from emulator.model.limits import ECAT_RANGE, MAX_EMULATED_SLAVES, RANGES, Range
+from emulator.model.names import EPL, TABLES, is_closed_ring, table_name
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
 
@@ -36,7 +37,6 @@ __all__ = [
     "rows",
 ]
 
-TABLES: Final = ("epl", "ecat", "ecat_redundant")  # paper Tables I, II, III
 Row = tuple[str, int, npt.NDArray[np.float64]]  # (table, nodes, cycle_us per size; NaN = n/a)
 # An emulated EtherCAT chain ends where ``simulate`` ends it (emulator.model.limits).
 EMULATED_ECAT_RANGE: Final = Range(
@@ -63,10 +63,10 @@ def check_values(nodes: Sequence[int], sizes: Sequence[int]) -> None:
 
 
 def domain(table: str, model: str = "analytic") -> Range:
-    """What ``table`` allows under ``model`` (the emulated EtherCAT chain ends at 1024 slaves)."""
-    if table not in RANGES:
-        raise TopologyError(f"unknown table {table!r}; choose from {list(TABLES)}")
-    if model == "emulated" and table != "epl":
+    """What ``table`` (either name) allows under ``model`` (the emulated EtherCAT chain ends at
+    1024 slaves). Raises PresetError for an unknown table."""
+    table = table_name(table)
+    if model == "emulated" and table != EPL:
         return EMULATED_ECAT_RANGE
     return RANGES[table]
 
@@ -127,10 +127,10 @@ def analytic_grid(
     ok_n, ok_b = applicable(table, nodes, sizes)
     n = np.clip(_ints(nodes), r.min_nodes, r.max_nodes)[:, None]
     b = np.clip(_ints(sizes), r.min_bytes, r.max_bytes)[None, :]
-    if table == "epl":
+    if table_name(table) == EPL:
         grid = analytic.epl_cycle_us(n, b, params)
     else:
-        grid = analytic.ecat_cycle_us(n, b, params, redundant=table == "ecat_redundant")
+        grid = analytic.ecat_cycle_us(n, b, params, closed_ring=is_closed_ring(table))
     grid = np.broadcast_to(grid, (n.shape[0], b.shape[1])).copy()
     grid[~(ok_n[:, None] & ok_b[None, :])] = np.nan
     return grid
@@ -153,14 +153,15 @@ def rows(
         progress: called with the number of cells done since the last call.
 
     Raises:
-        TopologyError: nonsense values (:func:`check_values`) or an unknown model.
+        TopologyError: nonsense values (:func:`check_values`); PresetError (a TopologyError):
+            an unknown model.
     """
     check_values(nodes, sizes)
     if model == "analytic":
         return _analytic_rows(params, nodes, sizes, progress)
     if model == "emulated":
         return _emulated_rows(params, nodes, sizes, jobs, progress)
-    raise TopologyError(f"unknown model {model!r}; choose from ['analytic', 'emulated']")
+    raise PresetError(f"unknown model {model!r}; choose from ['analytic', 'emulated']")
 
 
 def _analytic_rows(

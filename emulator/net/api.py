@@ -99,7 +99,9 @@ def _execute(
             start_ps=start_ps,
         )
     names = ["master port 0", "master port 1"][:ports]
-    with CaptureWriter(pcap, ports=ports, port_names=names) as writer:
+    with CaptureWriter(
+        pcap, ports=ports, port_names=names, if_speed_bps=params.link_rate_bps
+    ) as writer:
         write_prelude(CaptureSink(writer))
         result, events = run(
             engine,

@@ -2,8 +2,8 @@
 
 A :class:`Cycle` is one cycle as the engine walked it, frame by frame. Its records carry their
 bytes (or only their lengths, when nobody asked for bytes) and say which parts change from cycle
-to cycle in a steady state: the taxels the ESCs wrote (``runs``) or a frame the protocol rebuilds
-per cycle (the EPL SoC with its time, a PRes with its taxels). The periodic fast path (:mod:`emulator.net.run`) repeats
+to cycle in a steady state: the taxels the ESCs wrote or a PRes carries (``runs``) or a frame the
+protocol rebuilds per cycle (the EPL SoC with its time). The periodic fast path (:mod:`emulator.net.run`) repeats
 such cycles with shifted timestamps and fills only those parts.
 """
 
@@ -17,7 +17,7 @@ __all__ = ["FILL_FRAME", "FILL_NONE", "FILL_TAXELS", "Cycle", "Record"]
 
 FILL_NONE: Final = 0  # the same bytes every cycle
 FILL_TAXELS: Final = 1  # taxel runs of the cycle's input image (``Record.runs``)
-FILL_FRAME: Final = 2  # a frame the engine rebuilds per cycle (its ``rebuild``): EPL SoC, PRes
+FILL_FRAME: Final = 2  # a frame the engine rebuilds per cycle (its ``rebuild``): the EPL SoC
 
 
 @dataclass(frozen=True, slots=True)

@@ -35,7 +35,7 @@ from emulator.errors import TopologyError
 from emulator.model.limits import check_epl
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_NS, PS_PER_US
-from emulator.net.cycle import FILL_FRAME, FILL_NONE, Cycle, Record
+from emulator.net.cycle import FILL_FRAME, FILL_NONE, FILL_TAXELS, Cycle, Record
 from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS, Ps
 from emulator.net.faults import Fault, check_faults, corruption_mark
 from skinframes import ethernet, powerlink, vlan
@@ -124,6 +124,10 @@ class EplEngine:
         ]
         self.soc_len = len(self._socs(np.zeros(1, dtype=np.int64))[0])
         self.pres_len = len(self._bytes(powerlink.PRes(1, bytes(data_bytes))))
+        # where a PRes carries its taxels: after the Ethernet header, the tags and the PDO header
+        self.payload_at = (
+            ethernet.HEADER_BYTES + vlan.TAG_BYTES * len(tags) + powerlink.PDO_HEADER_BYTES
+        )
         self.needed = [
             2 * hops_to(i) * p.hop_ps + p.gap_ps(p.epl_cn_delay_ps) for i in range(1, nodes + 1)
         ]
@@ -162,12 +166,11 @@ class EplEngine:
     def rebuild(
         self, record: Record, starts_ps: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
     ) -> npt.NDArray[np.uint8]:
-        """(k, length) uint8: a FILL_FRAME record's frame in k cycles starting at ``starts_ps``
-        with ``taxels`` (k, nodes, data_bytes): the SoC (node -1) or CN node + 1's PRes."""
-        if record.node < 0:
-            return self._socs(starts_ps)
-        cn = np.full(len(starts_ps), record.node + 1)
-        return self._pres(np.ascontiguousarray(taxels[:, record.node, :]), cn)
+        """(k, length) uint8: the SoC (the FILL_FRAME record) of k cycles starting at
+        ``starts_ps``; a PRes changes only its taxels (FILL_TAXELS)."""
+        if record.node >= 0:
+            raise TopologyError(f"EPL: only the SoC is rebuilt per cycle (node {record.node})")
+        return self._socs(starts_ps)
 
     def cycle(self, c: int, start_ps: int, taxels: npt.NDArray[np.uint8] | None) -> Cycle:
         """Walk cycle ``c`` starting at ``start_ps``; ``taxels`` (nodes x data_bytes) to build
@@ -192,8 +195,14 @@ class EplEngine:
             mark: str | None = None,
         ) -> None:
             data = frame if bytes_on else None
+            runs: tuple[tuple[int, int, int], ...] = ()
+            if fill == FILL_TAXELS:  # a PRes: its payload is node's row of the cycle's image
+                runs = ((self.payload_at, node * self.data_bytes, self.data_bytes),)
+                fill = FILL_TAXELS if self.data_bytes else FILL_NONE
             recs.append(
-                Record(t - start_ps, 0, out, length, p.frame_ps(length), data, fill, (), node, mark)
+                Record(
+                    t - start_ps, 0, out, length, p.frame_ps(length), data, fill, runs, node, mark
+                )
             )
 
         pres = self._pres(taxels, np.arange(1, n + 1)) if taxels is not None else None
@@ -251,7 +260,7 @@ class EplEngine:
             frame = pres[i - 1].tobytes() if pres is not None else b""
             if link is None:
                 received += 1
-                add(at, frame, self.pres_len, False, FILL_FRAME, i - 1)
+                add(at, frame, self.pres_len, False, FILL_TAXELS, i - 1)
             else:
                 bad = self._corrupt(frame, self.data_bytes)
                 add(at, bad, self.pres_len, False, FILL_NONE, -1, corruption_mark(link))
@@ -316,7 +325,7 @@ class EplEngine:
         """A bit error flips one bit of the frame's data (the ``data_bytes`` after the EPL
         header, or its padding when it carries none), drawn at random, so that Wireshark still
         dissects the frame."""
-        lo = ethernet.HEADER_BYTES + vlan.TAG_BYTES * len(self.tags) + powerlink.PDO_HEADER_BYTES
+        lo = self.payload_at
         hi = lo + data_bytes if data_bytes else ethernet.MIN_FRAME_BYTES
         bit = self.rng.randrange(8 * lo, 8 * hi)  # drawn in timing-only runs too: same chances
         return ethernet.flip_bit(frame, bit) if frame else frame

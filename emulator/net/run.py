@@ -12,6 +12,8 @@ memory does not grow with the number of cycles.
 
 from __future__ import annotations
 
+import queue
+import threading
 from collections import Counter, deque
 from collections.abc import Callable
 from typing import Final, Protocol
@@ -29,6 +31,8 @@ __all__ = ["BLOCK_BYTES", "MAX_LISTED", "Engine", "MemorySink", "Sink", "TaxelSo
 
 BLOCK_BYTES: Final = 32 << 20  # frame bytes per block of repeated cycles (taxels drawn at once)
 MAX_LISTED: Final = 10_000  # cycles_detail entries at most (the rest are counted)
+PREFETCH_BYTES: Final = 8 << 20  # taxel bytes per chunk the producer thread draws ahead
+PREFETCH_CHUNKS: Final = 2  # chunks waiting at most (memory: about 3 chunks)
 
 
 class Engine(Protocol):
@@ -110,7 +114,14 @@ class MemorySink:
 
 
 class TaxelSource:
-    """The taxel bytes of consecutive cycles: given (e.g. a CAN trace's samples) or seeded."""
+    """The taxel bytes of consecutive cycles: given (e.g. a CAN trace's samples) or seeded.
+
+    Seeded taxels are drawn ahead by a producer thread, chunk by chunk (``PREFETCH_BYTES`` each,
+    at most ``PREFETCH_CHUNKS`` waiting), while the driver assembles and writes the cycles
+    before them: the generator releases the GIL, and so do numpy's copies and the file writes.
+    The thread draws the chunks in order, so the bytes are those of one stream however they are
+    cut; :meth:`close` stops it.
+    """
 
     def __init__(
         self,
@@ -123,7 +134,13 @@ class TaxelSource:
     ) -> None:
         self.shape = (nodes, data_bytes)
         self._given: npt.NDArray[np.uint8] | None = None
-        self._stream: taxel.PayloadStream | None = None
+        self._taken = 0
+        self._chunks: queue.Queue[npt.NDArray[np.uint8] | BaseException] = queue.Queue(
+            PREFETCH_CHUNKS
+        )
+        self._ahead: npt.NDArray[np.uint8] | None = None  # the rest of the chunk being taken
+        self._stop = threading.Event()
+        self._thread: threading.Thread | None = None
         if payloads is not None:
             arr = np.asarray(payloads)
             if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
@@ -131,17 +148,65 @@ class TaxelSource:
                     f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
                 )
             self._given = arr
-        else:
-            self._stream = taxel.PayloadStream(nodes, cycles, data_bytes, seed=seed)
-        self._taken = 0
+            return
+        stream = taxel.PayloadStream(nodes, cycles, data_bytes, seed=seed)
+        chunk = max(1, PREFETCH_BYTES // (nodes * max(data_bytes, taxel.PATCH_BYTES)))
+        self._thread = threading.Thread(
+            target=self._produce, args=(stream, cycles, chunk), name="taxels", daemon=True
+        )
+        self._thread.start()
+
+    def _produce(self, stream: taxel.PayloadStream, cycles: int, chunk: int) -> None:
+        """The producer thread: every cycle's taxels, chunk by chunk, into the queue."""
+        try:
+            for first in range(0, cycles, chunk):
+                self._put(stream.take(min(chunk, cycles - first)))
+        except BaseException as e:  # handed to the consumer, raised there
+            self._put(e)
+
+    def _put(self, item: npt.NDArray[np.uint8] | BaseException) -> None:
+        while not self._stop.is_set():
+            try:
+                self._chunks.put(item, timeout=0.1)
+                return
+            except queue.Full:
+                continue
 
     def take(self, count: int) -> npt.NDArray[np.uint8]:
         """The next ``count`` cycles' taxels, (count, nodes, data_bytes)."""
         first, self._taken = self._taken, self._taken + count
         if self._given is not None:
             return self._given[first : first + count]
-        assert self._stream is not None
-        return self._stream.take(count)
+        parts: list[npt.NDArray[np.uint8]] = []
+        need = count
+        while need:
+            ahead = self._held()
+            parts.append(ahead[:need])
+            self._ahead = ahead[need:]
+            need -= len(parts[-1])
+        return parts[0] if len(parts) == 1 else np.concatenate(parts)
+
+    def take_some(self, count: int, multiple: int) -> npt.NDArray[np.uint8]:
+        """The next cycles' taxels, at most ``count`` of them and a multiple of ``multiple``:
+        what the current chunk holds, without a copy, unless that is less than ``multiple``."""
+        held = count if self._given is not None else len(self._held())
+        return self.take(min(count, max(multiple, held // multiple * multiple)))
+
+    def _held(self) -> npt.NDArray[np.uint8]:
+        """The rest of the current chunk (the next one from the producer when it is used up)."""
+        if self._ahead is None or not len(self._ahead):
+            item = self._chunks.get()
+            if isinstance(item, BaseException):
+                raise item
+            self._ahead = item
+        return self._ahead
+
+    def close(self) -> None:
+        """Stop the producer thread (it ends within its current chunk)."""
+        self._stop.set()
+        if self._thread is not None:
+            self._thread.join()
+            self._thread = None
 
 
 class _Overlap:
@@ -187,82 +252,86 @@ def run(
         if sink is not None
         else None
     )
-    period_len = engine.period
-    result = SimResult(
-        engine.protocol,
-        engine.topology,
-        engine.nodes,
-        engine.data_bytes,
-        params_name,
-        engine.layout,
-    )
-    events: Counter[tuple[object, ...]] = Counter()
-    history: deque[Cycle] = deque(maxlen=period_len)
-    last: deque[tuple[int, int, int]] = deque(
-        maxlen=period_len
-    )  # (cycle_ps, wkc, expected) of the last P
-    overlap = _Overlap()
-    c, start = 0, start_ps
+    try:
+        period_len = engine.period
+        result = SimResult(
+            engine.protocol,
+            engine.topology,
+            engine.nodes,
+            engine.data_bytes,
+            params_name,
+            engine.layout,
+        )
+        events: Counter[tuple[object, ...]] = Counter()
+        history: deque[Cycle] = deque(maxlen=period_len)
+        last: deque[tuple[int, int, int]] = deque(
+            maxlen=period_len
+        )  # (cycle_ps, wkc, expected) of the last P
+        overlap = _Overlap()
+        c, start = 0, start_ps
 
-    def note(cyc: Cycle, c: int, start: int) -> None:
-        key = (cyc.cycle_ps, cyc.wkc, cyc.expected_wkc)
-        if c < period_len or last[0] != key or every_cycle:
-            result.list_detail(
-                CycleDetail(c, start, cyc.cycle_ps, cyc.wkc, cyc.expected_wkc), MAX_LISTED
-            )
-        last.append(key)
-
-    while c < cycles:
-        if engine.event_at(c):
-            history.clear()
-        taxels = source.take(1)[0] if source is not None else None
-        cyc = engine.cycle(c, start, taxels)
-        for rec in cyc.records:
-            overlap.see(start + rec.rel_ps, rec)
-            if sink is not None:
-                assert rec.frame is not None
-                sink.write(
-                    start + rec.rel_ps,
-                    rec.frame,
-                    port=rec.port,
-                    outbound=rec.outbound,
-                    comment=rec.mark,
+        def note(cyc: Cycle, c: int, start: int) -> None:
+            key = (cyc.cycle_ps, cyc.wkc, cyc.expected_wkc)
+            if c < period_len or last[0] != key or every_cycle:
+                result.list_detail(
+                    CycleDetail(c, start, cyc.cycle_ps, cyc.wkc, cyc.expected_wkc), MAX_LISTED
                 )
-        if c == 0:
-            _first_cycle(result, cyc)
-        note(cyc, c, start)
-        result.add_cycles(cyc.cycle_ps, len(cyc.records), 1)
-        events.update(cyc.events)
-        engine.account(cyc, 1)
-        start += cyc.cycle_ps
-        c += 1
-        if progress is not None:
-            progress(1)
-        if not (fast and cyc.steady and not every_cycle):
-            history.clear()
-            continue
-        history.append(cyc)
-        if len(history) < period_len:
-            continue
-        nxt = engine.next_event(c - 1)
-        stop = min(cycles, nxt) if nxt is not None else cycles
-        q = (stop - c) // period_len
-        if q <= 0:
-            continue
-        period = list(history)
-        period_ps = sum(h.cycle_ps for h in period)
-        if sink is not None and source is not None:
-            _repeat(engine, period, start, q, sink, source, overlap, progress)
-        for h in period:
-            result.add_cycles(h.cycle_ps, len(h.records), q)
-            for key, n in h.events.items():
-                events[key] += n * q
-            engine.account(h, q)
-        if sink is None and progress is not None:
-            progress(q * period_len)
-        start += q * period_ps
-        c += q * period_len
-    return result, events
+            last.append(key)
+
+        while c < cycles:
+            if engine.event_at(c):
+                history.clear()
+            taxels = source.take(1)[0] if source is not None else None
+            cyc = engine.cycle(c, start, taxels)
+            for rec in cyc.records:
+                overlap.see(start + rec.rel_ps, rec)
+                if sink is not None:
+                    assert rec.frame is not None
+                    sink.write(
+                        start + rec.rel_ps,
+                        rec.frame,
+                        port=rec.port,
+                        outbound=rec.outbound,
+                        comment=rec.mark,
+                    )
+            if c == 0:
+                _first_cycle(result, cyc)
+            note(cyc, c, start)
+            result.add_cycles(cyc.cycle_ps, len(cyc.records), 1)
+            events.update(cyc.events)
+            engine.account(cyc, 1)
+            start += cyc.cycle_ps
+            c += 1
+            if progress is not None:
+                progress(1)
+            if not (fast and cyc.steady and not every_cycle):
+                history.clear()
+                continue
+            history.append(cyc)
+            if len(history) < period_len:
+                continue
+            nxt = engine.next_event(c - 1)
+            stop = min(cycles, nxt) if nxt is not None else cycles
+            q = (stop - c) // period_len
+            if q <= 0:
+                continue
+            period = list(history)
+            period_ps = sum(h.cycle_ps for h in period)
+            if sink is not None and source is not None:
+                _repeat(engine, period, start, q, sink, source, overlap, progress)
+            for h in period:
+                result.add_cycles(h.cycle_ps, len(h.records), q)
+                for key, n in h.events.items():
+                    events[key] += n * q
+                engine.account(h, q)
+            if sink is None and progress is not None:
+                progress(q * period_len)
+            start += q * period_ps
+            c += q * period_len
+        return result, events
+    finally:
+        if source is not None:
+            source.close()
 
 
 def _first_cycle(result: SimResult, cyc: Cycle) -> None:
@@ -303,9 +372,10 @@ def _repeat(
     per_block = max(1, BLOCK_BYTES // max(1, row_bytes))
     done = 0
     while done < q:
-        k = min(per_block, q - done)
+        drawn = source.take_some(min(per_block, q - done) * period_len, period_len)
+        k = len(drawn) // period_len
         starts = start + (done + np.arange(k, dtype=np.int64)) * period_ps
-        taxels = source.take(k * period_len).reshape(k, period_len, *source.shape)
+        taxels = drawn.reshape(k, period_len, *source.shape)
         fills: list[tuple[int, npt.NDArray[np.uint8]]] = []
         for col, (i, r) in enumerate(cols):
             lo = int(at[col])

@@ -14,8 +14,8 @@ from functools import lru_cache
 import numpy as np
 import numpy.typing as npt
 
-from emulator.errors import TopologyError
 from emulator.model.limits import check_emulated_ecat, check_epl
+from emulator.model.names import EPL, is_closed_ring, table_name
 from emulator.model.params import TimingParams
 from emulator.net.ecat import EcatTiming, per_slave_frame_lengths
 from emulator.net.epl import EplEngine, pres_length
@@ -59,10 +59,8 @@ def epl_cycle_ps(
 def cycle_ps_row(
     table: str, nodes: int, sizes: npt.NDArray[np.int64], params: TimingParams
 ) -> npt.NDArray[np.int64]:
-    """Cycle times in ps of ``table`` ("epl", "ecat", "ecat_redundant") with ``nodes`` nodes,
-    one per size in ``sizes``."""
-    if table == "epl":
+    """Cycle times in ps of ``table`` (emulator.model.names: "epl", "ecat", "ecat_closed_ring"
+    or an old name) with ``nodes`` nodes, one per size in ``sizes``."""
+    if table_name(table) == EPL:
         return epl_cycle_ps(nodes, sizes, params)
-    if table in ("ecat", "ecat_redundant"):
-        return ecat_cycle_ps(nodes, sizes, params, closed_ring=table == "ecat_redundant")
-    raise TopologyError(f"unknown table {table!r}")
+    return ecat_cycle_ps(nodes, sizes, params, closed_ring=is_closed_ring(table))

@@ -139,7 +139,7 @@ def _analyze_rows(
     ecat_feed = ecat.feed
     n_epl = n_ecat = n_other = 0
     header = ethernet.HEADER_BYTES
-    for index, time_ns, data, linktype, _, interface, _ in rows:
+    for index, time_ns, data, linktype, _, interface, _, _ in rows:
         n += 1
         if progress is not None and n % PROGRESS_EVERY == 0:
             progress(PROGRESS_EVERY)

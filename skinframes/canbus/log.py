@@ -13,7 +13,7 @@ Formats (can.md 4-5):
 Reading never crashes on a log that is not skin data: :func:`read_can_log` decodes every frame
 it can and accounts for all of them, ``log.total == log.counts.frames + len(log.skipped)``,
 with ``counts`` splitting the frames into samples, orphans, malformed skin frames, other frames
-and error frames. A file that cannot be read at all raises :class:`TraceFormatError`; damage after
+and error frames. A file that cannot be read at all raises :class:`CanLogFormatError`; damage after
 some good frames (a junk line that stops python-can's reader, a truncated BLF) becomes one
 skipped entry with the reason, after the frames before it.
 
@@ -59,6 +59,7 @@ from skinframes.canbus.lines import (
 from skinframes.canbus.reassembly import FrameCounts, Malformed, Reassembler, TimedSample
 from skinframes.canbus.wire import MAX_DATA_BYTES, MAX_DLC, CanFrame
 from skinframes.errors import (
+    CanLogFormatError,
     DecodeError,
     FieldRangeError,
     TraceFormatError,
@@ -71,6 +72,7 @@ __all__ = [
     "PYTHON_CAN_SUFFIXES",
     "TRACE_SUFFIXES",
     "CanLog",
+    "CanLogFormatError",
     "CanLogReader",
     "RecordCounts",
     "Trace",
@@ -139,7 +141,7 @@ def can_log_format(path: str | Path) -> str:
     """The format suffix of ``path`` (``".asc"``, ``".asc.gz"``, ``".pcap"``, ...).
 
     Raises:
-        TraceFormatError: not a suffix skinframes reads or writes.
+        CanLogFormatError: not a suffix skinframes reads or writes.
     """
     suffixes = [s.lower() for s in Path(path).suffixes]
     last = suffixes[-1] if suffixes else ""
@@ -150,8 +152,8 @@ def can_log_format(path: str | Path) -> str:
         if inner in TEXT_SUFFIXES or inner in PCAP_SUFFIXES:
             return inner + ".gz"
     known = ", ".join([*PYTHON_CAN_SUFFIXES, *PCAP_SUFFIXES])
-    raise TraceFormatError(
-        f"{path}: unknown trace format {''.join(suffixes[-2:]) or '(no suffix)'!r}; "
+    raise CanLogFormatError(
+        f"{path}: unknown CAN log format {''.join(suffixes[-2:]) or '(no suffix)'!r}; "
         f"known: {known} (text formats and pcaps also .gz)"
     )
 
@@ -268,7 +270,7 @@ class CanLogReader:
     python-can's reader, pcaps by :func:`skinframes.pcap.read_capture`.
 
     Raises (when iterated):
-        TraceFormatError: unknown suffix, unreadable file, or damaged before the first frame.
+        CanLogFormatError: unknown suffix, unreadable file, or damaged before the first frame.
     """
 
     def __init__(self, path: str | Path) -> None:
@@ -316,7 +318,7 @@ class CanLogReader:
     def batches(self) -> Iterator[list[CanFrame | DataTuple]]:
         """:meth:`items` in lists (a block of the file each): the fastest way through a log."""
         if self._used:
-            raise TraceFormatError(f"{self.path}: a CanLogReader is read once")
+            raise CanLogFormatError(f"{self.path}: a CanLogReader is read once")
         self._used = True
         base = self.format.removesuffix(".gz")
         if base in PCAP_SUFFIXES:
@@ -342,7 +344,7 @@ class CanLogReader:
             except (OSError, EOFError, UnicodeDecodeError, zlib.error) as exc:
                 frames = tally.lines - (self._records - skipped_before)
                 if frames <= 0:
-                    raise TraceFormatError(
+                    raise CanLogFormatError(
                         f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
                     ) from exc
                 self._count_frames(frames)
@@ -354,7 +356,7 @@ class CanLogReader:
                 return
         self._count_frames(tally.lines - (self._records - skipped_before))
         if self._decoded == 0 and self._damaged and not self._reasons.keys() - _DAMAGE_TEXT:
-            raise TraceFormatError(
+            raise CanLogFormatError(
                 f"{self.path}: not a readable {self.format} trace "
                 f"({self.damaged[0].reason if self.damaged else 'no frame'})"
             )
@@ -368,7 +370,7 @@ class CanLogReader:
         try:
             f = _open_text(self.path, self.format)
         except OSError as exc:
-            raise TraceFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
+            raise CanLogFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
         with f:
             yield f
 
@@ -387,9 +389,9 @@ class CanLogReader:
             else:
                 reader = can.LogReader(self.path)
         except OSError as exc:
-            raise TraceFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
+            raise CanLogFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
         except Exception as exc:  # python-can readers raise assorted types on bad headers
-            raise TraceFormatError(
+            raise CanLogFormatError(
                 f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
             ) from exc
         with reader:
@@ -402,7 +404,7 @@ class CanLogReader:
                     yield from_message(msg)
             except Exception as exc:  # ValueError, IndexError, struct.error, zlib, sqlite3 ...
                 if not self._decoded:
-                    raise TraceFormatError(
+                    raise CanLogFormatError(
                         f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
                     ) from exc
                 if lines is not None:
@@ -547,7 +549,7 @@ def read_frames(path: str | Path) -> tuple[str, list[CanFrame], list[Skipped]]:
     ``skipped`` lists the damaged records (see :class:`CanLogReader`); the whole file is held.
 
     Raises:
-        TraceFormatError: unknown suffix, unreadable file, or nothing readable.
+        CanLogFormatError: unknown suffix, unreadable file, or nothing readable.
     """
     reader = CanLogReader(path)
     frames = list(reader)
@@ -573,7 +575,7 @@ def read_can_log(
             configuration, then give ``boards`` too).
 
     Raises:
-        TraceFormatError: unknown suffix, unreadable file, or damaged before the first frame.
+        CanLogFormatError: unknown suffix, unreadable file, or damaged before the first frame.
     """
     reader = CanLogReader(path)
     r = Reassembler(boards=boards, skin_classes=skin_classes)
@@ -625,7 +627,7 @@ def write_can_log(path: str | Path, frames: Iterable[CanFrame], *, strict: bool 
     """
     try:
         fmt = can_log_format(path)
-    except TraceFormatError as exc:
+    except CanLogFormatError as exc:
         raise UnsupportedFormatError(str(exc)) from None
     base = fmt.removesuffix(".gz")
     if base in PCAP_SUFFIXES and fmt != ".pcap":

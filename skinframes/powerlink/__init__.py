@@ -76,6 +76,7 @@ from skinframes.powerlink.services import SDO_WRITE_MULTIPLE_PARAM as SDO_WRITE_
 from skinframes.powerlink.services import (
     ErrorEntry,
     IdentResponse,
+    MultiParamEntry,
     NmtCommand,
     NmtRequest,
     RawService,
@@ -83,6 +84,7 @@ from skinframes.powerlink.services import (
     SdoCommand,
     StatusResponse,
     SyncResponse,
+    multi_param_entries,
 )
 from skinframes.powerlink.services import Service as Service
 
@@ -96,6 +98,7 @@ __all__ = [
     "ErrorEntry",
     "IdentResponse",
     "MessageType",
+    "MultiParamEntry",
     "NmtCommand",
     "NmtCommandId",
     "NmtRequest",
@@ -115,5 +118,6 @@ __all__ = [
     "decode",
     "destination_mac",
     "frame",
+    "multi_param_entries",
     "node_mac",
 ]

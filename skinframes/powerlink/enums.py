@@ -123,6 +123,80 @@ class SoAFlag(IntFlag):
     AN_LOCAL = 0x10
 
 
+# --- Wireshark's names of the flag bits ------------------------------------------------------------
+# Per message: Wireshark field name (the last part of ``epl.<message>.<name>``, packet-epl.c, checked
+# with tshark 4.0 ``-G fields``) -> (the flags byte's attribute, mask). A one-bit mask reads as a
+# bool, a wider one as the number its bits hold (PR 0x38: 0..7, RS 0x07: 0..7). FLS/SLS (first and
+# second link status, DS 301 V1.4.0 4.6.1.1.3-4, 7.3.3.2.1, 7.3.3.3.1) sit in byte 5 (flags2).
+FlagBits = dict[str, tuple[str, int]]
+SOC_FLAG_BITS: Final[FlagBits] = {
+    "mc": ("flags", 0x80),
+    "ps": ("flags", 0x40),
+    "an": ("flags", 0x08),
+}
+PREQ_FLAG_BITS: Final[FlagBits] = {
+    "ms": ("flags1", 0x20),
+    "ea": ("flags1", 0x04),
+    "rd": ("flags1", 0x01),
+    "fls": ("flags2", 0x80),
+    "sls": ("flags2", 0x40),
+}
+PRES_FLAG_BITS: Final[FlagBits] = {
+    "ms": ("flags1", 0x20),
+    "en": ("flags1", 0x10),
+    "rd": ("flags1", 0x01),
+    "fls": ("flags2", 0x80),
+    "sls": ("flags2", 0x40),
+    "pr": ("flags2", 0x38),
+    "rs": ("flags2", 0x07),
+}
+SOA_FLAG_BITS: Final[FlagBits] = {"ea": ("flags1", 0x04), "er": ("flags1", 0x02)}
+# IdentResponse (epl.asnd.ires.*) and StatusResponse (epl.asnd.sres.*) share their flag bytes
+RESPONSE_FLAG_BITS: Final[FlagBits] = {
+    "en": ("flags1", 0x10),
+    "ec": ("flags1", 0x08),
+    "fls": ("flags2", 0x80),
+    "sls": ("flags2", 0x40),
+    "pr": ("flags2", 0x38),
+    "rs": ("flags2", 0x07),
+}
+
+
+def flag_bits(message: object, table: FlagBits) -> dict[str, bool | int]:
+    """The flag bits of ``message`` under Wireshark's names (``table``: one of the above).
+
+    Looked up per flags byte in tables built once per ``table`` (every PRes of a capture
+    passes here when it is described)."""
+    out: dict[str, bool | int] = {}
+    for attr, lut in _lookup(table):
+        value = getattr(message, attr)
+        out.update(lut[value] if 0 <= value <= 0xFF else _bits(value, table, attr))
+    return out
+
+
+def _bits(value: int, table: FlagBits, attr: str) -> dict[str, bool | int]:
+    """The bits of one flags byte: one-bit masks as bools, wider ones shifted down."""
+    out: dict[str, bool | int] = {}
+    for name, (field, mask) in table.items():
+        if field == attr:
+            shift = (mask & -mask).bit_length() - 1
+            out[name] = bool(value & mask) if mask >> shift == 1 else (value & mask) >> shift
+    return out
+
+
+_LUTS: dict[int, tuple[FlagBits, tuple[tuple[str, tuple[dict[str, bool | int], ...]], ...]]] = {}
+
+
+def _lookup(table: FlagBits) -> tuple[tuple[str, tuple[dict[str, bool | int], ...]], ...]:
+    """Per flags attribute of ``table``, the bits of each of the 256 byte values."""
+    hit = _LUTS.get(id(table))
+    if hit is None or hit[0] is not table:
+        attrs = dict.fromkeys(attr for attr, _ in table.values())
+        luts = tuple((a, tuple(_bits(v, table, a) for v in range(256))) for a in attrs)
+        hit = _LUTS[id(table)] = (table, luts)
+    return hit[1]
+
+
 def known(enum: type[IntEnum], value: int) -> int:
     """``enum(value)`` when the value is known, else the plain int (capture mode keeps it).
 

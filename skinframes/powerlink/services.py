@@ -374,6 +374,67 @@ def _multi_param_findings(c: SdoCommand, trailing: int) -> list[Finding]:
     return out
 
 
+# A multi-parameter entry with data (DS 301 6.3.2.4.2.2.2; Wireshark 4.0 packet-epl.c
+# dissect_epl_sdo_command_write/read_multiple_by_index): u32 offset of the next entry from the
+# command layer's first byte (0: the last entry), u16 index, u8 sub-index, u8 with bit 7 the
+# sub-transfer abort and bits 0-1 the pad size (bytes after the data), then the data.
+MULTI_PARAM_ENTRY_HEADER_BYTES: Final = 8
+_SUB_ABORT: Final = 0x80
+_PAD_SIZE: Final = 0x03
+_U32: Final = 0xFFFFFFFF
+
+
+@dataclass(frozen=True, slots=True)
+class MultiParamEntry:
+    """One entry of a WriteMultipleParam request or ReadMultipleParam response.
+
+    ``pad_size`` is Wireshark's ``epl.asnd.sdo.cmd.data.padding``; ``data`` excludes the pad.
+    """
+
+    next_offset: int
+    index: int
+    subindex: int
+    sub_abort: bool
+    pad_size: int
+    data: bytes
+
+
+def multi_param_entries(command: SdoCommand) -> tuple[MultiParamEntry, ...]:
+    """The entries of an expedited WriteMultipleParam request or ReadMultipleParam response,
+    walked as Wireshark 4.0 walks them: each entry runs to the offset of the next (u32
+    arithmetic), the last (offset 0) to the end of the segment; the walk stops where an entry
+    does not fit the segment. Empty for other commands, aborts and segmented transfers (which
+    Wireshark reassembles before it reads entries)."""
+    wanted = SDO_WRITE_MULTIPLE_PARAM if not command.response else SDO_READ_MULTIPLE_PARAM
+    if command.command_id != wanted or command.abort or command.segmentation != 0:
+        return ()
+    data = command.data
+    pos = 0  # in ``data``; the offsets count from the command layer, 8 bytes earlier
+    entries: list[MultiParamEntry] = []
+    while len(data) - pos >= MULTI_PARAM_ENTRY_HEADER_BYTES:
+        remaining = len(data) - pos
+        next_offset, index, subindex, bits = struct.unpack_from("<IHBB", data, pos)
+        pad = bits & _PAD_SIZE
+        if next_offset == 0:
+            length = remaining
+        else:
+            length = (next_offset - (pos + SDO_COMMAND_HEADER_BYTES)) & _U32
+            if (length + MULTI_PARAM_ENTRY_HEADER_BYTES) & _U32 > remaining or pad + 8 >= length:
+                break
+        start = pos + MULTI_PARAM_ENTRY_HEADER_BYTES
+        size = length - MULTI_PARAM_ENTRY_HEADER_BYTES - (pad if next_offset else 0)
+        if size > remaining - MULTI_PARAM_ENTRY_HEADER_BYTES:
+            break  # an offset behind the entry wrapped round: Wireshark stops at its tree item
+        entry = MultiParamEntry(
+            next_offset, index, subindex, bool(bits & _SUB_ABORT), pad, data[start : start + size]
+        )
+        entries.append(entry)
+        if next_offset == 0:
+            break
+        pos += length
+    return tuple(entries)
+
+
 @dataclass(frozen=True, slots=True)
 class SyncResponse:
     """SyncResponse (DS 302-B): answer to a SoA SyncRequest."""

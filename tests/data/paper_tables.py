@@ -1,10 +1,12 @@
 """Tables I-III of the paper (../shared/paper.md), transcribed cell by cell: cycle time in us.
 
 Keys: table -> nodes -> bytes. Table I: Ethernet POWERLINK; II: EtherCAT open ring (non-redundant);
-III: EtherCAT closed ring (redundant)."""
+III: EtherCAT closed ring (redundant). The closed ring's key is its name, ``ecat_closed_ring``;
+OLD_NAMES: the name the JSON documents also carry it under (docs/interface.md, "Old names")."""
 
 BYTES = (2, 32, 128, 256)
 NODES = (130, 140, 150, 160, 170, 180, 190, 200)
+OLD_NAMES = {"ecat_redundant": "ecat_closed_ring"}
 
 PAPER_TABLES: dict[str, dict[int, dict[int, float]]] = {
     "epl": {
@@ -27,7 +29,7 @@ PAPER_TABLES: dict[str, dict[int, dict[int, float]]] = {
         190: {2: 475.89, 32: 944.69, 128: 2445.49, 256: 4451.89},
         200: {2: 500.60, 32: 993.40, 128: 2574.20, 256: 4686.20},
     },
-    "ecat_redundant": {
+    "ecat_closed_ring": {
         130: {2: 239.82, 32: 558.22, 128: 1585.42, 256: 2958.22},
         140: {2: 257.77, 32: 603.37, 128: 1707.37, 256: 3185.77},
         150: {2: 275.73, 32: 645.33, 128: 1829.33, 256: 3413.33},

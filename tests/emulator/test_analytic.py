@@ -18,7 +18,7 @@ def test_paper_preset_reproduces_every_cell(table: str, nodes: int, size: int) -
     if table == "epl":
         ours = float(analytic.epl_cycle_us(nodes, size, PAPER))
     else:
-        ours = float(analytic.ecat_cycle_us(nodes, size, PAPER, redundant=table != "ecat"))
+        ours = float(analytic.ecat_cycle_us(nodes, size, PAPER, closed_ring=table != "ecat"))
     assert ours == pytest.approx(PAPER_TABLES[table][nodes][size], abs=0.006)
 
 

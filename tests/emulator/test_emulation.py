@@ -27,7 +27,7 @@ def test_emulated_paper_preset_reproduces_every_cell(table: str, nodes: int, siz
     if table == "epl":
         r = simulate_epl(nodes, size, PAPER, cycles=2)
     else:
-        r = simulate_ecat(nodes, size, PAPER, redundant=table != "ecat", cycles=2)
+        r = simulate_ecat(nodes, size, PAPER, closed_ring=table != "ecat", cycles=2)
     c = r.cycle_us()
     assert c["min"] == c["max"]
     assert c["median"] == pytest.approx(PAPER_TABLES[table][nodes][size], abs=0.01)

@@ -20,6 +20,7 @@ from emulator.esc.hostile import hostile_frames, master_reset_frames
 from emulator.esc.sii import SlaveInfo, build_sii, crc8
 from emulator.esc.state_machine import AlStatusCode, SkinPatchApplication
 from skinframes import ethercat, taxel
+from skinframes.errors import DecodeError
 from skinframes.ethercat import Command as C  # noqa: N817 (short, the spec's table style)
 from skinframes.ethercat import Datagram, EcatFrame
 from skinframes.ethernet import EthernetFrame
@@ -734,6 +735,138 @@ def test_seeded_hostile_frames_never_raise_and_a_master_recovers(seed: int) -> N
     for frame in hostile_frames(1500, nodes=nodes, input_bytes=size, seed=seed):
         chain.process_frame(frame)
     configured_read_works(chain, size)
+
+
+# --- broadcasts in seeded hostile traffic, against the documents' access rules -------------
+# Every ESC a broadcast reaches shares its bytes (emulator/esc/device.py decodes FMMU and
+# SyncManager tables once per distinct bytes and cuts writes once per address and length); these
+# tests check the outcome slave by slave with expectations written here from the documents:
+#
+# * which ESCs a frame reaches (datasheet I 3.1, II 2.4.1 DL control 0x0101 bits 2-3: 11 closed,
+#   10 open whatever the link (lost without one), 00/01 auto: open with a link), with loop changes
+#   taking effect at the end of the frame;
+# * a BWR adds 1 to the working counter at every ESC it reaches where it writes a register
+#   (ETG.1000.4 Table 14; datasheet I Table 7: an access counts even where the mask keeps bits);
+# * an FMMU register byte (of the FMMUs 0x0004 says exist) after a write keeps its read-only
+#   and reserved bits and takes the written ones (datasheet II 2.13: bytes 0-5, 8-9 all bits,
+#   6/7/10 bits 0-2, 11 bits 0-1, 12 bit 0, 13-15 reserved).
+
+FMMU_FIRST, FMMU_END = 0x0600, 0x0700  # 16 FMMUs of 16 bytes (datasheet II 2.13)
+FMMU_WRITABLE = bytes((0xFF,) * 6 + (0x07, 0x07, 0xFF, 0xFF, 0x07, 0x03, 0x01, 0, 0, 0))
+REG_FMMUS_SUPPORTED = 0x0004  # number of FMMUs; the others' registers are reserved (II 2.1)
+RESET_REGISTER = 0x0040  # 'R','E','S' resets the ESC (datasheet II 2.3): not a plain write
+REGISTER_END = 0x0F80  # 0x0000-0x0F7F registers, then memory (datasheet I 1.1)
+
+
+def reached_positions(chain: EcatChain) -> tuple[int, bool]:
+    """How many ESCs a frame reaches, and whether it is lost, from DL control 0x0101."""
+    n = len(chain)
+    for p, dev in enumerate(chain.devices):
+        loop = (dev.registers(0x0101, 1)[0] >> 2) & 0x03
+        link = p < n - 1
+        if loop == 0x03:
+            return p + 1, False
+        if loop == 0x02 and not link:
+            return p + 1, True
+        if loop in (0x00, 0x01) and not link:
+            return p + 1, False
+    raise AssertionError("the last ESC has no link: auto closes, open loses")  # pragma: no cover
+
+
+def plain_broadcast_writes(frame: bytes) -> tuple[Datagram, ...] | None:
+    """The datagrams of ``frame`` if all are BWRs of registers other than the reset register."""
+    try:
+        ecat, _, _ = ethercat.decode(frame[14:], strict=False)
+    except DecodeError:
+        return None
+    if ecat.frame_type != ethercat.FrameType.ECAT or frame[12:14] != b"\x88\xa4":
+        return None
+    for d in ecat.datagrams:
+        end = d.ado + len(d.data)
+        if d.cmd != C.BWR or not d.data or end > REGISTER_END:
+            return None
+        if d.ado <= RESET_REGISTER < end:
+            return None
+    return ecat.datagrams
+
+
+def expected_fmmus(before: bytes, writes: tuple[Datagram, ...], fmmus: int) -> bytes:
+    table = bytearray(before)
+    writable = FMMU_WRITABLE * fmmus + bytes(len(table) - len(FMMU_WRITABLE) * fmmus)
+    for d in writes:
+        for i, value in enumerate(d.data):
+            at = d.ado + i - FMMU_FIRST
+            if 0 <= at < len(table):
+                mask = writable[at]
+                table[at] = (table[at] & ~mask & 0xFF) | (value & mask)
+    return bytes(table)
+
+
+@pytest.mark.parametrize("seed", [3, 4])
+def test_broadcast_writes_in_hostile_traffic_follow_the_access_rules(seed: int) -> None:
+    nodes, size = 6, 8
+    chain = EcatChain.configured(nodes, size)
+    reset = master_reset_frames(nodes)
+    checked = 0
+    for i, frame in enumerate(hostile_frames(4000, nodes=nodes, input_bytes=size, seed=seed)):
+        if i % 400 == 399:  # reopen loops a hostile frame closed, as a master would
+            for r in reset:
+                chain.process_frame(r)
+        writes = plain_broadcast_writes(frame)
+        if writes is None:
+            chain.process_frame(frame)
+            continue
+        reached, lost = reached_positions(chain)
+        before = [dev.registers(FMMU_FIRST, FMMU_END - FMMU_FIRST) for dev in chain.devices]
+        back = chain.process_frame(frame)
+        for p, dev in enumerate(chain.devices):
+            fmmus = dev.registers(REG_FMMUS_SUPPORTED, 1)[0]
+            want = expected_fmmus(before[p], writes, fmmus) if p < reached else before[p]
+            assert dev.registers(FMMU_FIRST, FMMU_END - FMMU_FIRST) == want, (i, p)
+        assert (back is None) == lost, i
+        if back is not None:
+            returned, _, _ = ethercat.decode(back[14:], strict=False)
+            for sent, got in zip(writes, returned.datagrams, strict=True):
+                assert got.wkc == (sent.wkc + reached) & 0xFFFF, (i, reached)
+                assert got.data == sent.data  # a write leaves the data as it was
+        checked += 1
+    assert checked >= 20  # the seeded sequence holds enough of them to mean something
+    configured_read_works(chain, size)
+
+
+def fmmu_entry(logical: int, length: int, physical: int) -> bytes:
+    """A byte-wise read FMMU (datasheet II 2.13): start bit 0, stop bit 7, type 1, active."""
+    return struct.pack("<IHBBHBBB3x", logical, length, 0, 7, physical, 0, 0x01, 0x01)
+
+
+def test_one_slave_reconfigured_after_a_broadcast_keeps_the_others_mapping() -> None:
+    # All three ESCs get the same FMMU0 by one BWR (one decoded table serves them); then ESC 1
+    # alone maps another logical window by FPWR. An LRD of the first window then reads the
+    # station address registers 0x0010 of ESCs 0 and 2 only (ETG.1000.4 5.3: each ESC whose
+    # FMMU maps it, +1 each), one of the second window reads ESC 1's.
+    chain = EcatChain.skin(3, 8)
+    stations = (0x1001, 0x1002, 0x1003)
+    for p, station in enumerate(stations):
+        d = Datagram(C.APWR, -p & 0xFFFF, 0x0010, struct.pack("<H", station))
+        assert chain.process_frame(ethercat.frame(EcatFrame((d,))).to_bytes()) is not None
+    frames = [
+        Datagram(C.BWR, 0, 0x0600, fmmu_entry(0x100, 2, 0x0010)),
+        Datagram(C.FPWR, 0x1002, 0x0600, fmmu_entry(0x200, 2, 0x0010)),
+    ]
+    for d in frames:
+        assert chain.process_frame(ethercat.frame(EcatFrame((d,))).to_bytes()) is not None
+
+    def lrd(logical: int) -> Datagram:
+        raw = ethercat.frame(EcatFrame((Datagram.logical(C.LRD, logical, bytes(2)),)))
+        back = chain.process_frame(raw.to_bytes())
+        assert back is not None
+        return ethercat.decode(back[14:])[0].datagrams[0]
+
+    first, second = lrd(0x100), lrd(0x200)
+    # the first window: ESC 0 writes 0x1001, ESC 2 overwrites it with 0x1003 (a logical read
+    # replaces the mapped bytes at every ESC in processing order)
+    assert (first.wkc, first.data) == (2, struct.pack("<H", 0x1003))
+    assert (second.wkc, second.data) == (1, struct.pack("<H", 0x1002))
 
 
 # --- distributed clocks (emulator/esc/dc.py; datasheet I 9, II 2.20-2.22) -----------------------

@@ -16,9 +16,10 @@ from emulator.model.params import PAPER, WIRE
 from emulator.net import simulate_ecat, simulate_epl
 from emulator.net.ecat import DEFAULT_TIMEOUT_MARGIN_PS
 from emulator.net.faults import Fault, parse_fault
-from skinframes import read_capture
+from skinframes import ethernet, read_capture
 from skinframes.check import check_capture
 from skinframes.errors import SkinframesError
+from skinframes.powerlink import MessageType
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 N, B = 160, 192
@@ -43,6 +44,18 @@ def test_the_fast_path_equals_the_walk_of_every_cycle(fn, nodes, kw, params) -> 
         b = records(fn, nodes, 100, params, cycles=14, seed=2, faults=faults, fast=False, **kw)
         assert a[1] == b[1]
         assert a[0].to_json() == b[0].to_json()
+
+
+@pytest.mark.parametrize("data_bytes", [0, 8, 1490])
+@pytest.mark.parametrize("asnd", [False, True])
+def test_the_fast_path_fills_every_pres_payload_size(data_bytes: int, asnd: bool) -> None:
+    """A PRes repeats with only its taxels filled in: none (0 bytes), a padded short frame (8)
+    and the largest (1490) give the bytes of the walk."""
+    a = records(simulate_epl, 5, data_bytes, WIRE, cycles=12, seed=3, asnd=asnd)
+    b = records(simulate_epl, 5, data_bytes, WIRE, cycles=12, seed=3, asnd=asnd, fast=False)
+    assert a[1] == b[1]
+    pres = {r[3] for r in a[1] if r[3][ethernet.HEADER_BYTES] == MessageType.PRES}
+    assert len(pres) == (5 * 12 if data_bytes else 5)  # the taxels change from cycle to cycle
 
 
 @pytest.mark.tshark

@@ -21,7 +21,7 @@ def test_limit_is_the_taxel_bytes_alone() -> None:
 
 
 def test_every_network_keeps_its_fastest_layout(small: Plan) -> None:
-    assert list(small.networks) == ["epl", "ecat", "ecat_redundant"]
+    assert list(small.networks) == ["epl", "ecat", "ecat_closed_ring"]
     for network in small.networks.values():
         assert network.best in network.alternatives
         assert network.best.cycle_us == min(o.cycle_us for o in network.alternatives)
@@ -42,7 +42,19 @@ def test_frames_per_cycle(small: Plan) -> None:
 
 def test_json_document(small: Plan) -> None:
     doc = small.to_json()
-    assert list(doc) == ["nodes", "bytes", "preset", "limit_us", "epl", "ecat", "ecat_redundant"]
+    assert list(doc) == [
+        "nodes",
+        "bytes",
+        "preset",
+        "limit_us",
+        "epl",
+        "ecat",
+        "ecat_closed_ring",
+        "ecat_redundant",  # the closed ring's old name, the same value
+    ]
+    assert doc["ecat_redundant"] == doc["ecat_closed_ring"]
+    ring = round(float(analytic.ecat_cycle_us(20, 64, WIRE, closed_ring=True)), 6)
+    assert doc["ecat_closed_ring"]["analytic_us"] == ring
     assert (doc["nodes"], doc["bytes"], doc["preset"]) == (20, 64, "wire")
     assert list(doc["ecat"]) == [
         "layout",

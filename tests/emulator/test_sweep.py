@@ -53,10 +53,10 @@ def test_grid_is_the_papers_tables() -> None:
 def test_the_formulas_broadcast_a_column_of_nodes_against_a_row_of_bytes() -> None:
     n, b = np.array([[1], [160], [239]]), np.array([[2, 192, 1486]])
     epl = analytic.epl_cycle_us(n, b, WIRE)
-    ring = analytic.ecat_cycle_us(n, b, WIRE, redundant=True)
+    ring = analytic.ecat_cycle_us(n, b, WIRE, closed_ring=True)
     assert epl.shape == ring.shape == (3, 3)
     assert epl[1, 1] == float(analytic.epl_cycle_us(160, 192, WIRE))
-    assert ring[2, 0] == float(analytic.ecat_cycle_us(239, 2, WIRE, redundant=True))
+    assert ring[2, 0] == float(analytic.ecat_cycle_us(239, 2, WIRE, closed_ring=True))
 
 
 def test_cells_beyond_a_protocol_are_not_applicable_with_the_reason() -> None:
@@ -67,7 +67,8 @@ def test_cells_beyond_a_protocol_are_not_applicable_with_the_reason() -> None:
     assert doc["not_applicable"] == {
         "epl": ["EPL: 240 CNs (1..239)"],
         "ecat": ["EtherCAT: 1487 bytes per slave (1..1486)"],
-        "ecat_redundant": ["EtherCAT: 1487 bytes per slave (1..1486)"],
+        "ecat_closed_ring": ["EtherCAT: 1487 bytes per slave (1..1486)"],
+        "ecat_redundant": ["EtherCAT: 1487 bytes per slave (1..1486)"],  # its old name
     }
     assert reasons("ecat", [5], [0, 1487, 1490]) == [
         "EtherCAT: 0 bytes per slave (1..1486)",

@@ -18,7 +18,7 @@ from emulator.net.faults import parse_fault
 from emulator.net.sweep import cycle_ps_row
 from skinframes import ethercat
 
-TABLES = ("epl", "ecat", "ecat_redundant")
+TABLES = ("epl", "ecat", "ecat_closed_ring")
 
 
 def simulated_ps(table: str, nodes: int, data_bytes: int, name: str) -> int:
@@ -28,7 +28,7 @@ def simulated_ps(table: str, nodes: int, data_bytes: int, name: str) -> int:
         r = simulate_epl(nodes, data_bytes, params, cycles=1)
     else:
         r = simulate_ecat(
-            nodes, data_bytes, params, closed_ring=table == "ecat_redundant", cycles=1
+            nodes, data_bytes, params, closed_ring=table == "ecat_closed_ring", cycles=1
         )
     (ps,) = r.durations
     return ps

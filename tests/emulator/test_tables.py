@@ -3,7 +3,7 @@
 from __future__ import annotations
 
 import pytest
-from data.paper_tables import BYTES, NODES, PAPER_TABLES
+from data.paper_tables import BYTES, NODES, OLD_NAMES, PAPER_TABLES
 
 from emulator.model.params import PAPER, WIRE
 from emulator.model.tables import cycle_tables
@@ -11,9 +11,11 @@ from emulator.model.tables import cycle_tables
 
 def test_analytic_paper_preset_is_the_papers_tables() -> None:
     doc = cycle_tables("analytic", PAPER, NODES, BYTES)
-    assert list(doc) == ["model", "preset", "unit", "epl", "ecat", "ecat_redundant"]
+    keys = ["model", "preset", "unit", "epl", "ecat", "ecat_closed_ring", "ecat_redundant"]
+    assert list(doc) == keys
     assert (doc["model"], doc["preset"], doc["unit"]) == ("analytic", "paper", "us")
-    for table, rows in PAPER_TABLES.items():
+    tables = {**PAPER_TABLES, **{old: PAPER_TABLES[new] for old, new in OLD_NAMES.items()}}
+    for table, rows in tables.items():
         assert list(doc[table]) == [str(n) for n in NODES]
         for n, row in rows.items():
             assert list(doc[table][str(n)]) == [str(b) for b in BYTES]

@@ -151,7 +151,10 @@ def blocks(draw: st.DrawFn) -> tuple[str, int, np.ndarray, np.ndarray, np.ndarra
     k = draw(st.integers(0, 7))
     r = draw(st.integers(0, 6))
     n_ports = draw(st.integers(1, 3))
-    lengths = np.array(draw(st.lists(st.integers(0, 70), min_size=r, max_size=r)), np.int64)
+    # lengths all multiples of 4 put every pcap stamp on a 4-byte boundary (stamped as u32 words)
+    align = draw(st.sampled_from([1, 4]))
+    size = st.integers(0, 70).map(lambda n: n * align)
+    lengths = np.array(draw(st.lists(size, min_size=r, max_size=r)), np.int64)
     limit = PCAP_MAX_NS if fmt == "pcap" else 2**63 - 1
     stamp = st.one_of(st.integers(0, 10**6), st.integers(0, limit), st.just(limit))
     times = np.array(draw(st.lists(stamp, min_size=k * r, max_size=k * r)), np.int64)
