@@ -16,13 +16,19 @@
    common to all rows: a short row may equal several samples of its patch); serve's own
    summary (frames it could not process, its maximum CPU per frame) is printed.
 
-    python benchmarks/bench_serve_hostile.py [--nodes 160] [--frames 10000] [--live]
+Both modes configure the patches ``serve ecat`` builds: with a CoE mailbox (SM0/SM1 mailboxes,
+SM3 inputs) unless ``--no-mailbox`` (passed on to serve), so the configuration matches the SII
+(:func:`patch_info`). The final frames carry their own datagram index and an answer is taken
+only if it is the frame sent, returned (:func:`is_answer`), not a late answer of the same length.
+
+    python benchmarks/bench_serve_hostile.py [--nodes 160] [--frames 10000] [--live] [--no-mailbox]
 """
 
 from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import gc
 import json
 import os
@@ -43,6 +49,7 @@ sys.path.insert(0, str(ROOT))
 from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
 from emulator.esc.hostile import hostile_frames, master_reset_frames  # noqa: E402
 from emulator.esc.sii import SlaveInfo  # noqa: E402
+from emulator.esc.state_machine import AlState  # noqa: E402
 from skinframes import ethercat, taxel  # noqa: E402
 from skinframes.ethercat import Command, Datagram, EcatFrame  # noqa: E402
 
@@ -50,10 +57,63 @@ BUDGET_US = 2000.0
 SEED, SAMPLES = 11, 16
 
 
-def lrd_frame(nodes: int, size: int) -> bytes:
+def lrd_frame(nodes: int, size: int, idx: int = 0) -> bytes:
     return ethercat.frame(
-        EcatFrame((Datagram.logical(Command.LRD, 0, bytes(nodes * size)),))
+        EcatFrame((Datagram.logical(Command.LRD, 0, bytes(nodes * size), idx=idx),))
     ).to_bytes()
+
+
+def patch_info(size: int, mailbox: bool) -> SlaveInfo:
+    """The SII of the patches ``serve ecat`` builds (``EcatChain.skin(..., mailbox=...)``).
+
+    Configuring a mailbox patch with the layout of one without (inputs on SM0 at 0x1000, where
+    its receive mailbox is) leaves the input SyncManager unconfigured and its FMMU on the
+    mailbox: the LRD then answers with working counter 0, whatever came before.
+    """
+    return SlaveInfo.skin_patch(size, mailbox=mailbox)
+
+
+def final_frames(nodes: int, size: int, mailbox: bool) -> list[bytes]:
+    """A master's reset, the configuration and an LRD of the whole image, in that order.
+
+    Datagram indices count up from 1 (modulo 256), so each answer can be told from a late
+    answer to an earlier frame (ETG.1000.4 Table 13: the index is the master's to identify
+    duplicates and lost datagrams).
+    """
+    setup = master_reset_frames(nodes) + configure_frames(patch_info(size, mailbox), nodes)
+    frames = [with_index(frame, (i + 1) & 0xFF) for i, frame in enumerate(setup)]
+    return [*frames, lrd_frame(nodes, size, idx=(len(frames) + 1) & 0xFF)]
+
+
+def with_index(frame: bytes, idx: int) -> bytes:
+    """``frame`` with every datagram's index set to ``idx``."""
+    ecat, _, _ = ethercat.decode(frame[14:])
+    dgs = tuple(dataclasses.replace(d, idx=idx) for d in ecat.datagrams)
+    return ethercat.frame(dataclasses.replace(ecat, datagrams=dgs)).to_bytes()
+
+
+def is_answer(sent: bytes, back: bytes) -> bool:
+    """True if ``back`` is ``sent`` returned by the line: the same length and, datagram by
+    datagram, the same command, index, data length and (except for auto-increment and
+    broadcast commands, whose ADP every slave increments, ETG.1000.4 Table 14) the same
+    address."""
+    if len(back) != len(sent):
+        return False
+    try:
+        a = ethercat.decode(sent[14:])[0].datagrams
+        b = ethercat.decode(back[14:], strict=False)[0].datagrams
+    except ethercat.DecodeError:
+        return False
+    incremented = {Command.APRD, Command.APWR, Command.APRW, Command.ARMW}
+    incremented |= {Command.BRD, Command.BWR, Command.BRW}
+    return len(a) == len(b) and all(
+        x.cmd == y.cmd
+        and x.idx == y.idx
+        and len(x.data) == len(y.data)
+        and x.ado == y.ado
+        and (x.cmd in incremented or x.adp == y.adp)
+        for x, y in zip(a, b, strict=True)
+    )
 
 
 def one_sample(rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8]) -> set[int]:
@@ -86,8 +146,19 @@ def with_resets(frames: int, nodes: int, size: int, seed: int, every: int) -> It
             yield from reset
 
 
-def in_process(nodes: int, size: int, frames: int, seed: int, every: int) -> None:
-    chain = EcatChain.configured(nodes, size)
+def configured_chain(nodes: int, size: int, mailbox: bool) -> EcatChain:
+    """The patches serve builds, taken to OP by the final frames' reset and configuration."""
+    chain = EcatChain.skin(nodes, size, mailbox=mailbox)
+    for frame in final_frames(nodes, size, mailbox)[:-1]:
+        chain.process_frame(frame)
+    states = {dev.al_status for dev in chain.devices}
+    if states != {AlState.OP}:
+        raise SystemExit(f"configuration left AL states {sorted(states)}, not OP")
+    return chain
+
+
+def in_process(nodes: int, size: int, frames: int, seed: int, every: int, mailbox: bool) -> None:
+    chain = configured_chain(nodes, size, mailbox)
     gc.collect()
     gc.freeze()  # as serve does (emulator.live.serve): no collection walks the chain per frame
     cpu = time.thread_time_ns
@@ -118,11 +189,12 @@ def in_process(nodes: int, size: int, frames: int, seed: int, every: int) -> Non
     )
     for c, i, frame in sorted(costs, reverse=True)[:5]:
         print(f"  frame {i}: {c:.0f} us  {describe(frame)}")
-    for frame in master_reset_frames(nodes) + configure_frames(chain.devices[0].info, nodes):
+    *setup, lrd = final_frames(nodes, size, mailbox)
+    for frame in setup:
         chain.process_frame(frame)
     rows = taxel.sample_payloads(nodes, 1, size, seed=3)[0]
     chain.publish(rows)
-    back = chain.process_frame(ref)
+    back = chain.process_frame(lrd)
     assert back is not None
     ecat, _, _ = ethercat.decode(back[14:])
     (d,) = ecat.datagrams
@@ -130,7 +202,9 @@ def in_process(nodes: int, size: int, frames: int, seed: int, every: int) -> Non
     print(f"  afterwards a configured LRD answers correctly: {ok}")
 
 
-def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every: int) -> None:
+def live(
+    nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every: int, mailbox: bool
+) -> None:
     from emulator.live import netns_socket, veth_netns
 
     with veth_netns(prefix="skf-bench") as net:
@@ -138,6 +212,7 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every
             *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve"),
             *("ecat", "--iface", net.slave, "--nodes", str(nodes), "--bytes", str(size)),
             *("--seed", str(SEED), "--samples", str(SAMPLES), "--json"),
+            *(() if mailbox else ("--no-mailbox",)),
         ]
         env = {**os.environ, "PYTHONPATH": str(ROOT)}
         proc = subprocess.Popen(
@@ -150,14 +225,16 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every
             t0 = time.monotonic()
             with netns_socket(net.master, net.netns) as sock:
 
-                def exchange(frame: bytes, wait_ms: float = timeout_ms) -> bytes | None:
+                def exchange(
+                    frame: bytes, wait_ms: float = timeout_ms, exact: bool = False
+                ) -> bytes | None:
                     sock.send(frame)
                     deadline = time.monotonic() + wait_ms / 1000
                     while (left := deadline - time.monotonic()) > 0:
                         if select.select([sock.fileno()], [], [], left)[0]:
-                            back = sock.recv()
-                            if back is not None and len(back) == len(frame):
-                                return back
+                            while (back := sock.recv()) is not None:
+                                if is_answer(frame, back) if exact else len(back) == len(frame):
+                                    return back
                     return None
 
                 for i, frame in enumerate(with_resets(frames, nodes, size, seed, every)):
@@ -170,10 +247,9 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every
                 while select.select([sock.fileno()], [], [], 2.0)[0]:  # late answers
                     while sock.recv() is not None:
                         pass
-                info = SlaveInfo.skin_patch(size)
-                for frame in master_reset_frames(nodes) + configure_frames(info, nodes):
-                    exchange(frame, 2000)
-                back = exchange(lrd_frame(nodes, size), 2000)
+                *setup, lrd = final_frames(nodes, size, mailbox)
+                unanswered = sum(exchange(frame, 2000, exact=True) is None for frame in setup)
+                back = exchange(lrd, 2000, exact=True)
             assert proc.poll() is None, "serve ended"
             ok = False
             if back is None:
@@ -192,6 +268,7 @@ def live(nodes: int, size: int, frames: int, seed: int, timeout_ms: float, every
     summary = json.loads(out) if proc.returncode == 0 else {"rc": proc.returncode, "stderr": err}
     print(f"live: {frames} hostile frames to serve ecat --nodes {nodes} over veth")
     print(f"  answered {answered}, not answered {lost}, {time.monotonic() - t0:.0f} s")
+    print(f"  reset and configuration: {len(setup)} frames, {unanswered} not answered")
     print(f"  afterwards a configured LRD answers correctly: {ok}")
     keys = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_max", "over_budget")
     print("  serve:", json.dumps({k: summary.get(k) for k in keys}))
@@ -211,6 +288,9 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=10_000)
     ap.add_argument("--seed", type=int, default=0)
     ap.add_argument("--live", action="store_true", help="send them to serve over veth (root)")
+    ap.add_argument(
+        "--no-mailbox", action="store_true", help="patches without a mailbox (serve --no-mailbox)"
+    )
     ap.add_argument("--timeout-ms", type=float, default=50.0)
     ap.add_argument(
         "--reset-every", type=int, default=500, help="hostile frames between master resets"
@@ -218,9 +298,14 @@ def main() -> None:
     args = ap.parse_args()
     if args.live:
         with contextlib.suppress(KeyboardInterrupt):
-            live(args.nodes, args.bytes, args.frames, args.seed, args.timeout_ms, args.reset_every)
+            live(
+                *(args.nodes, args.bytes, args.frames, args.seed, args.timeout_ms),
+                *(args.reset_every, not args.no_mailbox),
+            )
     else:
-        in_process(args.nodes, args.bytes, args.frames, args.seed, args.reset_every)
+        in_process(
+            args.nodes, args.bytes, args.frames, args.seed, args.reset_every, not args.no_mailbox
+        )
 
 
 if __name__ == "__main__":

@@ -37,10 +37,11 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 import tshark_util
+from bench_util import load_benchmark
 
-from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.hostile import hostile_frames, master_reset_frames
-from emulator.esc.sii import SlaveInfo
+from emulator.esc.chain import EcatChain
+from emulator.esc.hostile import hostile_frames
+from emulator.esc.state_machine import AlState
 from emulator.live import ServeStats, TaxelFeed, VethPair, netns_socket, serve, veth_netns
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -414,12 +415,61 @@ def test_pysoem_distributed_clocks(net: VethPair, tshark: str, tmp_path: Path) -
     print(f"\nDC: differences after 1,000 cycles {doc['dc_diff_ns']} ns")
 
 
+@pytest.mark.parametrize("serve_options", [[], ["--no-mailbox"]])
+def test_hostile_bench_configures_the_patches_serve_builds(serve_options: list[str]) -> None:
+    """benchmarks/bench_serve_hostile.py --live ends with a reset, the configuration and an LRD
+    that must return every patch's inputs. It once configured mailbox-less patches (inputs on
+    SM0) while serve builds CoE patches by default (SM0/SM1 mailboxes, inputs on SM3), so its LRD
+    answered with working counter 0 even without a single hostile frame. In process, on the
+    chain serve builds from these options (deterministic, no network): every final frame is
+    answered, the patches reach OP, the LRD returns the published rows with wkc = nodes; an
+    answer of the same length to another frame is not taken for the LRD's answer."""
+    from skinframes_cli import build_parser
+
+    bench = load_benchmark("bench_serve_hostile")
+    nodes, size = 160, 8
+    args = build_parser().parse_args(
+        [
+            "serve",
+            "ecat",
+            "--iface",
+            "x",
+            "--nodes",
+            str(nodes),
+            "--bytes",
+            str(size),
+            *serve_options,
+        ]
+    )
+    mailbox = not args.no_mailbox
+    chain = EcatChain.skin(nodes, size, mailbox=mailbox)  # as skinframes_cli/serve.py does
+    *setup, lrd = bench.final_frames(nodes, size, mailbox)
+    for frame in setup:
+        back = chain.process_frame(frame)
+        assert back is not None and bench.is_answer(frame, back)
+    assert {dev.al_status for dev in chain.devices} == {AlState.OP}
+    rows = taxel.sample_payloads(nodes, 1, size, seed=5)[0]
+    chain.publish(rows)
+    back = chain.process_frame(lrd)
+    assert back is not None and bench.is_answer(lrd, back)
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    assert d.wkc == nodes  # hand-computed: one read per patch (ETG.1000.4 Table 14, LRD)
+    assert d.data == rows.tobytes()
+    stale = ethercat.frame(  # same length, another index: a late answer to an earlier LRD
+        EcatFrame((Datagram.logical(Command.LRD, 0, bytes(nodes * size), idx=0),))
+    ).to_bytes()
+    assert len(stale) == len(lrd) and not bench.is_answer(lrd, chain.process_frame(stale))
+
+
 def test_serve_survives_hostile_frames_and_answers_a_configured_read(net: VethPair) -> None:
     """A CI-sized version of issue 11's acceptance run (benchmarks/bench_serve_hostile.py
     --live sends 100,000): hostile frames to 160 patches, then a master resets and configures
     the line and an LRD returns published samples of every patch."""
     nodes, size = 160, 8
     answered = 0
+    bench = load_benchmark(
+        "bench_serve_hostile"
+    )  # its final frames and answer matching, as --live uses them
     with serving(net, nodes, size) as server, netns_socket(net.master, net.netns) as sock:
 
         def exchange(frame: bytes) -> bytes | None:
@@ -427,9 +477,9 @@ def test_serve_survives_hostile_frames_and_answers_a_configured_read(net: VethPa
             deadline = time.monotonic() + 2.0
             while (left := deadline - time.monotonic()) > 0:
                 if select.select([sock.fileno()], [], [], left)[0]:
-                    back = sock.recv()
-                    if back is not None and len(back) == len(frame):
-                        return back
+                    while (back := sock.recv()) is not None:
+                        if bench.is_answer(frame, back):
+                            return back
             return None
 
         for frame in hostile_frames(1000, nodes=nodes, input_bytes=size, seed=7):
@@ -437,18 +487,13 @@ def test_serve_survives_hostile_frames_and_answers_a_configured_read(net: VethPa
         while select.select([sock.fileno()], [], [], 2.0)[0]:  # until serve fell quiet
             while sock.recv() is not None:
                 answered += 1
-        for frame in master_reset_frames(nodes) + configure_frames(
-            SlaveInfo.skin_patch(size, mailbox=True),
-            nodes,  # serve's patches have a mailbox
-        ):
-            exchange(frame)
-        lrd = ethercat.frame(
-            EcatFrame((Datagram.logical(Command.LRD, 0, bytes(nodes * size)),))
-        ).to_bytes()
+        *setup, lrd = bench.final_frames(nodes, size, True)  # serve's patches have a mailbox
+        unanswered = [i for i, frame in enumerate(setup) if exchange(frame) is None]
         back = exchange(lrd)
     assert server["rc"] == 0, server["stderr"]
     summary = server["summary"]
     assert summary["frames_in"] >= 1000 and summary["errors"] == 0, summary["error_messages"]
+    assert unanswered == [], "reset and configuration frames without an answer"
     assert back is not None
     (d,) = ethercat.decode(back[14:])[0].datagrams
     assert d.wkc == nodes

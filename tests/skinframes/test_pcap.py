@@ -834,15 +834,9 @@ MAX_RSS_BYTES = 256 * 1024 * 1024
 def _bench() -> Any:
     """benchmarks/bench_capture_memory.py: its capture generator and its RSS measurement, so the
     test and the benchmark measure the same way."""
-    import importlib.util
+    from bench_util import load_benchmark
 
-    spec = importlib.util.spec_from_file_location(
-        "bench_capture_memory", ROOT / "benchmarks" / "bench_capture_memory.py"
-    )
-    assert spec is not None and spec.loader is not None
-    bench = importlib.util.module_from_spec(spec)
-    spec.loader.exec_module(bench)
-    return bench
+    return load_benchmark("bench_capture_memory")
 
 
 @pytest.mark.slow
