@@ -1,8 +1,8 @@
 """One name per network of the paper's Tables I-III, and the old names still accepted.
 
 The closed ring (the paper's "redundant" configuration, Table III, Fig. 11) is
-``ecat_closed_ring``; before 0.x named things once it was ``ecat_redundant``. Every entry point that
-takes a table name accepts both (:func:`table_name`), and every JSON document keyed by table
+``ecat_closed_ring``; its former name is ``ecat_redundant``. Every entry point that takes a
+table name accepts both (:func:`table_name`), and every JSON document keyed by table
 carries the old key beside the new one with the same value (:func:`with_old_keys`), so scripts
 written against the old key keep working (docs/interface.md, "Old names"). Values that cannot
 carry two names (the CSV ``table`` column, the file names ``demo`` writes) keep the old one:
