@@ -1,10 +1,10 @@
-"""``skinframes can SUBCOMMAND``: legacy CAN skin traces.
+"""``skinframes can SUBCOMMAND``: legacy CAN skin logs.
 
 A nested command: each subcommand is one ``add_<name>(sub)`` function (it registers its parser
 and ``set_defaults(run=...)``), listed explicitly in :data:`SUBCOMMANDS`, as the top-level
 ``COMMANDS`` lists modules. A subcommand may live in its own module and be added to the tuple.
 
-``skinframes can decode TRACE [--json]``: JSON Lines, one object per (board, triangle) sample
+``skinframes can decode LOG [--json]``: JSON Lines, one object per (board, triangle) sample
 ``{"time_ns", "board", "triangle", "taxels", "error", "out_of_range"}``; frames that are not skin
 data are counted on stderr (docs/interface.md).
 """
@@ -45,8 +45,8 @@ def add_parser(sub: Any) -> None:
     """Register ``can`` and its subcommands."""
     p = sub.add_parser(
         "can",
-        help="legacy CAN skin traces (decode, convert)",
-        description="Legacy iCub skin CAN traces: any python-can format "
+        help="legacy CAN skin logs (decode, convert)",
+        description="Legacy iCub skin CAN logs: any python-can format "
         f"({' '.join(PYTHON_CAN_SUFFIXES)}) or a SocketCAN pcap ({' '.join(PCAP_SUFFIXES)}).",
     )
     can_sub = p.add_subparsers(dest="can_command", required=True, metavar="CAN_COMMAND")
@@ -58,11 +58,13 @@ def add_decode(sub: Any) -> None:
     """Register ``can decode``."""
     p = sub.add_parser(
         "decode",
-        help="the skin samples of a CAN trace",
-        description="Reassemble the skin samples (head + tail frame per triangle) of a CAN trace. "
+        help="the skin samples of a CAN log",
+        description="Reassemble the skin samples (head + tail frame per triangle) of a CAN log. "
         "Frames that are not skin data are counted on stderr, not errors.",
     )
-    p.add_argument("trace", help="CAN trace (.log .asc .blf .trc .csv .db, .pcap; text .gz too)")
+    p.add_argument(
+        "trace", metavar="LOG", help="CAN log (.log .asc .blf .trc .csv .db, .pcap; text .gz too)"
+    )
     p.add_argument(
         "--json", action="store_true", help="JSON Lines: one object per (board, triangle) sample"
     )

@@ -1,4 +1,4 @@
-"""``skinframes can convert TRACE --to epl|ecat --pcap OUT``: a CAN trace's samples on Ethernet."""
+"""``skinframes can convert LOG --to epl|ecat --pcap OUT``: a CAN log's samples on Ethernet."""
 
 from __future__ import annotations
 
@@ -13,15 +13,17 @@ def add_convert(sub: Any) -> None:
     """Register ``can convert``."""
     p = sub.add_parser(
         "convert",
-        help="carry a trace's skin samples over EPL or EtherCAT (pcap)",
-        description="Every complete skin sample of the trace, in order, becomes one emulated cycle "
+        help="carry a CAN log's skin samples over EPL or EtherCAT (pcap)",
+        description="Every complete skin sample of the log, in order, becomes one emulated cycle "
         "(a cycle: one complete sample of each board; incomplete samples and stray frames are "
         "left out and counted on stderr) "
         "on EPL (one CN per board, the board's taxels as PRes payload) or EtherCAT (one slave per "
         "board, its taxels in its datagram); the frames are timed by the emulator and written "
         "as a pcap. Boards are numbered in ascending address order (CN 1 / slave 0 = the lowest).",
     )
-    p.add_argument("trace", help="CAN trace (.log .asc .blf .trc .csv, or a SocketCAN pcap)")
+    p.add_argument(
+        "trace", metavar="LOG", help="CAN log (.log .asc .blf .trc .csv, or a SocketCAN pcap)"
+    )
     p.add_argument("--to", choices=["epl", "ecat"], required=True, dest="target")
     p.add_argument("--pcap", required=True, help="output pcap")
     p.add_argument("--preset", choices=list(PRESETS), default="wire")

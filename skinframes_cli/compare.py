@@ -1,4 +1,4 @@
-"""``skinframes compare TRACE``: the trace's taxel load on CAN, EPL and EtherCAT side by side."""
+"""``skinframes compare LOG``: a CAN log's taxel load on CAN, EPL and EtherCAT side by side."""
 
 from __future__ import annotations
 
@@ -25,13 +25,15 @@ def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
         "compare",
-        help="a CAN trace's taxels on CAN vs EPL vs EtherCAT, side by side",
-        description="Read a skin CAN trace (any python-can format or a SocketCAN pcap) and report, "
+        help="a CAN log's taxels on CAN vs EPL vs EtherCAT, side by side",
+        description="Read a skin CAN log (any python-can format or a SocketCAN pcap) and report, "
         "for its boards and samples, the cycle time, bus load and wire bytes per sample on the "
         "CAN bus (as recorded and as re-emulated), EPL and EtherCAT, and how many "
         f"{taxel.PATCH_BYTES}-byte patches each bus serves within 1 ms and 5 ms.",
     )
-    p.add_argument("trace", help="CAN trace (.log .asc .blf .trc .csv, or a SocketCAN pcap)")
+    p.add_argument(
+        "trace", metavar="LOG", help="CAN log (.log .asc .blf .trc .csv, or a SocketCAN pcap)"
+    )
     p.add_argument(
         "--preset",
         choices=list(PRESETS),
@@ -44,7 +46,7 @@ def add_parser(sub: Any) -> None:
 
 
 def comparison(trace_path: str, preset_name: str) -> dict[str, Any]:
-    """The comparison document for a trace file."""
+    """The comparison document for a CAN log file."""
     from emulator.compare import compare, read_skin_samples
     from emulator.model.params import preset
 

@@ -183,7 +183,7 @@ CAN_SAMPLES = 5
 
 
 def _can_comparison(out: Path, plots: bool = True) -> list[tuple[Path, str]]:
-    """Write a legacy skin CAN trace (7 boards, 50 ms period) and compare the buses on it."""
+    """Write a legacy skin CAN log (7 boards, 50 ms period) and compare the buses on it."""
     import math
 
     from emulator.compare import compare, samples_of
@@ -209,7 +209,7 @@ def _can_comparison(out: Path, plots: bool = True) -> list[tuple[Path, str]]:
         f"{DEFAULT_PERIOD_MS} ms, so {math.ceil(NODES / per_bus)} buses; one EtherCAT ring "
         "carries them all in under 3 ms."
     )
-    files = [(can_log_path, f"skin CAN trace: {len(CAN_BOARDS)} boards, {CAN_SAMPLES} samples")]
+    files = [(can_log_path, f"skin CAN log: {len(CAN_BOARDS)} boards, {CAN_SAMPLES} samples")]
     if plots:
-        files.append((plot(doc, out / "compare.png"), "CAN vs EPL vs EtherCAT for that trace"))
+        files.append((plot(doc, out / "compare.png"), "CAN vs EPL vs EtherCAT for that log"))
     return files

@@ -149,7 +149,7 @@ def test_can_decode_reports_malformed_and_orphans(
         (["can", "decode", "missing.asc"], "cannot read"),
         (["can", "decode", "junk.log"], "not a readable .log trace"),
         (["can"], "CAN_COMMAND"),
-        (["can", "decode"], "trace"),
+        (["can", "decode"], "LOG"),
         (["can", "decode", "x.asc", "--skin-class", "5"], "invalid choice"),
         (["can", "frobnicate"], "invalid choice"),
     ],
