@@ -19,10 +19,8 @@ from __future__ import annotations
 
 import argparse
 import os
-import resource
 import shutil
 import statistics
-import subprocess
 import sys
 import tempfile
 import time
@@ -30,6 +28,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
+
+from bench_decode import run_process as timed  # noqa: E402  (this folder: sys.path[0])
 
 from emulator import WIRE, simulate_ecat, simulate_epl  # noqa: E402
 from skinframes.analysis import analyze_capture, analyze_file  # noqa: E402
@@ -59,16 +59,6 @@ ECAT_FIELDS = (
     "ecat.subframe.length",
     "ecat.cnt",
 )
-
-
-def timed(argv: list[str]) -> tuple[float, float]:
-    """(wall seconds, CPU seconds: user + system of the child) of one run."""
-    before = resource.getrusage(resource.RUSAGE_CHILDREN)
-    start = time.perf_counter()
-    subprocess.run(argv, stdout=subprocess.DEVNULL, stderr=subprocess.DEVNULL, check=True)
-    wall = time.perf_counter() - start
-    after = resource.getrusage(resource.RUSAGE_CHILDREN)
-    return wall, (after.ru_utime - before.ru_utime) + (after.ru_stime - before.ru_stime)
 
 
 def main() -> None:
