@@ -30,14 +30,12 @@ import numpy.typing as npt
 
 from skinframes.capture_writer import (
     BYTE_ORDER_MAGIC,
-    MAGIC_NS,
-    MAGIC_US,
     NS_PER_S,
     PCAP_HEADER_BYTES,
     SNAPLEN,
 )
 from skinframes.errors import PcapFormatError
-from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC
+from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC, classic_header
 
 __all__ = ["RecordArrays", "read_record_arrays", "u16_at", "u32_at"]
 
@@ -138,32 +136,18 @@ def _gunzip(raw: bytes) -> bytes:
 
 
 def _pcap(raw: bytes | mmap.mmap, data: npt.NDArray[np.uint8], name: str) -> RecordArrays:
-    if len(raw) < PCAP_HEADER_BYTES:
-        raise PcapFormatError(f"{name}: {len(raw)} bytes, the pcap header needs 24")
-    (magic_le,) = struct.unpack_from("<I", raw)
-    (magic_be,) = struct.unpack_from(">I", raw)
-    if magic_le in (MAGIC_US, MAGIC_NS):
-        order, magic = "<", magic_le
-    elif magic_be in (MAGIC_US, MAGIC_NS):
-        order, magic = ">", magic_be
-    else:
-        raise PcapFormatError(
-            f"{name}: magic {bytes(raw[:4]).hex()} is neither pcap (a1b2c3d4 / a1b23c4d) nor pcapng"
-        )
-    major, _minor, _zone, _sig, snaplen, network = struct.unpack_from(order + "HHiIII", raw, 4)
-    if major != 2:
-        raise PcapFormatError(f"{name}: pcap version {major}, expected 2")
+    header = classic_header(bytes(raw[:PCAP_HEADER_BYTES]), name)
+    order, snaplen, scale = header.order, header.snaplen, header.ns_per_tick
     limit = max(snaplen, SNAPLEN)
     starts = _walk_pcap(raw, order, limit)
     big = order == ">"
     sec = u32_at(data, starts, big)
     frac = u32_at(data, starts + 4, big)
     length = u32_at(data, starts + 8, big)
-    scale = 1 if magic == MAGIC_NS else 1000
     ok = frac < (NS_PER_S if scale == 1 else 1_000_000)
     index = np.flatnonzero(ok).astype(np.int64)
     time_ns = sec[ok] * NS_PER_S + frac[ok] * scale
-    linktype = np.full(index.shape, network & 0xFFFF, dtype=np.int64)
+    linktype = np.full(index.shape, header.linktype, dtype=np.int64)
     return RecordArrays(
         data, starts[ok] + PCAP_RECORD_HEADER_BYTES, length[ok], time_ns, linktype, index
     )

@@ -143,6 +143,44 @@ class Record:
         return self.index + 1
 
 
+PCAP_MAJOR: Final = 2  # the classic pcap version the readers accept (section 4)
+
+
+@dataclass(frozen=True, slots=True)
+class PcapHeader:
+    """A classic pcap's global header (draft-ietf-opsawg-pcap section 4), as the readers use it."""
+
+    order: str  # struct byte order of the whole file: "<" or ">"
+    ns_per_tick: int  # 1 (nanosecond magic a1b23c4d) or 1000 (microsecond magic a1b2c3d4)
+    snaplen: int
+    linktype: int  # LinkType, the low 16 bits of the network field (bits 26-31: FCS flags)
+
+
+def classic_header(head: bytes, name: str) -> PcapHeader:
+    """The global header of a classic pcap from its first 24 bytes (both byte orders, both
+    magics, version 2 only).
+
+    Raises:
+        PcapFormatError: fewer than 24 bytes, another magic, or another major version.
+    """
+    if len(head) < PCAP_HEADER_BYTES:
+        raise PcapFormatError(
+            f"{name}: {len(head)} bytes, the pcap header needs {PCAP_HEADER_BYTES}"
+        )
+    for order in "<>":
+        (magic,) = struct.unpack_from(order + "I", head)
+        if magic in (MAGIC_US, MAGIC_NS):
+            break
+    else:
+        raise PcapFormatError(
+            f"{name}: magic {bytes(head[:4]).hex()} is neither pcap (a1b2c3d4 / a1b23c4d) nor pcapng"
+        )
+    major, _minor, _zone, _sig, snaplen, network = struct.unpack_from(order + "HHiIII", head, 4)
+    if major != PCAP_MAJOR:
+        raise PcapFormatError(f"{name}: pcap version {major}, expected {PCAP_MAJOR}")
+    return PcapHeader(order, 1 if magic == MAGIC_NS else 1000, snaplen, network & 0xFFFF)
+
+
 @dataclass(frozen=True, slots=True)
 class Skipped:
     """A record that could not be read, with the reason (``code``: the finding ``check`` shows)."""
@@ -477,26 +515,8 @@ class _Source:
 
     # --- classic pcap ------------------------------------------------------------------------------
     def _read_pcap_header(self, magic: bytes) -> tuple[str, int, int, int]:
-        rest = self.input.read(PCAP_HEADER_BYTES - 4)
-        if len(rest) < PCAP_HEADER_BYTES - 4:
-            raise PcapFormatError(
-                f"{self.name}: {4 + len(rest)} bytes, the pcap header needs {PCAP_HEADER_BYTES}"
-            )
-        magic_le = struct.unpack("<I", magic)[0]
-        magic_be = struct.unpack(">I", magic)[0]
-        if magic_le in (MAGIC_US, MAGIC_NS):
-            order, value = "<", magic_le
-        elif magic_be in (MAGIC_US, MAGIC_NS):
-            order, value = ">", magic_be
-        else:
-            raise PcapFormatError(
-                f"{self.name}: magic {magic.hex()} is neither pcap (a1b2c3d4 / a1b23c4d) nor pcapng"
-            )
-        major, _minor, _zone, _sig, snaplen, network = struct.unpack(order + "HHiIII", rest)
-        if major != 2:
-            raise PcapFormatError(f"{self.name}: pcap version {major}, expected 2")
-        scale = 1 if value == MAGIC_NS else 1000
-        return order, scale, snaplen, network & 0xFFFF  # LT_LINKTYPE; bits 26-31: FCS flags
+        h = classic_header(magic + self.input.read(PCAP_HEADER_BYTES - 4), self.name)
+        return h.order, h.ns_per_tick, h.snaplen, h.linktype
 
     def _pcap_records(self, tally: _Tally) -> Iterator[Record]:
         order, scale, snaplen, linktype = self._pcap

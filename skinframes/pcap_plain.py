@@ -18,14 +18,14 @@ from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import BinaryIO, Final, TypeAlias
 
-from skinframes.capture_writer import MAGIC_NS, MAGIC_US, NS_PER_S, PCAP_HEADER_BYTES
-from skinframes.pcap import MAX_RECORD_BYTES, Record
+from skinframes.capture_writer import NS_PER_S, PCAP_HEADER_BYTES
+from skinframes.errors import PcapFormatError
+from skinframes.pcap import MAX_RECORD_BYTES, Record, classic_header
 
 __all__ = ["NotPlainError", "RecordRow", "iter_plain_pcap", "record_rows"]
 
 CHUNK_BYTES: Final = 1 << 16  # read at a time (the reader's too); a longer record is read whole
 RECORD_HEADER_BYTES: Final = 16  # ts_sec, ts_frac, caplen, origlen (u32 each), section 5
-PCAP_MAJOR: Final = 2  # the version the reader accepts (section 4)
 _US_PER_S: Final = 1_000_000
 
 
@@ -63,22 +63,14 @@ def iter_plain_pcap(path: str | Path) -> Iterator[RecordRow]:
     """
     f = open(path, "rb")  # noqa: SIM115  # closed by _records when it ends
     try:
-        head = f.read(PCAP_HEADER_BYTES)
-        if len(head) < PCAP_HEADER_BYTES:
-            raise NotPlainError("short header")
-        for order in "<>":
-            magic = struct.unpack_from(order + "I", head)[0]
-            if magic in (MAGIC_US, MAGIC_NS):
-                break
-        else:
-            raise NotPlainError("not a classic pcap")
-        major, _minor, _zone, _sig, snaplen, network = struct.unpack_from(order + "HHiIII", head, 4)
-        if major != PCAP_MAJOR:
-            raise NotPlainError(f"version {major}")
+        header = classic_header(f.read(PCAP_HEADER_BYTES), str(path))
+    except PcapFormatError as e:
+        f.close()
+        raise NotPlainError(str(e)) from e
     except BaseException:
         f.close()
         raise
-    return _records(f, order, magic == MAGIC_NS, snaplen, network & 0xFFFF)
+    return _records(f, header.order, header.ns_per_tick == 1, header.snaplen, header.linktype)
 
 
 def _records(f: BinaryIO, order: str, ns: bool, snaplen: int, linktype: int) -> Iterator[RecordRow]:
