@@ -39,33 +39,39 @@ def add_convert(sub: Any) -> None:
 
 def run_convert(args: argparse.Namespace) -> int:
     """Convert and report."""
-    from emulator.compare import read_skin_samples
     from emulator.model.params import preset
     from emulator.net import simulate_ecat, simulate_epl
+    from emulator.skin_samples import SkinLog
     from skinframes.errors import SkinframesError
+    from skinframes_cli.progress import progress_bar
 
     if args.target == "epl" and args.redundant:
         raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
-    s = read_skin_samples(args.trace)
+    log = SkinLog.open(args.trace)  # the first pass: boards, period, the cycle of each sample
     params = preset(args.preset)
-    n, size, cycles = len(s.boards), s.data_bytes, s.samples
-    if args.target == "epl":
-        r = simulate_epl(n, size, params, cycles=cycles, payloads=s.taxels, pcap=args.pcap)
-    else:
-        r = simulate_ecat(
-            n,
-            size,
-            params,
-            closed_ring=args.redundant,
-            cycles=cycles,
-            payloads=s.taxels,
-            pcap=args.pcap,
-        )
+    n, size, cycles = len(log.boards), log.data_bytes, log.samples
+    with progress_bar(cycles, "cycles") as bar:
+        payloads = log.taxel_chunks()  # the second pass, as the cycles need them
+        if args.target == "epl":
+            r = simulate_epl(
+                n, size, params, cycles=cycles, payloads=payloads, pcap=args.pcap, progress=bar
+            )
+        else:
+            r = simulate_ecat(
+                n,
+                size,
+                params,
+                closed_ring=args.redundant,
+                cycles=cycles,
+                payloads=payloads,
+                pcap=args.pcap,
+                progress=bar,
+            )
     print(
-        f"{cycles} samples of {n} boards ({', '.join(map(str, s.boards))}) x {size} bytes -> "
+        f"{cycles} samples of {n} boards ({', '.join(map(str, log.boards))}) x {size} bytes -> "
         f"{r.frames} frames, {r.protocol} {r.topology}, cycle {r.cycle_us()['median']:.2f} us "
         f"({args.preset} preset): {args.pcap}"
     )
-    if s.left_out.anything:
-        print(f"skinframes: {s.left_out.text()}", file=sys.stderr)
+    if log.left_out.anything:
+        print(f"skinframes: {log.left_out.text()}", file=sys.stderr)
     return 0

@@ -47,10 +47,10 @@ def add_parser(sub: Any) -> None:
 
 def comparison(trace_path: str, preset_name: str) -> dict[str, Any]:
     """The comparison document for a CAN log file."""
-    from emulator.compare import compare, read_skin_samples
+    from emulator.compare import SkinLog, compare
     from emulator.model.params import preset
 
-    return compare(read_skin_samples(trace_path), preset(preset_name))
+    return compare(SkinLog.open(trace_path), preset(preset_name))
 
 
 def _rows(doc: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
@@ -114,10 +114,10 @@ def plot(doc: dict[str, Any], out: Path) -> Path:
 
 def run(args: argparse.Namespace) -> int:
     """Compare and report."""
-    from emulator.compare import compare, read_skin_samples
+    from emulator.compare import SkinLog, compare
     from emulator.model.params import preset
 
-    samples = read_skin_samples(args.trace)
+    samples = SkinLog.open(args.trace)  # read twice, never held (emulator.skin_samples)
     doc = compare(samples, preset(args.preset))
     if samples.left_out.anything:
         print(f"skinframes: {samples.left_out.text()}", file=sys.stderr)

@@ -17,7 +17,7 @@ from emulator.net.ecat import EcatEngine
 from emulator.net.epl import EplEngine
 from emulator.net.faults import Fault
 from emulator.net.result import SimResult
-from emulator.net.run import Engine, Sink, run
+from emulator.net.run import Engine, Payloads, Sink, run
 from emulator.net.startup import StartupRecord
 from skinframes.pcap import CaptureWriter
 from skinframes.vlan import VlanTag
@@ -64,7 +64,7 @@ def _execute(
     cycles: int,
     *,
     seed: int,
-    payloads: npt.NDArray[np.uint8] | None,
+    payloads: Payloads | None,
     pcap: str | os.PathLike[str] | None,
     sink: Sink | None,
     progress: Callable[[int], None] | None,
@@ -138,7 +138,7 @@ def simulate_ecat(
     layout: str = "per-slave",
     cycles: int = 4,
     seed: int = 0,
-    payloads: npt.NDArray[np.uint8] | None = None,
+    payloads: Payloads | None = None,
     faults: tuple[Fault, ...] = (),
     pcap: str | os.PathLike[str] | None = None,
     sink: Sink | None = None,
@@ -154,8 +154,9 @@ def simulate_ecat(
     Args:
         closed_ring: the master's second port closes the ring (``redundant`` is its old name).
         layout: ``per-slave`` (one LRD per slave, the paper's) or ``logical``.
-        payloads: (cycles, nodes, data_bytes) uint8 taxels to carry (e.g. a CAN trace's
-            samples); seeded contact patterns when None.
+        payloads: (cycles, nodes, data_bytes) uint8 taxels to carry (e.g. a CAN log's
+            samples), or such arrays of consecutive cycles from an iterable, taken as the
+            cycles need them (a long log streamed); seeded contact patterns when None.
         faults: the fault plan.
         pcap: write the frames at the master's port(s) to this capture as they come (pcap, or
             pcapng by its suffix: ports as interfaces, direction flags, marked bit errors).
@@ -213,7 +214,7 @@ def simulate_epl(
     *,
     cycles: int = 4,
     seed: int = 0,
-    payloads: npt.NDArray[np.uint8] | None = None,
+    payloads: Payloads | None = None,
     asnd: bool = False,
     pres_timeout_ps: int | None = None,
     faults: tuple[Fault, ...] = (),

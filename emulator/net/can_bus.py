@@ -11,6 +11,8 @@ previous one is on the wire. Frame lengths are the exact bit counts of ``skinfra
 from __future__ import annotations
 
 import heapq
+from collections import deque
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Final
 
@@ -22,7 +24,7 @@ from emulator.model.units import PS_PER_NS, PS_PER_S
 from skinframes import canbus
 from skinframes.canbus.wire import CanFrame
 
-__all__ = ["BusFrame", "CanSchedule", "arbitrate", "bit_time_ps", "skin_bus"]
+__all__ = ["BusFrame", "CanArbiter", "CanSchedule", "arbitrate", "bit_time_ps", "skin_bus"]
 
 DEFAULT_BITRATE_BPS: Final = 1_000_000  # the skin bus (can.md 1.5)
 
@@ -78,43 +80,80 @@ def arbitrate(frames: list[BusFrame], bitrate_bps: int = DEFAULT_BITRATE_BPS) ->
         ScheduleError: two nodes offer the same identifier at once (a real bus would see a
             bit error in the data field; skin ids are unique per board).
     """
-    bit = bit_time_ps(bitrate_bps)
-    if not frames:
-        empty = np.zeros(0, dtype=np.int64)
-        return CanSchedule((), empty, empty, bit)
-    queues: dict[int, list[int]] = {}
-    for i in sorted(range(len(frames)), key=lambda i: (frames[i].release_ps, i)):
-        queues.setdefault(frames[i].node, []).append(i)
-    heads = dict.fromkeys(queues, 0)
+    bus = CanArbiter(bitrate_bps)
     start = np.zeros(len(frames), dtype=np.int64)
     end = np.zeros(len(frames), dtype=np.int64)
-    # candidates: (can_id, node, index) of queue heads already released
-    ready: list[tuple[int, int, int]] = []
-    waiting: list[tuple[int, int]] = []  # (release, node) of queue heads not yet released
-    for node, q in queues.items():
-        heapq.heappush(waiting, (frames[q[0]].release_ps, node))
-    t = 0
-    done = 0
-    while done < len(frames):
-        while waiting and waiting[0][0] <= t:
-            _, node = heapq.heappop(waiting)
-            i = queues[node][heads[node]]
-            heapq.heappush(ready, (frames[i].can_id, node, i))
-        if not ready:
-            t = waiting[0][0]
-            continue
-        can_id, node, i = heapq.heappop(ready)
-        if ready and ready[0][0] == can_id:
-            raise ScheduleError(f"CAN: nodes {node} and {ready[0][1]} both send id {can_id:#x}")
-        start[i] = t
-        t += frames[i].bits * bit
-        end[i] = t
-        done += 1
-        heads[node] += 1
-        if heads[node] < len(queues[node]):
-            nxt = queues[node][heads[node]]
-            heapq.heappush(waiting, (max(frames[nxt].release_ps, t), node))
-    return CanSchedule(tuple(frames), start, end, bit)
+    order = sorted(range(len(frames)), key=lambda i: (frames[i].release_ps, i))
+    bus.offer((frames[i], i) for i in order)
+    for _, i, t0, t1 in bus.run():
+        start[i], end[i] = t0, t1
+    return CanSchedule(tuple(frames), start, end, bus.bit_ps)
+
+
+class CanArbiter:
+    """:func:`arbitrate` for frames offered batch by batch, in order of release time.
+
+    :meth:`run` schedules the frames as far as those offered decide: a frame offered later is
+    released no earlier than ``until_ps``, so every choice the bus makes before then is final.
+    Memory is that of the frames offered and not yet through, however long the log.
+    """
+
+    def __init__(self, bitrate_bps: int = DEFAULT_BITRATE_BPS) -> None:
+        self.bit_ps = bit_time_ps(bitrate_bps)
+        self._queues: dict[int, deque[tuple[BusFrame, int]]] = {}  # per node: its FIFO
+        self._free: dict[int, int] = {}  # per node: when its last frame left the bus
+        self._waiting: list[tuple[int, int]] = []  # (release, node) of unreleased queue heads
+        self._ready: list[tuple[int, int, int]] = []  # (can_id, node, seq) of released heads
+        self._t = 0  # bus time: the bus is idle from here
+        self._released = 0  # the latest release offered
+
+    def offer(self, frames: Iterable[tuple[BusFrame, int]]) -> None:
+        """Queue ``(frame, tag)`` pairs, in order of release (ties: in the order given)."""
+        for frame, tag in frames:
+            if frame.release_ps < self._released:
+                raise ScheduleError(
+                    f"CAN: a frame released at {frame.release_ps} ps offered after one "
+                    f"released at {self._released} ps"
+                )
+            self._released = frame.release_ps
+            q = self._queues.setdefault(frame.node, deque())
+            q.append((frame, tag))
+            if len(q) == 1:  # the node's new head: it competes once released and its FIFO free
+                heapq.heappush(
+                    self._waiting,
+                    (max(frame.release_ps, self._free.get(frame.node, 0)), frame.node),
+                )
+
+    def run(self, until_ps: int | None = None) -> list[tuple[BusFrame, int, int, int]]:
+        """Schedule the frames whose turn comes before ``until_ps`` (None: all of them):
+        ``(frame, tag, start_ps, end_ps)`` in the order they take the bus."""
+        waiting, ready, queues = self._waiting, self._ready, self._queues
+        out: list[tuple[BusFrame, int, int, int]] = []
+        t = self._t
+        while waiting or ready:
+            if until_ps is not None and t >= until_ps:
+                break
+            while waiting and waiting[0][0] <= t:
+                _, node = heapq.heappop(waiting)
+                frame = queues[node][0][0]
+                heapq.heappush(ready, (frame.can_id, node, queues[node][0][1]))
+            if not ready:
+                if until_ps is not None and waiting[0][0] >= until_ps:
+                    break
+                t = waiting[0][0]
+                continue
+            can_id, node, _ = heapq.heappop(ready)
+            if ready and ready[0][0] == can_id:
+                raise ScheduleError(f"CAN: nodes {node} and {ready[0][1]} both send id {can_id:#x}")
+            q = queues[node]
+            frame, tag = q.popleft()
+            out.append((frame, tag, t, t + frame.bits * self.bit_ps))
+            t += frame.bits * self.bit_ps
+            self._free[node] = t
+            if q:
+                heapq.heappush(waiting, (max(q[0][0].release_ps, t), node))
+        self._t = t
+        return out
 
 
 def skin_bus(

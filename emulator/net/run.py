@@ -15,8 +15,8 @@ from __future__ import annotations
 import queue
 import threading
 from collections import Counter, deque
-from collections.abc import Callable
-from typing import Final, Protocol
+from collections.abc import Callable, Iterable, Iterator
+from typing import Final, Protocol, TypeAlias
 
 import numpy as np
 import numpy.typing as npt
@@ -27,12 +27,23 @@ from emulator.net.cycle import FILL_FRAME, FILL_TAXELS, Cycle, Record
 from emulator.net.result import CycleDetail, SimResult
 from skinframes import ethernet, taxel
 
-__all__ = ["BLOCK_BYTES", "MAX_LISTED", "Engine", "MemorySink", "Sink", "TaxelSource", "run"]
+__all__ = [
+    "BLOCK_BYTES",
+    "MAX_LISTED",
+    "Engine",
+    "MemorySink",
+    "Payloads",
+    "Sink",
+    "TaxelSource",
+    "run",
+]
 
 BLOCK_BYTES: Final = 32 << 20  # frame bytes per block of repeated cycles (taxels drawn at once)
 MAX_LISTED: Final = 10_000  # cycles_detail entries at most (the rest are counted)
 PREFETCH_BYTES: Final = 8 << 20  # taxel bytes per chunk the producer thread draws ahead
 PREFETCH_CHUNKS: Final = 2  # chunks waiting at most (memory: about 3 chunks)
+# taxels to carry: (cycles, nodes, data_bytes) uint8, or such chunks in order (TaxelSource)
+Payloads: TypeAlias = npt.NDArray[np.uint8] | Iterable[npt.NDArray[np.uint8]]
 
 
 class Engine(Protocol):
@@ -114,8 +125,11 @@ class MemorySink:
 
 
 class TaxelSource:
-    """The taxel bytes of consecutive cycles: given (e.g. a CAN trace's samples) or seeded.
+    """The taxel bytes of consecutive cycles: given (e.g. a CAN log's samples) or seeded.
 
+    Given taxels are one (cycles, nodes, data_bytes) array, or consecutive (m, nodes,
+    data_bytes) chunks from an iterable that yields them as they are needed (a CAN log read as
+    the cycles go, :class:`emulator.skin_samples.SkinLog`), whose lengths add up to ``cycles``.
     Seeded taxels are drawn ahead by a producer thread, chunk by chunk (``PREFETCH_BYTES`` each,
     at most ``PREFETCH_CHUNKS`` waiting), while the driver assembles and writes the cycles
     before them: the generator releases the GIL, and so do numpy's copies and the file writes.
@@ -130,10 +144,13 @@ class TaxelSource:
         cycles: int,
         *,
         seed: int = 0,
-        payloads: npt.NDArray[np.uint8] | None = None,
+        payloads: Payloads | None = None,
     ) -> None:
         self.shape = (nodes, data_bytes)
+        self._cycles = cycles
         self._given: npt.NDArray[np.uint8] | None = None
+        self._given_chunks: Iterator[npt.NDArray[np.uint8]] | None = None
+        self._delivered = 0  # cycles the given chunks have yielded so far
         self._taken = 0
         self._chunks: queue.Queue[npt.NDArray[np.uint8] | BaseException] = queue.Queue(
             PREFETCH_CHUNKS
@@ -141,13 +158,11 @@ class TaxelSource:
         self._ahead: npt.NDArray[np.uint8] | None = None  # the rest of the chunk being taken
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
+        if isinstance(payloads, np.ndarray):
+            self._given = self._checked(payloads, cycles)
+            return
         if payloads is not None:
-            arr = np.asarray(payloads)
-            if arr.dtype != np.uint8 or arr.shape != (cycles, nodes, data_bytes):
-                raise PayloadError(
-                    f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, nodes, data_bytes)}"
-                )
-            self._given = arr
+            self._given_chunks = iter(payloads)
             return
         stream = taxel.PayloadStream(nodes, cycles, data_bytes, seed=seed)
         chunk = max(1, PREFETCH_BYTES // (nodes * max(data_bytes, taxel.PATCH_BYTES)))
@@ -155,6 +170,14 @@ class TaxelSource:
             target=self._produce, args=(stream, cycles, chunk), name="taxels", daemon=True
         )
         self._thread.start()
+
+    def _checked(self, arr: npt.NDArray[np.uint8], cycles: int) -> npt.NDArray[np.uint8]:
+        """``arr`` if it is uint8 (cycles, nodes, data_bytes), else PayloadError."""
+        if arr.dtype != np.uint8 or arr.shape != (cycles, *self.shape):
+            raise PayloadError(
+                f"payloads: {arr.dtype} {arr.shape}, expected uint8 {(cycles, *self.shape)}"
+            )
+        return arr
 
     def _produce(self, stream: taxel.PayloadStream, cycles: int, chunk: int) -> None:
         """The producer thread: every cycle's taxels, chunk by chunk, into the queue."""
@@ -193,13 +216,40 @@ class TaxelSource:
         return self.take(min(count, max(multiple, held // multiple * multiple)))
 
     def _held(self) -> npt.NDArray[np.uint8]:
-        """The rest of the current chunk (the next one from the producer when it is used up)."""
+        """The rest of the current chunk (the next one from the producer, or from the given
+        chunks, when it is used up)."""
         if self._ahead is None or not len(self._ahead):
+            if self._given_chunks is not None:
+                self._ahead = self._next_given()
+                return self._ahead
             item = self._chunks.get()
             if isinstance(item, BaseException):
                 raise item
             self._ahead = item
         return self._ahead
+
+    def _next_given(self) -> npt.NDArray[np.uint8]:
+        """The next given chunk: PayloadError if it is not uint8 (m, nodes, data_bytes), or
+        when the chunks end before ``cycles``."""
+        assert self._given_chunks is not None
+        chunk = next(self._given_chunks, None)
+        if chunk is None:
+            raise PayloadError(
+                f"payloads: the chunks hold {self._delivered} cycles, {self._cycles} expected"
+            )
+        arr = np.asarray(chunk)
+        m = arr.shape[0] if arr.ndim == 3 and arr.shape[0] else 1
+        self._checked(arr, m)
+        self._delivered += m
+        return arr
+
+    def finish(self) -> None:
+        """After the last cycle: PayloadError if the given chunks hold more cycles."""
+        if self._given_chunks is None:
+            return
+        total = self._delivered + sum(len(np.asarray(chunk)) for chunk in self._given_chunks)
+        if total != self._cycles:
+            raise PayloadError(f"payloads: the chunks hold {total} cycles, {self._cycles} expected")
 
     def close(self) -> None:
         """Stop the producer thread (it ends within its current chunk)."""
@@ -230,7 +280,7 @@ def run(
     params_name: str,
     sink: Sink | None = None,
     seed: int = 0,
-    payloads: npt.NDArray[np.uint8] | None = None,
+    payloads: Payloads | None = None,
     progress: Callable[[int], None] | None = None,
     fast: bool = True,
     every_cycle: bool = False,
@@ -328,6 +378,8 @@ def run(
                 progress(q * period_len)
             start += q * period_ps
             c += q * period_len
+        if source is not None:
+            source.finish()
         return result, events
     finally:
         if source is not None:
