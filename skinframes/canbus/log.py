@@ -470,8 +470,7 @@ class CanLogReader:
     # SocketCAN pcap
     def _pcap(self) -> Iterator[CanFrame | DataTuple]:
         capture = read_capture(self.path)  # raises PcapFormatError, a DecodeError
-        skipped = {s.index: s.reason for s in capture.skipped}
-        for rec in capture.records:
+        for rec in capture:  # record by record, none held
             if rec.linktype != LINKTYPE_CAN_SOCKETCAN:
                 self._skip(rec.index, f"linktype {rec.linktype} record, not SocketCAN")
                 continue
@@ -483,8 +482,8 @@ class CanLogReader:
             self._records += 1
             self._decoded += 1
             yield frame
-        for index, reason in sorted(skipped.items()):
-            self._skip(index, reason)
+        for s in capture.skipped:  # what the pass just made could not read
+            self._skip(s.index, s.reason)
         self.damaged.sort(key=lambda s: s.index)
 
 
