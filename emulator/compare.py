@@ -26,6 +26,7 @@ from emulator.model.units import PS_PER_US
 from emulator.net import simulate_ecat, simulate_epl
 from emulator.net.can_bus import BusFrame, CanArbiter, bit_time_ps
 from emulator.net.result import SimResult
+from emulator.net.sweep import ecat_cycle_ps, epl_cycle_ps
 from emulator.skin_samples import LeftOut, SkinLog, SkinSamples, read_skin_samples, samples_of
 from skinframes import canbus, powerlink, taxel
 
@@ -147,14 +148,16 @@ def compare(s: SkinSamples | SkinLog, params: TimingParams) -> dict[str, Any]:
     epl = simulate_epl(n, size, params, cycles=cycles, payloads=load)
     ecat = simulate_ecat(n, size, params, cycles=cycles, payloads=load)
 
+    # the most patches within a budget: one steady cycle each, from the engines' timing-only
+    # sweep (emulator.net.sweep: the same timing as simulate(..., cycles=1), no frame bytes)
+    patch = np.array([taxel.PATCH_BYTES], dtype=np.int64)
+
     def epl_fits(budget: float) -> Any:
-        return lambda k: (
-            simulate_epl(k, taxel.PATCH_BYTES, params, cycles=1).cycle_us()["max"] <= budget
-        )
+        return lambda k: int(epl_cycle_ps(k, patch, params)[0]) / PS_PER_US <= budget
 
     def ecat_fits(budget: float) -> Any:
         return lambda k: (
-            simulate_ecat(k, taxel.PATCH_BYTES, params, cycles=1).cycle_us()["max"] <= budget
+            int(ecat_cycle_ps(k, patch, params, closed_ring=False)[0]) / PS_PER_US <= budget
         )
 
     doc: dict[str, Any] = {

@@ -155,3 +155,20 @@ def test_convert_and_compare_keep_every_complete_sample_and_say_what_they_left_o
     assert lo["cycles_missing_board"] == {"13": 1}
     assert [b["board"] for b in lo["boards"]] == [10, 13, 14]
     assert captured.err.startswith("skinframes: left out:")
+
+
+def test_the_most_patches_within_a_budget_are_where_simulate_crosses_it(
+    skin_trace: tuple[Path, np.ndarray], capsys: pytest.CaptureFixture[str]
+) -> None:
+    """compare finds the limits with the timing-only sweep; simulate itself puts each limit
+    exactly there: k patches of 192 bytes fit the budget, k + 1 do not."""
+    from emulator import WIRE, simulate_ecat, simulate_epl
+
+    assert main(["compare", str(skin_trace[0]), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    runs = {"epl": simulate_epl, "ecat": simulate_ecat}
+    for bus, simulate in runs.items():
+        for budget_us in (1_000, 5_000):
+            k = doc[bus][f"max_nodes_{budget_us // 1000}ms"]
+            assert simulate(k, 192, WIRE, cycles=1).cycle_us()["max"] <= budget_us
+            assert simulate(k + 1, 192, WIRE, cycles=1).cycle_us()["max"] > budget_us
