@@ -16,6 +16,7 @@ padded frame and FCS of every frame the master's port sends or receives once, IF
 from __future__ import annotations
 
 import array
+from collections.abc import Callable
 from typing import Any, Final
 
 import numpy as np
@@ -111,9 +112,15 @@ def _largest(fits: Any, hi: int) -> int:
     return lo
 
 
-def compare(s: SkinSamples | SkinLog, params: TimingParams) -> dict[str, Any]:
+def compare(
+    s: SkinSamples | SkinLog,
+    params: TimingParams,
+    *,
+    progress: Callable[[int], None] | None = None,
+) -> dict[str, Any]:
     """The comparison document (``skinframes compare --json``), from the cycles as they come
-    (a :class:`SkinLog` is read once more; memory does not grow with its frames)."""
+    (a :class:`SkinLog` is read once more; memory does not grow with its frames).
+    ``progress``: called with the number of cycles of each chunk done."""
     bit = bit_time_ps(canbus.BITRATE_BPS)
     period_us = s.period_ps / PS_PER_US
     horizon = s.samples * s.period_ps
@@ -139,6 +146,8 @@ def compare(s: SkinSamples | SkinLog, params: TimingParams) -> dict[str, Any]:
             )
             k += 1
         emulated.add(bus.run(until_ps=k * s.period_ps))
+        if progress is not None:
+            progress(len(chunk.taxels))
     emulated.add(bus.run())
     can_cycle = float(np.median(recorded * bit)) / PS_PER_US
     mean_bits = float(total_bits / frames)

@@ -195,14 +195,17 @@ class SkinLog:
     """The skin samples of a CAN log, grouped into cycles as :class:`SkinSamples`, read twice
     instead of held: the attributes come from the first pass, :meth:`cycles` is the second.
 
-    Use :meth:`open` for a file and :meth:`of` for a log already read.
+    Use :meth:`open` for a file and :meth:`of` for a log already read. ``progress``: called
+    with the number of frames of each batch the first pass reads.
 
     Raises:
         TopologyError: the log holds no complete board sample.
         CanLogFormatError: the file is not a readable CAN log, or changed between the passes.
     """
 
-    def __init__(self, name: str, opener: Opener) -> None:
+    def __init__(
+        self, name: str, opener: Opener, progress: Callable[[int], None] | None = None
+    ) -> None:
         self.name = name
         self._opener = opener
         board = array.array("B")
@@ -216,7 +219,7 @@ class SkinLog:
             span.append(b.span)
             whole.append(b.contiguous)
 
-        counts, records = _exhaust(_one_pass(opener, note))
+        counts, records = _exhaust(_one_pass(opener, note, progress))
         self._board = np.frombuffer(board, np.uint8) if board else np.zeros(0, np.uint8)
         self._start = np.frombuffer(start, np.int64) if start else np.zeros(0, np.int64)
         t = counts.triangles
@@ -262,14 +265,14 @@ class SkinLog:
         )
 
     @classmethod
-    def open(cls, path: str | Path) -> SkinLog:
+    def open(cls, path: str | Path, progress: Callable[[int], None] | None = None) -> SkinLog:
         """A CAN log file (any format :class:`CanLogReader` reads)."""
 
         def opener() -> tuple[Iterable[Batch], Callable[[], RecordCounts | None]]:
             reader = CanLogReader(path)
             return reader.batches(), lambda: reader.record_counts
 
-        return cls(str(path), opener)
+        return cls(str(path), opener, progress)
 
     @classmethod
     def of(cls, log: CanLog) -> SkinLog:
@@ -369,7 +372,9 @@ class SkinLog:
 
 
 def _one_pass(
-    opener: Opener, on_board_sample: Callable[[canbus.BoardSample], object]
+    opener: Opener,
+    on_board_sample: Callable[[canbus.BoardSample], object],
+    progress: Callable[[int], None] | None = None,
 ) -> Generator[None, None, tuple[canbus.FrameCounts, RecordCounts | None]]:
     """One pass over the log through a :class:`canbus.Reassembler`: yields after each batch
     (the board samples it closed have been handed to ``on_board_sample``) and returns the
@@ -383,6 +388,8 @@ def _one_pass(
                 feed_data(item[0], item[1], item[2])
             else:
                 feed(item)
+        if progress is not None:
+            progress(len(batch))
         yield
     return r.finish(), records()
 

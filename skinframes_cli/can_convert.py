@@ -47,7 +47,8 @@ def run_convert(args: argparse.Namespace) -> int:
 
     if args.target == "epl" and args.redundant:
         raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
-    log = SkinLog.open(args.trace)  # the first pass: boards, period, the cycle of each sample
+    with progress_bar(None, "frames") as seen:  # the first pass: the cycle of each sample
+        log = SkinLog.open(args.trace, progress=seen)
     params = preset(args.preset)
     n, size, cycles = len(log.boards), log.data_bytes, log.samples
     with progress_bar(cycles, "cycles") as bar:

@@ -12,6 +12,7 @@ from emulator.model.params import PRESETS
 from skinframes import taxel
 from skinframes.errors import SkinframesError
 from skinframes_cli.figure import save_figure
+from skinframes_cli.progress import progress_bar
 
 ROWS = (
     ("can", "CAN as recorded"),
@@ -117,8 +118,10 @@ def run(args: argparse.Namespace) -> int:
     from emulator.compare import SkinLog, compare
     from emulator.model.params import preset
 
-    samples = SkinLog.open(args.trace)  # read twice, never held (emulator.skin_samples)
-    doc = compare(samples, preset(args.preset))
+    with progress_bar(None, "frames") as seen:  # read twice, never held (emulator.skin_samples)
+        samples = SkinLog.open(args.trace, progress=seen)
+    with progress_bar(samples.samples, "cycles") as done:
+        doc = compare(samples, preset(args.preset), progress=done)
     if samples.left_out.anything:
         print(f"skinframes: {samples.left_out.text()}", file=sys.stderr)
     if args.plot:

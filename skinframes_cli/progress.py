@@ -10,9 +10,10 @@ __all__ = ["progress_bar"]
 
 
 @contextmanager
-def progress_bar(total: int, unit: str) -> Iterator[Callable[[int], None]]:
+def progress_bar(total: int | None, unit: str) -> Iterator[Callable[[int], None]]:
     """A callback that advances a bar by n; the bar shows itself after a second, and only on
-    a terminal (tqdm's ``delay``), so short runs and pipes stay quiet."""
+    a terminal (tqdm's ``delay``), so short runs and pipes stay quiet. ``total`` None: a
+    counter with its rate (the end is not known, as in a log's first pass)."""
     if not sys.stderr.isatty():  # no bar: tqdm is not even imported (start-up time)
         yield _ignore
         return

@@ -149,3 +149,16 @@ def test_taxels_given_in_chunks_are_carried_as_one_array(
         records(iter([taxels, taxels[:1]]))
     with pytest.raises(SkinframesError, match="expected uint8"):
         records(iter([taxels[:, :2]]))
+
+
+def test_progress_counts_every_frame_and_every_cycle_once(
+    bus: tuple[np.ndarray, list[CanFrame]],
+) -> None:
+    from emulator.compare import compare
+
+    frames: list[int] = []
+    log = SkinLog("bus", Batches(bus[1], size=64), progress=frames.append)
+    assert sum(frames) == len(bus[1]) and len(frames) == -(-len(bus[1]) // 64)
+    cycles: list[int] = []
+    compare(log, WIRE, progress=cycles.append)
+    assert sum(cycles) == SAMPLES
