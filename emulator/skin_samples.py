@@ -38,6 +38,8 @@ __all__ = [
 DEFAULT_PERIOD_PS: Final = canbus.DEFAULT_PERIOD_MS * 1_000_000_000
 CHUNK_CYCLES: Final = 256  # cycles per chunk of the second pass
 _PRUNE_SLOTS: Final = 4096  # cycle slots remembered while assigning (older ones are full)
+# times kept as int64 ns: within +-2**62 ns (146 years around 1970), so differences fit too
+MAX_TIME_NS: Final = 1 << 62
 
 Batch = list[canbus.CanFrame | DataTuple]
 # a log opened for one pass: its frames in batches, and its record accounting once read
@@ -214,6 +216,11 @@ class SkinLog:
         whole = array.array("B")
 
         def note(b: canbus.BoardSample) -> None:
+            if not -MAX_TIME_NS <= b.start_ns <= MAX_TIME_NS:
+                raise CanLogFormatError(
+                    f"{name}: a frame at {b.start_ns / 1e9:.6g} s: times beyond "
+                    f"{MAX_TIME_NS / 1e9:.3g} s (146 years) from 0 are not carried"
+                )
             board.append(b.board)
             start.append(b.start_ns)
             span.append(b.span)

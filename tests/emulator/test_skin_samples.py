@@ -162,3 +162,10 @@ def test_progress_counts_every_frame_and_every_cycle_once(
     cycles: list[int] = []
     compare(log, WIRE, progress=cycles.append)
     assert sum(cycles) == SAMPLES
+
+
+def test_times_beyond_146_years_are_one_clear_error(bus: tuple[np.ndarray, list[CanFrame]]) -> None:
+    """A log dated 10**13 s (year 318,000) would overflow the int64 ns times: refused, named."""
+    late = [CanFrame(f.arbitration_id, f.data, time_ns=f.time_ns + 10**22) for f in bus[1]]
+    with pytest.raises(CanLogFormatError, match="146 years"):
+        SkinLog("late", Batches(late))
