@@ -236,7 +236,7 @@ class SkinLog:
             else np.zeros(0, bool)
         )
         if not len(complete):
-            raise TopologyError(f"{name}: no skin samples (class 4 head/tail pairs) in the trace")
+            raise TopologyError(f"{name}: no skin samples (class 4 head/tail pairs) in the log")
         self.triangles = t
         # complete board samples by (start, board), ties in the order they closed
         order = complete[np.lexsort((self._board[complete], self._start[complete]))]

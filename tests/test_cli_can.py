@@ -147,7 +147,7 @@ def test_can_decode_reports_malformed_and_orphans(
     [
         (["can", "decode", "trace.txt"], "unknown CAN log format"),
         (["can", "decode", "missing.asc"], "cannot read"),
-        (["can", "decode", "junk.log"], "not a readable .log trace"),
+        (["can", "decode", "junk.log"], "not a readable .log CAN log"),
         (["can"], "CAN_COMMAND"),
         (["can", "decode"], "LOG"),
         (["can", "decode", "x.asc", "--skin-class", "5"], "invalid choice"),

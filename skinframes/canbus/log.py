@@ -345,7 +345,7 @@ class CanLogReader:
                 frames = tally.lines - (self._records - skipped_before)
                 if frames <= 0:
                     raise CanLogFormatError(
-                        f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
+                        f"{self.path}: not a readable {self.format} CAN log ({_describe(exc)})"
                     ) from exc
                 self._count_frames(frames)
                 self._skip(
@@ -357,7 +357,7 @@ class CanLogReader:
         self._count_frames(tally.lines - (self._records - skipped_before))
         if self._decoded == 0 and self._damaged and not self._reasons.keys() - _DAMAGE_TEXT:
             raise CanLogFormatError(
-                f"{self.path}: not a readable {self.format} trace "
+                f"{self.path}: not a readable {self.format} CAN log "
                 f"({self.damaged[0].reason if self.damaged else 'no frame'})"
             )
 
@@ -392,7 +392,7 @@ class CanLogReader:
             raise CanLogFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
         except Exception as exc:  # python-can readers raise assorted types on bad headers
             raise CanLogFormatError(
-                f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
+                f"{self.path}: not a readable {self.format} CAN log ({_describe(exc)})"
             ) from exc
         with reader:
             try:
@@ -405,7 +405,7 @@ class CanLogReader:
             except Exception as exc:  # ValueError, IndexError, struct.error, zlib, sqlite3 ...
                 if not self._decoded:
                     raise CanLogFormatError(
-                        f"{self.path}: not a readable {self.format} trace ({_describe(exc)})"
+                        f"{self.path}: not a readable {self.format} CAN log ({_describe(exc)})"
                     ) from exc
                 if lines is not None:
                     self._take_lines(lines, frame=False)

@@ -214,7 +214,7 @@ def test_junk_line_is_skipped_with_its_reason_and_reading_goes_on(tmp_path: Path
         1,
     )
     path.write_text("this is not candump\nnor this\n")
-    with pytest.raises(TraceFormatError, match=r"not a readable \.log trace"):
+    with pytest.raises(TraceFormatError, match=r"not a readable \.log CAN log"):
         read_can_log(path)
 
 
