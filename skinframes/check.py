@@ -10,7 +10,7 @@ physical timing: two frames of one sender on one interface that overlap on the w
 from __future__ import annotations
 
 from collections import Counter
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from operator import itemgetter
 from pathlib import Path
@@ -275,11 +275,14 @@ def _socketcan_findings(data: bytes) -> list[Finding]:
     return []
 
 
-def check_capture(capture: Capture) -> CaptureReport:
-    """Run every check on every record of ``capture``, reading it once (streamed)."""
+def check_capture(
+    capture: Capture, *, progress: Callable[[int], None] | None = None
+) -> CaptureReport:
+    """Run every check on every record of ``capture``, reading it once (streamed).
+    ``progress``: called with the number of records read since the last call."""
     report = CaptureReport(capture.path)
     overlap = OverlapChecker()
-    _check_records(report, record_rows(capture), overlap)
+    _check_records(report, _counted(record_rows(capture), progress), overlap)
     report.total = capture.total
     for s in capture.skipped:
         report.findings.append(FrameFinding(s.index, error(s.code, s.reason)))
@@ -289,20 +292,46 @@ def check_capture(capture: Capture) -> CaptureReport:
     return report
 
 
-def check_file(path: str | Path) -> CaptureReport:
+def check_file(path: str | Path, *, progress: Callable[[int], None] | None = None) -> CaptureReport:
     """``check_capture(read_capture(path))``: the same report, read faster where the file is a
     plain classic pcap (:func:`~skinframes.pcap_plain.iter_plain_pcap`, no ``Record`` objects;
-    the reader has nothing to report there: no skipped record, no finding of its own)."""
+    the reader has nothing to report there: no skipped record, no finding of its own). Where it
+    is not, after all, the reader starts again (``progress`` counts the records before twice)."""
     capture = read_capture(path)  # refuses what read_capture refuses, with its message
     if capture.format == "pcap":
         report = CaptureReport(capture.path)
         try:
-            report.total = _check_records(report, iter_plain_pcap(path), OverlapChecker())
+            rows = _counted(iter_plain_pcap(path), progress)
+            report.total = _check_records(report, rows, OverlapChecker())
         except NotPlainError:
             pass  # the reader says what is wrong with the file, from the start
         else:
             return report  # findings come in capture order: nothing to sort in
-    return check_capture(capture)
+    return check_capture(capture, progress=progress)
+
+
+PROGRESS_EVERY: Final = 4096  # records between progress callbacks
+
+
+def _counted(
+    rows: Iterable[RecordRow], progress: Callable[[int], None] | None
+) -> Iterable[RecordRow]:
+    """``rows``, calling ``progress`` every :data:`PROGRESS_EVERY` rows and at the end (as
+    they are; nothing in between without ``progress``)."""
+    if progress is None:
+        return rows
+
+    def counting() -> Iterator[RecordRow]:
+        n = 0
+        for row in rows:
+            yield row
+            n += 1
+            if n == PROGRESS_EVERY:
+                progress(n)
+                n = 0
+        progress(n)
+
+    return counting()
 
 
 # What the checks need of a frame that depend on its judged bytes alone (see _judge)

@@ -17,6 +17,7 @@ from skinframes.check import FrameFinding, check_capture, check_file
 from skinframes.findings import Severity
 from skinframes.text import escape
 from skinframes_cli.decode import open_capture
+from skinframes_cli.progress import progress_bar
 
 
 def add_parser(sub: Any) -> None:
@@ -87,7 +88,12 @@ def _frames(g: Group) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Check and report; the exit status survives a reader that leaves (``| head -1``)."""
-    report = check_capture(open_capture("-")) if args.path == "-" else check_file(args.path)
+    with progress_bar(None, "frames") as advance:  # on a terminal only (no cost elsewhere)
+        seen = advance if sys.stderr.isatty() else None
+        if args.path == "-":
+            report = check_capture(open_capture("-"), progress=seen)
+        else:
+            report = check_file(args.path, progress=seen)
     if args.min_severity is not None:
         floor = Severity[args.min_severity.upper()]
     else:

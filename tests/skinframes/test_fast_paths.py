@@ -316,3 +316,15 @@ def test_overlap_shortcut_keeps_the_boundary() -> None:
             assert checker.feed(2 * i, t0, 0, bytes(6), 1514, False) == []
             found = checker.feed(2 * i + 1, t0 + dt, 0, bytes(6), 60, False)
             assert [f.code for f in found] == want, (dt, i)
+
+
+@pytest.mark.parametrize(
+    "path",
+    [ROOT / "pcaps" / "epl_cycle_4cn.pcap", SHARED / "epl-viz_1CN.pcapng"],  # plain, not plain
+    ids=lambda p: p.name,
+)
+def test_check_counts_every_record_once_for_the_progress_bar(path: Path) -> None:
+    seen: list[int] = []
+    report = check_file(path, progress=seen.append)
+    assert sum(seen) == report.total == read_capture(path).total
+    assert all(n <= check.PROGRESS_EVERY for n in seen)
