@@ -11,7 +11,6 @@ import argparse
 import csv
 import json
 import math
-import operator
 import sys
 from pathlib import Path
 from typing import Any, Final
@@ -22,7 +21,6 @@ from skinframes.analysis.ecat import EcatAnalysis
 from skinframes.analysis.epl import EplAnalysis
 from skinframes.atomic_file import atomic_output
 from skinframes.errors import SkinframesError
-from skinframes.pcap import read_capture
 from skinframes.powerlink import NmtState
 from skinframes_cli.figure import save_figure
 from skinframes_cli.progress import progress_bar
@@ -94,9 +92,8 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".svg"):
         raise SkinframesError(f"{args.plot}: the plot is written as .png or .svg")
     timeout_ns = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1000)
-    # the bar's total costs a pass over the file: only where a bar is shown (a terminal)
-    total = operator.length_hint(read_capture(args.path)) if sys.stderr.isatty() else 0
-    with progress_bar(total, "frames") as advance:
+    # a counter of the frames read, on a terminal (a total would cost a pass over the file)
+    with progress_bar(None, "frames") as advance:
         analysis = analyze_file(
             args.path, expected_wkc=args.expected_wkc, pres_timeout_ns=timeout_ns, progress=advance
         )
