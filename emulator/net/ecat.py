@@ -353,6 +353,7 @@ class EcatEngine(EcatTiming):
                     "the start-up runs on an open ring without faults or VLAN tags only"
                 )
             self.chain = EcatChain.skin(nodes, data_bytes, mailbox=True)
+            self.chain.timebase.params = params  # DC latches: this preset's hops (dc.py)
             self.startup = run_startup(
                 self.chain,
                 lambda t: self._walk(t, False, Counter()).arrive_ps,
