@@ -367,6 +367,10 @@ class EscDevice:
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[tuple[int, ...], ...] = ()
         self.fmmu_span = (0, 0)
+        # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
+        # of every cycle): (frame offset, SyncManager) per (address, length), or None where
+        # the general path decides; worked out per FMMU and SyncManager configuration
+        self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm] | None] = {}
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
@@ -410,6 +414,7 @@ class EscDevice:
             mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
         self._sms = [None] * cfg.syncmanagers
         self._active, self._fmmus, self._pending, self._completed = [], (), [], []
+        self._lrd_plans.clear()
         self.fmmu_span = (0, 0)
         self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
@@ -814,6 +819,14 @@ class EscDevice:
 
     # --- logical access through the FMMUs ------------------------------------------------------
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
+        if cmd == _LRD and self.trace is None:
+            key = (lad, n)
+            plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
+            if plan is not None:
+                rel, sm = plan
+                if not sm.locked and not self.dc_sampling:
+                    self._read_buffer(sm, buf, off + rel)
+                    return 1
         lo, hi = lad, lad + n
         reads: list[tuple[int, ...]] = []
         writes: list[tuple[int, ...]] = []
@@ -839,6 +852,42 @@ class EscDevice:
         if cmd == _LWR:
             return w
         return r + 2 * w
+
+    def _plan_lrd(self, key: tuple[int, int]) -> tuple[int, _Sm] | None:
+        """How an LRD of ``key`` = (address, length) reads, when it is the common case the
+        general path (:meth:`_fmmu_read`, :meth:`_read_phys`, :meth:`_sm_read`) would take
+        one way: one read FMMU, byte-wise, maps part of it onto exactly the whole buffer of a
+        buffered read SyncManager in process memory, which no other SyncManager overlaps."""
+        lad, n = key
+        plan: tuple[int, _Sm] | None = None
+        reads = [f for f in self._fmmus if f[6] and f[0] < lad + n and f[1] > lad]
+        if len(reads) == 1 and reads[0][8]:
+            log_start, log_end, phys = reads[0][:3]
+            lo, hi = max(lad, log_start), min(lad + n, log_end)
+            at, end = phys + (lo - log_start), phys + (hi - log_start)
+            hit = [sm for sm in self._active if sm.start < end and sm.end > at]
+            if (
+                at >= REGISTER_END
+                and len(hit) == 1
+                and (hit[0].start, hit[0].end) == (at, end)
+                and not (hit[0].mailbox or hit[0].ecat_writes)
+            ):
+                plan = (lo - lad, hit[0])
+        return _remember(self._lrd_plans, key, plan, _PLAN_CACHE_ENTRIES)
+
+    def _read_buffer(self, sm: _Sm, buf: bytearray, at: int) -> None:
+        """ECAT reads a whole buffer of a read SyncManager, opening and completing it in one
+        access (datasheet I 8.1; what :meth:`_sm_read` does for that access)."""
+        mem = self.mem
+        st = REG_SM + SM_BYTES * sm.index + 5
+        sm.open = True
+        data = sm.latest if sm.latest is not None else bytes(mem[sm.start : sm.end])
+        sm.buf = data
+        mem[st] = (mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
+        buf[at : at + sm.length] = data
+        if not sm.complete:
+            sm.complete = True
+            self._completed.append(sm)
 
     @staticmethod
     def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
@@ -1088,6 +1137,7 @@ class EscDevice:
         if decoded is None:
             decoded = _remember(_FMMU_CACHE, table, _decode_fmmus(table))
         self._fmmus, self.fmmu_span = decoded
+        self._lrd_plans.clear()
 
     def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
         """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.
@@ -1123,6 +1173,7 @@ class EscDevice:
                 mem[REG_SM + SM_BYTES * z + 5] = SM_NO_BUFFER
         controlling.sort(key=_sm_order)
         self._active = controlling
+        self._lrd_plans.clear()
 
     def _update_dl_status(self) -> None:
         """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).

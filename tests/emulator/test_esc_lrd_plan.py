@@ -1,0 +1,94 @@
+"""The ESC's planned LRD (one whole input buffer through one byte-wise FMMU, the process data of
+every cycle) answers as the general path (FMMU, physical read, SyncManager) does, frame by frame
+and SyncManager register by register: in the cases the plan must leave to the general path
+(a buffer the PDI locked, a SyncManager turned around to ECAT writes) and under hostile frames."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+
+import numpy as np
+import pytest
+
+from emulator.esc.chain import EcatChain, configure_frames
+from emulator.esc.device import REG_SM
+from emulator.esc.hostile import hostile_frames, master_reset_frames
+from skinframes import ethercat, taxel
+from skinframes.ethercat import Command, Datagram, EcatFrame
+
+NODES, SIZE = 6, 8
+IMAGE = NODES * SIZE
+ROWS = taxel.sample_payloads(NODES, 8, SIZE, seed=2)
+
+
+def general(chain: EcatChain) -> EcatChain:
+    """``chain`` with every ESC's plan refused: each LRD takes the general path."""
+    for dev in chain.devices:
+        dev._plan_lrd = lambda key: None  # type: ignore[method-assign]
+    return chain
+
+
+def frame(*dgs: Datagram) -> bytes:
+    return ethercat.frame(EcatFrame(dgs)).to_bytes()
+
+
+def lrd(lad: int, n: int) -> bytes:
+    return frame(Datagram.logical(Command.LRD, lad, bytes(n)))
+
+
+def bwr(ado: int, data: bytes) -> bytes:
+    return frame(Datagram(Command.BWR, 0, ado, data))
+
+
+def same(planned: EcatChain, reference: EcatChain, frames: list[bytes]) -> None:
+    """Both chains answer every frame alike and keep the same SyncManager registers."""
+    for i, f in enumerate(frames):
+        assert planned.process_frame(f) == reference.process_frame(f), f"frame {i}"
+        for a, b in zip(planned.devices, reference.devices, strict=True):
+            assert a.registers(REG_SM, 0x80) == b.registers(REG_SM, 0x80), f"frame {i}"
+
+
+def lock_sm0(chain: EcatChain) -> None:
+    chain.devices[2].pdi_deactivate_sm(0, True)
+
+
+def sm0_to_ecat_writes(chain: EcatChain) -> None:
+    for f in (bwr(0x0806, b"\x00"), bwr(0x0804, b"\x24"), bwr(0x0806, b"\x01")):
+        chain.process_frame(f)
+
+
+def nothing(chain: EcatChain) -> None:
+    pass
+
+
+@pytest.mark.parametrize("change", [nothing, lock_sm0, sm0_to_ecat_writes])
+def test_planned_lrds_answer_as_the_general_path(change: Callable[[EcatChain], None]) -> None:
+    planned = EcatChain.configured(NODES, SIZE)
+    reference = general(EcatChain.configured(NODES, SIZE))
+    for chain in (planned, reference):
+        change(chain)
+    ordinary = [lrd(0, IMAGE), lrd(SIZE, SIZE), lrd(3, 2 * SIZE), lrd(0, IMAGE + 5)]
+    for k in range(len(ROWS)):
+        for chain in (planned, reference):
+            chain.publish(np.ascontiguousarray(ROWS[k]))  # a new buffer: the SM's write event
+        same(planned, reference, ordinary)
+    used = [p for dev in planned.devices for p in dev._lrd_plans.values() if p is not None]
+    # planned where the buffer is a read one (the PDI's lock is looked at when reading)
+    assert bool(used) == (change is not sm0_to_ecat_writes)
+    if change is nothing:
+        back = ethercat.decode(planned.process_frame(lrd(0, IMAGE))[14:])[0].datagrams[0]  # type: ignore[index]
+        assert (back.data, back.wkc) == (ROWS[-1].tobytes(), NODES)
+
+
+def test_planned_lrds_answer_as_the_general_path_under_hostile_frames() -> None:
+    planned = EcatChain.configured(NODES, SIZE)
+    reference = general(EcatChain.configured(NODES, SIZE))
+    ordinary = [lrd(0, IMAGE), lrd(SIZE, SIZE), lrd(0, IMAGE + 5)]
+    setup = master_reset_frames(NODES) + configure_frames(planned.devices[0].info, NODES)
+    for i, f in enumerate(hostile_frames(1_500, nodes=NODES, input_bytes=SIZE, seed=9)):
+        if i % 50 == 0:
+            for chain in (planned, reference):
+                chain.publish(np.ascontiguousarray(ROWS[i // 50 % len(ROWS)]))
+        same(planned, reference, [f, *ordinary, *(setup if i % 100 == 99 else [])])
+    for a, b in zip(planned.devices, reference.devices, strict=True):
+        assert a.registers(0, 0x10000) == b.registers(0, 0x10000)
