@@ -32,7 +32,6 @@ from emulator.skin_samples import LeftOut, SkinLog, SkinSamples, read_skin_sampl
 from skinframes import canbus, powerlink, taxel
 
 __all__ = [
-    "BusTimes",
     "LeftOut",
     "SkinLog",
     "SkinSamples",
@@ -45,7 +44,7 @@ BUDGETS_US: Final = (1_000, 5_000)  # the reactive loops the comparison asks abo
 MAX_EMULATED_SAMPLES: Final = 20  # cycles emulated per Ethernet bus (the cycle repeats exactly)
 
 
-class BusTimes:
+class _BusTimes:
     """What the re-emulated bus did, kept as the frames go through (:class:`CanArbiter`):
     per cycle, when its last frame was through; per board and cycle, when the board's last
     frame of the cycle was; and the bus time the frames occupied before ``horizon_ps``."""
@@ -130,7 +129,7 @@ def compare(
     frames = total_bits = 0
     # re-emulated: every board queues its sample's frames at the period start, in the order sent
     bus = CanArbiter(canbus.BITRATE_BPS)
-    emulated = BusTimes(s.samples, s.period_ps, horizon)
+    emulated = _BusTimes(s.samples, s.period_ps, horizon)
     for chunk in s.cycles(frames=True):
         k = chunk.first
         if k < cycles:
