@@ -17,10 +17,10 @@ left out here too; a damaged tail ends the walk, as it ends the record reader.
 
 from __future__ import annotations
 
-import gzip
 import mmap
 import struct
 import zlib
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -37,7 +37,15 @@ from skinframes.capture_writer import (
 from skinframes.errors import PcapFormatError
 from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC, classic_header
 
-__all__ = ["RecordArrays", "read_record_arrays", "u16_at", "u32_at"]
+__all__ = [
+    "BLOCK_RECORDS",
+    "MAX_GUNZIP_BYTES",
+    "RecordArrays",
+    "iter_record_arrays",
+    "read_record_arrays",
+    "u16_at",
+    "u32_at",
+]
 
 PCAP_RECORD_HEADER_BYTES: Final = 16  # ts_sec, ts_frac, caplen, origlen (u32 each)
 # pcapng block types (draft-ietf-opsawg-pcapng 4.1-4.4, Appendix A for the obsolete Packet Block)
@@ -104,12 +112,40 @@ def read_record_arrays(path: str | Path) -> RecordArrays:
     Raises:
         PcapFormatError: the file cannot be read or is not a capture.
     """
+    blocks = list(iter_record_arrays(path))
+    data = blocks[0].data
+    return RecordArrays(
+        data,
+        *(np.concatenate([getattr(b, name) for b in blocks]) for name in _COLUMNS),
+    )
+
+
+_COLUMNS: Final = ("offset", "length", "time_ns", "linktype", "index")
+BLOCK_RECORDS: Final = 1 << 16  # records per block of iter_record_arrays (columns: ~3 MiB)
+MAX_GUNZIP_BYTES: Final = 256 << 20  # a gzip capture is decompressed whole, up to this size
+
+
+def iter_record_arrays(
+    path: str | Path, block_records: int = BLOCK_RECORDS
+) -> Iterator[RecordArrays]:
+    """:func:`read_record_arrays` block by block: consecutive records, ``block_records`` at a
+    time (at least one block, perhaps empty), every block over the same ``data``.
+
+    The columns of a block are all that is held; the file is mapped, and the pages of the
+    blocks handed out before the last one are released from this process's memory as the
+    next is made (they stay in the page cache, and are read again if used again). A gzip
+    capture is decompressed whole: up to :data:`MAX_GUNZIP_BYTES`, beyond which it is refused
+    (decompress it to a file first).
+
+    Raises:
+        PcapFormatError: the file cannot be read or is not a capture.
+    """
     try:
         with open(path, "rb") as f:
             head = f.read(4)
             if head[:2] == GZIP_MAGIC:
                 f.seek(0)
-                raw: bytes | mmap.mmap = _gunzip(f.read())
+                raw: bytes | bytearray | mmap.mmap = _gunzip(f.read(), str(path))
             elif len(head) < 4:
                 raise PcapFormatError(f"{path}: {len(head)} bytes, not a capture file")
             else:
@@ -120,41 +156,94 @@ def read_record_arrays(path: str | Path) -> RecordArrays:
         raise PcapFormatError(f"{path}: {len(raw)} bytes, not a capture file")
     data = np.frombuffer(raw, dtype=np.uint8)
     if bytes(raw[:4]) == PCAPNG_MAGIC:
-        return _pcapng(raw, data, str(path))
-    return _pcap(raw, data, str(path))
+        blocks = _pcapng(raw, data, str(path), block_records)
+    else:
+        blocks = _pcap(raw, data, str(path), block_records)
+    released = 0
+    for block in blocks:
+        if isinstance(raw, mmap.mmap) and len(block):
+            released = _release(raw, released, int(block.offset[0]) - _RELEASE_MARGIN)
+        yield block
 
 
-def _gunzip(raw: bytes) -> bytes:
-    """The decompressed bytes; a damaged stream gives what decompressed before the damage."""
-    try:
-        return gzip.decompress(raw)
-    except (OSError, EOFError, zlib.error):
+_RELEASE_MARGIN: Final = 8 << 20  # bytes kept mapped before a block (records read again)
+
+
+def _release(raw: mmap.mmap, done: int, upto: int) -> int:
+    """Drop the pages of ``raw`` in [done, upto) from this process (MADV_DONTNEED: a later
+    access reads them again); returns where the released part now ends."""
+    upto -= upto % mmap.PAGESIZE
+    if upto > done and hasattr(mmap, "MADV_DONTNEED"):
+        raw.madvise(mmap.MADV_DONTNEED, done, upto - done)
+        return upto
+    return done
+
+
+def _gunzip(raw: bytes, name: str) -> bytearray:
+    """The decompressed bytes of every gzip member; a damaged stream gives what decompressed
+    before the damage. PcapFormatError beyond :data:`MAX_GUNZIP_BYTES` (found in steps of
+    :data:`_GUNZIP_STEP`, so a bomb costs no more than the limit)."""
+    out = bytearray()
+    while raw[:2] == GZIP_MAGIC:
+        d = zlib.decompressobj(wbits=31)
+        pending = raw
         try:
-            return zlib.decompressobj(wbits=31).decompress(raw)
+            while pending and not d.eof:
+                out += d.decompress(pending, _GUNZIP_STEP)
+                pending = d.unconsumed_tail
+                if len(out) > MAX_GUNZIP_BYTES:
+                    raise PcapFormatError(
+                        f"{name}: decompresses to more than {MAX_GUNZIP_BYTES >> 20} MiB; "
+                        "decompress it to a file first (gunzip), which is then read without "
+                        "limit"
+                    )
         except zlib.error:
-            return b""
+            break
+        if not d.eof:
+            break  # a cut member: what came before its end
+        raw = d.unused_data
+    return out
 
 
-def _pcap(raw: bytes | mmap.mmap, data: npt.NDArray[np.uint8], name: str) -> RecordArrays:
+_GUNZIP_STEP: Final = 16 << 20
+
+
+def _pcap(
+    raw: bytes | bytearray | mmap.mmap, data: npt.NDArray[np.uint8], name: str, block_records: int
+) -> Iterator[RecordArrays]:
     header = classic_header(bytes(raw[:PCAP_HEADER_BYTES]), name)
     order, snaplen, scale = header.order, header.snaplen, header.ns_per_tick
     limit = max(snaplen, SNAPLEN)
-    starts = _walk_pcap(raw, order, limit)
     big = order == ">"
-    sec = u32_at(data, starts, big)
-    frac = u32_at(data, starts + 4, big)
-    length = u32_at(data, starts + 8, big)
-    ok = frac < (NS_PER_S if scale == 1 else 1_000_000)
-    index = np.flatnonzero(ok).astype(np.int64)
-    time_ns = sec[ok] * NS_PER_S + frac[ok] * scale
-    linktype = np.full(index.shape, header.linktype, dtype=np.int64)
-    return RecordArrays(
-        data, starts[ok] + PCAP_RECORD_HEADER_BYTES, length[ok], time_ns, linktype, index
-    )
+    first = 0  # records before the block
+    empty = True
+    for starts in _walk_pcap(raw, order, limit, block_records):
+        sec = u32_at(data, starts, big)
+        frac = u32_at(data, starts + 4, big)
+        length = u32_at(data, starts + 8, big)
+        ok = frac < (NS_PER_S if scale == 1 else 1_000_000)
+        index = np.flatnonzero(ok).astype(np.int64) + first
+        time_ns = sec[ok] * NS_PER_S + frac[ok] * scale
+        linktype = np.full(index.shape, header.linktype, dtype=np.int64)
+        first += int(starts.shape[0])
+        empty = False
+        yield RecordArrays(
+            data, starts[ok] + PCAP_RECORD_HEADER_BYTES, length[ok], time_ns, linktype, index
+        )
+    if empty:
+        yield _empty(data)
 
 
-def _walk_pcap(raw: bytes | mmap.mmap, order: str, limit: int) -> npt.NDArray[np.int64]:
-    """Offsets of the record headers, following the chain of caplen fields.
+def _empty(data: npt.NDArray[np.uint8]) -> RecordArrays:
+    none = np.zeros(0, dtype=np.int64)
+    return RecordArrays(data, none, none, none, none, none)
+
+
+def _walk_pcap(
+    raw: bytes | bytearray | mmap.mmap, order: str, limit: int, block_records: int
+) -> Iterator[npt.NDArray[np.int64]]:
+    """Offsets of the record headers, following the chain of caplen fields, about
+    ``block_records`` at a time.
 
     Each record's position depends on the previous record's caplen, so the chain is walked, but
     mostly in numpy: cyclic captures repeat their record lengths with the cycle, so after a few
@@ -168,13 +257,21 @@ def _walk_pcap(raw: bytes | mmap.mmap, order: str, limit: int) -> npt.NDArray[np
     end = len(raw)
     head = PCAP_RECORD_HEADER_BYTES
     starts: list[npt.NDArray[np.int64]] = []
-    sizes: list[npt.NDArray[np.int64]] = []
+    held = 0  # offsets in ``starts``
     recent = np.zeros(0, dtype=np.int64)  # sizes (header + caplen) of the latest records
     pos = PCAP_HEADER_BYTES
+
+    def take(block: npt.NDArray[np.int64]) -> Iterator[npt.NDArray[np.int64]]:
+        nonlocal starts, held
+        starts.append(block)
+        held += int(block.shape[0])
+        if held >= block_records:
+            yield np.concatenate(starts)
+            starts, held = [], 0
+
     while pos + head <= end:
         walked, walked_sizes, pos, stop = _step_pcap(raw, order, limit, pos, _STEP_RECORDS)
-        starts.append(walked)
-        sizes.append(walked_sizes)
+        yield from take(walked)
         recent = np.concatenate((recent, walked_sizes))[-2 * _MAX_PERIOD :]
         if stop:
             break
@@ -191,16 +288,14 @@ def _walk_pcap(raw: bytes | mmap.mmap, order: str, limit: int) -> npt.NDArray[np
             good = u32_at(data, at + 8, big) + head == guess
             m = int(good.size) if bool(good.all()) else int(np.argmin(good))
             if m:
-                starts.append(at[:m])
-                sizes.append(guess[:m])
+                yield from take(at[:m])
                 pos = int(at[m - 1] + guess[m - 1])
                 recent = np.concatenate((recent, guess[:m]))[-2 * _MAX_PERIOD :]
             if m < good.size:
                 break  # the pattern broke: walk one by one from here
-            block = min(2 * block, _BLOCK_RECORDS)
-    if not starts:
-        return np.zeros(0, dtype=np.int64)
-    return np.concatenate(starts)
+            block = min(2 * block, _BLOCK_RECORDS, block_records)
+    if held:
+        yield np.concatenate(starts)
 
 
 _STEP_RECORDS: Final = 256  # records walked one by one before predicting again
@@ -209,7 +304,7 @@ _BLOCK_RECORDS: Final = 1 << 16  # records predicted per vectorised read
 
 
 def _step_pcap(
-    raw: bytes | mmap.mmap, order: str, limit: int, pos: int, count: int
+    raw: bytes | bytearray | mmap.mmap, order: str, limit: int, pos: int, count: int
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int, bool]:
     """Walk up to ``count`` records one by one: (offsets, sizes, next offset, damaged tail)."""
     caplen = struct.Struct(order + "I").unpack_from
@@ -242,14 +337,19 @@ def _period(sizes: npt.NDArray[np.int64]) -> int:
     return 0
 
 
-def _pcapng(raw: bytes | mmap.mmap, data: npt.NDArray[np.uint8], name: str) -> RecordArrays:
-    """Walk the blocks; packets become rows, IDBs give each interface's linktype and clock."""
+def _pcapng(
+    raw: bytes | bytearray | mmap.mmap, data: npt.NDArray[np.uint8], name: str, block_records: int
+) -> Iterator[RecordArrays]:
+    """Walk the blocks; packets become rows, IDBs give each interface's linktype and clock;
+    the rows in blocks of ``block_records``."""
     end = len(raw)
     pos = 0
     rows: list[tuple[int, int, int]] = []  # (block offset, block type, section number)
     sections: list[tuple[str, list[tuple[int, int, int, int]]]] = []  # order, IDBs
     u32 = {"<": struct.Struct("<I").unpack_from, ">": struct.Struct(">I").unpack_from}
     order = "<"
+    first = 0  # packet rows before the block
+    empty = True
     while pos + 12 <= end:
         if bytes(raw[pos : pos + 4]) == PCAPNG_MAGIC:
             (bom,) = struct.unpack_from("<I", raw, pos + 8)
@@ -265,9 +365,25 @@ def _pcapng(raw: bytes | mmap.mmap, data: npt.NDArray[np.uint8], name: str) -> R
             sections[-1][1].append(_idb(raw, pos, size, order))
         elif kind in (EPB, SPB, PB):
             rows.append((pos, kind, len(sections) - 1))
+            if len(rows) == block_records:
+                yield _pcapng_rows(data, rows, sections, first)
+                first += len(rows)
+                rows, empty = [], False
         pos += size
     if not sections:
         raise PcapFormatError(f"{name}: not a readable pcapng")
+    if rows or empty:
+        yield _pcapng_rows(data, rows, sections, first)
+
+
+def _pcapng_rows(
+    data: npt.NDArray[np.uint8],
+    rows: list[tuple[int, int, int]],
+    sections: list[tuple[str, list[tuple[int, int, int, int]]]],
+    first: int,
+) -> RecordArrays:
+    """The columns of packet ``rows`` (the ``first``-th packet on), with the sections and
+    interfaces described before them."""
     block = np.array([r[0] for r in rows], dtype=np.int64)
     kinds = np.array([r[1] for r in rows], dtype=np.int64)
     section = np.array([r[2] for r in rows], dtype=np.int64)
@@ -303,11 +419,13 @@ def _pcapng(raw: bytes | mmap.mmap, data: npt.NDArray[np.uint8], name: str) -> R
                 linktype[rows_i] = lt
                 time_ns[rows_i] = _ticks_to_ns(ts[mine], resol) + tsoffset_s * NS_PER_S
                 ok[rows_i] = True
-    index = np.flatnonzero(ok).astype(np.int64)
+    index = np.flatnonzero(ok).astype(np.int64) + first
     return RecordArrays(data, offset[ok], length[ok], time_ns[ok], linktype[ok], index)
 
 
-def _idb(raw: bytes | mmap.mmap, pos: int, size: int, order: str) -> tuple[int, int, int, int]:
+def _idb(
+    raw: bytes | bytearray | mmap.mmap, pos: int, size: int, order: str
+) -> tuple[int, int, int, int]:
     """(linktype, if_tsresol byte, if_tsoffset seconds, snaplen) of an Interface Description."""
     linktype, _reserved, snaplen = struct.unpack_from(order + "HHI", raw, pos + 8)
     resol, offset_s = DEFAULT_TSRESOL, 0

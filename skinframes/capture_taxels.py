@@ -20,20 +20,39 @@ datagrams in one frame).
 
 from __future__ import annotations
 
+import os
+import shutil
+import zipfile
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Final, NamedTuple
+from typing import Final, NamedTuple, TypeVar
 
 import numpy as np
 import numpy.typing as npt
 
 from skinframes import ethercat, ethernet, taxel
-from skinframes.capture_arrays import RecordArrays, read_record_arrays, u16_at, u32_at
+from skinframes.atomic_file import atomic_output, check_target, create_temp
+from skinframes.capture_arrays import (
+    BLOCK_RECORDS,
+    RecordArrays,
+    iter_record_arrays,
+    u16_at,
+    u32_at,
+)
 from skinframes.errors import FieldRangeError
 from skinframes.pcap import LINKTYPE_ETHERNET
 from skinframes.powerlink.enums import MAX_CN_NODE_ID, MIN_CN_NODE_ID, MessageType
 from skinframes.powerlink.schemas import PDO_HEADER_BYTES, PDO_SIZE_OFFSET, SRC_OFFSET
 
-__all__ = ["LAYOUTS", "CaptureTaxels", "ecat_datagrams", "taxels_from_capture"]
+__all__ = [
+    "LAYOUTS",
+    "CaptureTaxels",
+    "TaxelStream",
+    "TaxelSummary",
+    "ecat_datagrams",
+    "save_taxels",
+    "taxels_from_capture",
+]
 
 LAYOUTS: Final = (
     "per-slave",
@@ -88,25 +107,184 @@ def taxels_from_capture(
         PcapFormatError: not a readable capture.
         FieldRangeError: a bad argument, or nothing to read taxels from.
     """
-    if layout is not None and layout not in LAYOUTS:
-        raise FieldRangeError(f"layout {layout!r}; choose from {list(LAYOUTS)}", field="layout")
-    if nodes is not None and nodes < 1:
-        raise FieldRangeError(f"nodes {nodes}, need >= 1", field="nodes")
-    if bytes_per_node is not None and bytes_per_node < 1:
-        raise FieldRangeError(f"bytes_per_node {bytes_per_node}, need >= 1", field="bytes")
-    rec = read_record_arrays(path)
-    payload, ethertype = _ethernet(rec)
-    if protocol is None:
-        n_epl = int(np.count_nonzero(ethertype == ethernet.ETHERTYPE_EPL))
-        n_ecat = int(np.count_nonzero(ethertype == ethernet.ETHERTYPE_ECAT))
-        protocol = "epl" if n_epl >= n_ecat else "ecat"
-    if protocol == "epl":
-        mine = np.flatnonzero(ethertype == ethernet.ETHERTYPE_EPL)
-        return _epl(rec, mine, payload[mine], nodes, bytes_per_node)
-    if protocol == "ecat":
-        mine = np.flatnonzero(ethertype == ethernet.ETHERTYPE_ECAT)
-        return _ecat(rec, mine, payload[mine], nodes, bytes_per_node, layout)
-    raise FieldRangeError(f"protocol {protocol!r}; choose epl or ecat", field="protocol")
+    stream = TaxelStream(
+        path, nodes=nodes, bytes_per_node=bytes_per_node, layout=layout, protocol=protocol
+    )
+    parts = list(stream.chunks())
+    return CaptureTaxels(*(np.concatenate([p[i] for p in parts]) for i in range(3)))
+
+
+class TaxelSummary(NamedTuple):
+    """What :func:`save_taxels` wrote: samples, nodes, and node samples missing."""
+
+    samples: int
+    nodes: int
+    missing: int
+
+
+def save_taxels(stream: TaxelStream, out: str | Path) -> TaxelSummary:
+    """Write the taxels of ``stream`` to ``out``: ``.npy`` the (samples, nodes, 16, 12) uint8
+    array, ``.npz`` also ``time_ns`` and ``present`` (``numpy.savez``'s names and layout).
+
+    The taxels go to a scratch file beside ``out`` as their chunks come, then behind the
+    header once their number is known: memory holds a chunk, the times (8 bytes a sample) and
+    the presence (a byte per node and sample). ``out`` appears whole or not at all.
+    """
+    target = Path(out)
+    check_target(target)
+    scratch, fd = create_temp(target)
+    times: list[npt.NDArray[np.int64]] = []
+    present: list[npt.NDArray[np.bool_]] = []
+    samples = 0
+    try:
+        with os.fdopen(fd, "wb") as f:
+            for part in stream.chunks():
+                f.write(np.ascontiguousarray(part.taxels).data)
+                times.append(part.time_ns)
+                present.append(part.present)
+                samples += part.taxels.shape[0]
+        shape = (samples, stream.nodes, taxel.TRIANGLES_PER_PATCH, taxel.TAXELS_PER_TRIANGLE)
+        header = {"descr": "|u1", "fortran_order": False, "shape": shape}
+        seen = np.concatenate(present) if present else np.zeros((0, stream.nodes), dtype=bool)
+        with atomic_output(target) as f, open(scratch, "rb") as raw:
+            if target.suffix == ".npz":
+                with zipfile.ZipFile(f, "w", zipfile.ZIP_STORED, allowZip64=True) as z:
+                    with z.open("taxels.npy", "w", force_zip64=True) as member:
+                        np.lib.format.write_array_header_1_0(member, header)
+                        shutil.copyfileobj(raw, member, _COPY_BYTES)
+                    for name, array in (("time_ns", np.concatenate(times)), ("present", seen)):
+                        with z.open(f"{name}.npy", "w", force_zip64=True) as member:
+                            np.lib.format.write_array(member, array)
+            else:
+                np.lib.format.write_array_header_1_0(f, header)
+                shutil.copyfileobj(raw, f, _COPY_BYTES)
+    finally:
+        scratch.unlink(missing_ok=True)
+    return TaxelSummary(samples, stream.nodes, int(seen.size - np.count_nonzero(seen)))
+
+
+_COPY_BYTES: Final = 8 << 20
+
+
+class TaxelStream:
+    """:func:`taxels_from_capture` in chunks of samples, in memory that does not grow with the
+    capture: a first pass over its records (:func:`~skinframes.capture_arrays.
+    iter_record_arrays`, block by block) decides what :func:`taxels_from_capture` infers
+    (``protocol``, ``nodes``, ``bytes_per_node``, ``layout``, where samples start);
+    :meth:`chunks` reads it again and hands out the samples as they complete.
+    """
+
+    def __init__(
+        self,
+        path: str | Path,
+        *,
+        nodes: int | None = None,
+        bytes_per_node: int | None = None,
+        layout: str | None = None,
+        protocol: str | None = None,
+        block_records: int = BLOCK_RECORDS,
+    ) -> None:
+        if layout is not None and layout not in LAYOUTS:
+            raise FieldRangeError(f"layout {layout!r}; choose from {list(LAYOUTS)}", field="layout")
+        if nodes is not None and nodes < 1:
+            raise FieldRangeError(f"nodes {nodes}, need >= 1", field="nodes")
+        if bytes_per_node is not None and bytes_per_node < 1:
+            raise FieldRangeError(f"bytes_per_node {bytes_per_node}, need >= 1", field="bytes")
+        if protocol not in (None, "epl", "ecat"):
+            raise FieldRangeError(f"protocol {protocol!r}; choose epl or ecat", field="protocol")
+        self.path, self._block = path, block_records
+        epl, ecat = _EplSurvey(nodes), _EcatSurvey()
+        records = 0
+        for rec in iter_record_arrays(path, block_records):
+            records += len(rec)
+            payload, ethertype = _ethernet(rec)
+            if protocol in (None, "epl"):
+                epl.see(rec, payload, ethertype)
+            if protocol in (None, "ecat"):
+                ecat.see(rec, payload, ethertype)
+        self._name = f"capture of {records} records"
+        if protocol is None:
+            protocol = "epl" if epl.frames >= ecat.frames else "ecat"
+        self.protocol = protocol
+        if protocol == "epl":
+            self.nodes, self.bytes_per_node = epl.decide(self._name, nodes, bytes_per_node)
+            self.layout = "per-slave"
+            self._epl = epl
+        else:
+            self._base, self._image = ecat.extent(self._name)
+            first, sent = _ecat_first_sample(path, block_records, self._base, layout is None)
+            self._sent = sent
+            self.layout, self.bytes_per_node, self.nodes = ecat.decide(
+                first, self._image, nodes, bytes_per_node, layout
+            )
+
+    def chunks(self) -> Iterator[CaptureTaxels]:
+        """The samples in capture order, a chunk (the samples completed by a block of records)
+        at a time: the second pass."""
+        out = _Samples(self.nodes, self.bytes_per_node, self._image_bytes())
+        for rec in iter_record_arrays(self.path, self._block):
+            payload, ethertype = _ethernet(rec)
+            if self.protocol == "epl":
+                mine = np.flatnonzero(ethertype == ethernet.ETHERTYPE_EPL)
+                self._epl_block(out, rec, mine, payload[mine])
+            else:
+                mine = np.flatnonzero(ethertype == ethernet.ETHERTYPE_ECAT)
+                self._ecat_block(out, rec, mine, payload[mine])
+            done = out.flush(final=False)
+            if done is not None:
+                yield done
+        last = out.flush(final=True)
+        if last is not None:
+            yield last
+        elif not out.handed_out:
+            yield out.empty()
+
+    def _image_bytes(self) -> int | None:
+        return self._image if self.protocol == "ecat" and self.layout == "logical" else None
+
+    def _epl_block(
+        self,
+        out: _Samples,
+        rec: RecordArrays,
+        rows: npt.NDArray[np.int64],
+        at: npt.NDArray[np.int64],
+    ) -> None:
+        soc, pres, src, size, payload_at = _epl_fields(rec, rows, at)
+        pres &= src <= self.nodes
+        markers = soc if self._epl.soc else pres & (src == self._epl.first_src)
+        out.place(
+            rec.time_ns[rows],
+            markers,
+            pres,
+            src - 1,
+            payload_at,
+            np.minimum(size, self.bytes_per_node),
+            rec.data,
+        )
+
+    def _ecat_block(
+        self,
+        out: _Samples,
+        rec: RecordArrays,
+        rows: npt.NDArray[np.int64],
+        at: npt.NDArray[np.int64],
+    ) -> None:
+        data = rec.data
+        end = rec.offset[rows] + rec.length[rows]
+        dg = ecat_datagrams(data, at, end)
+        logical = np.isin(dg["cmd"], TAXEL_COMMANDS) & (dg["length"] > 0)
+        returned = logical & (dg["wkc"] > 0)
+        lad, length, base = dg["lad"], dg["length"], self._base
+        sent = logical & (dg["wkc"] == 0) & (lad == base)
+        markers = sent if self._sent else returned & (lad == base)
+        time_ns = rec.time_ns[rows][dg["frame"]]
+        if self.layout == "per-slave":
+            bpn = self.bytes_per_node
+            node = (lad - base) // bpn
+            carries = returned & ((lad - base) % bpn == 0) & (node < self.nodes)
+            out.place(time_ns, markers, carries, node, dg["data_at"], np.minimum(length, bpn), data)
+        else:
+            out.scatter(time_ns, markers, returned, lad - base, length, dg["data_at"], data)
 
 
 def _ethernet(rec: RecordArrays) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
@@ -126,13 +304,152 @@ def _ethernet(rec: RecordArrays) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.
     return payload, ethertype
 
 
-def _epl(
-    rec: RecordArrays,
-    rows: npt.NDArray[np.int64],
-    at: npt.NDArray[np.int64],
-    nodes: int | None,
-    bytes_per_node: int | None,
-) -> CaptureTaxels:
+class _EplSurvey:
+    """What the first pass learns of the EPL frames."""
+
+    def __init__(self, nodes: int | None) -> None:
+        self.frames = 0
+        self.pres = False
+        self.soc = False
+        self.max_src = 0
+        self.first_src = MAX_CN_NODE_ID + 1  # the lowest CN id that sent a PRes (within nodes)
+        self.sizes = np.zeros(1 << 16, dtype=np.int64)  # PRes Size histogram
+        self._nodes = nodes
+
+    def see(
+        self, rec: RecordArrays, payload: npt.NDArray[np.int64], ethertype: npt.NDArray[np.int64]
+    ) -> None:
+        rows = np.flatnonzero(ethertype == ethernet.ETHERTYPE_EPL)
+        self.frames += int(rows.shape[0])
+        soc, pres, src, size, _ = _epl_fields(rec, rows, payload[rows])
+        self.soc = self.soc or bool(soc.any())
+        if not bool(pres.any()):
+            return
+        self.pres = True
+        self.max_src = max(self.max_src, int(src[pres].max()))
+        self.sizes += np.bincount(size[pres], minlength=1 << 16)
+        within = pres & (src <= (self._nodes or MAX_CN_NODE_ID))
+        if bool(within.any()):
+            self.first_src = min(self.first_src, int(src[within].min()))
+
+    def decide(self, name: str, nodes: int | None, bytes_per_node: int | None) -> tuple[int, int]:
+        if not self.pres:
+            raise FieldRangeError(f"{name}: no EPL PRes from a CN in the capture")
+        if not self.soc and self.first_src > (nodes or MAX_CN_NODE_ID):
+            raise FieldRangeError(f"{name}: no EPL PRes from CNs 1..{nodes} and no SoC")
+        return (
+            nodes if nodes is not None else self.max_src,
+            bytes_per_node if bytes_per_node is not None else int(np.argmax(self.sizes)),
+        )
+
+
+class _EcatSurvey:
+    """What the first pass learns of the EtherCAT frames."""
+
+    def __init__(self) -> None:
+        self.frames = 0
+        self.base: int | None = None  # the lowest address a taxel datagram came back from
+        self.end = 0  # the highest address + 1
+        self.lengths = np.zeros(ethercat.MAX_DATAGRAM_DATA_BYTES + 1, dtype=np.int64)
+
+    def see(
+        self, rec: RecordArrays, payload: npt.NDArray[np.int64], ethertype: npt.NDArray[np.int64]
+    ) -> None:
+        rows = np.flatnonzero(ethertype == ethernet.ETHERTYPE_ECAT)
+        self.frames += int(rows.shape[0])
+        if not rows.size:
+            return
+        dg = ecat_datagrams(rec.data, payload[rows], rec.offset[rows] + rec.length[rows])
+        logical = np.isin(dg["cmd"], TAXEL_COMMANDS) & (dg["length"] > 0)
+        returned = logical & (dg["wkc"] > 0)
+        if not bool(returned.any()):
+            return
+        lad, length = dg["lad"][returned], dg["length"][returned]
+        low = int(lad.min())
+        self.base = low if self.base is None else min(self.base, low)
+        self.end = max(self.end, int((lad + length).max()))
+        self.lengths += np.bincount(length, minlength=self.lengths.shape[0])
+
+    def extent(self, name: str) -> tuple[int, int]:
+        """(base, image bytes), or FieldRangeError without a taxel datagram."""
+        if self.base is None:
+            raise FieldRangeError(f"{name}: no LRD/LRW datagram came back with a working counter")
+        return self.base, self.end - self.base
+
+    def decide(
+        self,
+        first: int,
+        image: int,
+        nodes: int | None,
+        bytes_per_node: int | None,
+        layout: str | None,
+    ) -> tuple[str, int, int]:
+        """(layout, bytes_per_node, nodes) as :func:`taxels_from_capture` infers them."""
+        seen = np.flatnonzero(self.lengths)
+        if layout is None:
+            one_length = seen.shape[0] == 1
+            per_slave = (
+                first > 1 and one_length and int(seen[0]) != ethercat.MAX_DATAGRAM_DATA_BYTES
+            )
+            layout = "per-slave" if per_slave else "logical"
+        if bytes_per_node is None:
+            if nodes is not None:
+                bytes_per_node = -(-image // nodes)
+            elif layout == "per-slave":
+                bytes_per_node = int(np.argmax(self.lengths))
+            else:
+                bytes_per_node = taxel.PATCH_BYTES
+        if nodes is None:
+            nodes = -(-image // bytes_per_node)
+        return layout, bytes_per_node, nodes
+
+
+def _ecat_first_sample(
+    path: str | Path, block_records: int, base: int, count: bool
+) -> tuple[int, bool]:
+    """(returned taxel datagrams from the first one at ``base`` up to the next one there, or
+    all of them with fewer than two there; whether the master's own datagram at ``base`` is in
+    the capture). Reads only as far as it must."""
+    first = -1  # returned datagrams since the first at base (-1: none at base yet)
+    total = 0
+    sent = False
+    done = not count
+    for rec in iter_record_arrays(path, block_records):
+        payload, ethertype = _ethernet(rec)
+        rows = np.flatnonzero(ethertype == ethernet.ETHERTYPE_ECAT)
+        if not rows.size:
+            continue
+        dg = ecat_datagrams(rec.data, payload[rows], rec.offset[rows] + rec.length[rows])
+        logical = np.isin(dg["cmd"], TAXEL_COMMANDS) & (dg["length"] > 0)
+        at_base = dg["lad"] == base
+        sent = sent or bool((logical & (dg["wkc"] == 0) & at_base).any())
+        returned = logical & (dg["wkc"] > 0)
+        if not done:
+            ret_base = at_base[returned]
+            total += int(ret_base.shape[0])
+            for hit in ret_base.tolist():
+                if hit and first >= 0:
+                    done = True
+                    break
+                if hit:
+                    first = 0
+                if first >= 0:
+                    first += 1
+        if done and sent:
+            break
+    return (first if done and count else total), sent
+
+
+def _epl_fields(
+    rec: RecordArrays, rows: npt.NDArray[np.int64], at: npt.NDArray[np.int64]
+) -> tuple[
+    npt.NDArray[np.bool_],
+    npt.NDArray[np.bool_],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+    npt.NDArray[np.int64],
+]:
+    """(SoC, PRes from a CN, source node, payload size, payload offset) of EPL frames."""
     data = rec.data
     end = rec.offset[rows] + rec.length[rows]
     room = end - at
@@ -144,79 +461,7 @@ def _epl(
     pres &= (src >= MIN_CN_NODE_ID) & (src <= MAX_CN_NODE_ID)
     size = np.where(pres, u16_at(data, pres_at + PDO_SIZE_OFFSET), 0)
     size = np.minimum(size, np.maximum(room - PDO_HEADER_BYTES, 0))  # a cut-off capture
-    if not bool(pres.any()):
-        raise FieldRangeError(f"{rec_name(rec)}: no EPL PRes from a CN in the capture")
-    if nodes is None:
-        nodes = int(src[pres].max())
-    if bytes_per_node is None:
-        bytes_per_node = _mode(size[pres])
-    pres &= src <= nodes
-    node = src - 1
-    markers = soc if bool(soc.any()) else pres & (src == int(src[pres].min()))
-    payload_at = pres_at + PDO_HEADER_BYTES
-    return _assemble(
-        rec.time_ns[rows],
-        markers,
-        pres,
-        node,
-        payload_at,
-        np.minimum(size, bytes_per_node),
-        data,
-        nodes,
-    )
-
-
-def rec_name(rec: RecordArrays) -> str:
-    """How errors name the capture."""
-    return f"capture of {len(rec)} records"
-
-
-def _mode(values: npt.NDArray[np.int64]) -> int:
-    """The most common value (the smallest of equally common ones)."""
-    uniq, counts = np.unique(values, return_counts=True)
-    return int(uniq[int(np.argmax(counts))])
-
-
-def _samples(
-    time_ns: npt.NDArray[np.int64], markers: npt.NDArray[np.bool_], carries: npt.NDArray[np.bool_]
-) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], npt.NDArray[np.int64]]:
-    """(carrying items, the sample of each, the time of each sample).
-
-    Items are in capture order; a sample starts at a marker that does not follow another
-    marker directly (markers next to each other, as the two ports of a closed ring sending
-    at once, open one sample); items before the first marker are left out.
-    """
-    idx = np.flatnonzero(markers | carries)
-    m = markers[idx]
-    opens = m & ~np.concatenate(([False], m[:-1]))
-    sample = np.cumsum(opens) - 1
-    use = carries[idx] & (sample >= 0)
-    return idx[use], sample[use], time_ns[idx][opens].astype(np.int64)
-
-
-def _assemble(
-    time_ns: npt.NDArray[np.int64],
-    markers: npt.NDArray[np.bool_],
-    carries: npt.NDArray[np.bool_],
-    node: npt.NDArray[np.int64],
-    payload_at: npt.NDArray[np.int64],
-    count: npt.NDArray[np.int64],
-    data: npt.NDArray[np.uint8],
-    nodes: int,
-) -> CaptureTaxels:
-    """Place each carrying item's ``count`` bytes at ``payload_at`` into (sample, node)."""
-    items, s_of, time_out = _samples(time_ns, markers, carries)
-    samples = time_out.shape[0]
-    n_of = node[items]
-    c_of = np.minimum(count[items], taxel.PATCH_BYTES)
-    taxels = np.zeros((samples, nodes, taxel.PATCH_BYTES), dtype=np.uint8)
-    present = np.zeros((samples, nodes), dtype=bool)
-    present[s_of, n_of] = True
-    width = int(c_of.max()) if c_of.size else 0
-    if width:
-        taxels[s_of, n_of, :width] = rows_at(data, payload_at[items], width, c_of)
-    shape = (samples, nodes, taxel.TRIANGLES_PER_PATCH, taxel.TAXELS_PER_TRIANGLE)
-    return CaptureTaxels(taxels.reshape(shape), time_out, present)
+    return soc, pres, src, size, pres_at + PDO_HEADER_BYTES
 
 
 def rows_at(
@@ -305,117 +550,153 @@ def ecat_datagrams(
     return {k: col[order] for k, col in zip(names, cols, strict=True)}
 
 
-def _ecat(
-    rec: RecordArrays,
-    rows: npt.NDArray[np.int64],
-    at: npt.NDArray[np.int64],
-    nodes: int | None,
-    bytes_per_node: int | None,
-    layout: str | None,
-) -> CaptureTaxels:
-    data = rec.data
-    end = rec.offset[rows] + rec.length[rows]
-    dg = ecat_datagrams(data, at, end)
-    logical = np.isin(dg["cmd"], TAXEL_COMMANDS) & (dg["length"] > 0)
-    returned = logical & (dg["wkc"] > 0)
-    if not bool(returned.any()):
-        raise FieldRangeError(
-            f"{rec_name(rec)}: no LRD/LRW datagram came back with a working counter"
-        )
-    lad, length = dg["lad"], dg["length"]
-    base = int(lad[returned].min())
-    image = int((lad + length)[returned].max()) - base
-    lengths = length[returned]
-    if layout is None:
-        first = _first_sample_count(dg, returned, base)
-        one_length = bool(np.all(lengths == lengths[0]))
-        per_slave = first > 1 and one_length and int(lengths[0]) != ethercat.MAX_DATAGRAM_DATA_BYTES
-        layout = "per-slave" if per_slave else "logical"
-    if bytes_per_node is None:
-        if nodes is not None:
-            bytes_per_node = -(-image // nodes)
-        else:
-            bytes_per_node = _mode(lengths) if layout == "per-slave" else taxel.PATCH_BYTES
-    if nodes is None:
-        nodes = -(-image // bytes_per_node)
-    sent = logical & (dg["wkc"] == 0) & (lad == base)
-    markers = sent if bool(sent.any()) else returned & (lad == base)
-    time_ns = rec.time_ns[rows][dg["frame"]]
-    if layout == "per-slave":
-        node = (lad - base) // bytes_per_node
-        carries = returned & ((lad - base) % bytes_per_node == 0) & (node < nodes)
-        return _assemble(
-            time_ns,
-            markers,
-            carries,
-            node,
-            dg["data_at"],
-            np.minimum(length, bytes_per_node),
-            data,
-            nodes,
-        )
-    return _logical(time_ns, markers, returned, dg, base, image, data, nodes, bytes_per_node)
+_MAX_PIECES: Final = 64  # distinct (address, length) pieces copied row-wise per block
 
 
-def _first_sample_count(
-    dg: dict[str, npt.NDArray[np.int64]], returned: npt.NDArray[np.bool_], base: int
-) -> int:
-    """Returned taxel datagrams from the first one at ``base`` up to the next one there."""
-    at_base = np.flatnonzero(returned & (dg["lad"] == base))
-    ret = np.flatnonzero(returned)
-    if at_base.size >= 2:
-        return int(np.count_nonzero((ret >= at_base[0]) & (ret < at_base[1])))
-    return int(ret.size)
-
-
-_MAX_PIECES: Final = 64  # distinct (address, length) pieces copied row-wise in _logical
-
-
-def _logical(
-    time_ns: npt.NDArray[np.int64],
-    markers: npt.NDArray[np.bool_],
-    returned: npt.NDArray[np.bool_],
-    dg: dict[str, npt.NDArray[np.int64]],
-    base: int,
-    image_bytes: int,
-    data: npt.NDArray[np.uint8],
-    nodes: int,
-    bytes_per_node: int,
-) -> CaptureTaxels:
-    """One image per sample: scatter every returned datagram's bytes at its logical address.
-
-    A node is present when every byte of its share of the image (up to the image's end, the
-    highest address any datagram read) came back.
+class _Samples:
+    """The samples being filled: those the current block of records opened, and the one before
+    it that is still open (its items may follow in the next block). Items come in capture
+    order; a sample opens at a marker that does not follow another marker directly (markers
+    next to each other, as the two ports of a closed ring sending at once, open one sample);
+    items before the first marker are left out. ``image``: the EtherCAT ``logical`` layout's
+    image bytes (one image per sample, scattered by logical address), else None.
     """
-    items, s_of, time_out = _samples(time_ns, markers, returned)
-    samples = time_out.shape[0]
-    size = nodes * bytes_per_node
-    lad = dg["lad"][items] - base
-    length = np.minimum(dg["length"][items], np.maximum(size - lad, 0))
-    image = np.zeros((samples, size), dtype=np.uint8)
-    seen = np.zeros((samples, size), dtype=bool)
-    seen[:, image_bytes:] = True  # past the image: nothing to read
-    data_at = dg["data_at"][items]
-    # a cyclic capture reads the same few (address, length) pieces every sample: copy each
-    # piece's rows at once; many different pieces go byte by byte
-    pieces, piece_of = np.unique(np.stack((lad, length)), axis=1, return_inverse=True)
-    if pieces.shape[1] <= _MAX_PIECES:
-        for p, (at, n) in enumerate(pieces.T.tolist()):
-            mine = np.flatnonzero(piece_of.reshape(-1) == p)
-            if n <= 0 or not mine.size:
-                continue
-            count = np.full(mine.shape, n, dtype=np.int64)
-            image[s_of[mine], at : at + n] = rows_at(data, data_at[mine], n, count)
-            seen[s_of[mine], at : at + n] = True
-    else:
-        item_of = np.repeat(np.arange(items.size), length)  # one row per byte
-        pos = np.arange(int(length.sum())) - np.repeat(np.cumsum(length) - length, length)
-        where = (s_of[item_of], lad[item_of] + pos)
-        image[where] = data[data_at[item_of] + pos]
-        seen[where] = True
-    width = min(bytes_per_node, taxel.PATCH_BYTES)
-    taxels = np.zeros((samples, nodes, taxel.PATCH_BYTES), dtype=np.uint8)
-    taxels[:, :, :width] = image.reshape(samples, nodes, bytes_per_node)[:, :, :width]
-    present: npt.NDArray[np.bool_] = np.all(seen.reshape(samples, nodes, bytes_per_node), axis=2)
-    shape = (samples, nodes, taxel.TRIANGLES_PER_PATCH, taxel.TAXELS_PER_TRIANGLE)
-    return CaptureTaxels(taxels.reshape(shape), time_out, present)
+
+    def __init__(self, nodes: int, bytes_per_node: int, image: int | None) -> None:
+        self.nodes, self.bytes_per_node, self.image = nodes, bytes_per_node, image
+        self.opened = 0  # samples opened so far
+        self.first = 0  # the first sample still held
+        self.last_marker = False  # the latest item was a marker
+        self.handed_out = False
+        size = nodes * bytes_per_node
+        self._width = min(bytes_per_node, taxel.PATCH_BYTES)
+        self._taxels = np.zeros((0, nodes, taxel.PATCH_BYTES), dtype=np.uint8)
+        self._present = np.zeros((0, nodes), dtype=bool)
+        self._image = np.zeros((0, size), dtype=np.uint8)
+        self._seen = np.zeros((0, size), dtype=bool)
+        self._times: list[npt.NDArray[np.int64]] = []
+
+    def _open(
+        self,
+        time_ns: npt.NDArray[np.int64],
+        markers: npt.NDArray[np.bool_],
+        carries: npt.NDArray[np.bool_],
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
+        """(carrying items, the row of each) of a block; new samples get their rows."""
+        idx = np.flatnonzero(markers | carries)
+        m = markers[idx]
+        opens = m & ~np.concatenate(([self.last_marker], m[:-1]))
+        if m.size:
+            self.last_marker = bool(m[-1])
+        sample = np.cumsum(opens) - 1 + self.opened
+        new = int(np.count_nonzero(opens))
+        self.opened += new
+        self._times.append(time_ns[idx][opens].astype(np.int64))
+        if self.image is None:
+            self._taxels = _grow(self._taxels, new)
+            self._present = _grow(self._present, new)
+        else:
+            self._image = _grow(self._image, new)
+            seen = _grow(self._seen, new)
+            seen[seen.shape[0] - new :, self.image :] = True  # past the image: nothing to read
+            self._seen = seen
+        use = carries[idx] & (sample >= 0)
+        return idx[use], sample[use] - self.first
+
+    def place(
+        self,
+        time_ns: npt.NDArray[np.int64],
+        markers: npt.NDArray[np.bool_],
+        carries: npt.NDArray[np.bool_],
+        node: npt.NDArray[np.int64],
+        payload_at: npt.NDArray[np.int64],
+        count: npt.NDArray[np.int64],
+        data: npt.NDArray[np.uint8],
+    ) -> None:
+        """Each carrying item's ``count`` bytes at ``payload_at`` into (its sample, node)."""
+        items, row = self._open(time_ns, markers, carries)
+        n_of = node[items]
+        c_of = np.minimum(count[items], taxel.PATCH_BYTES)
+        self._present[row, n_of] = True
+        if items.size:
+            self._taxels[row, n_of, : self._width] = rows_at(
+                data, payload_at[items], self._width, c_of
+            )
+
+    def scatter(
+        self,
+        time_ns: npt.NDArray[np.int64],
+        markers: npt.NDArray[np.bool_],
+        returned: npt.NDArray[np.bool_],
+        address: npt.NDArray[np.int64],
+        length: npt.NDArray[np.int64],
+        data_at: npt.NDArray[np.int64],
+        data: npt.NDArray[np.uint8],
+    ) -> None:
+        """Each returned datagram's bytes into its sample's image at its logical address.
+
+        A cyclic capture reads the same few (address, length) pieces every sample: each piece's
+        rows are copied at once; many different pieces go byte by byte.
+        """
+        items, row = self._open(time_ns, markers, returned)
+        size = self._image.shape[1]
+        lad = address[items]
+        n = np.minimum(length[items], np.maximum(size - lad, 0))
+        at = data_at[items]
+        pieces, piece_of = np.unique(np.stack((lad, n)), axis=1, return_inverse=True)
+        if pieces.shape[1] <= _MAX_PIECES:
+            for p, (a, k) in enumerate(pieces.T.tolist()):
+                mine = np.flatnonzero(piece_of.reshape(-1) == p)
+                if k <= 0 or not mine.size:
+                    continue
+                count = np.full(mine.shape, k, dtype=np.int64)
+                self._image[row[mine], a : a + k] = rows_at(data, at[mine], k, count)
+                self._seen[row[mine], a : a + k] = True
+        else:
+            item_of = np.repeat(np.arange(items.size), n)  # one row per byte
+            pos = np.arange(int(n.sum())) - np.repeat(np.cumsum(n) - n, n)
+            where = (row[item_of], lad[item_of] + pos)
+            self._image[where] = data[at[item_of] + pos]
+            self._seen[where] = True
+
+    def flush(self, *, final: bool) -> CaptureTaxels | None:
+        """The samples complete: all held but the open one, or (``final``) all of them."""
+        held = self.opened - self.first
+        k = held if final else held - 1
+        if k <= 0:
+            return None
+        times = np.concatenate(self._times)
+        self._times = [times[k:]]
+        self.first += k
+        self.handed_out = True
+        shape = (k, self.nodes, taxel.TRIANGLES_PER_PATCH, taxel.TAXELS_PER_TRIANGLE)
+        if self.image is None:
+            taxels, self._taxels = self._taxels[:k], self._taxels[k:].copy()
+            held_present, self._present = self._present[:k], self._present[k:].copy()
+            return CaptureTaxels(taxels.reshape(shape), times[:k], held_present)
+        image, self._image = self._image[:k], self._image[k:].copy()
+        seen, self._seen = self._seen[:k], self._seen[k:].copy()
+        bpn = self.bytes_per_node
+        taxels = np.zeros((k, self.nodes, taxel.PATCH_BYTES), dtype=np.uint8)
+        taxels[:, :, : self._width] = image.reshape(k, self.nodes, bpn)[:, :, : self._width]
+        present: npt.NDArray[np.bool_] = np.all(seen.reshape(k, self.nodes, bpn), axis=2)
+        return CaptureTaxels(taxels.reshape(shape), times[:k], present)
+
+    def empty(self) -> CaptureTaxels:
+        """No sample at all."""
+        shape = (0, self.nodes, taxel.TRIANGLES_PER_PATCH, taxel.TAXELS_PER_TRIANGLE)
+        return CaptureTaxels(
+            np.zeros(shape, dtype=np.uint8),
+            np.zeros(0, dtype=np.int64),
+            np.zeros((0, self.nodes), dtype=bool),
+        )
+
+
+_A = TypeVar("_A", bound=np.generic)
+
+
+def _grow(rows: npt.NDArray[_A], new: int) -> npt.NDArray[_A]:
+    """``rows`` with ``new`` zero rows after them."""
+    if not new:
+        return rows
+    return np.concatenate((rows, np.zeros((new, *rows.shape[1:]), dtype=rows.dtype)))

@@ -78,27 +78,17 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _taxels(args: argparse.Namespace) -> int:
-    """``--taxels``: the array, written atomically; a one-line summary on stderr."""
-    import numpy as np  # here: ``check`` imports this module for open_capture alone
-
-    from skinframes.atomic_file import atomic_output
-    from skinframes.capture_taxels import taxels_from_capture
+    """``--taxels``: the array, streamed to a file written atomically; a one-line summary on
+    stderr."""
+    from skinframes.capture_taxels import TaxelStream, save_taxels
 
     if args.path == "-":
         raise PcapFormatError("decode --taxels reads a capture file, not standard input")
-    result = taxels_from_capture(
-        args.path, nodes=args.nodes, bytes_per_node=args.bytes, layout=args.layout
-    )
-    with atomic_output(args.taxels) as f:
-        if str(args.taxels).endswith(".npz"):
-            np.savez(f, taxels=result.taxels, time_ns=result.time_ns, present=result.present)
-        else:
-            np.save(f, result.taxels)
-    samples, nodes = result.taxels.shape[:2]
-    missing = int(result.present.size - np.count_nonzero(result.present))
+    stream = TaxelStream(args.path, nodes=args.nodes, bytes_per_node=args.bytes, layout=args.layout)
+    done = save_taxels(stream, args.taxels)
     print(
-        f"skinframes: {escape(args.taxels)}: {samples} samples x {nodes} nodes x 16 x 12 taxels "
-        f"({missing} node samples missing)",
+        f"skinframes: {escape(args.taxels)}: {done.samples} samples x {done.nodes} nodes x 16 x "
+        f"12 taxels ({done.missing} node samples missing)",
         file=sys.stderr,
     )
     return 0

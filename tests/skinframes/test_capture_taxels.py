@@ -213,3 +213,85 @@ def test_many_different_pieces_go_byte_by_byte(
     assert np.array_equal(rowwise.taxels, bytewise.taxels)
     assert np.array_equal(rowwise.present, bytewise.present) and bytewise.present.all()
     assert np.array_equal(bytewise.taxels, expected(9, 192, 5, seed=7))
+
+
+@pytest.mark.parametrize(("protocol", "nodes", "data_bytes", "layout", "ring", "ext"), CASES)
+@pytest.mark.parametrize("block", [1, 7, 50])
+def test_blocks_of_any_size_give_the_same_samples(
+    tmp_path: Path,
+    protocol: str,
+    nodes: int,
+    data_bytes: int,
+    layout: str,
+    ring: bool,
+    ext: str,
+    block: int,
+) -> None:
+    """The capture is read block by block: samples that span blocks, markers at a block's
+    edge, and inference over every block give what one block gives (and what went in)."""
+    from skinframes.capture_taxels import TaxelStream
+
+    path = emulate(tmp_path, protocol, nodes, data_bytes, layout, ring, ext)
+    whole = taxels_from_capture(path)
+    stream = TaxelStream(path, block_records=block)
+    assert (stream.nodes, stream.layout) == (nodes, layout)
+    parts = list(stream.chunks())
+    assert len(parts) > 1 or block == 50
+    got = [np.concatenate([p[i] for p in parts]) for i in range(3)]
+    assert got[0].tobytes() == whole.taxels.tobytes() == expected(nodes, data_bytes, 5, 7).tobytes()
+    assert got[1].tolist() == whole.time_ns.tolist()
+    assert got[2].tolist() == whole.present.tolist()
+
+
+def test_a_gzip_capture_past_the_limit_is_refused_and_members_are_joined(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A gzip capture is decompressed whole, so only up to MAX_GUNZIP_BYTES: a bomb is one
+    clear error, not all the memory there is. Two members are one capture (as gzip has it)."""
+    from skinframes import capture_arrays
+
+    path = emulate(tmp_path, "epl", 3, 30, "per-slave", False, "pcap")
+    raw = path.read_bytes()
+    half = len(raw) // 2
+    packed = tmp_path / "two.pcap.gz"
+    packed.write_bytes(gzip.compress(raw[:half]) + gzip.compress(raw[half:]))
+    assert (
+        taxels_from_capture(packed).taxels.tobytes() == taxels_from_capture(path).taxels.tobytes()
+    )
+    monkeypatch.setattr(capture_arrays, "MAX_GUNZIP_BYTES", len(raw) - 1)
+    with pytest.raises(PcapFormatError, match="decompress it to a file first"):
+        taxels_from_capture(packed)
+    assert main(["decode", str(packed), "--taxels", str(tmp_path / "t.npy")]) == 2
+
+
+def test_saved_taxels_hold_a_few_bytes_per_sample_not_the_samples(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """tracemalloc counts what Python and numpy allocate (not time): four times the cycles may
+    cost the times and presence (8 + nodes bytes a sample), not the taxels (576 bytes a
+    sample here); the file holds them all. (The copy behind the header reads 4 KiB at a time
+    here, not its 8 MiB, which would hold these small files whole.)"""
+    import tracemalloc
+
+    from skinframes import capture_taxels
+    from skinframes.capture_taxels import TaxelStream, save_taxels
+
+    monkeypatch.setattr(capture_taxels, "_COPY_BYTES", 4096)
+
+    def peak_bytes(cycles: int) -> int:
+        path = tmp_path / f"{cycles}.pcap"
+        simulate_epl(3, 192, PAPER, cycles=cycles, seed=7, pcap=path)
+        tracemalloc.start()
+        try:
+            done = save_taxels(TaxelStream(path, block_records=64), tmp_path / f"{cycles}.npy")
+            assert done.samples == cycles and done.missing == 0
+            return tracemalloc.get_traced_memory()[1]
+        finally:
+            tracemalloc.stop()
+
+    peak_bytes(100)  # warm up: imports, caches
+    small, large = 300, 1_200
+    growth = peak_bytes(large) - peak_bytes(small)
+    assert growth < 64 * (large - small), f"{growth / (large - small):.0f} bytes per sample"
+    saved = np.load(tmp_path / f"{large}.npy")
+    assert saved.tobytes() == expected(3, 192, large, 7).tobytes()
