@@ -9,17 +9,27 @@ physical timing: two frames of one sender on one interface that overlap on the w
 
 from __future__ import annotations
 
+import json
+import textwrap
 from collections import Counter
 from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass, field
 from operator import itemgetter
 from pathlib import Path
-from typing import Any, Final, TypeAlias
+from typing import IO, Any, Final, TypeAlias
 
 from skinframes import encap, ethercat, ethernet, ipv4udp, powerlink
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError
-from skinframes.findings import Finding, FrameFinding, Severity, error, info, warning
+from skinframes.findings import (
+    Finding,
+    FindingList,
+    FrameFinding,
+    Severity,
+    error,
+    info,
+    warning,
+)
 from skinframes.pcap import (
     LINKTYPE_CAN_SOCKETCAN,
     LINKTYPE_ETHERNET,
@@ -48,21 +58,23 @@ class CaptureReport:
     path: str
     total: int = 0
     counts: Counter[str] = field(default_factory=Counter)
-    findings: list[FrameFinding] = field(default_factory=list)
+    # a sequence of FrameFinding, 12 bytes each (a finding in every frame of a long capture)
+    findings: FindingList = field(default_factory=FindingList)
 
     @property
     def errors(self) -> int:
         """Number of ERROR findings."""
-        return sum(f.finding.severity == Severity.ERROR for f in self.findings)
+        return self.findings.count_at_least(Severity.ERROR)
 
     @property
     def warnings(self) -> int:
         """Number of WARNING findings."""
-        return sum(f.finding.severity == Severity.WARNING for f in self.findings)
+        return self.findings.count_at_least(Severity.WARNING) - self.errors
 
     def at_least(self, floor: Severity) -> list[FrameFinding]:
-        """The findings of severity ``floor`` or worse, in capture order."""
-        return [f for f in self.findings if f.finding.severity >= floor]
+        """The findings of severity ``floor`` or worse, in capture order (a list: for all of
+        them one at a time, ``findings.at_least(floor)``)."""
+        return list(self.findings.at_least(floor))
 
     def to_json(self, floor: Severity = Severity.INFO) -> dict[str, Any]:
         """The ``skinframes check --json`` document.
@@ -70,17 +82,38 @@ class CaptureReport:
         ``findings`` lists those of severity ``floor`` or worse; ``errors`` and ``warnings``
         count all of them.
         """
+        doc = self._head()
+        doc["findings"] = [_finding_json(f) for f in self.findings.at_least(floor)]
+        return doc
+
+    def _head(self) -> dict[str, Any]:
+        """The document without its findings."""
         return {
             "path": self.path,
             "records": self.total,
             "counts": dict(self.counts),
             "errors": self.errors,
             "warnings": self.warnings,
-            "findings": [
-                {"index": f.index, "frame": f.frame, **f.finding.to_json()}
-                for f in self.at_least(floor)
-            ],
+            "findings": [],
         }
+
+    def write_json(self, out: IO[str], floor: Severity = Severity.INFO) -> None:
+        """``json.dump(self.to_json(floor), out, indent=2)``, the findings written one at a
+        time (the document of a long capture is not held whole)."""
+        text = json.dumps(self._head(), indent=2)
+        cut = text.rindex('"findings": []')
+        out.write(text[:cut] + '"findings": [')
+        first = True
+        for f in self.findings.at_least(floor):
+            item = textwrap.indent(json.dumps(_finding_json(f), indent=2), "    ")
+            out.write(("\n" if first else ",\n") + item)
+            first = False
+        out.write("]" if first else "\n  ]")
+        out.write(text[cut + len('"findings": []') :])
+
+
+def _finding_json(f: FrameFinding) -> dict[str, Any]:
+    return {"index": f.index, "frame": f.frame, **f.finding.to_json()}
 
 
 def _is_cn(node: int) -> bool:
@@ -288,7 +321,7 @@ def check_capture(
         report.findings.append(FrameFinding(s.index, error(s.code, s.reason)))
         report.counts["skipped"] += 1
     report.findings += capture.findings
-    report.findings.sort(key=lambda f: f.index)  # capture order; the file's own findings first
+    report.findings.sort()  # capture order (by record index); the file's own findings first
     return report
 
 

@@ -8,8 +8,8 @@ findings only with ``--verbose``. ``--json`` keeps every instance.
 from __future__ import annotations
 
 import argparse
-import json
 import sys
+from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
@@ -62,7 +62,7 @@ class Group:
     last: int
 
 
-def group(findings: list[FrameFinding]) -> list[Group]:
+def group(findings: Iterable[FrameFinding]) -> list[Group]:
     """Identical findings (severity, code, node) as groups, worst severity first, then by the
     first frame."""
     groups: dict[tuple[Severity, str, int | None], Group] = {}
@@ -101,9 +101,10 @@ def run(args: argparse.Namespace) -> int:
     status = 1 if report.errors else 0
     try:
         if args.json:
-            print(json.dumps(report.to_json(floor), indent=2))
+            report.write_json(sys.stdout, floor)
+            print()
         else:
-            for g in group(report.at_least(floor)):
+            for g in group(report.findings.at_least(floor)):
                 node = f"node {g.node}" if g.node is not None else ""
                 line = f"{_frames(g)}  {g.severity!s:<7} {g.code:<22} x{g.count:<6} {node:<8} "
                 print(f"{line}{escape(g.message)}".rstrip())
@@ -114,7 +115,7 @@ def run(args: argparse.Namespace) -> int:
         _quiet_stdout()
     if not args.json:
         counts = ", ".join(f"{k} {v}" for k, v in sorted(report.counts.items()))
-        hidden = len(report.findings) - len(report.at_least(floor))
+        hidden = len(report.findings) - report.findings.count_at_least(floor)
         more = f", {hidden} below {floor} not listed (--verbose lists them)" if hidden else ""
         print(
             f"{escape(report.path)}: {report.total} records ({counts}): "

@@ -380,7 +380,7 @@ def test_the_old_trace_names_are_aliases_of_the_can_log_names() -> None:
 def test_a_socketcan_pcap_is_read_record_by_record(tmp_path: Path) -> None:
     """tracemalloc counts the bytes Python allocates (not time): eight times the records may
     cost a few bytes more per record, far less than a record held (object, bytes, list slot)."""
-    import tracemalloc
+    from memory_util import traced_peak
 
     from skinframes.canbus.log import CanLogReader
 
@@ -389,13 +389,12 @@ def test_a_socketcan_pcap_is_read_record_by_record(tmp_path: Path) -> None:
         write_can_log(
             path, (CanFrame(0x4E0 | k % 16, bytes(8), time_ns=1000 * k) for k in range(frames))
         )
-        tracemalloc.start()
-        try:
+
+        def work() -> None:
             reader = CanLogReader(path)
             assert sum(1 for _ in reader) == frames == reader.record_counts.decoded
-            return tracemalloc.get_traced_memory()[1]
-        finally:
-            tracemalloc.stop()
+
+        return traced_peak(work)
 
     small, large = 2_000, 16_000
     peak_bytes(small)  # warm up: imports, caches

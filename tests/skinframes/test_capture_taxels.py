@@ -271,7 +271,7 @@ def test_saved_taxels_hold_a_few_bytes_per_sample_not_the_samples(
     cost the times and presence (8 + nodes bytes a sample), not the taxels (576 bytes a
     sample here); the file holds them all. (The copy behind the header reads 4 KiB at a time
     here, not its 8 MiB, which would hold these small files whole.)"""
-    import tracemalloc
+    from memory_util import traced_peak
 
     from skinframes import capture_taxels
     from skinframes.capture_taxels import TaxelStream, save_taxels
@@ -281,13 +281,12 @@ def test_saved_taxels_hold_a_few_bytes_per_sample_not_the_samples(
     def peak_bytes(cycles: int) -> int:
         path = tmp_path / f"{cycles}.pcap"
         simulate_epl(3, 192, PAPER, cycles=cycles, seed=7, pcap=path)
-        tracemalloc.start()
-        try:
+
+        def work() -> None:
             done = save_taxels(TaxelStream(path, block_records=64), tmp_path / f"{cycles}.npy")
             assert done.samples == cycles and done.missing == 0
-            return tracemalloc.get_traced_memory()[1]
-        finally:
-            tracemalloc.stop()
+
+        return traced_peak(work)
 
     peak_bytes(100)  # warm up: imports, caches
     small, large = 300, 1_200
