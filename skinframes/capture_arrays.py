@@ -1,9 +1,10 @@
 """A capture's records as numpy columns: the bulk reader behind :func:`taxels_from_capture`.
 
-:func:`read_record_arrays` maps the file (``mmap``; gzip files are decompressed into memory),
-walks the record headers once to find where each record starts, and returns every other
-per-record value as a numpy column computed from those offsets: no :class:`~skinframes.pcap.Record`
-objects, no per-record ``bytes``. The formats are those :mod:`skinframes.pcap` reads:
+:func:`iter_record_arrays` maps the file (``mmap``), walks the record headers to find where each
+record starts, and hands out every other per-record value as numpy columns computed from those
+offsets, block by block: no :class:`~skinframes.pcap.Record` objects, no per-record ``bytes``. A
+gzip file cannot be mapped: its blocks come from the record reader, which decompresses as it
+goes. The formats are those :mod:`skinframes.pcap` reads:
 
 - classic pcap (draft-ietf-opsawg-pcap section 4-5): the 24-byte file header, then per record
   ts_sec, ts_frac (us or ns by the magic), caplen, origlen and the data; either byte order;
@@ -19,8 +20,7 @@ from __future__ import annotations
 
 import mmap
 import struct
-import zlib
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -35,11 +35,10 @@ from skinframes.capture_writer import (
     SNAPLEN,
 )
 from skinframes.errors import PcapFormatError
-from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC, classic_header
+from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC, Record, classic_header, read_capture
 
 __all__ = [
     "BLOCK_RECORDS",
-    "MAX_GUNZIP_BYTES",
     "RecordArrays",
     "iter_record_arrays",
     "read_record_arrays",
@@ -113,29 +112,34 @@ def read_record_arrays(path: str | Path) -> RecordArrays:
         PcapFormatError: the file cannot be read or is not a capture.
     """
     blocks = list(iter_record_arrays(path))
-    data = blocks[0].data
-    return RecordArrays(
-        data,
-        *(np.concatenate([getattr(b, name) for b in blocks]) for name in _COLUMNS),
-    )
+    if all(b.data is blocks[0].data for b in blocks):  # a mapped file: one buffer
+        data = blocks[0].data
+        shifts = [0] * len(blocks)
+    else:  # blocks with bytes of their own (gzip): one buffer of them all
+        data = np.concatenate([b.data for b in blocks])
+        sizes = [b.data.shape[0] for b in blocks]
+        shifts = [sum(sizes[:k]) for k in range(len(blocks))]
+    columns = {name: [getattr(b, name) for b in blocks] for name in _COLUMNS}
+    columns["offset"] = [o + shift for o, shift in zip(columns["offset"], shifts, strict=True)]
+    return RecordArrays(data, *(np.concatenate(columns[name]) for name in _COLUMNS))
 
 
 _COLUMNS: Final = ("offset", "length", "time_ns", "linktype", "index")
 BLOCK_RECORDS: Final = 1 << 16  # records per block of iter_record_arrays (columns: ~3 MiB)
-MAX_GUNZIP_BYTES: Final = 256 << 20  # a gzip capture is decompressed whole, up to this size
 
 
 def iter_record_arrays(
     path: str | Path, block_records: int = BLOCK_RECORDS
 ) -> Iterator[RecordArrays]:
     """:func:`read_record_arrays` block by block: consecutive records, ``block_records`` at a
-    time (at least one block, perhaps empty), every block over the same ``data``.
+    time (at least one block, perhaps empty).
 
-    The columns of a block are all that is held; the file is mapped, and the pages of the
-    blocks handed out before the last one are released from this process's memory as the
-    next is made (they stay in the page cache, and are read again if used again). A gzip
-    capture is decompressed whole: up to :data:`MAX_GUNZIP_BYTES`, beyond which it is refused
-    (decompress it to a file first).
+    The columns of a block are all that is held. A file is mapped (every block over the same
+    ``data``), and the pages of the blocks handed out before the last one are released from this
+    process's memory as the next is made (they stay in the page cache, and are read again if
+    used again). A gzip capture comes from the record reader (:func:`skinframes.pcap.
+    read_capture`, which decompresses as it reads and refuses a gzip bomb), each block with
+    its own bytes.
 
     Raises:
         PcapFormatError: the file cannot be read or is not a capture.
@@ -143,17 +147,17 @@ def iter_record_arrays(
     try:
         with open(path, "rb") as f:
             head = f.read(4)
-            if head[:2] == GZIP_MAGIC:
-                f.seek(0)
-                raw: bytes | bytearray | mmap.mmap = _gunzip(f.read(), str(path))
-            elif len(head) < 4:
+            if len(head) < 4:
                 raise PcapFormatError(f"{path}: {len(head)} bytes, not a capture file")
+            if head[:2] == GZIP_MAGIC:
+                raw = None
             else:
                 raw = mmap.mmap(f.fileno(), 0, access=mmap.ACCESS_READ)
     except OSError as exc:
         raise PcapFormatError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-    if len(raw) < 4:
-        raise PcapFormatError(f"{path}: {len(raw)} bytes, not a capture file")
+    if raw is None:  # gzip: the record reader decompresses as it goes (and refuses a bomb)
+        yield from _from_records(read_capture(path), block_records)
+        return
     data = np.frombuffer(raw, dtype=np.uint8)
     if bytes(raw[:4]) == PCAPNG_MAGIC:
         blocks = _pcapng(raw, data, str(path), block_records)
@@ -161,7 +165,7 @@ def iter_record_arrays(
         blocks = _pcap(raw, data, str(path), block_records)
     released = 0
     for block in blocks:
-        if isinstance(raw, mmap.mmap) and len(block):
+        if len(block):
             released = _release(raw, released, int(block.offset[0]) - _RELEASE_MARGIN)
         yield block
 
@@ -179,37 +183,41 @@ def _release(raw: mmap.mmap, done: int, upto: int) -> int:
     return done
 
 
-def _gunzip(raw: bytes, name: str) -> bytearray:
-    """The decompressed bytes of every gzip member; a damaged stream gives what decompressed
-    before the damage. PcapFormatError beyond :data:`MAX_GUNZIP_BYTES` (found in steps of
-    :data:`_GUNZIP_STEP`, so a bomb costs no more than the limit)."""
-    out = bytearray()
-    while raw[:2] == GZIP_MAGIC:
-        d = zlib.decompressobj(wbits=31)
-        pending = raw
-        try:
-            while pending and not d.eof:
-                out += d.decompress(pending, _GUNZIP_STEP)
-                pending = d.unconsumed_tail
-                if len(out) > MAX_GUNZIP_BYTES:
-                    raise PcapFormatError(
-                        f"{name}: decompresses to more than {MAX_GUNZIP_BYTES >> 20} MiB; "
-                        "decompress it to a file first (gunzip), which is then read without "
-                        "limit"
-                    )
-        except zlib.error:
-            break
-        if not d.eof:
-            break  # a cut member: what came before its end
-        raw = d.unused_data
-    return out
+def _from_records(records: Iterable[Record], block_records: int) -> Iterator[RecordArrays]:
+    """Blocks of the record reader's records (each block's bytes joined into its own ``data``):
+    for a gzip capture, which cannot be mapped."""
+    rows: list[Record] = []
+    empty = True
+    for rec in records:
+        rows.append(rec)
+        if len(rows) == block_records:
+            yield _block_of(rows)
+            rows, empty = [], False
+    if rows or empty:
+        yield _block_of(rows)
 
 
-_GUNZIP_STEP: Final = 16 << 20
+_BLOCK_PAD: Final = 64
+
+
+def _block_of(rows: list[Record]) -> RecordArrays:
+    length = np.array([len(r.data) for r in rows], dtype=np.int64)
+    offset = np.concatenate(([0], np.cumsum(length)[:-1])).astype(np.int64)
+    # zero bytes after the records: the readers' masked gathers (np.where(ok, at, 0)) may read
+    # a few bytes at 0 or past a short record, as they may in a mapped file
+    data = np.frombuffer(b"".join([*(r.data for r in rows), bytes(_BLOCK_PAD)]), dtype=np.uint8)
+    return RecordArrays(
+        data,
+        offset[: len(rows)],
+        length,
+        np.array([r.time_ns for r in rows], dtype=np.int64),
+        np.array([r.linktype for r in rows], dtype=np.int64),
+        np.array([r.index for r in rows], dtype=np.int64),
+    )
 
 
 def _pcap(
-    raw: bytes | bytearray | mmap.mmap, data: npt.NDArray[np.uint8], name: str, block_records: int
+    raw: mmap.mmap, data: npt.NDArray[np.uint8], name: str, block_records: int
 ) -> Iterator[RecordArrays]:
     header = classic_header(bytes(raw[:PCAP_HEADER_BYTES]), name)
     order, snaplen, scale = header.order, header.snaplen, header.ns_per_tick
@@ -240,7 +248,7 @@ def _empty(data: npt.NDArray[np.uint8]) -> RecordArrays:
 
 
 def _walk_pcap(
-    raw: bytes | bytearray | mmap.mmap, order: str, limit: int, block_records: int
+    raw: mmap.mmap, order: str, limit: int, block_records: int
 ) -> Iterator[npt.NDArray[np.int64]]:
     """Offsets of the record headers, following the chain of caplen fields, about
     ``block_records`` at a time.
@@ -304,7 +312,7 @@ _BLOCK_RECORDS: Final = 1 << 16  # records predicted per vectorised read
 
 
 def _step_pcap(
-    raw: bytes | bytearray | mmap.mmap, order: str, limit: int, pos: int, count: int
+    raw: mmap.mmap, order: str, limit: int, pos: int, count: int
 ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64], int, bool]:
     """Walk up to ``count`` records one by one: (offsets, sizes, next offset, damaged tail)."""
     caplen = struct.Struct(order + "I").unpack_from
@@ -338,7 +346,7 @@ def _period(sizes: npt.NDArray[np.int64]) -> int:
 
 
 def _pcapng(
-    raw: bytes | bytearray | mmap.mmap, data: npt.NDArray[np.uint8], name: str, block_records: int
+    raw: mmap.mmap, data: npt.NDArray[np.uint8], name: str, block_records: int
 ) -> Iterator[RecordArrays]:
     """Walk the blocks; packets become rows, IDBs give each interface's linktype and clock;
     the rows in blocks of ``block_records``."""
@@ -423,9 +431,7 @@ def _pcapng_rows(
     return RecordArrays(data, offset[ok], length[ok], time_ns[ok], linktype[ok], index)
 
 
-def _idb(
-    raw: bytes | bytearray | mmap.mmap, pos: int, size: int, order: str
-) -> tuple[int, int, int, int]:
+def _idb(raw: mmap.mmap, pos: int, size: int, order: str) -> tuple[int, int, int, int]:
     """(linktype, if_tsresol byte, if_tsoffset seconds, snaplen) of an Interface Description."""
     linktype, _reserved, snaplen = struct.unpack_from(order + "HHI", raw, pos + 8)
     resol, offset_s = DEFAULT_TSRESOL, 0

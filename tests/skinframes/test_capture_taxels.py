@@ -243,25 +243,29 @@ def test_blocks_of_any_size_give_the_same_samples(
     assert got[2].tolist() == whole.present.tolist()
 
 
-def test_a_gzip_capture_past_the_limit_is_refused_and_members_are_joined(
+def test_a_gzip_capture_is_read_block_by_block_and_a_bomb_refused(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    """A gzip capture is decompressed whole, so only up to MAX_GUNZIP_BYTES: a bomb is one
-    clear error, not all the memory there is. Two members are one capture (as gzip has it)."""
-    from skinframes import capture_arrays
+    """A gzip capture comes from the record reader block by block (two members are one
+    capture, as gzip has it); a bomb is its one clear error, not all the memory there is."""
+    from skinframes import pcap
+    from skinframes.capture_taxels import TaxelStream
 
-    path = emulate(tmp_path, "epl", 3, 30, "per-slave", False, "pcap")
+    path = emulate(tmp_path, "ecat", 9, 192, "logical", True, "pcapng")
     raw = path.read_bytes()
     half = len(raw) // 2
-    packed = tmp_path / "two.pcap.gz"
+    packed = tmp_path / "two.pcapng.gz"
     packed.write_bytes(gzip.compress(raw[:half]) + gzip.compress(raw[half:]))
-    assert (
-        taxels_from_capture(packed).taxels.tobytes() == taxels_from_capture(path).taxels.tobytes()
-    )
-    monkeypatch.setattr(capture_arrays, "MAX_GUNZIP_BYTES", len(raw) - 1)
-    with pytest.raises(PcapFormatError, match="decompress it to a file first"):
-        taxels_from_capture(packed)
-    assert main(["decode", str(packed), "--taxels", str(tmp_path / "t.npy")]) == 2
+    parts = list(TaxelStream(packed, block_records=5).chunks())
+    assert len(parts) > 1
+    got = np.concatenate([p.taxels for p in parts])
+    assert got.tobytes() == taxels_from_capture(path).taxels.tobytes()
+    bomb = tmp_path / "bomb.pcap.gz"
+    header = struct.pack("<IHHiIII", 0xA1B2C3D4, 2, 4, 0, 0, 0xFFFF, 1)
+    bomb.write_bytes(gzip.compress(header + bytes(16 << 20), 9))
+    monkeypatch.setattr(pcap, "GZIP_RATIO_AFTER_BYTES", 1 << 20)
+    with pytest.raises(PcapFormatError, match="gzip bomb"):
+        taxels_from_capture(bomb)
 
 
 def test_saved_taxels_hold_a_few_bytes_per_sample_not_the_samples(
