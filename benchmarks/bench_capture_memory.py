@@ -1,4 +1,5 @@
-"""Peak memory of ``check``, ``decode`` and the Python iterator on a large generated capture.
+"""Peak memory of ``check``, ``decode``, ``decode --taxels`` and the Python iterator on a large
+generated capture.
 
 issue 11, Build 3: readers stream, so peak RSS stays <= 256 MB however large the capture.
 Writes a clean pcap of golden EPL and EtherCAT frames (1 ms apart) of about ``--bytes`` into a
@@ -37,6 +38,9 @@ kind, path = sys.argv[1], sys.argv[2]
 if kind == "iterate":
     print(sum(1 for _ in read_capture(path)))
     code = 0
+elif kind == "decode --taxels":
+    code = main(["decode", "--taxels", path + ".npy", path])
+    print("written")
 else:
     code = main([kind, path])
     sys.stdout.flush()
@@ -45,7 +49,7 @@ with open("/proc/self/status") as f:
 sys.stderr.write(f"\\nVmHWM {hwm_kib}\\n")
 raise SystemExit(code)
 """
-READERS = ("check", "decode", "iterate")
+READERS = ("check", "decode", "decode --taxels", "iterate")
 
 
 def write_capture(path: Path, size_bytes: int) -> int:

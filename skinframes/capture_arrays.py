@@ -38,7 +38,9 @@ from skinframes.errors import PcapFormatError
 from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC, Record, classic_header, read_capture
 
 __all__ = [
+    "BLOCK_BYTES",
     "BLOCK_RECORDS",
+    "MAPPED_WINDOW_BYTES",
     "RecordArrays",
     "iter_record_arrays",
     "read_record_arrays",
@@ -168,9 +170,15 @@ def iter_record_arrays(
         if len(block):
             released = _release(raw, released, int(block.offset[0]) - _RELEASE_MARGIN)
         yield block
+    _release(raw, released, len(raw) + mmap.PAGESIZE)  # read to the end: none of it is needed
 
 
-_RELEASE_MARGIN: Final = 8 << 20  # bytes kept mapped before a block (records read again)
+_RELEASE_MARGIN: Final = 2 << 20  # bytes kept mapped before a block (records read again)
+BLOCK_BYTES: Final = 4 << 20  # a block ends after this many bytes of records, or BLOCK_RECORDS
+_WALK_AHEAD_BYTES: Final = 4 << 20  # how far the walk of a classic pcap reads ahead
+# the file's bytes mapped in at most at once, beyond one record: blocks handed out but not yet
+# released, the walk's look-ahead (iter_record_arrays; what a memory test may allow)
+MAPPED_WINDOW_BYTES: Final = _RELEASE_MARGIN + 2 * BLOCK_BYTES + _WALK_AHEAD_BYTES
 
 
 def _release(raw: mmap.mmap, done: int, upto: int) -> int:
@@ -273,7 +281,7 @@ def _walk_pcap(
         nonlocal starts, held
         starts.append(block)
         held += int(block.shape[0])
-        if held >= block_records:
+        if held >= block_records or int(block[-1]) - int(starts[0][0]) >= BLOCK_BYTES:
             yield np.concatenate(starts)
             starts, held = [], 0
 
@@ -286,7 +294,8 @@ def _walk_pcap(
         period = _period(recent)
         block = 4 * period
         while period and pos + head <= end:
-            reps = max(1, block // period)
+            cycle_bytes = int(recent[-period:].sum())  # the walk reads ahead a window at most
+            reps = max(1, min(block // period, _WALK_AHEAD_BYTES // max(cycle_bytes, 1)))
             guess = np.tile(recent[-period:], reps)
             at = pos + np.concatenate(([0], np.cumsum(guess[:-1])))
             fits = at + guess <= end
@@ -373,7 +382,7 @@ def _pcapng(
             sections[-1][1].append(_idb(raw, pos, size, order))
         elif kind in (EPB, SPB, PB):
             rows.append((pos, kind, len(sections) - 1))
-            if len(rows) == block_records:
+            if len(rows) == block_records or pos - rows[0][0] >= BLOCK_BYTES:
                 yield _pcapng_rows(data, rows, sections, first)
                 first += len(rows)
                 rows, empty = [], False
