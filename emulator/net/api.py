@@ -155,8 +155,8 @@ def simulate_ecat(
         closed_ring: the master's second port closes the ring (``redundant`` is its old name).
         layout: ``per-slave`` (one LRD per slave, the paper's) or ``logical``.
         payloads: (cycles, nodes, data_bytes) uint8 taxels to carry (e.g. a CAN log's
-            samples), or such arrays of consecutive cycles from an iterable, taken as the
-            cycles need them (a long log streamed); seeded contact patterns when None.
+            samples), or an iterator of such arrays of consecutive cycles, taken as the cycles
+            need them (a long log streamed); seeded contact patterns when None.
         faults: the fault plan.
         pcap: write the frames at the master's port(s) to this capture as they come (pcap, or
             pcapng by its suffix: ports as interfaces, direction flags, marked bit errors).

@@ -127,9 +127,10 @@ class MemorySink:
 class TaxelSource:
     """The taxel bytes of consecutive cycles: given (e.g. a CAN log's samples) or seeded.
 
-    Given taxels are one (cycles, nodes, data_bytes) array, or consecutive (m, nodes,
-    data_bytes) chunks from an iterable that yields them as they are needed (a CAN log read as
-    the cycles go, :class:`emulator.skin_samples.SkinLog`), whose lengths add up to ``cycles``.
+    Given taxels are one (cycles, nodes, data_bytes) array (or nested lists), or consecutive
+    (m, nodes, data_bytes) chunks from an iterator that yields them as they are needed (a CAN
+    log read as the cycles go, :class:`emulator.skin_samples.SkinLog`), whose lengths add up
+    to ``cycles``.
     Seeded taxels are drawn ahead by a producer thread, chunk by chunk (``PREFETCH_BYTES`` each,
     at most ``PREFETCH_CHUNKS`` waiting), while the driver assembles and writes the cycles
     before them: the generator releases the GIL, and so do numpy's copies and the file writes.
@@ -158,10 +159,10 @@ class TaxelSource:
         self._ahead: npt.NDArray[np.uint8] | None = None  # the rest of the chunk being taken
         self._stop = threading.Event()
         self._thread: threading.Thread | None = None
-        if isinstance(payloads, np.ndarray):
-            self._given = self._checked(payloads, cycles)
+        if isinstance(payloads, np.ndarray | list | tuple):  # one array (nested lists too)
+            self._given = self._checked(np.asarray(payloads), cycles)
             return
-        if payloads is not None:
+        if payloads is not None:  # an iterator or generator of chunks
             self._given_chunks = iter(payloads)
             return
         stream = taxel.PayloadStream(nodes, cycles, data_bytes, seed=seed)

@@ -141,6 +141,7 @@ def test_taxels_given_in_chunks_are_carried_as_one_array(
         return sink.records
 
     whole = records(taxels)
+    assert records(list(taxels)) == whole  # a list of per-cycle rows is one array, as before
     cuts = [0, 1, 4, 5, 17, 30, SAMPLES]
     assert records(iter([taxels[a:b] for a, b in itertools.pairwise(cuts)])) == whole
     with pytest.raises(SkinframesError, match="hold 39 cycles, 40 expected"):
