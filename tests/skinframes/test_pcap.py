@@ -832,7 +832,7 @@ MAX_RSS_BYTES = 256 * 1024 * 1024
 # decode --taxels maps the file: it may hold a window of it and one block's work beyond the
 # readers that stream (capture_arrays.MAPPED_WINDOW_BYTES and the block's columns), whatever
 # the capture's size; holding the file would add the file
-TAXELS_WINDOW_BYTES = 32 << 20
+TAXELS_WINDOW_BYTES = 40 << 20
 
 
 def _bench() -> Any:
