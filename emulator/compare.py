@@ -70,6 +70,12 @@ class _BusTimes:
     def _close(self, board: int, k: int, end: int) -> None:
         self._latency.setdefault(board, array.array("q")).append(end - k * self.period_ps)
 
+    def close(self) -> None:
+        """The bus is through: each board's latest cycle is complete."""
+        for board, latest in self._board.items():
+            self._close(board, *latest)
+        self._board.clear()
+
     def cycle_us(self) -> float:
         """The median time from a period's start until its last frame is through."""
         since = self.last_ps - np.arange(len(self.last_ps), dtype=np.int64) * self.period_ps
@@ -77,10 +83,7 @@ class _BusTimes:
 
     def latency_us(self, board: int) -> float:
         """The median time from a period's start until ``board``'s last frame of it is
-        through, over the cycles that carry the board's frames."""
-        latest = self._board.pop(board, None)
-        if latest is not None:
-            self._close(board, *latest)
+        through, over the cycles that carry the board's frames (after :meth:`close`)."""
         return float(np.median(np.frombuffer(self._latency[board], np.int64))) / PS_PER_US
 
 
@@ -148,6 +151,7 @@ def compare(
         if progress is not None:
             progress(len(chunk.taxels))
     emulated.add(bus.run())
+    emulated.close()
     can_cycle = float(np.median(recorded * bit)) / PS_PER_US
     mean_bits = float(total_bits / frames)
     per_board_us = canbus.FRAMES_PER_BOARD * mean_bits * bit / PS_PER_US  # a full 16-triangle patch

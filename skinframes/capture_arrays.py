@@ -40,7 +40,6 @@ from skinframes.pcap import GZIP_MAGIC, PCAPNG_MAGIC, Record, classic_header, re
 __all__ = [
     "BLOCK_BYTES",
     "BLOCK_RECORDS",
-    "MAPPED_WINDOW_BYTES",
     "RecordArrays",
     "iter_record_arrays",
     "read_record_arrays",
@@ -176,9 +175,6 @@ def iter_record_arrays(
 _RELEASE_MARGIN: Final = 2 << 20  # bytes kept mapped before a block (records read again)
 BLOCK_BYTES: Final = 4 << 20  # a block ends after this many bytes of records, or BLOCK_RECORDS
 _WALK_AHEAD_BYTES: Final = 4 << 20  # how far the walk of a classic pcap reads ahead
-# the file's bytes mapped in at most at once, beyond one record: blocks handed out but not yet
-# released, the walk's look-ahead (iter_record_arrays; what a memory test may allow)
-MAPPED_WINDOW_BYTES: Final = _RELEASE_MARGIN + 2 * BLOCK_BYTES + _WALK_AHEAD_BYTES
 
 
 def _release(raw: mmap.mmap, done: int, upto: int) -> int:

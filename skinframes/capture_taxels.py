@@ -410,7 +410,8 @@ def _ecat_first_sample(
     """(returned taxel datagrams from the first one at ``base`` up to the next one there, or
     all of them with fewer than two there; whether the master's own datagram at ``base`` is in
     the capture). Reads only as far as it must."""
-    first = -1  # returned datagrams since the first at base (-1: none at base yet)
+    started = False  # the first returned datagram at base has been seen
+    first = 0  # returned datagrams counted from it
     total = 0
     sent = False
     done = not count
@@ -427,14 +428,14 @@ def _ecat_first_sample(
         if not done:
             ret_base = at_base[returned]
             total += int(ret_base.shape[0])
-            for hit in ret_base.tolist():
-                if hit and first >= 0:
-                    done = True
-                    break
-                if hit:
-                    first = 0
-                if first >= 0:
-                    first += 1
+            hits = np.flatnonzero(ret_base).tolist()  # positions among the block's returned
+            since = 0  # where this block's count starts
+            if not started and hits:
+                started, since, hits = True, hits[0], hits[1:]
+            if started:
+                end = hits[0] if hits else int(ret_base.shape[0])  # the next at base, or on
+                first += end - since
+                done = bool(hits)
         if done and sent:
             break
     return (first if done and count else total), sent

@@ -87,12 +87,13 @@ class FindingList:
     iteration, indexing, ``==`` with a sequence, ``sort(key=...)``.
     """
 
-    __slots__ = ("_ids", "_index", "_kinds", "_which")
+    __slots__ = ("_counts", "_ids", "_index", "_kinds", "_which")
 
     def __init__(self, items: Iterable[FrameFinding] = ()) -> None:
         self._index = array.array("q")
         self._which = array.array("i")
         self._kinds: list[tuple[Finding, int | None]] = []
+        self._counts: list[int] = []  # findings of each kind
         self._ids: dict[tuple[Finding, int | None], int] = {}
         self.extend(items)
 
@@ -103,6 +104,8 @@ class FindingList:
         if which is None:
             which = self._ids[key] = len(self._kinds)
             self._kinds.append(key)
+            self._counts.append(0)
+        self._counts[which] += 1
         self._index.append(item.index)
         self._which.append(which)
 
@@ -159,11 +162,8 @@ class FindingList:
 
     def count_at_least(self, floor: Severity) -> int:
         """How many are of severity ``floor`` or worse."""
-        per_kind = [0] * len(self._kinds)
-        for which in self._which:
-            per_kind[which] += 1
         return sum(
-            n for n, (f, _) in zip(per_kind, self._kinds, strict=True) if f.severity >= floor
+            n for n, (f, _) in zip(self._counts, self._kinds, strict=True) if f.severity >= floor
         )
 
     def at_least(self, floor: Severity) -> Iterator[FrameFinding]:

@@ -829,9 +829,9 @@ def test_pcapng_block_length_findings(damage: str, code: str) -> None:
 # benchmarks/bench_capture_memory.py measures the 300 MB and 2 GB cases; here 8 MB (30 MB in CI)
 BIG_CAPTURE_BYTES = 30_000_000 if os.environ.get("CI", "").lower() == "true" else 8_000_000
 MAX_RSS_BYTES = 256 * 1024 * 1024
-# decode --taxels maps the file: it may hold a window of it and one block's work beyond the
-# readers that stream (capture_arrays.MAPPED_WINDOW_BYTES and the block's columns), whatever
-# the capture's size; holding the file would add the file
+# decode --taxels maps the file: beyond the readers that stream it may hold a window of it (the
+# blocks not yet released, the walk's look-ahead: capture_arrays) and one block's work, 26 MB
+# measured at 30 MB, whatever the capture's size; holding the file would add the file
 TAXELS_WINDOW_BYTES = 40 << 20
 
 
