@@ -28,10 +28,22 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.esc.dc import DcTimebase
+from emulator.esc.dc import REG_DC_END, REG_DC_RECEIVE, DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
+from emulator.esc.registers import (
+    ADDRESS_SPACE,
+    REG_AL_STATUS,
+    REG_ALIAS,
+    REG_DL_CONTROL,
+    REG_DL_STATUS,
+    REG_RESET_ECAT,
+    REG_RW_OFFSET,
+    REG_STATION,
+    REGISTER_END,
+)
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 from emulator.esc.state_machine import AlState, SkinPatchApplication
+from emulator.esc.together import TOGETHER_MIN, commit_together
 from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -59,7 +71,25 @@ _CONFIGURED: Final = frozenset({4, 5, 6})
 _LOGICAL: Final = frozenset({10, 11, 12})
 _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
-_BWR: Final = int(Command.BWR)
+_BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
+
+
+def _plain_read(lo: int, hi: int) -> bool:
+    """A read of registers [lo, hi) that changes nothing: below 0x0F80, not DC times (which run
+    with the clock), not DL or AL status (whose reads clear their event bits)."""
+    return (
+        lo < REGISTER_END  # an empty access at 0x0F80 or beyond touches no register: no count
+        and hi <= REGISTER_END
+        and not (lo < REG_DC_END and hi > REG_DC_RECEIVE)
+        and not (lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS)
+        and not (lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS)
+    )
+
+
+def _plain_write(lo: int, hi: int) -> bool:
+    """A write of registers [lo, hi) that only waits for the end of the frame: below 0x0F80 and
+    not the reset register (whose sequence each ESC follows, datasheet II 2.3)."""
+    return lo < REGISTER_END and hi <= REGISTER_END and not lo <= REG_RESET_ECAT < hi
 
 
 def _frozen_clock() -> int:
@@ -77,6 +107,10 @@ class EcatChain:
         if not 1 <= len(devices) <= MAX_SLAVES:
             raise TopologyError(f"EtherCAT chain: {len(devices)} slaves (1..{MAX_SLAVES})")
         self.devices = list(devices)
+        # every ESC's 64 KiB, one a row: a broadcast reads and commits them all at once
+        self.memory = np.zeros((len(self.devices), ADDRESS_SPACE), np.uint8)
+        for row, dev in zip(self.memory, self.devices, strict=True):
+            dev.use_memory(row.data)
         self.timebase = DcTimebase(line_length=len(self.devices))  # distributed clocks (dc.py)
         # host time (ns) at which each frame arrives: frozen at 0 (deterministic, for the timing
         # engine and tests) until a live transport sets a real clock (emulator.live.serve)
@@ -210,96 +244,198 @@ class EcatChain:
     def _run_planned(
         self, buf: bytearray, layout: list[tuple[int, int, int, int, int, int]]
     ) -> bytes | None:
-        """The same processing as :meth:`_pass` ESC by ESC, but each ESC is handed only the
-        datagrams that can concern it: an auto-increment datagram the ESC whose position
-        makes ADP 0, a configured-address one the ESCs with that station address (or alias), a
-        logical one the ESCs whose FMMUs map part of it, broadcasts and read-multiple-writes
-        every ESC. Work per frame is thus bounded by what the frame asks of each ESC."""
+        """The processing of :meth:`_pass` ESC by ESC, in an order that gives the same bytes:
+        datagram by datagram, each through the ESCs it reaches.
+
+        An ESC's work on a datagram depends only on its own earlier datagrams of the frame and
+        on the datagram's bytes as the ESCs before it left them, and a loop change waits for the
+        end of the frame (datasheet II 2.4.1), so how far the frame goes is known when it
+        arrives. A datagram goes only to the ESCs it can concern: an auto-increment one to the
+        ESC whose position makes ADP 0, a configured-address one to the ESCs with that station
+        address (or alias), a logical one to the ESCs whose FMMUs map part of it. A broadcast or
+        read-multiple-write of plain registers is read or written at every ESC at once through
+        the rows of :attr:`memory` (:meth:`_everyone`), and the ESCs whose frame left the same
+        register writes commit them together (:meth:`_end_frames`). Work per frame is thus
+        bounded by what the frame asks of each ESC, mostly by the frame alone.
+        """
         devices = self.devices
-        everyone: list[int] = []
-        targets: dict[int, list[int]] = {}
+        reach, lost = len(devices), False
+        for p, dev in enumerate(devices):
+            onward = dev.onward
+            if not onward:  # closed (False): returns from here; forced open, no link: lost
+                reach, lost = p + 1, onward is None
+                break
+        line = devices[:reach] if reach < len(devices) else devices
         adps = [buf[d[1]] | buf[d[1] + 1] << 8 for d in layout]
-        stations: dict[int, list[int]] | None = None
+        irq_all = 0  # the ESCs' event requests ORed into every IRQ field (datasheet I Table 3)
+        for dev in line:
+            irq_all |= dev.irq
+        stations: tuple[npt.NDArray[np.int64], ...] | None = None
         spans: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None
-        for k, (cmd, _, ado, _, n, _) in enumerate(layout):
+        for k, (cmd, _, ado, data_at, n, irq_at) in enumerate(layout):
             adp = adps[k]
             if cmd in _EVERYONE:
-                everyone.append(k)
-            elif cmd in _AUTO_INCREMENT:
-                pos = -adp & 0xFFFF
-                if pos < len(devices):
-                    targets.setdefault(pos, []).append(k)
-            elif cmd in _CONFIGURED:
-                if stations is None:
-                    stations = self._stations()
-                for pos in stations.get(adp, ()):
-                    targets.setdefault(pos, []).append(k)
-            elif cmd in _LOGICAL and n:
-                if spans is None:
-                    spans = (
-                        np.array([d.fmmu_span[0] for d in devices], dtype=np.int64),
-                        np.array([d.fmmu_span[1] for d in devices], dtype=np.int64),
-                    )
-                lad = adp | ado << 16
-                hit = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad))
-                for pos in hit.tolist():
-                    targets.setdefault(pos, []).append(k)
-        inc = [cmd in _INCREMENTS for cmd, *_ in layout]
-        # a BWR's data passes every ESC unchanged: one copy serves them all (datasheet I Table 7)
-        written = [bytes(buf[d[3] : d[3] + d[4]]) if d[0] == _BWR else None for d in layout]
-        irq_or = 0
-        mac_bit = False
-        passed = 0
-        for p, dev in enumerate(devices):
-            mine = targets.get(p)
-            work = everyone if mine is None else sorted(everyone + mine) if everyone else mine
-            process, broadcast_write = dev.process, dev.broadcast_write
-            irq_before = dev.irq
-            last = -1
-            for k in work:
-                cmd, adp_at, ado, data_at, n, irq_at = layout[k]
-                data = written[k]
-                if data is not None:
-                    wkc_inc = broadcast_write(ado, data)
-                else:
-                    adp = (adps[k] + p) & 0xFFFF if inc[k] else adps[k]
-                    _, wkc_inc = process(cmd, adp, ado, buf, data_at, n)
-                if wkc_inc:
-                    wkc_at = data_at + n
-                    wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + wkc_inc
-                    buf[wkc_at] = wkc & 0xFF
-                    buf[wkc_at + 1] = (wkc >> 8) & 0xFF
-                irq = dev.irq
-                if irq != irq_before:  # the event request changed: OR it where it applied
-                    for j in range(last + 1, k):
-                        self._or_irq(buf, layout[j][5], irq_before)
-                    last, irq_before = k - 1, irq
-                if irq:
-                    self._or_irq(buf, irq_at, irq)
-            if last >= 0 and irq_before:
-                for j in range(last + 1, len(layout)):
-                    self._or_irq(buf, layout[j][5], irq_before)
+                wkc_inc, changed = self._everyone(line, cmd, adp, ado, buf, data_at, n)
             else:
-                irq_or |= irq_before
-            mac_bit = mac_bit or dev.sets_mac
-            onward = dev.onward  # loop changes wait for the end of the frame (II 2.4.1)
-            dev.end_frame()
-            passed += 1
-            if onward is None:
-                self._drop(malformed=False)
-                return None
-            if not onward:
-                break
-        for k, (_, adp_at, _, _, _, irq_at) in enumerate(layout):
-            if inc[k]:
-                adp = (adps[k] + passed) & 0xFFFF
+                targets: list[int] = []
+                if cmd in _AUTO_INCREMENT:
+                    pos = -adp & 0xFFFF
+                    if pos < reach:
+                        targets.append(pos)
+                        adp = 0
+                elif cmd in _CONFIGURED:
+                    if stations is None:
+                        stations = self._addresses(reach)
+                    targets = self._addressed(stations, adp)
+                elif cmd in _LOGICAL and n:
+                    if spans is None:
+                        spans = (
+                            np.array([d.fmmu_span[0] for d in line], dtype=np.int64),
+                            np.array([d.fmmu_span[1] for d in line], dtype=np.int64),
+                        )
+                    lad = adp | ado << 16
+                    targets = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
+                wkc_inc, changed = 0, False
+                for p in targets:
+                    dev = line[p]
+                    before = dev.irq
+                    wkc_inc += dev.process(cmd, adp, ado, buf, data_at, n)[1]
+                    changed = changed or dev.irq != before
+            if changed:
+                irq_all = 0
+                for dev in line:
+                    irq_all |= dev.irq
+            if wkc_inc:
+                wkc_at = data_at + n
+                wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + wkc_inc
+                buf[wkc_at] = wkc & 0xFF
+                buf[wkc_at + 1] = (wkc >> 8) & 0xFF
+            if irq_all:
+                self._or_irq(buf, irq_at, irq_all)
+        for k, (cmd, adp_at, *_) in enumerate(layout):
+            if cmd in _INCREMENTS:
+                adp = (adps[k] + reach) & 0xFFFF
                 buf[adp_at] = adp & 0xFF
                 buf[adp_at + 1] = adp >> 8
-            if irq_or:
-                self._or_irq(buf, irq_at, irq_or)
+        mac_bit = any(dev.sets_mac for dev in line)
+        self._end_frames(line)
+        if lost:
+            self._drop(malformed=False)
+            return None
         if mac_bit:
             buf[6] |= ethercat.RETURNED_MAC_BIT
         return bytes(buf)
+
+    def _everyone(
+        self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
+    ) -> tuple[int, bool]:
+        """A broadcast, ARMW or FRMW datagram at every ESC of ``line``: (the working counter's
+        increment, whether an ESC's event request changed).
+
+        On plain registers (below 0x0F80, no read side effects: DL and AL status, DC times; no
+        write of the reset register) it is done for all ESCs at once: a read is their rows ORed
+        (BRD, BRW) or one row (the reading ESC of ARMW/FRMW), a write one (address, data) in each
+        ESC's shadow writes, committed at the end of the frame (datasheet I 3.4, Table 7).
+        Elsewhere (SyncManagers, process memory, registers with side effects) each ESC in turn.
+        """
+        end, reach, memory = ado + n, len(line), self.memory
+        if cmd == _BWR:
+            if _plain_write(ado, end):
+                entry = (ado, bytes(buf[at : at + n]))
+                for dev in line:
+                    dev.pending.append(entry)
+                return reach, False
+        elif _plain_read(ado, end):
+            frame = np.frombuffer(buf, np.uint8, n, at).copy()
+            if cmd == _BRD:
+                buf[at : at + n] = (np.bitwise_or.reduce(memory[:reach, ado:end]) | frame).tobytes()
+                return reach, False
+            if cmd == _BRW:
+                offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
+                if (offsets == offsets[0]).all():
+                    to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
+                    if _plain_write(to, to + n):
+                        self._read_write(line, to, buf, at, frame, ado)
+                        return 3 * reach, False
+            elif _plain_write(
+                ado, end
+            ):  # ARMW, FRMW: read at the addressed ESCs, write at the others
+                if cmd == _ARMW:
+                    readers = [-adp & 0xFFFF]
+                else:
+                    readers = self._addressed(self._addresses(reach), adp)
+                entry = (ado, frame.tobytes())
+                first = 0
+                for p in readers:
+                    if p >= reach:
+                        break
+                    for dev in line[first:p]:
+                        dev.pending.append(entry)
+                    buf[at : at + n] = memory[p, ado:end].tobytes()
+                    entry, first = (ado, bytes(buf[at : at + n])), p + 1
+                for dev in line[first:]:
+                    dev.pending.append(entry)
+                return reach, False
+        total, changed = 0, False
+        step = 1 if cmd in _INCREMENTS else 0
+        for p, dev in enumerate(line):
+            before = dev.irq
+            total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
+            changed = changed or dev.irq != before
+        return total, changed
+
+    def _read_write(
+        self,
+        line: list[EscDevice],
+        to: int,
+        buf: bytearray,
+        at: int,
+        frame: npt.NDArray[np.uint8],
+        ado: int,
+    ) -> None:
+        """A BRW of plain registers: each ESC writes at ``to`` the data as it arrives (read
+        before write, datasheet I Table 7), then ORs its registers into it."""
+        n = len(frame)
+        ored = np.bitwise_or.accumulate(self.memory[: len(line), ado : ado + n], axis=0)
+        ored |= frame  # ored[p]: the data as ESC p leaves it
+        dev = line[0]
+        dev.pending.append((to, frame.tobytes()))
+        for p in range(1, len(line)):
+            line[p].pending.append((to, ored[p - 1].tobytes()))
+        buf[at : at + n] = ored[-1].tobytes()
+
+    def _end_frames(self, line: list[EscDevice]) -> None:
+        """Every ESC of ``line`` ends the frame (:meth:`EscDevice.end_frame`); those with equal
+        register writes (a broadcast's, one configuration) commit them together."""
+        groups: dict[tuple[object, ...], list[int]] = {}
+        for p, dev in enumerate(line):
+            if dev.pending:
+                groups.setdefault((id(dev.write_plans), *dev.pending), []).append(p)
+            else:
+                dev.end_frame()
+        for positions in groups.values():
+            if len(positions) < TOGETHER_MIN:
+                for p in positions:
+                    line[p].end_frame()
+                continue
+            together = [line[p] for p in positions]
+            commit_together(together, self.memory, np.array(positions, dtype=np.intp))
+            for dev in together:
+                dev.finish_frame()
+
+    def _addresses(self, reach: int) -> tuple[npt.NDArray[np.int64], ...]:
+        """Station address, alias, and whether DL control enables the alias, of the ESCs the
+        frame reaches (the registers as the frame found them: shadowed, datasheet I 3.4)."""
+        regs = self.memory[:reach, REG_STATION : REG_ALIAS + 2].astype(np.int64)
+        station = regs[:, 0] | regs[:, 1] << 8
+        alias = regs[:, REG_ALIAS - REG_STATION] | regs[:, REG_ALIAS - REG_STATION + 1] << 8
+        return station, alias, self.memory[:reach, REG_DL_CONTROL + 3] & 0x01
+
+    @staticmethod
+    def _addressed(addresses: tuple[npt.NDArray[np.int64], ...], adp: int) -> list[int]:
+        """Positions whose station address is ``adp``, or their alias where it is enabled."""
+        station, alias, alias_on = addresses
+        return np.flatnonzero((station == adp) | ((alias_on != 0) & (alias == adp))).tolist()
 
     @staticmethod
     def _or_irq(buf: bytearray, at: int, irq: int) -> None:

@@ -49,10 +49,13 @@ import random
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import Final
+from typing import TYPE_CHECKING, Final
 
 from emulator.errors import TopologyError
 from emulator.model.params import WIRE, TimingParams
+
+if TYPE_CHECKING:  # registers.py imports this module
+    from emulator.esc.registers import Memory
 
 __all__ = [
     "DC_FEATURES",
@@ -240,7 +243,7 @@ class DcClock:
         t = t0 if port == 0 else t1
         return None if t is None else self.timebase.frame_ns + t / 1000
 
-    def system_time(self, mem: bytearray, host_ns: float) -> int:
+    def system_time(self, mem: Memory, host_ns: float) -> int:
         """The local copy of the system time: local time + offset (0x0920)."""
         offset: int = _U64.unpack_from(mem, REG_DC_OFFSET)[0]
         return (self.local_at(host_ns) + offset) & MASK64
@@ -258,7 +261,7 @@ class DcClock:
         self._rate = 1.0 + drift_ppm * 1e-6
 
     # --- the ESC's hooks --------------------------------------------------------------------
-    def power_on(self, mem: bytearray) -> None:
+    def power_on(self, mem: Memory) -> None:
         """Reset values of the DC registers (datasheet II 2.20-2.22)."""
         mem[REG_DC_RECEIVE:REG_DC_END] = bytes(REG_DC_END - REG_DC_RECEIVE)
         struct.pack_into("<H", mem, REG_DC_SPEED_START, SPEED_START_RESET)
@@ -271,7 +274,7 @@ class DcClock:
         self._sync0_status = self._sync1_status = 0
         self._last_pulse = self._sampled_pulse = None
 
-    def refresh(self, mem: bytearray, lo: int, hi: int) -> None:
+    def refresh(self, mem: Memory, lo: int, hi: int) -> None:
         """Bring the registers a read of [lo, hi) sees up to the current frame's time."""
         t = self._arrival_ns()
         assert t is not None
@@ -295,7 +298,7 @@ class DcClock:
             if lo <= REG_DC_SYNC1_STATUS < hi:
                 self._sync1_status = 0
 
-    def write(self, mem: bytearray, lo: int, data: bytes) -> None:
+    def write(self, mem: Memory, lo: int, data: bytes) -> None:
         """A write into 0x0900-0x0917: the receive time latch or a system time compare."""
         hi = lo + len(data)
         if lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE:
@@ -306,7 +309,7 @@ class DcClock:
             current[a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = data[a - lo : b - lo]
             self.compare(mem, _U64.unpack(current)[0], wide=b - REG_DC_SYSTEM_TIME > 4)
 
-    def configured(self, mem: bytearray, lo: int, hi: int) -> None:
+    def configured(self, mem: Memory, lo: int, hi: int) -> None:
         """After writes of [lo, hi) in 0x0920-0x09A7 took effect (end of the frame)."""
         if lo < REG_DC_SPEED_START + 2 and hi > REG_DC_SPEED_START:
             self._integral = 0.0  # a write resets the speed counter diff (datasheet II 2.20)
@@ -316,7 +319,7 @@ class DcClock:
             self._activate(mem)
 
     # --- latch and compare --------------------------------------------------------------------
-    def _latch(self, mem: bytearray) -> None:
+    def _latch(self, mem: Memory) -> None:
         t0 = self._arrival_ns(0)
         t1 = self._arrival_ns(1)
         assert t0 is not None
@@ -326,7 +329,7 @@ class DcClock:
         mem[REG_DC_RECEIVE + 8 : REG_DC_RECEIVE + 16] = bytes(8)
         _U64.pack_into(mem, REG_DC_RECEIVE_PU, port0)
 
-    def compare(self, mem: bytearray, received: int, *, wide: bool = True) -> int:
+    def compare(self, mem: Memory, received: int, *, wide: bool = True) -> int:
         """Compare a received system time with the local copy at this frame's arrival; feed the
         time control loop; returns the difference (local copy - received - delay, ns)."""
         host = self._arrival_ns()
@@ -344,7 +347,7 @@ class DcClock:
         self._control(mem, host, diff)
         return diff
 
-    def _control(self, mem: bytearray, host: float, diff: int) -> None:
+    def _control(self, mem: Memory, host: float, diff: int) -> None:
         """The PI time control loop (the emulator's law; see the module docstring)."""
         speed_start = max(1, _U32.unpack_from(mem, REG_DC_SPEED_START)[0] & 0x7FFF)
         tau_ns = speed_start * PHASE_NS_PER_SPEED_COUNT
@@ -358,11 +361,11 @@ class DcClock:
         struct.pack_into("<h", mem, REG_DC_SPEED_DIFF, units)
 
     # --- SYNC0 / SYNC1 ------------------------------------------------------------------------
-    def sync0_active(self, mem: bytearray) -> bool:
+    def sync0_active(self, mem: Memory) -> bool:
         """Cyclic operation and SYNC0 activated (0x0981 bits 0 and 1)."""
         return mem[REG_DC_ACTIVATION] & 0x03 == 0x03
 
-    def _activate(self, mem: bytearray) -> None:
+    def _activate(self, mem: Memory) -> None:
         self._sync0_status = self._sync1_status = 0
         self._last_pulse = self._sampled_pulse = None
         self._next_sync1 = None
@@ -371,7 +374,7 @@ class DcClock:
             return
         self._next_sync0 = _U64.unpack_from(mem, REG_DC_START_TIME)[0]
 
-    def _advance(self, mem: bytearray, host_ns: float) -> None:
+    def _advance(self, mem: Memory, host_ns: float) -> None:
         """Fire the SYNC0 (and SYNC1) pulses due by ``host_ns``."""
         nxt = self._next_sync0
         if nxt is None:
@@ -392,7 +395,7 @@ class DcClock:
             if now >= self._next_sync1:
                 self._sync1_status = 1
 
-    def sample_due(self, mem: bytearray) -> int | None:
+    def sample_due(self, mem: Memory) -> int | None:
         """The system time of a SYNC0 pulse that fired since the last sample (the patch then
         takes the sample its sensor holds), else None. Called when the master opens the input
         buffer."""

@@ -101,6 +101,7 @@ from emulator.esc.registers import (
     SM_READ_OPEN,
     SM_WRITE_OPEN,
     EscConfig,
+    Memory,
     write_masks,
 )
 from emulator.esc.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
@@ -320,6 +321,22 @@ class _WritePlans:
         return min(end, self.sm_end)
 
 
+def mark(
+    lo: int, hi: int, flags: list[bool], fmmu_end: int, dc: tuple[int, int] | None
+) -> tuple[int, int] | None:
+    """Note in ``flags`` what a masked register write of [lo, hi) changed (AL control, DL
+    control, the FMMUs below ``fmmu_end``); the DC registers written, [lo, hi) joined to ``dc``."""
+    if lo <= REG_AL_CONTROL < hi:
+        flags[0] = True
+    if lo < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL:
+        flags[2] = True
+    if lo < fmmu_end and hi > REG_FMMU:
+        flags[3] = True
+    if lo < REG_DC_END and hi > REG_DC_OFFSET:
+        return (lo, hi) if dc is None else (min(dc[0], lo), max(dc[1], hi))
+    return dc
+
+
 def _sm_order(sm: _Sm) -> tuple[int, bool]:
     """SyncManagers by start address, ECAT-controlled before PDI-locked ones at the same start."""
     return sm.start, sm.locked
@@ -349,8 +366,8 @@ class EscDevice:
         self._sii_image = sii if sii is not None else build_sii(info)
         if len(self._sii_image) % 2 or len(self._sii_image) < 2 * 0x40:
             raise TopologyError(f"SII image of {len(self._sii_image)} bytes (even, >= 128)")
-        self._plans = _WritePlans.of(self.config)
-        self._masks = self._plans.masks  # how register writes are cut (shared)
+        self.write_plans = _WritePlans.of(self.config)  # how register writes are cut (shared)
+        self._masks = self.write_plans.masks
         self.dc = DcClock()  # distributed clocks (dc.py); the chain shares its timebase
         self._dc_written: tuple[int, int] | None = None
         self.position = 0  # set by the chain; used in traces
@@ -358,10 +375,12 @@ class EscDevice:
         self.onward: bool | None = False  # cached forwards()
         self.sets_mac = True  # cached changes_source_mac
         self.trace: list[TraceCopy] | None = None
-        self.mem = bytearray(ADDRESS_SPACE)
+        self.mem: Memory = bytearray(ADDRESS_SPACE)
         self.sii = bytearray(self._sii_image)  # non-volatile: survives an ESC reset
         self.pdi_operational = False
-        self._pending: list[tuple[int, bytes]] = []
+        # register writes of the current frame, committed at its end (datasheet I 3.4); the chain
+        # appends a broadcast's one (address, data) to every ESC's list
+        self.pending: list[tuple[int, bytes]] = []
         self._completed: list[_Sm] = []
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
@@ -413,7 +432,7 @@ class EscDevice:
         for y in range(cfg.syncmanagers):
             mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
         self._sms = [None] * cfg.syncmanagers
-        self._active, self._fmmus, self._pending, self._completed = [], (), [], []
+        self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self._lrd_plans.clear()
         self.fmmu_span = (0, 0)
         self.dc.power_on(mem)
@@ -497,6 +516,14 @@ class EscDevice:
             return True if self.port1_link else None
         return self.port1_link  # auto, auto close: open with a link
 
+    def use_memory(self, row: memoryview) -> None:
+        """Keep the 64 KiB in ``row`` from now on (its content now): the chain holds every ESC's
+        memory as one array, so that a broadcast reads or commits all of them at once."""
+        if row.nbytes != ADDRESS_SPACE or row.format != "B" or row.readonly:
+            raise TopologyError("ESC memory: a writable row of 64 KiB bytes")
+        row[:] = self.mem
+        self.mem = row
+
     def registers(self, addr: int, length: int) -> bytes:
         """The committed register/memory bytes (no side effects; for tests and tools)."""
         return bytes(self.mem[addr : addr + length])
@@ -560,13 +587,18 @@ class EscDevice:
     # --- frame processing -----------------------------------------------------------------------
     def end_frame(self) -> None:
         """The frame has passed: shadow registers take effect, buffers change (datasheet I 3.4)."""
-        if not (self._pending or self._completed or self._reset_written is not None):
+        if not (self.pending or self._completed or self._reset_written is not None):
             if self._reset_progress:  # a frame that does not continue 'R','E','S' cancels it
                 self._reset_progress = 0
                 self.mem[REG_RESET_ECAT] = 0
             return
-        if self._pending:
+        if self.pending:
             self._commit_registers()
+        self.finish_frame()
+
+    def finish_frame(self) -> None:
+        """:meth:`end_frame` after the register writes took effect: buffer exchanges, the
+        mailbox, the reset sequence (the chain commits the writes of many ESCs at once)."""
         if self._completed:
             for sm in self._completed:
                 self._finish_buffer(sm)
@@ -741,7 +773,7 @@ class EscDevice:
         pos = addr
         if pos < REGISTER_END:
             hi = min(end, REGISTER_END)
-            self._pending.append((pos, data[: hi - addr]))
+            self.pending.append((pos, data[: hi - addr]))
             if pos <= REG_RESET_ECAT < hi:
                 self._reset_written = data[REG_RESET_ECAT - addr]
             ok = 1
@@ -984,9 +1016,9 @@ class EscDevice:
         (:meth:`_WritePlans.plan`) and shared by every ESC of that configuration.
         """
         mem = self.mem
-        plans = self._plans
-        pending = [(addr, data, plans.plan(addr, len(data))) for addr, data in self._pending]
-        self._pending.clear()
+        plans = self.write_plans
+        pending = [(addr, data, plans.plan(addr, len(data))) for addr, data in self.pending]
+        self.pending.clear()
         touched = 0
         for _, _, (_, touches) in pending:
             touched |= touches
@@ -1006,39 +1038,54 @@ class EscDevice:
                     value = int.from_bytes(data[lo - addr : hi - addr], "little")
                     mem[lo:hi] = ((old & ~mask) | (value & mask)).to_bytes(hi - lo, "little")
                     if marks:
-                        self._mark(lo, hi, flags)
+                        self._dc_written = mark(
+                            lo, hi, flags, self.write_plans.fmmu_end, self._dc_written
+                        )
         al_written, eeprom_command, dl_changed, fmmu_changed, sm_changed = flags
-        if fmmu_changed and mem[REG_FMMU : plans.fmmu_end] != fmmu_before:
+        dc_written, self._dc_written = self._dc_written, None
+        self.take_effect(
+            fmmu=fmmu_changed and bytes(mem[REG_FMMU : plans.fmmu_end]) != fmmu_before,
+            sm=sm_changed and bytes(mem[REG_SM : plans.sm_end]) != sm_before,
+            sm_enabled=sm_enabled,
+            dl=dl_changed,
+            dc=dc_written,
+            eeprom=eeprom_command,
+            al=al_written,
+        )
+
+    def take_effect(
+        self,
+        *,
+        fmmu: bool,
+        sm: bool,
+        sm_enabled: bytes,
+        dl: bool,
+        dc: tuple[int, int] | None,
+        eeprom: bool,
+        al: bool,
+    ) -> None:
+        """What the frame's committed register writes set off, in this order: the FMMU and
+        SyncManager tables changed (``sm_enabled``: their activate bytes before the frame), DL
+        control, DC registers [lo, hi), an EEPROM command, AL control (datasheet I 3.4)."""
+        mem = self.mem
+        if fmmu:
             self._rebuild_fmmus()
-        if sm_changed and mem[REG_SM : plans.sm_end] != sm_before:
+        if sm:
             self._rebuild_sms(sm_enabled)
             self._mailbox_due = True
-        if dl_changed:
+        if dl:
             self._update_dl_status()
-        if self._dc_written is not None:
-            self.dc.configured(mem, *self._dc_written)
-            self._dc_written = None
+        if dc is not None:
+            self.dc.configured(mem, *dc)
         self._update_irq()
-        if eeprom_command:
+        if eeprom:
             self._eeprom_command()
-        if al_written and self.pdi_operational:
+        if al and self.pdi_operational:
             value = mem[REG_AL_CONTROL] | mem[REG_AL_CONTROL + 1] << 8
             if mem[REG_PDI_CONTROL + 1] & 0x01:  # device emulation: AL control -> AL status
                 self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
             else:
                 self.app.al_control(self, value)
-
-    def _mark(self, lo: int, hi: int, flags: list[bool]) -> None:
-        """Note what a masked write of [lo, hi) changed: AL control, DL control, the FMMUs, DC."""
-        if lo <= REG_AL_CONTROL < hi:
-            flags[0] = True
-        if lo < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL:
-            flags[2] = True
-        if lo < self._plans.fmmu_end and hi > REG_FMMU:
-            flags[3] = True
-        if lo < REG_DC_END and hi > REG_DC_OFFSET:
-            w = self._dc_written
-            self._dc_written = (lo, hi) if w is None else (min(w[0], lo), max(w[1], hi))
 
     def _masked_write(self, lo: int, data: bytes, flags: list[bool]) -> None:
         """Bytes [lo, lo + len(data)) without side effects but change flags: masked at once."""
@@ -1049,7 +1096,7 @@ class EscDevice:
         old = int.from_bytes(self.mem[lo:hi], "little")
         new = (old & ~mask) | (int.from_bytes(data, "little") & mask)
         self.mem[lo:hi] = new.to_bytes(hi - lo, "little")
-        self._mark(lo, hi, flags)
+        self._dc_written = mark(lo, hi, flags, self.write_plans.fmmu_end, self._dc_written)
 
     def _special_write(
         self, lo: int, hi: int, data: bytes, sm_enabled: bytes, flags: list[bool]

@@ -8,7 +8,7 @@ emulated ESC (:mod:`emulator.esc.device`) implements; section I 1.1 for the addr
 from __future__ import annotations
 
 from dataclasses import dataclass
-from typing import Final
+from typing import Final, TypeAlias
 
 from emulator.errors import TopologyError
 from emulator.esc.dc import dc_write_masks
@@ -64,10 +64,13 @@ __all__ = [
     "SM_READ_OPEN",
     "SM_WRITE_OPEN",
     "EscConfig",
+    "Memory",
     "write_masks",
 ]
 
 ADDRESS_SPACE: Final = 0x10000
+# an ESC's 64 KiB: its own bytearray, or its row of the chain's array (EcatChain.memory)
+Memory: TypeAlias = bytearray | memoryview
 REGISTER_END: Final = 0x0F80  # registers 0x0000-0x0F7F have shadow buffers (datasheet I 3.4)
 PROCESS_RAM: Final = 0x1000
 

@@ -1,0 +1,155 @@
+"""What one frame does at many ESCs at once: the commit of equal register writes, as numpy rows.
+
+A broadcast write (BWR, and the writing side of ARMW/FRMW) leaves the same (address, data) in
+the shadow registers of every ESC it reaches; at the end of the frame each of them commits it
+(datasheet I 3.4). :func:`commit_together` does what :meth:`EscDevice.end_frame` does to the
+registers, for all of them in one pass over the rows of the chain's memory
+(:attr:`emulator.esc.chain.EcatChain.memory`, one ESC a row): each write is cut and masked once
+(the cut every ESC of a configuration shares), and what differs between the ESCs
+(the SyncManagers enabled before the frame, who owns the EEPROM interface, whose FMMU or
+SyncManager table changed) is a mask of rows. What follows a commit in each ESC (rebuilt tables,
+EEPROM command, AL control) is :meth:`EscDevice.take_effect`, as for one ESC. The work thus grows
+with the bytes written and the ESCs whose state the write changes, not with one Python pass per
+ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under hostile frames.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+from typing import Final
+
+import numpy as np
+import numpy.typing as npt
+
+from emulator.esc.dc import REG_DC_RECEIVE
+from emulator.esc.device import _TOUCHES_FMMU, _TOUCHES_SM, EscDevice, mark
+from emulator.esc.registers import (
+    REG_EEPROM_CONFIG,
+    REG_EEPROM_CONTROL,
+    REG_EEPROM_PDI,
+    REG_ERROR_COUNTERS,
+    REG_FMMU,
+    REG_PU_ERRORS,
+    REG_SM,
+    SM_BYTES,
+)
+
+__all__ = ["TOGETHER_MIN", "commit_together"]
+
+TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows beats one by one
+_MASKS: dict[int, npt.NDArray[np.uint8]] = {}  # the write masks of each _WritePlans, as arrays
+_Rows = npt.NDArray[np.intp]
+
+
+def commit_together(
+    devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows
+) -> None:
+    """Commit the pending register writes of ``devices`` (equal lists, one configuration), whose
+    memory is ``memory[rows]``, as each one's :meth:`EscDevice.end_frame` would (before
+    :meth:`EscDevice.finish_frame`)."""
+    plans = devices[0].write_plans
+    masks = _MASKS.get(id(plans))
+    if masks is None:
+        masks = _MASKS[id(plans)] = np.frombuffer(plans.masks, np.uint8)
+    pending = [(addr, data, plans.plan(addr, len(data))) for addr, data in devices[0].pending]
+    for dev in devices:
+        dev.pending.clear()
+    touched = 0
+    for _, _, (_, touches) in pending:
+        touched |= touches
+    sm_before = memory[rows, REG_SM : plans.sm_end] if touched & _TOUCHES_SM else None
+    fmmu_before = memory[rows, REG_FMMU : plans.fmmu_end] if touched & _TOUCHES_FMMU else None
+    enabled = sm_before[:, 6::SM_BYTES] if sm_before is not None else None  # bit 0
+    flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
+    eeprom = np.zeros(len(rows), np.bool_)
+    dc: tuple[int, int] | None = None
+    for addr, data, (segments, _) in pending:
+        for lo, hi, mask, marks in segments:
+            part = np.frombuffer(data, np.uint8, hi - lo, lo - addr)
+            if mask < 0:  # a register with side effects
+                _special(devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom)
+            elif mask:
+                _masked(memory, rows, lo, hi, part, masks[lo:hi])
+                if marks:
+                    dc = mark(lo, hi, flags, plans.fmmu_end, dc)
+    al, _, dl, fmmu, sm = flags
+    fmmu_rows = sm_rows = None
+    if fmmu and fmmu_before is not None:
+        fmmu_rows = (memory[rows, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1).tolist()
+    if sm and sm_before is not None:
+        sm_rows = (memory[rows, REG_SM : plans.sm_end] != sm_before).any(axis=1).tolist()
+    commands = eeprom.tolist()
+    for i, dev in enumerate(devices):
+        dev.take_effect(
+            fmmu=fmmu_rows is not None and fmmu_rows[i],
+            sm=sm_rows is not None and sm_rows[i],
+            sm_enabled=enabled[i].tobytes() if enabled is not None else b"",
+            dl=dl,
+            dc=dc,
+            eeprom=commands[i],
+            al=al,
+        )
+
+
+def _masked(
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    lo: int,
+    hi: int,
+    data: npt.NDArray[np.uint8],
+    mask: npt.NDArray[np.uint8],
+) -> None:
+    """Bytes [lo, hi) of ``rows`` from ``data`` (one row, or one per row) where ``mask`` has
+    bits: read-only and reserved bits keep their value (datasheet II, column ECAT)."""
+    old = memory[rows, lo:hi]
+    memory[rows, lo:hi] = (old & ~mask) | (data & mask)
+
+
+def _special(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    lo: int,
+    hi: int,
+    data: npt.NDArray[np.uint8],
+    enabled: npt.NDArray[np.uint8] | None,
+    masks: npt.NDArray[np.uint8],
+    flags: list[bool],
+    eeprom: npt.NDArray[np.bool_],
+) -> None:
+    """:meth:`EscDevice._special_write` at every row: error counters cleared (II 2.6), the
+    EEPROM interface where ECAT owns it (I 11.2.2), SyncManager bytes 0-4 kept where the
+    SyncManager was enabled (II 2.14.1), DC receive times ESC by ESC."""
+    if lo < REG_PU_ERRORS:  # one write clears all RX error counters
+        memory[rows, REG_ERROR_COUNTERS:REG_PU_ERRORS] = 0
+        return
+    if lo < 0x0314 or lo in (0x0442, 0x0443):
+        memory[rows, lo:hi] = 0
+        return
+    if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
+        if lo == REG_EEPROM_CONFIG and data[0] & 0x02:
+            memory[rows, REG_EEPROM_PDI] &= 0xFE  # force ECAT access
+        _masked(memory, rows, lo, hi, data, masks[lo:hi])
+        return
+    if lo < 0x0510:
+        owner = ((memory[rows, REG_EEPROM_CONFIG] | memory[rows, REG_EEPROM_PDI]) & 0x01) == 0
+        if owner.any():
+            _masked(memory, rows[owner], lo, hi, data, masks[lo:hi])
+            if lo < REG_EEPROM_CONTROL + 2:
+                eeprom |= owner
+        return
+    if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
+        raw = data.tobytes()
+        for dev in devices:
+            dev.dc.write(dev.mem, lo, raw)
+        return
+    assert enabled is not None
+    new = np.repeat(data[None, :], len(rows), axis=0)
+    for y in range(enabled.shape[1]):
+        a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
+        if a < b:
+            on = (enabled[:, y] & 0x01).astype(np.bool_)
+            if on.any():  # configuration bytes 0-4 of an enabled SyncManager keep their value
+                new[on, a - lo : b - lo] = memory[rows[on], a:b]
+    _masked(memory, rows, lo, hi, new, masks[lo:hi])
+    flags[4] = True

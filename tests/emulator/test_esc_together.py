@@ -1,0 +1,169 @@
+"""A frame processed datagram by datagram, with broadcasts read and committed at every ESC at once
+(:meth:`EcatChain._run_planned`, :mod:`emulator.esc.together`), leaves the same bytes as the
+general path, ESC by ESC and datagram by datagram (:meth:`EcatChain._pass`, the path of
+:meth:`EcatChain.frame_effect`): the same returned frame, memory, EEPROM, event request and
+forwarding at every ESC, frame after frame, under hostile frames and register traffic aimed at
+what the shortcuts take over (plain registers, read-write offsets, aliases, loops closed early)."""
+
+from __future__ import annotations
+
+import random
+import struct
+
+import numpy as np
+import pytest
+
+from emulator.esc import together
+from emulator.esc.chain import EcatChain, configure_frames
+from emulator.esc.hostile import hostile_frames, master_reset_frames
+from skinframes import ethercat, taxel
+from skinframes.ethercat import Command, Datagram, EcatFrame
+
+NODES, SIZE = 8, 8
+ROWS = taxel.sample_payloads(NODES, 4, SIZE, seed=5)
+# registers where a broadcast lands in the shortcuts, or just beside them
+SPOTS = (
+    0x0000, 0x0010, 0x0012, 0x003E, 0x0040, 0x0100, 0x0101, 0x0103, 0x0108, 0x010E, 0x0110,
+    0x0120, 0x012F, 0x0130, 0x0134, 0x0200, 0x0210, 0x0300, 0x030C, 0x0310, 0x0440, 0x0500,
+    0x0502, 0x0508, 0x0600, 0x0610, 0x06F0, 0x0800, 0x0805, 0x0808, 0x0870, 0x08FC, 0x0900,
+    0x0910, 0x0920, 0x0980, 0x09FE, 0x0F70, 0x0F7E, 0x0FF0, 0x1000,
+)  # fmt: skip
+BROADCASTS = (Command.BRD, Command.BWR, Command.BRW, Command.ARMW, Command.FRMW)
+OTHERS = (Command.APWR, Command.APRD, Command.FPWR, Command.FPRW, Command.LRD, Command.LWR)
+
+
+class OneByOne(EcatChain):
+    """The reference: every ESC in turn runs every datagram, then ends the frame."""
+
+    def process_frame(self, frame: bytes | bytearray) -> bytes | None:
+        return self._run(frame, [])
+
+
+def register_frame(rng: random.Random) -> bytes:
+    """1-6 datagrams, mostly broadcasts and read-multiple-writes near ``SPOTS``; the data keeps
+    the EEPROM write enable (0x0502 bit 0) clear, as the hostile frames do."""
+    dgs = []
+    for _ in range(rng.randint(1, 6)):
+        cmd = rng.choice(BROADCASTS) if rng.random() < 0.8 else rng.choice(OTHERS)
+        ado = (rng.choice(SPOTS) + rng.randrange(-2, 3)) & 0xFFFF
+        data = bytearray(rng.randbytes(rng.choice((0, 1, 2, 4, 8, rng.randrange(40)))))
+        if ado <= 0x0502 < ado + len(data):
+            data[0x0502 - ado] &= 0xFE
+        if ado <= 0x0040 < ado + len(data) and rng.random() < 0.7:
+            data[0x0040 - ado] = rng.choice(b"RES")  # the reset sequence, now and then whole
+        adp = rng.choice((0, -rng.randrange(NODES + 2) & 0xFFFF, 0x1001 + rng.randrange(NODES)))
+        if cmd in (Command.LRD, Command.LWR):
+            dgs.append(Datagram.logical(cmd, rng.randrange(NODES * SIZE), bytes(data)))
+        else:
+            dgs.append(Datagram(cmd, adp, ado, bytes(data)))
+    return ethercat.frame(EcatFrame(tuple(dgs))).to_bytes()
+
+
+def disturb(chain: EcatChain, k: int) -> None:
+    """What frames cannot do: the PDI of one ESC takes the EEPROM interface (0x0501 bit 0), and
+    errors count at another (invalid frames, lost links), so that a write can clear them."""
+    dev = chain.devices[k % NODES]
+    dev.pdi_write(0x0501, bytes((dev.registers(0x0501, 1)[0] ^ 0x01,)))
+    for register in (0x0300, 0x0301, 0x030C, 0x0310, 0x0313):
+        chain.count(register, (k + 3) % NODES, k + 1)
+
+
+def assert_same(fast: EcatChain, reference: EcatChain, frame: bytes, what: str) -> None:
+    assert fast.process_frame(frame) == reference.process_frame(frame), what
+    assert np.array_equal(fast.memory, reference.memory), what
+    for a, b in zip(fast.devices, reference.devices, strict=True):
+        assert (a.sii, a.irq, a.onward, a.sets_mac) == (b.sii, b.irq, b.onward, b.sets_mac), what
+
+
+def pair() -> tuple[EcatChain, EcatChain]:
+    return EcatChain.configured(NODES, SIZE), OneByOne.configured(NODES, SIZE)
+
+
+def test_the_reference_takes_the_general_path() -> None:
+    fast, reference = pair()
+    frame = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
+    reference.process_frame(frame)
+    fast.process_frame(frame)
+    assert fast.memory is not reference.memory
+    assert type(reference).process_frame is not EcatChain.process_frame
+
+
+@pytest.mark.parametrize("seed", [1, 2])
+def test_register_traffic_leaves_the_same_bytes(seed: int) -> None:
+    rng = random.Random(seed)
+    fast, reference = pair()
+    setup = master_reset_frames(NODES) + configure_frames(fast.devices[0].info, NODES)
+    for i in range(1_500):
+        if i % 100 == 0:
+            for chain in (fast, reference):
+                chain.publish(np.ascontiguousarray(ROWS[i // 100 % len(ROWS)]))
+        if i % 100 == 50:
+            for chain in (fast, reference):
+                disturb(chain, i // 100)
+        assert_same(fast, reference, register_frame(rng), f"seed {seed}, frame {i}")
+        if i % 300 == 299:
+            for f in setup:
+                assert_same(fast, reference, f, f"setup after frame {i}")
+
+
+def test_hostile_frames_leave_the_same_bytes() -> None:
+    fast, reference = pair()
+    setup = master_reset_frames(NODES) + configure_frames(fast.devices[0].info, NODES)
+    for i, f in enumerate(hostile_frames(2_000, nodes=NODES, input_bytes=SIZE, seed=4)):
+        assert_same(fast, reference, f, f"frame {i}")
+        if i % 200 == 199:
+            for g in setup:
+                assert_same(fast, reference, g, f"setup after frame {i}")
+
+
+def bwr(ado: int, data: bytes) -> bytes:
+    return ethercat.frame(EcatFrame((Datagram(Command.BWR, 0, ado, data),))).to_bytes()
+
+
+def test_equal_writes_are_committed_together(monkeypatch: pytest.MonkeyPatch) -> None:
+    """The shortcut is taken (a broadcast's commit runs once, over rows), and it is the one that
+    decides: an ESC whose commit is skipped there leaves different bytes."""
+    fast, reference = pair()
+    calls: list[int] = []
+    commit = together.commit_together
+
+    def counted(devices, memory, rows):  # type: ignore[no-untyped-def]
+        calls.append(len(devices))
+        commit(devices, memory, rows)
+
+    monkeypatch.setattr("emulator.esc.chain.commit_together", counted)
+    assert_same(fast, reference, bwr(0x0200, b"\x04\x00"), "event mask")
+    assert calls == [NODES]
+
+    def skipped(devices, memory, rows):  # type: ignore[no-untyped-def]
+        for dev in devices:
+            dev.pending.clear()
+
+    monkeypatch.setattr("emulator.esc.chain.commit_together", skipped)
+    with pytest.raises(AssertionError):
+        assert_same(fast, reference, bwr(0x0200, b"\x00\x00"), "event mask cleared")
+
+
+def test_a_loop_closed_early_keeps_the_rest_out() -> None:
+    """ESC 2 closes port 1: a broadcast read or write reaches ESCs 0-2 only, and an ARMW whose
+    reader lies beyond writes at all three."""
+    fast, reference = pair()
+    close = ethercat.frame(
+        EcatFrame((Datagram(Command.APWR, -2 & 0xFFFF, 0x0101, b"\x0c"),))
+    ).to_bytes()
+    assert_same(fast, reference, close, "close port 1 of ESC 2")
+    frames = [
+        ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0010, bytes(2)),))).to_bytes(),
+        bwr(0x0F00, b"\xaa\x55"),
+        ethercat.frame(
+            EcatFrame((Datagram(Command.ARMW, -5 & 0xFFFF, 0x0F00, b"\x11\x22"),))
+        ).to_bytes(),
+        ethercat.frame(EcatFrame((Datagram(Command.BRW, 0, 0x0F00, b"\x01\x02"),))).to_bytes(),
+    ]
+    for i, f in enumerate(frames):
+        assert_same(fast, reference, f, f"frame {i}")
+    back = fast.process_frame(frames[0])
+    assert back is not None
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    assert d.wkc == 3  # hand count: ESCs 0, 1 and 2
+    assert d.data == struct.pack("<H", 0x1001 | 0x1002 | 0x1003)
