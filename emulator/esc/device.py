@@ -136,12 +136,19 @@ class TraceCopy:
 
 
 _DECODE_CACHE_ENTRIES: Final = 4096  # distinct FMMU/SM tables remembered (memory bound)
-_FmmuTable = tuple[tuple[tuple[int, ...], ...], tuple[int, int]]
+_LogicalOp = tuple[bool, int, int, int, int]  # see _plan_logical
+_LogicalPlan = tuple[tuple[_LogicalOp, ...], tuple[_LogicalOp, ...]]  # reads, writes
+# active FMMUs, the logical span they map, and the plans of logical accesses through them
+# (shared by every ESC whose FMMU registers hold the same bytes)
+_FmmuTable = tuple[
+    tuple[tuple[int, ...], ...], tuple[int, int], dict[tuple[int, int, int], _LogicalPlan]
+]
 _SmTable = tuple[tuple[int, int, int, int, int], ...]
 _FMMU_CACHE: dict[bytes, _FmmuTable] = {}
 _K = TypeVar("_K")
 _V = TypeVar("_V")
-_SM_CACHE: dict[bytes, _SmTable] = {}
+# decoded SyncManager tables, and the order of their entries by start (PDI-locked last)
+_SM_CACHE: dict[bytes, tuple[_SmTable, tuple[int, ...]]] = {}
 
 
 def _remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = _DECODE_CACHE_ENTRIES) -> _V:
@@ -152,7 +159,7 @@ def _remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = _DECODE_CACH
     return value
 
 
-def _decode_fmmus(table: bytes) -> _FmmuTable:
+def _decode_fmmus(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
     """The active FMMUs of the registers 0x0600+ (datasheet II 2.13) in register order, clipped,
     and the logical span they map.
 
@@ -337,9 +344,64 @@ def mark(
     return dc
 
 
-def _sm_order(sm: _Sm) -> tuple[int, bool]:
-    """SyncManagers by start address, ECAT-controlled before PDI-locked ones at the same start."""
-    return sm.start, sm.locked
+def _plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> _LogicalPlan:
+    """How a logical access of ``n`` bytes at ``lad`` reads and writes through ``fmmus``
+    (datasheet I 7): the parts each FMMU maps, in register order, the lower-numbered FMMU
+    winning a logical byte claimed twice (reads and writes claim separately); a part the
+    64 KiB address space clips away is not mapped. Operation (byte-wise, a, b, c, d):
+    byte-wise, physical address a, frame offset b, c bytes; bit-wise, physical bytes
+    [a, a + b) hold the mapped bits, c is where a frame bit lies there minus where it lies in
+    the frame, d masks the mapped bits: frame bits (read) or those bytes' bits (write)."""
+    lo, hi = lad, lad + n
+    hit = [f for f in fmmus if not (f[1] <= lo or f[0] >= hi)]
+    reads = [f for f in hit if f[6] and cmd != _LWR]
+    writes = [f for f in hit if f[7] and cmd != _LRD]
+    plan: list[list[_LogicalOp]] = [[], []]
+    for ops, side, write in ((plan[0], reads, False), (plan[1], writes, True)):
+        claimed = bytearray(n) if len(side) > 1 else None
+        for f in side:
+            log_start, log_end, phys = f[:3]
+            a, b = _claim(claimed, lad, max(lad, log_start), min(lad + n, log_end))
+            if a >= b:
+                continue
+            if f[8]:  # byte-wise mapping
+                ops.append((True, phys + (a - log_start), a - lad, b - a, 0))
+                continue
+            # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
+            b0, b1, p0 = _bit_span(f, a, b)
+            if b0 > b1:
+                continue
+            first, last = p0 // 8, (p0 + b1 - b0) // 8
+            shift = (p0 - first * 8) - (b0 - lad * 8)  # physical bit - frame bit
+            bits = (1 << (b1 - b0 + 1)) - 1
+            if write:
+                ops.append((False, first, last - first + 1, shift, bits << (p0 - first * 8)))
+            else:
+                ops.append((False, first, last - first + 1, shift, bits << (b0 - lad * 8)))
+    return tuple(plan[0]), tuple(plan[1])
+
+
+def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
+    """Trim [lo, hi) to the logical bytes no lower-numbered FMMU took (datasheet I 7)."""
+    if claimed is None or lo >= hi:
+        return lo, hi
+    first = claimed.find(0, lo - lad, hi - lad)
+    if first < 0:
+        return lo, lo
+    last = claimed.rfind(0, lo - lad, hi - lad)
+    lo, hi = lad + first, lad + last + 1
+    claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
+    return lo, hi
+
+
+def _bit_span(f: tuple[int, ...], lo: int, hi: int) -> tuple[int, int, int]:
+    """Logical bits [b0, b1] of bytes [lo, hi) that FMMU ``f`` maps, and the physical bit
+    of b0; b0 > b1 when none (the mapping is clipped to the 64 KiB address space)."""
+    log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
+    l0 = log_start * 8 + start_bit
+    l1 = min((log_end - 1) * 8 + stop_bit, l0 + f[9] - 1)  # inclusive
+    b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
+    return b0, b1, phys * 8 + phys_bit + (b0 - l0)
 
 
 class EscDevice:
@@ -385,6 +447,7 @@ class EscDevice:
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[tuple[int, ...], ...] = ()
+        self._logical_plans: dict[tuple[int, int, int], _LogicalPlan] = {}
         self.fmmu_span = (0, 0)
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
@@ -859,35 +922,62 @@ class EscDevice:
                 if not sm.locked and not self.dc_sampling:
                     self._read_buffer(sm, buf, off + rel)
                     return 1
-        lo, hi = lad, lad + n
-        reads: list[tuple[int, ...]] = []
-        writes: list[tuple[int, ...]] = []
-        for f in self._fmmus:
-            if f[1] <= lo or f[0] >= hi:
-                continue
-            if f[6] and cmd != _LWR:
-                reads.append(f)
-            if f[7] and cmd != _LRD:
-                writes.append(f)
-        if not reads and not writes:
-            return 0
-        data_in = bytes(buf[off : off + n]) if writes else b""
+        plans = self._logical_plans
+        access = (cmd, lad, n)
+        found = plans.get(access)
+        if found is None:
+            found = _remember(
+                plans, access, _plan_logical(self._fmmus, cmd, lad, n), _PLAN_CACHE_ENTRIES
+            )
+        reads, writes = found
         r = w = 0
-        claimed: bytearray | None = bytearray(n) if len(reads) > 1 else None
-        for f in reads:
-            r |= self._fmmu_read(f, lad, buf, off, n, claimed)
-        claimed = bytearray(n) if len(writes) > 1 else None
-        for f in writes:
-            w |= self._fmmu_write(f, lad, data_in, claimed)
+        data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
+        for bytewise, a, b, c, d in reads:
+            if bytewise:
+                r |= self._read(a, buf, off + b, c, False)
+            else:
+                r |= self._bit_read(a, b, c, d, buf, off, n)
+        if writes:
+            for bytewise, a, b, c, d in writes:
+                if bytewise:
+                    w |= self._write(a, data_in[b : b + c])
+                else:
+                    target = int.from_bytes(self.mem[a : a + b], "little")  # unmapped bits kept
+                    value = int.from_bytes(data_in, "little")
+                    value = value << c if c >= 0 else value >> -c
+                    target = (target & ~d) | (value & d)
+                    w |= self._write(a, target.to_bytes(b, "little"))
         if cmd == _LRD:
             return r
         if cmd == _LWR:
             return w
         return r + 2 * w
 
+    def _bit_read(
+        self, first: int, count: int, shift: int, mask: int, buf: bytearray, off: int, n: int
+    ) -> int:
+        """A bit-wise FMMU read (:func:`_plan_logical`): the readable bits of physical bytes
+        [first, first + count), shifted to their frame bits, replace those under ``mask``."""
+        segments = self._read_phys(first, count)
+        if not segments:
+            return 0
+        value = valid = 0
+        for rel, data, _, _ in segments:
+            value |= int.from_bytes(data, "little") << (8 * rel)
+            valid |= ((1 << (8 * len(data))) - 1) << (8 * rel)
+        if shift >= 0:
+            value, valid = value >> shift, valid >> shift
+        else:
+            value, valid = value << -shift, valid << -shift
+        mask &= valid
+        frame = int.from_bytes(buf[off : off + n], "little")
+        frame = (frame & ~mask) | (value & mask)
+        buf[off : off + n] = frame.to_bytes(n, "little")
+        return 1
+
     def _plan_lrd(self, key: tuple[int, int]) -> tuple[int, _Sm] | None:
         """How an LRD of ``key`` = (address, length) reads, when it is the common case the
-        general path (:meth:`_fmmu_read`, :meth:`_read_phys`, :meth:`_sm_read`) would take
+        general path (:func:`_plan_logical`, :meth:`_read_phys`, :meth:`_sm_read`) would take
         one way: one read FMMU, byte-wise, maps part of it onto exactly the whole buffer of a
         buffered read SyncManager in process memory, which no other SyncManager overlaps."""
         lad, n = key
@@ -920,90 +1010,6 @@ class EscDevice:
         if not sm.complete:
             sm.complete = True
             self._completed.append(sm)
-
-    @staticmethod
-    def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
-        """Trim [lo, hi) to the logical bytes no lower-numbered FMMU took (datasheet I 7)."""
-        if claimed is None or lo >= hi:
-            return lo, hi
-        first = claimed.find(0, lo - lad, hi - lad)
-        if first < 0:
-            return lo, lo
-        last = claimed.rfind(0, lo - lad, hi - lad)
-        lo, hi = lad + first, lad + last + 1
-        claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
-        return lo, hi
-
-    @staticmethod
-    def _bit_span(f: tuple[int, ...], lo: int, hi: int) -> tuple[int, int, int]:
-        """Logical bits [b0, b1] of bytes [lo, hi) that FMMU ``f`` maps, and the physical bit
-        of b0; b0 > b1 when none (the mapping is clipped to the 64 KiB address space)."""
-        log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
-        l0 = log_start * 8 + start_bit
-        l1 = min((log_end - 1) * 8 + stop_bit, l0 + f[9] - 1)  # inclusive
-        b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
-        return b0, b1, phys * 8 + phys_bit + (b0 - l0)
-
-    def _fmmu_read(
-        self,
-        f: tuple[int, ...],
-        lad: int,
-        buf: bytearray,
-        off: int,
-        n: int,
-        claimed: bytearray | None,
-    ) -> int:
-        log_start, log_end, phys = f[:3]
-        lo, hi = self._claim(claimed, lad, max(lad, log_start), min(lad + n, log_end))
-        if lo >= hi:
-            return 0
-        if f[8]:  # byte-wise mapping
-            at = phys + (lo - log_start)
-            return self._read(at, buf, off + (lo - lad), hi - lo, False)
-        # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
-        b0, b1, p0 = self._bit_span(f, lo, hi)
-        if b0 > b1:
-            return 0
-        first, last = p0 // 8, (p0 + b1 - b0) // 8
-        segments = self._read_phys(first, last - first + 1)
-        if not segments:
-            return 0
-        value = valid = 0
-        for rel, data, _, _ in segments:
-            value |= int.from_bytes(data, "little") << (8 * rel)
-            valid |= ((1 << (8 * len(data))) - 1) << (8 * rel)
-        shift = (p0 - first * 8) - (b0 - lad * 8)  # physical bit position - frame bit position
-        if shift >= 0:
-            value, valid = value >> shift, valid >> shift
-        else:
-            value, valid = value << -shift, valid << -shift
-        mask = (((1 << (b1 - b0 + 1)) - 1) << (b0 - lad * 8)) & valid
-        frame = int.from_bytes(buf[off : off + n], "little")
-        frame = (frame & ~mask) | (value & mask)
-        buf[off : off + n] = frame.to_bytes(n, "little")
-        return 1
-
-    def _fmmu_write(
-        self, f: tuple[int, ...], lad: int, data_in: bytes, claimed: bytearray | None
-    ) -> int:
-        log_start, log_end, phys = f[:3]
-        n = len(data_in)
-        lo, hi = self._claim(claimed, lad, max(lad, log_start), min(lad + n, log_end))
-        if lo >= hi:
-            return 0
-        if f[8]:
-            return self._write(phys + (lo - log_start), data_in[lo - lad : hi - lad])
-        b0, b1, p0 = self._bit_span(f, lo, hi)
-        if b0 > b1:
-            return 0
-        first, last = p0 // 8, (p0 + b1 - b0) // 8
-        target = int.from_bytes(self.mem[first : last + 1], "little")  # unmapped bits kept
-        shift = (p0 - first * 8) - (b0 - lad * 8)
-        value = int.from_bytes(data_in, "little")
-        value = value << shift if shift >= 0 else value >> -shift
-        mask = ((1 << (b1 - b0 + 1)) - 1) << (p0 - first * 8)
-        target = (target & ~mask) | (value & mask)
-        return self._write(first, target.to_bytes(last - first + 1, "little"))
 
     # --- shadow registers and their side effects ------------------------------------------------
     def _commit_registers(self) -> None:
@@ -1182,8 +1188,8 @@ class EscDevice:
         table = bytes(self.mem[REG_FMMU : REG_FMMU + FMMU_BYTES * self.config.fmmus])
         decoded = _FMMU_CACHE.get(table)
         if decoded is None:
-            decoded = _remember(_FMMU_CACHE, table, _decode_fmmus(table))
-        self._fmmus, self.fmmu_span = decoded
+            decoded = _remember(_FMMU_CACHE, table, (*_decode_fmmus(table), {}))
+        self._fmmus, self.fmmu_span, self._logical_plans = decoded
         self._lrd_plans.clear()
 
     def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
@@ -1195,9 +1201,14 @@ class EscDevice:
         """
         mem, sms = self.mem, self._sms
         table = bytes(mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers])
-        decoded = _SM_CACHE.get(table)
-        if decoded is None:
-            decoded = _remember(_SM_CACHE, table, _decode_sms(table))
+        found = _SM_CACHE.get(table)
+        if found is None:
+            entries = _decode_sms(table)
+            by_start = sorted(
+                range(len(entries)), key=lambda i: (entries[i][1], entries[i][4] != 0)
+            )
+            found = _remember(_SM_CACHE, table, (entries, tuple(by_start)))
+        decoded, order = found
         controlling: list[_Sm] = []
         y_next = 0
         for y, start, length, control, pdi_locked in decoded:
@@ -1218,8 +1229,7 @@ class EscDevice:
             if sms[z] is not None or mem[REG_SM + SM_BYTES * z + 5] != SM_NO_BUFFER:
                 sms[z] = None
                 mem[REG_SM + SM_BYTES * z + 5] = SM_NO_BUFFER
-        controlling.sort(key=_sm_order)
-        self._active = controlling
+        self._active = [controlling[i] for i in order]  # by start, ECAT's before PDI-locked
         self._lrd_plans.clear()
 
     def _update_dl_status(self) -> None:

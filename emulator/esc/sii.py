@@ -25,6 +25,7 @@ TxPDO carries its taxel bytes.
 
 from __future__ import annotations
 
+import functools
 import struct
 from dataclasses import dataclass
 from enum import IntEnum
@@ -153,11 +154,13 @@ SM_CONTROL_MAILBOX_OUT: Final = 0x26
 SM_CONTROL_MAILBOX_IN: Final = 0x22
 
 
+@functools.lru_cache(maxsize=256)
 def crc8(data: bytes) -> int:
     """CRC-8 of the ESC configuration area: polynomial 0x07, initial value 0xFF, MSB first.
 
     Datasheet I, Table 42 (word 7): "remainder of division of word 0 to word 6 as unsigned
-    number divided by the polynomial x^8+x^2+x+1 (initial value 0xFF)".
+    number divided by the polynomial x^8+x^2+x+1 (initial value 0xFF)". Remembered for the
+    last 256 areas: a broadcast EEPROM reload checks the same 14 bytes at every ESC.
     """
     crc = 0xFF
     for byte in data:
