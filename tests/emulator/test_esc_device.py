@@ -616,17 +616,22 @@ def test_bitwise_fmmu_mapping_of_the_datasheet_example() -> None:
     assert one(chain, Datagram(C.APRD, 0, 0x0F81, bytes(2))).data == b"\xfe\x7f"
 
 
+def map_bytes(
+    chain: EcatChain, index: int, logical: int, length: int, physical: int, kind: int
+) -> None:
+    """FMMU ``index`` of the first ESC maps ``length`` bytes byte-wise (datasheet II 2.13:
+    start bit 0, stop bit 7; type 1 read, 2 write), active."""
+    entry = struct.pack("<IHBBHBBB3x", logical, length, 0, 7, physical, 0, kind, 1)
+    send(chain, Datagram(C.APWR, 0, 0x0600 + 16 * index, entry))
+
+
 def test_lrw_writes_the_data_as_it_arrived_not_what_the_esc_read() -> None:
     # datasheet I Table 7: LRW reads into the frame and writes "Data In", the data before the
     # read. FMMU0 reads user RAM 0x0F80 and FMMU1 writes 0x0F90, both at logical byte 0.
     chain = bare_chain()
     send(chain, Datagram(C.APWR, 0, 0x0F80, b"\x55"))
-    send(
-        chain, Datagram(C.APWR, 0, 0x0600, struct.pack("<IHBBHBBB3x", 0, 1, 0, 7, 0x0F80, 0, 1, 1))
-    )
-    send(
-        chain, Datagram(C.APWR, 0, 0x0610, struct.pack("<IHBBHBBB3x", 0, 1, 0, 7, 0x0F90, 0, 2, 1))
-    )
+    map_bytes(chain, 0, 0, 1, 0x0F80, 1)
+    map_bytes(chain, 1, 0, 1, 0x0F90, 2)
     d = one(chain, Datagram.logical(C.LRW, 0, b"\xaa"))
     assert (d.data, d.wkc) == (b"\x55", 3)  # read +1, write +2
     assert one(chain, Datagram(C.APRD, 0, 0x0F90, bytes(1))).data == b"\xaa"
@@ -635,12 +640,8 @@ def test_lrw_writes_the_data_as_it_arrived_not_what_the_esc_read() -> None:
 def test_lower_numbered_fmmu_wins_a_logical_byte() -> None:
     chain = bare_chain()
     send(chain, Datagram(C.APWR, 0, 0x0F80, b"\x11\x22\x33\x44"))
-    send(
-        chain, Datagram(C.APWR, 0, 0x0600, struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0x0F80, 0, 1, 1))
-    )
-    send(
-        chain, Datagram(C.APWR, 0, 0x0610, struct.pack("<IHBBHBBB3x", 0, 2, 0, 7, 0x0F82, 0, 1, 1))
-    )
+    map_bytes(chain, 0, 0, 2, 0x0F80, 1)
+    map_bytes(chain, 1, 0, 2, 0x0F82, 1)
     assert one(chain, Datagram.logical(C.LRD, 0, bytes(2))).data == b"\x11\x22"
 
 
