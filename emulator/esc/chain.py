@@ -72,7 +72,6 @@ _LOGICAL: Final = frozenset({10, 11, 12})
 _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
 _BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
-_LRD, _LRW = int(Command.LRD), int(Command.LRW)
 
 
 def _plain_read(lo: int, hi: int) -> bool:
@@ -296,13 +295,8 @@ class EcatChain:
                         )
                     lad = adp | ado << 16
                     targets = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
-                    if cmd != _LRW and len(targets) > 1:  # quiet ESCs at once
-                        targets = self._quiet_logical(line, targets, cmd, lad, buf, data_at, n)
                 wkc_inc, changed = 0, False
                 for p in targets:
-                    if p < 0:  # the working counter of ESCs done at once
-                        wkc_inc -= p
-                        continue
                     dev = line[p]
                     before = dev.irq
                     wkc_inc += dev.process(cmd, adp, ado, buf, data_at, n)[1]
@@ -389,60 +383,6 @@ class EcatChain:
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
-
-    def _quiet_logical(
-        self,
-        line: list[EscDevice],
-        targets: list[int],
-        cmd: int,
-        lad: int,
-        buf: bytearray,
-        at: int,
-        n: int,
-    ) -> list[int]:
-        """An LRD or LWR at the ESCs ``targets`` (in line order) where it is quiet
-        (:meth:`EscDevice.quiet_plan`), at once; the ESCs that must still process it one by
-        one, in order, and each count of the quiet ones as a negative entry.
-
-        A read replaces the mapped bits (datasheet I 7), so of the quiet ESCs with one plan
-        only the last one's read reaches the master: it is the one that reads, and the others
-        count (equal plans: the same parts, though the FMMU tables may differ elsewhere). LWR leaves the data as it is, so the quiet ESCs with one plan write the same
-        bytes at the same addresses: one numpy write over their rows of :attr:`memory`."""
-        plans = [line[p].quiet_plan(cmd, lad, n) for p in targets]
-        groups: dict[tuple[tuple[tuple[bool, int, int, int, int], ...], ...], list[int]] = {}
-        for p, plan in zip(targets, plans, strict=True):
-            if plan is not None:  # equal plans (FMMU tables may differ elsewhere): equal parts
-                groups.setdefault(plan, []).append(p)
-        if not groups:
-            return targets
-        if cmd == _LRD:
-            last = {rows[-1] for rows in groups.values()}
-            rest = [p for p, plan in zip(targets, plans, strict=True) if plan is None or p in last]
-            return rest + [-(len(rows) - 1) for rows in groups.values() if len(rows) > 1]
-        data = bytes(buf[at : at + n])  # what every ESC receives: no ESC changes an LWR
-        for (_, writes), rows in groups.items():
-            self._write_rows(np.array(rows, dtype=np.intp), writes, data)
-        rest = [p for p, plan in zip(targets, plans, strict=True) if plan is None]
-        return rest + [-len(rows) for rows in groups.values()]
-
-    def _write_rows(
-        self,
-        rows: npt.NDArray[np.intp],
-        writes: tuple[tuple[bool, int, int, int, int], ...],
-        data: bytes,
-    ) -> None:
-        """The quiet writes of an LWR plan (:func:`emulator.esc.device._plan_logical`) at the
-        ESCs ``rows``: byte-wise parts copied, bit-wise parts masked in their bytes."""
-        memory = self.memory
-        for bytewise, a, b, c, d in writes:
-            if bytewise:
-                memory[rows, a : a + c] = np.frombuffer(data, np.uint8, c, b)
-                continue
-            value = int.from_bytes(data, "little")
-            value = value << c if c >= 0 else value >> -c
-            mask = np.frombuffer(d.to_bytes(b, "little"), np.uint8)
-            bits = np.frombuffer((value & d).to_bytes(b, "little"), np.uint8)
-            memory[rows, a : a + b] = (memory[rows, a : a + b] & ~mask) | bits
 
     def _read_write(
         self,

@@ -448,7 +448,6 @@ class EscDevice:
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[tuple[int, ...], ...] = ()
         self._logical_plans: dict[tuple[int, int, int], _LogicalPlan] = {}
-        self._quiet: dict[tuple[int, int, int], _LogicalPlan | None] = {}  # see quiet_plan
         self.fmmu_span = (0, 0)
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
@@ -498,7 +497,6 @@ class EscDevice:
         self._sms = [None] * cfg.syncmanagers
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self._lrd_plans.clear()
-        self._quiet.clear()
         self.fmmu_span = (0, 0)
         self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
@@ -924,7 +922,14 @@ class EscDevice:
                 if not sm.locked and not self.dc_sampling:
                     self._read_buffer(sm, buf, off + rel)
                     return 1
-        reads, writes = self._logical_plan(cmd, lad, n)
+        plans = self._logical_plans
+        access = (cmd, lad, n)
+        found = plans.get(access)
+        if found is None:
+            found = _remember(
+                plans, access, _plan_logical(self._fmmus, cmd, lad, n), _PLAN_CACHE_ENTRIES
+            )
+        reads, writes = found
         r = w = 0
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
         for bytewise, a, b, c, d in reads:
@@ -947,42 +952,6 @@ class EscDevice:
         if cmd == _LWR:
             return w
         return r + 2 * w
-
-    def _logical_plan(self, cmd: int, lad: int, n: int) -> _LogicalPlan:
-        """:func:`_plan_logical` through the FMMUs, worked out once per table (shared)."""
-        plans = self._logical_plans
-        access = (cmd, lad, n)
-        found = plans.get(access)
-        if found is None:
-            found = _remember(
-                plans, access, _plan_logical(self._fmmus, cmd, lad, n), _PLAN_CACHE_ENTRIES
-            )
-        return found
-
-    def quiet_plan(self, cmd: int, lad: int, n: int) -> _LogicalPlan | None:
-        """The plan of a logical access (:func:`_plan_logical`) if it is quiet at this ESC, else
-        None: it reads or writes something, and only memory that just holds bytes (user RAM
-        from 0x0F80, process RAM once the PDI is operational, datasheet I 11.2.1) outside every
-        enabled SyncManager. A quiet access does at every ESC with the same plan what it does
-        at one: each read replaces the mapped bits with the ESC's memory (counting 1), each
-        write stores the mapped bits of Data In (counting 1), and nothing else changes. Worked
-        out once per FMMU and SyncManager configuration."""
-        access = (cmd, lad, n)
-        if access in self._quiet:
-            return self._quiet[access]
-        plan = self._logical_plan(cmd, lad, n)
-        reads, writes = plan
-        verdict: _LogicalPlan | None = plan if reads or writes else None
-        for bytewise, a, b, c, _ in (*reads, *writes):
-            lo, hi = (a, a + c) if bytewise else (a, a + b)
-            if (
-                lo < REGISTER_END
-                or (hi > PROCESS_RAM and not self.pdi_operational)
-                or any(sm.start < hi and sm.end > lo for sm in self._active)
-            ):
-                verdict = None
-                break
-        return _remember(self._quiet, access, verdict, _PLAN_CACHE_ENTRIES)
 
     def _bit_read(
         self, first: int, count: int, shift: int, mask: int, buf: bytearray, off: int, n: int
@@ -1222,7 +1191,6 @@ class EscDevice:
             decoded = _remember(_FMMU_CACHE, table, (*_decode_fmmus(table), {}))
         self._fmmus, self.fmmu_span, self._logical_plans = decoded
         self._lrd_plans.clear()
-        self._quiet.clear()
 
     def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
         """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.
@@ -1263,7 +1231,6 @@ class EscDevice:
                 mem[REG_SM + SM_BYTES * z + 5] = SM_NO_BUFFER
         self._active = [controlling[i] for i in order]  # by start, ECAT's before PDI-locked
         self._lrd_plans.clear()
-        self._quiet.clear()
 
     def _update_dl_status(self) -> None:
         """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).

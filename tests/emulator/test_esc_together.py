@@ -15,9 +15,7 @@ import pytest
 
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.device import EscDevice
 from emulator.esc.hostile import hostile_frames, master_reset_frames
-from emulator.esc.sii import SlaveInfo, build_sii
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -169,79 +167,3 @@ def test_a_loop_closed_early_keeps_the_rest_out() -> None:
     (d,) = ethercat.decode(back[14:])[0].datagrams
     assert d.wkc == 3  # hand count: ESCs 0, 1 and 2
     assert d.data == struct.pack("<H", 0x1001 | 0x1002 | 0x1003)
-
-
-def mapping_frame(rng: random.Random) -> bytes:
-    """Traffic where logical accesses are quiet at many ESCs: FMMUs 1-3 configured alike by
-    broadcast (byte-wise or bit-wise, read, write or both, onto user and process RAM), now and
-    then differently at one ESC; RAM written alike or at one ESC; LRD, LWR and LRW over them."""
-    kind = rng.random()
-    one = -rng.randrange(NODES) & 0xFFFF  # ADP of one ESC (auto increment)
-    if kind < 0.3:
-        bytewise = rng.random() < 0.5
-        entry = struct.pack(
-            "<IHBBHBBB3x",
-            rng.randrange(64),
-            rng.randint(1, 8),
-            0 if bytewise else rng.randrange(8),
-            7 if bytewise else rng.randrange(8),
-            rng.randrange(0x0F80, 0x1400),
-            0 if bytewise else rng.randrange(8),
-            rng.randint(1, 3),
-            1,
-        )
-        cmd = Command.BWR if rng.random() < 0.8 else Command.APWR
-        dg = Datagram(cmd, 0 if cmd == Command.BWR else one, 0x0600 + 16 * rng.randint(1, 3), entry)
-    elif kind < 0.4:  # one ESC's SM1 onto its RAM: there the access is no longer quiet
-        sm = struct.pack(
-            "<HHBBBB", rng.randrange(0x1000, 0x1400), rng.randint(2, 64), 0x20, 0, 1, 0
-        )
-        dg = Datagram(Command.APWR, one, 0x0808, sm if rng.random() < 0.7 else bytes(8))
-    elif kind < 0.6:
-        cmd = Command.BWR if rng.random() < 0.5 else Command.APWR
-        ado = rng.randrange(0x0F80, 0x1400)
-        dg = Datagram(cmd, 0 if cmd == Command.BWR else one, ado, rng.randbytes(rng.randint(1, 32)))
-    else:
-        cmd = rng.choice((Command.LRD, Command.LWR, Command.LRW))
-        dg = Datagram.logical(cmd, rng.randrange(64), rng.randbytes(rng.randint(1, 40)))
-    return ethercat.frame(EcatFrame((dg,))).to_bytes()
-
-
-def with_a_dead_pdi() -> tuple[EcatChain, EcatChain]:
-    """Configured chains whose ESC 3 has a bad configuration-area CRC: its PDI never comes up,
-    so its process RAM stays out of reach (datasheet I 11.2.1)."""
-    chains = []
-    for cls in (EcatChain, OneByOne):
-        devices = [EscDevice(SlaveInfo.skin_patch(SIZE, serial=i + 1)) for i in range(NODES)]
-        image = bytearray(build_sii(devices[3].info))
-        image[14] ^= 0xFF
-        devices[3] = EscDevice(devices[3].info, sii=bytes(image))
-        chains.append(cls(devices))
-    fast, reference = chains
-    assert not fast.devices[3].pdi_operational
-    for f in configure_frames(fast.devices[0].info, NODES):
-        assert_same(fast, reference, f, "configuration")
-    return fast, reference
-
-
-def test_quiet_logical_accesses_leave_the_same_bytes(monkeypatch: pytest.MonkeyPatch) -> None:
-    """LRDs and LWRs done at once where they are quiet (most ESCs) and one by one elsewhere
-    answer and write as ESC by ESC; the quiet path is taken for both commands."""
-    quiet: list[int] = []
-    chain_quiet = EcatChain._quiet_logical
-
-    def counted(self, line, targets, cmd, *rest):  # type: ignore[no-untyped-def]
-        left = chain_quiet(self, line, targets, cmd, *rest)
-        if any(p < 0 for p in left):
-            quiet.append(cmd)
-        return left
-
-    monkeypatch.setattr(EcatChain, "_quiet_logical", counted)
-    rng = random.Random(3)
-    fast, reference = with_a_dead_pdi()
-    for i in range(3_000):
-        if i % 500 == 0:
-            for chain in (fast, reference):
-                chain.publish(np.ascontiguousarray(ROWS[i // 500 % len(ROWS)]))
-        assert_same(fast, reference, mapping_frame(rng), f"frame {i}")
-    assert quiet.count(Command.LRD) > 100 and quiet.count(Command.LWR) > 100
