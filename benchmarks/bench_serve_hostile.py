@@ -29,7 +29,6 @@ from __future__ import annotations
 import argparse
 import contextlib
 import dataclasses
-import gc
 import json
 import os
 import select
@@ -50,7 +49,9 @@ from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
 from emulator.esc.hostile import hostile_frames, master_reset_frames  # noqa: E402
 from emulator.esc.sii import SlaveInfo  # noqa: E402
 from emulator.esc.state_machine import AlState  # noqa: E402
+from emulator.live import BetweenFrames  # noqa: E402
 from skinframes import ethercat, taxel  # noqa: E402
+from skinframes.errors import DecodeError  # noqa: E402
 from skinframes.ethercat import Command, Datagram, EcatFrame  # noqa: E402
 
 BUDGET_US = 2000.0
@@ -102,7 +103,7 @@ def is_answer(sent: bytes, back: bytes) -> bool:
     try:
         a = ethercat.decode(sent[14:])[0].datagrams
         b = ethercat.decode(back[14:], strict=False)[0].datagrams
-    except ethercat.DecodeError:
+    except DecodeError:
         return False
     incremented = {Command.APRD, Command.APWR, Command.APRW, Command.ARMW}
     incremented |= {Command.BRD, Command.BWR, Command.BRW}
@@ -132,7 +133,7 @@ def one_sample(rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8]) -> 
 def describe(frame: bytes) -> str:
     try:
         ecat, _, _ = ethercat.decode(frame[14:], strict=False)
-    except ethercat.DecodeError:
+    except DecodeError:
         return "malformed"
     return " ".join(f"{int(d.cmd)}@{d.ado:#06x}+{len(d.data)}" for d in ecat.datagrams)
 
@@ -159,8 +160,20 @@ def configured_chain(nodes: int, size: int, mailbox: bool) -> EcatChain:
 
 def in_process(nodes: int, size: int, frames: int, seed: int, every: int, mailbox: bool) -> None:
     chain = configured_chain(nodes, size, mailbox)
-    gc.collect()
-    gc.freeze()  # as serve does (emulator.live.serve): no collection walks the chain per frame
+    with BetweenFrames() as collector:  # as serve does: garbage is collected between frames
+        measure(chain, nodes, size, frames, seed, every, mailbox, collector)
+
+
+def measure(
+    chain: EcatChain,
+    nodes: int,
+    size: int,
+    frames: int,
+    seed: int,
+    every: int,
+    mailbox: bool,
+    collector: BetweenFrames,
+) -> None:
     cpu = time.thread_time_ns
     ref = lrd_frame(nodes, size)
     ref_us = []
@@ -173,6 +186,7 @@ def in_process(nodes: int, size: int, frames: int, seed: int, every: int, mailbo
         c0 = cpu()
         chain.process_frame(frame)
         costs.append(((cpu() - c0) / 1e3, i, frame))
+        collector.after_frame()
     us = np.array([c[0] for c in costs])
     ref_median = float(np.median(ref_us))
     print(

@@ -359,6 +359,47 @@ class ServeStats:
 
 CPU_BUDGET_US: Final = 2000.0  # issue 11: at most 2 ms of CPU per frame at 160 slaves
 MAX_ERROR_MESSAGES: Final = 10
+YOUNG_OBJECTS: Final = 700  # new container objects that start a collection (CPython's default)
+FULL_EVERY: Final = 100  # young collections between two full ones
+
+
+class BetweenFrames:
+    """Python's cyclic garbage collector, run between frames instead of inside one.
+
+    CPython collects when enough new objects have been made, so a collection lands inside
+    whichever frame makes the 700th; a full one, over everything made since :func:`gc.freeze`,
+    took 5 ms at 160 slaves in ``bench_serve_hostile``, on one frame. Here automatic
+    collection is off while serving: after a frame is answered (or dropped) the young
+    generations are collected once ``YOUNG_OBJECTS`` accumulated, and every ``FULL_EVERY``-th
+    time everything. Garbage is thus bounded as before, and no frame's processing waits for
+    it. Use as a context manager (the collector's state is restored).
+    """
+
+    def __init__(self) -> None:
+        self._young = 0
+
+    def __enter__(self) -> BetweenFrames:
+        self._was_enabled = gc.isenabled()
+        gc.collect()
+        gc.freeze()  # the chain's objects live as long as serve: no collection walks them
+        gc.disable()
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        gc.unfreeze()
+        if self._was_enabled:
+            gc.enable()
+
+    def after_frame(self) -> None:
+        """A frame is done: collect what it (and the ones before it) left, if enough."""
+        if gc.get_count()[0] < YOUNG_OBJECTS:
+            return
+        self._young += 1
+        if self._young >= FULL_EVERY:
+            self._young = 0
+            gc.collect()
+        else:
+            gc.collect(1)
 
 
 def _abandon_frame(chain: EcatChain) -> None:
@@ -389,9 +430,7 @@ def serve(
     """
     stats = ServeStats()
     chain.clock_ns = time.monotonic_ns  # the ESCs' clocks (distributed clocks) run in host time
-    gc.collect()
-    gc.freeze()  # the chain's objects live as long as serve: no collection walks them per frame
-    try:
+    with BetweenFrames() as collector:
         fd = sock.fileno()
         clock = time.perf_counter
         cpu = time.thread_time_ns
@@ -426,6 +465,7 @@ def serve(
                         stats.over_budget += 1
                 if back is None:
                     stats.dropped += 1
+                    collector.after_frame()
                     continue
                 sock.send(back)
                 if capture is not None:
@@ -433,6 +473,5 @@ def serve(
                 stats.frames_out += 1
                 if len(stats.process_us) < keep_times:
                     stats.process_us.append((clock() - t0) * 1e6)
-    finally:
-        gc.unfreeze()
+                collector.after_frame()
     return stats

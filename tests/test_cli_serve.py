@@ -4,15 +4,17 @@ in tests/emulator/test_live_soem.py)."""
 from __future__ import annotations
 
 import errno
+import gc
 import socket
 import threading
+import weakref
 from pathlib import Path
 
 import pytest
 import tshark_util
 
 from emulator.esc.chain import EcatChain
-from emulator.live import serve
+from emulator.live import FULL_EVERY, YOUNG_OBJECTS, BetweenFrames, serve
 from skinframes import ethercat
 from skinframes.capture_writer import CaptureWriter
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -133,3 +135,37 @@ def test_serve_counts_a_frame_it_cannot_process_records_all_and_goes_on(
     assert [r["frame.p2p_dir"] for r in rows] == [["1"], ["0"], ["1"], ["1"], ["0"]]
     assert [r["ecat.cnt"] for r in rows] == [["0"], ["2"], ["0"], ["0"], ["2"]]
     assert tshark_util.problems(tshark, path) == []
+
+
+class Cycle:
+    """An object in a reference cycle: only the cyclic collector frees it."""
+
+    def __init__(self) -> None:
+        self.me = self
+
+
+def test_serve_collects_garbage_between_frames_not_inside_them() -> None:
+    """While serving, no collection starts inside a frame however many objects it makes; after
+    the frame the young generations are collected, every FULL_EVERY-th time all of them, so
+    cyclic garbage is still freed; the collector is as it was afterwards."""
+    before = gc.isenabled()
+    events: list[str] = []
+    gc.callbacks.append(lambda phase, info: events.append(f"{phase} {info['generation']}"))
+    try:
+        with BetweenFrames() as collector:
+            assert not gc.isenabled()
+            events.clear()  # the full collection before freezing the chain's objects
+            garbage = [Cycle() for _ in range(10 * YOUNG_OBJECTS)]  # a frame's worth, and more
+            ref = weakref.ref(garbage[0])
+            del garbage
+            assert events == [] and ref() is not None  # nothing collected inside the frame
+            collector.after_frame()
+            assert events == ["start 1", "stop 1"] and ref() is None
+            for _ in range(FULL_EVERY - 1):
+                [Cycle() for _ in range(YOUNG_OBJECTS)]
+                collector.after_frame()
+            assert events[-2:] == ["start 2", "stop 2"]
+            assert events.count("start 2") == 1
+        assert gc.isenabled() == before
+    finally:
+        gc.callbacks.pop()
