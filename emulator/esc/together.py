@@ -24,6 +24,8 @@ import numpy.typing as npt
 from emulator.esc.dc import REG_DC_RECEIVE
 from emulator.esc.device import _TOUCHES_FMMU, _TOUCHES_SM, EscDevice, mark
 from emulator.esc.registers import (
+    REG_ECAT_EVENT,
+    REG_ECAT_EVENT_MASK,
     REG_EEPROM_CONFIG,
     REG_EEPROM_CONTROL,
     REG_EEPROM_PDI,
@@ -79,10 +81,20 @@ def commit_together(
     if sm and sm_before is not None:
         sm_rows = (memory[rows, REG_SM : plans.sm_end] != sm_before).any(axis=1).tolist()
     commands = eeprom.tolist()
+    irqs = None
+    if not (dl or dc is not None or al):  # mostly only the event request is left to update
+        events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
+        enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
+        irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
     for i, dev in enumerate(devices):
+        fmmu_i = fmmu_rows is not None and fmmu_rows[i]
+        sm_i = sm_rows is not None and sm_rows[i]
+        if irqs is not None and not (fmmu_i or sm_i or commands[i]):
+            dev.irq = irqs[i]  # what EscDevice._update_irq would set
+            continue
         dev.take_effect(
-            fmmu=fmmu_rows is not None and fmmu_rows[i],
-            sm=sm_rows is not None and sm_rows[i],
+            fmmu=fmmu_i,
+            sm=sm_i,
             sm_enabled=enabled[i].tobytes() if enabled is not None else b"",
             dl=dl,
             dc=dc,
