@@ -5,10 +5,15 @@
    logical accesses, mutated configuration frames) through a configured chain of ``--nodes``
    patches, with a master's reset (:func:`emulator.esc.hostile.master_reset_frames`) every
    ``--reset-every`` frames, so that loops the hostile frames closed open again and every frame
-   keeps meeting all slaves; each hostile frame's CPU time (this thread's clock) is measured. Printed: median, p99 and
-   maximum, frames above 2 ms, the costliest frames' datagrams, and for reference the CPU of an
-   ordinary LRD of the whole process image in the same run. Afterwards a master resets and
-   configures the line again and an LRD must return every patch's inputs.
+   keeps meeting all slaves; each hostile frame's CPU time (this thread's clock) is measured,
+   with garbage collected between frames as serve does (:class:`emulator.live.BetweenFrames`).
+   The frames go through ``--runs`` fresh chains (default 2): on a shared machine a frame's CPU
+   time now and then gains a few ms that the same frame does not need in the next run (seen
+   here: 225 us in one run, 2,444 us in the other), so each frame's least time is what it
+   needs. Printed for the first run and for the least: median, p99 and maximum, frames above
+   2 ms; the costliest frames' datagrams, and for reference the CPU of an ordinary LRD of the
+   whole process image. Afterwards a master resets and configures the line again and an LRD
+   must return every patch's inputs.
 2. ``--live``: the same frames sent to ``skinframes serve ecat --nodes N`` over a veth pair in a
    private network namespace (needs root), one at a time (the next after the answer, or after
    ``--timeout-ms`` for a frame the chain drops); then, once late answers stopped coming, the
@@ -21,7 +26,8 @@ SM3 inputs) unless ``--no-mailbox`` (passed on to serve), so the configuration m
 (:func:`patch_info`). The final frames carry their own datagram index and an answer is taken
 only if it is the frame sent, returned (:func:`is_answer`), not a late answer of the same length.
 
-    python benchmarks/bench_serve_hostile.py [--nodes 160] [--frames 10000] [--live] [--no-mailbox]
+    python benchmarks/bench_serve_hostile.py [--nodes 160] [--frames 10000] [--runs 2] [--live]
+        [--no-mailbox]
 """
 
 from __future__ import annotations
@@ -158,51 +164,49 @@ def configured_chain(nodes: int, size: int, mailbox: bool) -> EcatChain:
     return chain
 
 
-def in_process(nodes: int, size: int, frames: int, seed: int, every: int, mailbox: bool) -> None:
-    chain = configured_chain(nodes, size, mailbox)
-    with BetweenFrames() as collector:  # as serve does: garbage is collected between frames
-        measure(chain, nodes, size, frames, seed, every, mailbox, collector)
+def print_costs(what: str, us: npt.NDArray[np.float64]) -> None:
+    print(
+        f"  {what}: median {np.median(us):.0f} us, p99 {np.percentile(us, 99):.0f} us, "
+        f"max {us.max():.0f} us; {int((us > BUDGET_US).sum())} frames above {BUDGET_US:.0f} us"
+    )
 
 
-def measure(
-    chain: EcatChain,
-    nodes: int,
-    size: int,
-    frames: int,
-    seed: int,
-    every: int,
-    mailbox: bool,
-    collector: BetweenFrames,
+def in_process(
+    nodes: int, size: int, frames: int, seed: int, every: int, mailbox: bool, runs: int
 ) -> None:
     cpu = time.thread_time_ns
-    ref = lrd_frame(nodes, size)
-    ref_us = []
-    for _ in range(200):
-        c0 = cpu()
-        chain.process_frame(ref)
-        ref_us.append((cpu() - c0) / 1e3)
-    costs: list[tuple[float, int, bytes]] = []
-    for i, frame in enumerate(with_resets(frames, nodes, size, seed, every)):
-        c0 = cpu()
-        chain.process_frame(frame)
-        costs.append(((cpu() - c0) / 1e3, i, frame))
-        collector.after_frame()
-    us = np.array([c[0] for c in costs])
+    sent = list(with_resets(frames, nodes, size, seed, every))
+    per_run, ref_us = [], []
+    for _ in range(runs):  # the same frames through a fresh chain each time
+        chain = configured_chain(nodes, size, mailbox)
+        with BetweenFrames() as collector:  # as serve does: garbage is collected between frames
+            ref = lrd_frame(nodes, size)
+            for _ in range(200):
+                c0 = cpu()
+                chain.process_frame(ref)
+                ref_us.append((cpu() - c0) / 1e3)
+            us = np.empty(len(sent))
+            for i, frame in enumerate(sent):
+                c0 = cpu()
+                chain.process_frame(frame)
+                us[i] = (cpu() - c0) / 1e3
+                collector.after_frame()
+        per_run.append(us)
     ref_median = float(np.median(ref_us))
     print(
         f"in process: {frames} hostile frames (master reset every {every}), "
-        f"{nodes} slaves x {size} bytes"
+        f"{nodes} slaves x {size} bytes, {runs} run(s)"
     )
-    print(
-        f"  CPU per frame: median {np.median(us):.0f} us, p99 {np.percentile(us, 99):.0f} us, "
-        f"max {us.max():.0f} us; {int((us > BUDGET_US).sum())} frames above {BUDGET_US:.0f} us"
-    )
+    print_costs("CPU per frame, first run", per_run[0])
+    least = np.min(per_run, axis=0)
+    if runs > 1:  # what a frame needs: the machine only ever adds to a frame's CPU time
+        print_costs(f"least of {runs} runs", least)
     print(
         f"  reference: one LRD of the whole image {ref_median:.0f} us; max / reference "
-        f"{us.max() / ref_median:.1f}"
+        f"{least.max() / ref_median:.1f}"
     )
-    for c, i, frame in sorted(costs, reverse=True)[:5]:
-        print(f"  frame {i}: {c:.0f} us  {describe(frame)}")
+    for i in np.argsort(-least)[:5].tolist():
+        print(f"  frame {i}: {least[i]:.0f} us  {describe(sent[i])}")
     *setup, lrd = final_frames(nodes, size, mailbox)
     for frame in setup:
         chain.process_frame(frame)
@@ -307,6 +311,12 @@ def main() -> None:
     )
     ap.add_argument("--timeout-ms", type=float, default=50.0)
     ap.add_argument(
+        "--runs",
+        type=int,
+        default=2,
+        help="in process: the frames through this many fresh chains; each frame's least CPU",
+    )
+    ap.add_argument(
         "--reset-every", type=int, default=500, help="hostile frames between master resets"
     )
     args = ap.parse_args()
@@ -318,7 +328,8 @@ def main() -> None:
             )
     else:
         in_process(
-            args.nodes, args.bytes, args.frames, args.seed, args.reset_every, not args.no_mailbox
+            *(args.nodes, args.bytes, args.frames, args.seed, args.reset_every),
+            *(not args.no_mailbox, args.runs),
         )
 
 

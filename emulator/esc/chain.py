@@ -345,37 +345,21 @@ class EcatChain:
                 for dev in line:
                     dev.pending.append(entry)
                 return reach, False
-        elif _plain_read(ado, end):
-            frame = np.frombuffer(buf, np.uint8, n, at).copy()
-            if cmd == _BRD:
-                buf[at : at + n] = (np.bitwise_or.reduce(memory[:reach, ado:end]) | frame).tobytes()
-                return reach, False
-            if cmd == _BRW:
+        elif cmd in (_BRD, _BRW):
+            if _plain_read(ado, end):
+                frame = np.frombuffer(buf, np.uint8, n, at).copy()
+                if cmd == _BRD:
+                    ored = np.bitwise_or.reduce(memory[:reach, ado:end]) | frame
+                    buf[at : at + n] = ored.tobytes()
+                    return reach, False
                 offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
                 if (offsets == offsets[0]).all():
                     to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
                     if _plain_write(to, to + n):
                         self._read_write(line, to, buf, at, frame, ado)
                         return 3 * reach, False
-            elif _plain_write(
-                ado, end
-            ):  # ARMW, FRMW: read at the addressed ESCs, write at the others
-                if cmd == _ARMW:
-                    readers = [-adp & 0xFFFF]
-                else:
-                    readers = self._addressed(self._addresses(reach), adp)
-                entry = (ado, frame.tobytes())
-                first = 0
-                for p in readers:
-                    if p >= reach:
-                        break
-                    for dev in line[first:p]:
-                        dev.pending.append(entry)
-                    buf[at : at + n] = memory[p, ado:end].tobytes()
-                    entry, first = (ado, bytes(buf[at : at + n])), p + 1
-                for dev in line[first:]:
-                    dev.pending.append(entry)
-                return reach, False
+        elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
+            return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
         total, changed = 0, False
         step = 1 if cmd in _INCREMENTS else 0
         for p, dev in enumerate(line):
@@ -383,6 +367,37 @@ class EcatChain:
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
+
+    def _read_multiple_write(
+        self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
+    ) -> tuple[int, bool]:
+        """An ARMW or FRMW whose write is plain (:func:`_plain_write`): the addressed ESCs read
+        (each in turn, with whatever side effects their read has), every other ESC puts the
+        data as it arrives among its shadow writes (datasheet I Table 7)."""
+        reach = len(line)
+        addressed = self._addressed
+        readers = [-adp & 0xFFFF] if cmd == _ARMW else addressed(self._addresses(reach), adp)
+        plain = _plain_read(ado, ado + n)
+        entry = (ado, bytes(buf[at : at + n]))
+        first, total, changed = 0, 0, False
+        for p in readers:
+            if p >= reach:
+                break
+            for dev in line[first:p]:
+                dev.pending.append(entry)
+            total += p - first
+            dev = line[p]
+            if plain:
+                buf[at : at + n] = self.memory[p, ado : ado + n].tobytes()
+                total += 1
+            else:
+                before = dev.irq
+                total += dev.process(cmd, 0 if cmd == _ARMW else adp, ado, buf, at, n)[1]
+                changed = changed or dev.irq != before
+            entry, first = (ado, bytes(buf[at : at + n])), p + 1
+        for dev in line[first:]:
+            dev.pending.append(entry)
+        return total + reach - first, changed
 
     def _read_write(
         self,
