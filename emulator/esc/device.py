@@ -137,7 +137,7 @@ class TraceCopy:
 
 
 _DECODE_CACHE_ENTRIES: Final = 4096  # distinct FMMU/SM tables remembered (memory bound)
-_LogicalOp = tuple[bool, int, int, int, int]  # see _plan_logical
+_LogicalOp = tuple[bool, int, int, int, int, int, int]  # see _plan_logical
 _LogicalPlan = tuple[tuple[_LogicalOp, ...], tuple[_LogicalOp, ...]]  # reads, writes
 # active FMMUs, the logical span they map, and the plans of logical accesses through them
 # (shared by every ESC whose FMMU registers hold the same bytes)
@@ -351,10 +351,12 @@ def _plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
     """How a logical access of ``n`` bytes at ``lad`` reads and writes through ``fmmus``
     (datasheet I 7): the parts each FMMU maps, in register order, the lower-numbered FMMU
     winning a logical byte claimed twice (reads and writes claim separately); a part the
-    64 KiB address space clips away is not mapped. Operation (byte-wise, a, b, c, d):
+    64 KiB address space clips away is not mapped. Operation (byte-wise, a, b, c, d, e, f):
     byte-wise, physical address a, frame offset b, c bytes; bit-wise, physical bytes
-    [a, a + b) hold the mapped bits, c is where a frame bit lies there minus where it lies in
-    the frame, d masks the mapped bits: frame bits (read) or those bytes' bits (write)."""
+    [a, a + b) hold the mapped bits, which lie in frame bytes [e, e + f) (the datagram's data),
+    c is where a frame bit lies in the physical bytes minus where it lies in the frame bytes,
+    d masks the mapped bits: of the frame bytes (read) or of the physical bytes (write). The
+    bit-wise work is thus bounded by the mapped bytes, not by the datagram's length."""
     lo, hi = lad, lad + n
     hit = [f for f in fmmus if not (f[1] <= lo or f[0] >= hi)]
     reads = [f for f in hit if f[6] and cmd != _LWR]
@@ -368,19 +370,18 @@ def _plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
             if a >= b:
                 continue
             if f[8]:  # byte-wise mapping
-                ops.append((True, phys + (a - log_start), a - lad, b - a, 0))
+                ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
                 continue
             # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
             b0, b1, p0 = _bit_span(f, a, b)
             if b0 > b1:
                 continue
             first, last = p0 // 8, (p0 + b1 - b0) // 8
-            shift = (p0 - first * 8) - (b0 - lad * 8)  # physical bit - frame bit
+            at, end = (b0 - lad * 8) // 8, (b1 - lad * 8) // 8  # the frame bytes
+            shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
             bits = (1 << (b1 - b0 + 1)) - 1
-            if write:
-                ops.append((False, first, last - first + 1, shift, bits << (p0 - first * 8)))
-            else:
-                ops.append((False, first, last - first + 1, shift, bits << (b0 - lad * 8)))
+            mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
+            ops.append((False, first, last - first + 1, shift, mask, at, end - at + 1))
     return tuple(plan[0]), tuple(plan[1])
 
 
@@ -935,18 +936,18 @@ class EscDevice:
         reads, writes = found
         r = w = 0
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
-        for bytewise, a, b, c, d in reads:
+        for bytewise, a, b, c, d, e, f in reads:
             if bytewise:
                 r |= self._read(a, buf, off + b, c, False)
             else:
-                r |= self._bit_read(a, b, c, d, buf, off, n)
+                r |= self._bit_read(a, b, c, d, buf, off + e, f)
         if writes:
-            for bytewise, a, b, c, d in writes:
+            for bytewise, a, b, c, d, e, f in writes:
                 if bytewise:
                     w |= self._write(a, data_in[b : b + c])
                 else:
                     target = int.from_bytes(self.mem[a : a + b], "little")  # unmapped bits kept
-                    value = int.from_bytes(data_in, "little")
+                    value = int.from_bytes(data_in[e : e + f], "little")
                     value = value << c if c >= 0 else value >> -c
                     target = (target & ~d) | (value & d)
                     w |= self._write(a, target.to_bytes(b, "little"))
@@ -960,7 +961,8 @@ class EscDevice:
         self, first: int, count: int, shift: int, mask: int, buf: bytearray, off: int, n: int
     ) -> int:
         """A bit-wise FMMU read (:func:`_plan_logical`): the readable bits of physical bytes
-        [first, first + count), shifted to their frame bits, replace those under ``mask``."""
+        [first, first + count), shifted to their bits in frame bytes [off, off + n), replace
+        those under ``mask``."""
         segments = self._read_phys(first, count)
         if not segments:
             return 0
