@@ -457,17 +457,6 @@ class EcatChain:
         buf[at] |= irq & 0xFF
         buf[at + 1] |= irq >> 8
 
-    def _stations(self) -> dict[int, list[int]]:
-        """Positions by configured station address, and by alias where DL control enables it."""
-        out: dict[int, list[int]] = {}
-        for p, dev in enumerate(self.devices):
-            out.setdefault(dev.station, []).append(p)
-            if dev.mem[0x0103] & 0x01:
-                alias = dev.alias
-                if alias != dev.station:
-                    out.setdefault(alias, []).append(p)
-        return out
-
     @staticmethod
     def _parse(buf: bytearray) -> list[tuple[int, int, int, int, int, int]] | None:
         """Where the ESC finds each datagram's fields: (cmd, ADP at, ADO, data at, length, IRQ

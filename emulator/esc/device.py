@@ -500,6 +500,7 @@ class EscDevice:
             mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
         self._sms = [None] * cfg.syncmanagers
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
+        self._logical_plans = {}
         self._lrd_plans.clear()
         self.fmmu_span = (0, 0)
         self.dc.power_on(mem)
@@ -724,11 +725,6 @@ class EscDevice:
                 return adp, 0
             return adp, self._logical(cmd, adp | ado << 16, buf, off, n)
         return adp, 0  # reserved command values: ignored
-
-    def broadcast_write(self, ado: int, data: bytes) -> int:
-        """A BWR at this ESC (ETG.1000.4 Table 14): ``data`` is what every ESC receives, as no
-        ESC changes a BWR's data; the working-counter increment. ADP is the chain's business."""
-        return self._write(ado, data)
 
     def _physical(
         self, kind: int, ado: int, buf: bytearray, off: int, n: int, *, broadcast: bool = False
