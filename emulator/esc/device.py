@@ -148,8 +148,9 @@ _SmTable = tuple[tuple[int, int, int, int, int], ...]
 _FMMU_CACHE: dict[bytes, _FmmuTable] = {}
 _K = TypeVar("_K")
 _V = TypeVar("_V")
-# decoded SyncManager tables, and the order of their entries by start (PDI-locked last)
-_SM_CACHE: dict[bytes, tuple[_SmTable, tuple[int, ...]]] = {}
+# decoded SyncManager tables, the order of their entries by start (PDI-locked last), and the
+# status registers (0x0805 + 8 y) of the SyncManagers without a buffer
+_SM_CACHE: dict[bytes, tuple[_SmTable, tuple[int, ...], tuple[int, ...]]] = {}
 
 
 def _remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = _DECODE_CACHE_ENTRIES) -> _V:
@@ -1208,28 +1209,27 @@ class EscDevice:
             by_start = sorted(
                 range(len(entries)), key=lambda i: (entries[i][1], entries[i][4] != 0)
             )
-            found = _remember(_SM_CACHE, table, (entries, tuple(by_start)))
-        decoded, order = found
+            enabled = {e[0] for e in entries}
+            idle = tuple(REG_SM + SM_BYTES * z + 5 for z in range(len(sms)) if z not in enabled)
+            found = _remember(_SM_CACHE, table, (entries, tuple(by_start), idle))
+        decoded, order, idle = found
+        for st in idle:  # disabled or too short: no buffer
+            if mem[st] != SM_NO_BUFFER or sms[(st - REG_SM) // SM_BYTES] is not None:
+                sms[(st - REG_SM) // SM_BYTES] = None
+                mem[st] = SM_NO_BUFFER
         controlling: list[_Sm] = []
-        y_next = 0
         for y, start, length, control, pdi_locked in decoded:
-            for z in range(y_next, y):  # disabled or too short: no buffer
-                if sms[z] is not None or mem[REG_SM + SM_BYTES * z + 5] != SM_NO_BUFFER:
-                    sms[z] = None
-                    mem[REG_SM + SM_BYTES * z + 5] = SM_NO_BUFFER
-            y_next = y + 1
             old = sms[y]
-            toggled = enabled_before is not None and not enabled_before[y] & 1
-            if old is None or toggled or old.start != start or old.length != length:
-                old = _Sm(y, start, length, control)
-                sms[y] = old
+            if (
+                old is None
+                or (enabled_before is not None and not enabled_before[y] & 1)  # toggled
+                or old.start != start
+                or old.length != length
+            ):
+                old = sms[y] = _Sm(y, start, length, control)
                 mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
-            old.locked = bool(pdi_locked)
+            old.locked = pdi_locked != 0
             controlling.append(old)
-        for z in range(y_next, len(sms)):
-            if sms[z] is not None or mem[REG_SM + SM_BYTES * z + 5] != SM_NO_BUFFER:
-                sms[z] = None
-                mem[REG_SM + SM_BYTES * z + 5] = SM_NO_BUFFER
         self._active = [controlling[i] for i in order]  # by start, ECAT's before PDI-locked
         self._lrd_plans.clear()
 
