@@ -590,6 +590,8 @@ class EscDevice:
         memory as one array, so that a broadcast reads or commits all of them at once."""
         if row.nbytes != ADDRESS_SPACE or row.format != "B" or row.readonly:
             raise TopologyError("ESC memory: a writable row of 64 KiB bytes")
+        if isinstance(self.mem, memoryview):  # the other chain would read a row left behind
+            raise TopologyError(f"ESC {self.info.serial}: already in a chain")
         row[:] = self.mem
         self.mem = row
 

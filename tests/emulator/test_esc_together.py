@@ -13,6 +13,7 @@ import struct
 import numpy as np
 import pytest
 
+from emulator.errors import TopologyError
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.hostile import hostile_frames, master_reset_frames
@@ -167,3 +168,10 @@ def test_a_loop_closed_early_keeps_the_rest_out() -> None:
     (d,) = ethercat.decode(back[14:])[0].datagrams
     assert d.wkc == 3  # hand count: ESCs 0, 1 and 2
     assert d.data == struct.pack("<H", 0x1001 | 0x1002 | 0x1003)
+
+
+def test_an_esc_belongs_to_one_chain() -> None:
+    """A chain keeps its ESCs' memory as its rows: an ESC already in a chain is refused."""
+    chain = EcatChain.skin(2, SIZE)
+    with pytest.raises(TopologyError, match="already in a chain"):
+        EcatChain(chain.devices)
