@@ -32,10 +32,13 @@ from emulator.esc.dc import REG_DC_END, REG_DC_RECEIVE, DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
 from emulator.esc.registers import (
     ADDRESS_SPACE,
+    EVENT_AL_STATUS,
+    EVENT_DL_STATUS,
     REG_AL_STATUS,
     REG_ALIAS,
     REG_DL_CONTROL,
     REG_DL_STATUS,
+    REG_ECAT_EVENT,
     REG_RESET_ECAT,
     REG_RW_OFFSET,
     REG_STATION,
@@ -74,16 +77,26 @@ _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
 _BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
 
 
-def _plain_read(lo: int, hi: int) -> bool:
-    """A read of registers [lo, hi) that changes nothing: below 0x0F80, not DC times (which run
-    with the clock), not DL or AL status (whose reads clear their event bits)."""
+def _register_read(lo: int, hi: int) -> bool:
+    """A read of registers [lo, hi) below 0x0F80 that does not read DC times (which run with
+    the clock): it reads bytes, and may clear event bits (:func:`_cleared_events`)."""
     return (
         lo < REGISTER_END  # an empty access at 0x0F80 or beyond touches no register: no count
         and hi <= REGISTER_END
         and not (lo < REG_DC_END and hi > REG_DC_RECEIVE)
-        and not (lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS)
-        and not (lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS)
     )
+
+
+def _cleared_events(lo: int, hi: int) -> int:
+    """The ECAT event bits (0x0210) a read of [lo, hi) clears: DL status, AL status (datasheet I
+    Table 3)."""
+    dl = EVENT_DL_STATUS if lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS else 0
+    return dl | (EVENT_AL_STATUS if lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS else 0)
+
+
+def _plain_read(lo: int, hi: int) -> bool:
+    """A read of registers [lo, hi) that changes nothing: a register read that clears no event."""
+    return _register_read(lo, hi) and not _cleared_events(lo, hi)
 
 
 def _plain_write(lo: int, hi: int) -> bool:
@@ -332,11 +345,12 @@ class EcatChain:
         """A broadcast, ARMW or FRMW datagram at every ESC of ``line``: (the working counter's
         increment, whether an ESC's event request changed).
 
-        On plain registers (below 0x0F80, no read side effects: DL and AL status, DC times; no
-        write of the reset register) it is done for all ESCs at once: a read is their rows ORed
-        (BRD, BRW) or one row (the reading ESC of ARMW/FRMW), a write one (address, data) in each
-        ESC's shadow writes, committed at the end of the frame (datasheet I 3.4, Table 7).
-        Elsewhere (SyncManagers, process memory, registers with side effects) each ESC in turn.
+        On registers below 0x0F80 it is done for all ESCs at once: a BRD ORs their rows (and
+        clears the DL and AL status events, datasheet I Table 3), a BRW of registers without
+        read side effects too; a write that only waits for the end of the frame (not the reset
+        register) is one (address, data) in each ESC's shadow writes (datasheet I 3.4, Table 7),
+        and the ESCs an ARMW/FRMW addresses read in turn. Elsewhere (DC times, SyncManagers,
+        process memory) each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
         if cmd == _BWR:
@@ -345,13 +359,15 @@ class EcatChain:
                 for dev in line:
                     dev.pending.append(entry)
                 return reach, False
-        elif cmd in (_BRD, _BRW):
+        elif cmd == _BRD:
+            if _register_read(ado, end):
+                ored = np.bitwise_or.reduce(memory[:reach, ado:end])
+                buf[at : at + n] = (ored | np.frombuffer(buf, np.uint8, n, at)).tobytes()
+                events = _cleared_events(ado, end)
+                return reach, bool(events) and self._clear_events(line, events)
+        elif cmd == _BRW:
             if _plain_read(ado, end):
                 frame = np.frombuffer(buf, np.uint8, n, at).copy()
-                if cmd == _BRD:
-                    ored = np.bitwise_or.reduce(memory[:reach, ado:end]) | frame
-                    buf[at : at + n] = ored.tobytes()
-                    return reach, False
                 offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
                 if (offsets == offsets[0]).all():
                     to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
@@ -367,6 +383,22 @@ class EcatChain:
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
+
+    def _clear_events(self, line: list[EscDevice], events: int) -> bool:
+        """The ESCs of ``line`` read the registers that clear ``events`` (0x0210 bits); whether
+        an ESC's event request changed."""
+        column = self.memory[: len(line), REG_ECAT_EVENT]
+        hit = np.flatnonzero(column & events).tolist()
+        if not hit:
+            return False
+        column &= ~events & 0xFF
+        changed = False
+        for p in hit:
+            dev = line[p]
+            before = dev.irq
+            dev.update_irq()
+            changed = changed or dev.irq != before
+        return changed
 
     def _read_multiple_write(
         self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int

@@ -510,7 +510,7 @@ class EscDevice:
         self._update_dl_status()
         if self.pdi_operational:
             self.app.power_on(self)
-        self._update_irq()
+        self.update_irq()
 
     def _load_config_area(self, *, first: bool) -> bool:
         """Load ESC configuration area A (datasheet I 11.1, Table 42); False on a bad CRC."""
@@ -612,7 +612,7 @@ class EscDevice:
         value = (state & 0x0F) | (0x10 if error else 0)
         if value != self.al_status:
             self.mem[REG_ECAT_EVENT] |= EVENT_AL_STATUS
-            self._update_irq()
+            self.update_irq()
         struct.pack_into("<HxxH", self.mem, REG_AL_STATUS, value, code)
 
     def pdi_deactivate_sm(self, index: int, deactivate: bool) -> None:
@@ -1087,7 +1087,7 @@ class EscDevice:
             self._update_dl_status()
         if dc is not None:
             self.dc.configured(mem, *dc)
-        self._update_irq()
+        self.update_irq()
         if eeprom:
             self._eeprom_command()
         if al and self.pdi_operational:
@@ -1260,14 +1260,16 @@ class EscDevice:
         """The chain connects (or disconnects) a neighbour at port 1."""
         self.port1_link = link
         self._update_dl_status()
-        self._update_irq()
+        self.update_irq()
 
     def _clear_event(self, bit: int) -> None:
         if self.mem[REG_ECAT_EVENT] & bit:
             self.mem[REG_ECAT_EVENT] &= ~bit
-            self._update_irq()
+            self.update_irq()
 
-    def _update_irq(self) -> None:
+    def update_irq(self) -> None:
+        """The ECAT event request 0x0210 under the mask 0x0200 (datasheet I Table 3), kept in
+        :attr:`irq` for the IRQ field of every datagram."""
         mem = self.mem
         events = mem[REG_ECAT_EVENT] | mem[REG_ECAT_EVENT + 1] << 8
         self.irq = events & (mem[REG_ECAT_EVENT_MASK] | mem[REG_ECAT_EVENT_MASK + 1] << 8)

@@ -90,7 +90,7 @@ def commit_together(
         fmmu_i = fmmu_rows is not None and fmmu_rows[i]
         sm_i = sm_rows is not None and sm_rows[i]
         if irqs is not None and not (fmmu_i or sm_i or commands[i]):
-            dev.irq = irqs[i]  # what EscDevice._update_irq would set
+            dev.irq = irqs[i]  # what EscDevice.update_irq would set
             continue
         dev.take_effect(
             fmmu=fmmu_i,
