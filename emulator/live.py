@@ -426,7 +426,8 @@ def serve(
     counted (``errors``), handed to ``on_error`` with the frame, and not answered; serving
     goes on. ``capture`` records every received frame (inbound) and every answer (outbound)
     with the host's clock (``time.time_ns``) as it happens. The chain's distributed clocks run
-    on ``time.monotonic_ns`` from here on.
+    on ``time.monotonic_ns`` from here on. Garbage is collected between frames
+    (:class:`BetweenFrames`).
     """
     stats = ServeStats()
     chain.clock_ns = time.monotonic_ns  # the ESCs' clocks (distributed clocks) run in host time
