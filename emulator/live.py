@@ -377,6 +377,7 @@ class BetweenFrames:
 
     def __init__(self) -> None:
         self._young = 0
+        self._was_enabled = gc.isenabled()
 
     def __enter__(self) -> BetweenFrames:
         self._was_enabled = gc.isenabled()

@@ -49,6 +49,8 @@ from collections.abc import Callable
 from dataclasses import dataclass
 from typing import ClassVar, Final, TypeVar
 
+import numpy as np
+
 from emulator.errors import TopologyError
 from emulator.esc.dc import REG_DC_END, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU, DcClock
 from emulator.esc.registers import (
@@ -263,6 +265,7 @@ class _WritePlans:
 
     def __init__(self, config: EscConfig) -> None:
         self.masks = write_masks(config)
+        self.mask_array = np.frombuffer(self.masks, np.uint8)  # for many ESCs' rows at once
         self.fmmu_end = REG_FMMU + FMMU_BYTES * config.fmmus
         self.sm_end = REG_SM + SM_BYTES * config.syncmanagers
         self.special = (  # registers written in parts (side effects), ascending

@@ -39,7 +39,6 @@ from emulator.esc.registers import (
 __all__ = ["TOGETHER_MIN", "commit_together"]
 
 TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows beats one by one
-_MASKS: dict[int, npt.NDArray[np.uint8]] = {}  # the write masks of each _WritePlans, as arrays
 _Rows = npt.NDArray[np.intp]
 
 
@@ -50,9 +49,7 @@ def commit_together(
     memory is ``memory[rows]``, as each one's :meth:`EscDevice.end_frame` would (before
     :meth:`EscDevice.finish_frame`)."""
     plans = devices[0].write_plans
-    masks = _MASKS.get(id(plans))
-    if masks is None:
-        masks = _MASKS[id(plans)] = np.frombuffer(plans.masks, np.uint8)
+    masks = plans.mask_array
     pending = [(addr, data, plans.plan(addr, len(data))) for addr, data in devices[0].pending]
     for dev in devices:
         dev.pending.clear()
