@@ -45,11 +45,15 @@ the SII's sync impulse length), the start time plausibility check, 32-bit DC.
 
 from __future__ import annotations
 
+import operator
 import random
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING, Final
+
+import numpy as np
+import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.model.params import WIRE, TimingParams
@@ -84,6 +88,7 @@ __all__ = [
     "REG_SAMPLE_TIME",
     "DcClock",
     "DcTimebase",
+    "compare_together",
     "dc_write_masks",
     "seed_clocks",
 ]
@@ -171,10 +176,19 @@ class DcTimebase:
             found = self._times[position] = _port_times_ps(self.params, self.line_length, position)
         return found
 
+    def port0_times_ps(self, positions: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
+        """The port 0 times of :meth:`port_times_ps` at many positions at once."""
+        return positions * _forward_ps(self.params)
+
+
+def _forward_ps(p: TimingParams) -> int:
+    """One pass in processing direction: an ESC and its cable to the next."""
+    return p.ecat_processing_ps + p.cable_ps
+
 
 def _port_times_ps(p: TimingParams, line_length: int, position: int) -> tuple[int, int | None]:
     """:meth:`DcTimebase.port_times_ps`, computed once per line and position."""
-    forward = p.ecat_processing_ps + p.cable_ps  # one pass in processing direction
+    forward = _forward_ps(p)
     back = p.ecat_forwarding_ps + p.cable_ps  # one pass in forwarding direction
     last = line_length - 1
     t0 = position * forward
@@ -422,3 +436,130 @@ def seed_clocks(clocks: Sequence[DcClock], max_drift_ppm: float, seed: int) -> N
     rng = random.Random(seed)
     for clock in clocks:
         clock.retune(rng.uniform(-max_drift_ppm, max_drift_ppm), rng.randrange(1 << 40))
+
+
+_STATE = operator.attrgetter(
+    "timebase",
+    "position",
+    "_anchor_host",
+    "_anchor_local",
+    "_rate",
+    "_integral",
+    "_diff_ns",
+    "drift_ppm",
+    "_last_compare",
+)
+
+
+def compare_together(
+    clocks: Sequence[DcClock],
+    memory: npt.NDArray[np.uint8],
+    rows: npt.NDArray[np.intp],
+    lo: int,
+    data: bytes,
+) -> None:
+    """:meth:`DcClock.write` of the same ``data`` at ``lo`` in every clock, whose ESC's memory is
+    ``memory[rows]`` (a broadcast's, or an ARMW/FRMW's, write at the end of the frame).
+
+    The system time compare (0x0910, what a master's ARMW/FRMW of the reference clock's time
+    sets off) runs over arrays, with float64 operations in the order :meth:`DcClock.compare`
+    and :meth:`DcClock._control` do them on Python numbers, so every clock ends in the same
+    state. Python divides the integer difference by tau exactly and rounds once, numpy
+    rounds the difference to float64 first: the same up to 2^53 ns, and beyond it both
+    quotients exceed 1e7 and the correction is clamped to the same +-500 ppm. Where the write
+    also latches receive times (0x0900), or where the clocks do not share one timebase, the
+    clocks write one by one.
+    """
+    hi = lo + len(data)
+    state = [_STATE(c) for c in clocks]
+    timebases, position, anchor_host, anchor_local, rate, integral, diff_ns, drift, last = (
+        zip(*state, strict=True) if state else ((),) * 9
+    )
+    timebase = clocks[0].timebase if clocks else None
+    if (
+        timebase is None
+        or (lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE)
+        or timebases.count(timebase) != len(clocks)
+    ):
+        for clock, row in zip(clocks, rows.tolist(), strict=True):
+            clock.write(memoryview(memory[row]), lo, data)
+        return
+    if not (lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME):
+        return  # 0x0904-0x090F: nothing happens
+    t0 = timebase.port0_times_ps(np.array(position, np.int64))
+    host = timebase.frame_ns + t0 / 1000  # DcClock._arrival_ns
+    elapsed = host - np.array(anchor_host, np.int64)
+    local = np.array(anchor_local, np.uint64) + np.rint(elapsed * np.array(rate)).astype(
+        np.int64
+    ).astype(np.uint64)  # DcClock.local_at, modulo 2^64
+    system = local + _u64(memory, rows, REG_DC_OFFSET)
+    a, b = max(lo, REG_DC_SYSTEM_TIME), min(hi, REG_DC_RECEIVE_PU)
+    received = system.astype("<u8").view(np.uint8).reshape(len(clocks), 8)
+    received[:, a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = np.frombuffer(
+        data, np.uint8, b - a, a - lo
+    )
+    raw = system - received.view("<u8").ravel() - _u32(memory, rows, REG_DC_DELAY)
+    if b - REG_DC_SYSTEM_TIME > 4:  # DcClock.compare: the difference modulo 2^64 or 2^32
+        diff = raw.view(np.int64)
+    else:
+        diff = (raw & 0xFFFFFFFF).astype(np.int64)
+        diff[diff >= 1 << 31] -= 1 << 32
+    d = diff.astype(np.float64)
+    depth = memory[rows, REG_DC_DIFF_FILTER] & 0x0F
+    mean_ns = np.array(diff_ns, np.float64)
+    mean_ns += (d - mean_ns) / (np.ones(len(d), np.int64) << depth).astype(np.float64)
+    mean = np.rint(mean_ns)
+    magnitude = np.minimum(np.abs(mean), 0x7FFFFFFF).astype(np.uint32)
+    _put(memory, rows, REG_DC_DIFF, magnitude | np.where(mean < 0, 0x80000000, 0).astype("<u4"))
+    # DcClock._control: dt is the time since the last compare, as a float, unless that is no
+    # compare or more than tau: then tau, an int, and diff * tau / (4 tau^2) is diff / (4 tau)
+    # rounded once (Python's int division), as float64 divides two exact operands
+    speed = memory[rows, REG_DC_SPEED_START].astype(np.int64)
+    speed |= memory[rows, REG_DC_SPEED_START + 1].astype(np.int64) << 8
+    tau = np.maximum(1, speed & 0x7FFF) * PHASE_NS_PER_SPEED_COUNT
+    never = np.array([t is None for t in last])
+    gap = host - np.array([0 if t is None else t for t in last], np.int64)
+    whole = never | (tau < gap)
+    step = np.where(
+        whole,
+        d / (INTEGRAL_FACTOR * tau).astype(np.float64),
+        d * gap / (tau * INTEGRAL_FACTOR * tau).astype(np.float64),
+    )
+    held = np.clip(np.array(integral, np.float64) - step, -MAX_CORRECTION, MAX_CORRECTION)
+    correction = np.clip(held - d / tau.astype(np.float64), -MAX_CORRECTION, MAX_CORRECTION)
+    compared_at = np.rint(host).astype(np.int64)
+    new_rate = (1.0 + np.array(drift, np.float64) * 1e-6) * (1.0 + correction)
+    units = np.clip(np.rint(correction / SPEED_DIFF_UNIT), -0x8000, 0x7FFF).astype("<i2")
+    memory[rows, REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = units.view(np.uint8).reshape(-1, 2)
+    for clock, at_local, at_host, new, held_i, mean_i in zip(
+        clocks,
+        local.tolist(),
+        compared_at.tolist(),
+        new_rate.tolist(),
+        held.tolist(),
+        mean_ns.tolist(),
+        strict=True,
+    ):  # DcClock._set_rate and the loop's state
+        clock._anchor_local, clock._anchor_host, clock._rate = at_local, at_host, new
+        clock._integral, clock._diff_ns, clock._last_compare = held_i, mean_i, at_host
+
+
+def _u64(
+    memory: npt.NDArray[np.uint8], rows: npt.NDArray[np.intp], at: int
+) -> npt.NDArray[np.uint64]:
+    return np.ascontiguousarray(memory[rows, at : at + 8]).view("<u8").ravel().astype(np.uint64)
+
+
+def _u32(
+    memory: npt.NDArray[np.uint8], rows: npt.NDArray[np.intp], at: int
+) -> npt.NDArray[np.uint64]:
+    return np.ascontiguousarray(memory[rows, at : at + 4]).view("<u4").ravel().astype(np.uint64)
+
+
+def _put(
+    memory: npt.NDArray[np.uint8],
+    rows: npt.NDArray[np.intp],
+    at: int,
+    values: npt.NDArray[np.uint32],
+) -> None:
+    memory[rows, at : at + 4] = values.astype("<u4").view(np.uint8).reshape(-1, 4)

@@ -21,7 +21,7 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
-from emulator.esc.dc import REG_DC_RECEIVE
+from emulator.esc.dc import REG_DC_RECEIVE, compare_together
 from emulator.esc.device import _TOUCHES_FMMU, _TOUCHES_SM, EscDevice, mark
 from emulator.esc.registers import (
     REG_ECAT_EVENT,
@@ -148,9 +148,7 @@ def _special(
                 eeprom |= owner
         return
     if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
-        raw = data.tobytes()
-        for dev in devices:
-            dev.dc.write(dev.mem, lo, raw)
+        compare_together([dev.dc for dev in devices], memory, rows, lo, data.tobytes())
         return
     assert enabled is not None
     new = np.repeat(data[None, :], len(rows), axis=0)
