@@ -335,6 +335,17 @@ class _WritePlans:
         return min(end, self.sm_end)
 
 
+def port1_forwarding(setting: int, link: bool) -> bool | None:
+    """Where port 1 sends a processed frame under DL control bits 10-11 ``setting`` (datasheet
+    II 2.4.1) and the port's ``link``: on (True), back towards the master (False, the loop is
+    closed) or nowhere (None: forced open without a link, the frame is lost)."""
+    if setting == 0x03:  # closed
+        return False
+    if setting == 0x02:  # open, whatever the link
+        return True if link else None
+    return link  # auto, auto close: open with a link
+
+
 def mark(
     lo: int, hi: int, flags: list[bool], fmmu_end: int, dc: tuple[int, int] | None
 ) -> tuple[int, int] | None:
@@ -579,14 +590,6 @@ class EscDevice:
             towards the master; None: port 1 is forced open without a link, the frame is lost.
         """
         return self.onward
-
-    def _forwarding(self) -> bool | None:
-        setting = (self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03
-        if setting == 0x03:  # closed
-            return False
-        if setting == 0x02:  # open, whatever the link
-            return True if self.port1_link else None
-        return self.port1_link  # auto, auto close: open with a link
 
     def use_memory(self, row: memoryview) -> None:
         """Keep the 64 KiB in ``row`` from now on (its content now): the chain holds every ESC's
@@ -1244,7 +1247,7 @@ class EscDevice:
         Also caches what the chain asks for every frame: the port 1 forwarding decision and
         whether the source MAC is marked (both change only with DL control or a link).
         """
-        self.onward = self._forwarding()
+        self.onward = port1_forwarding((self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03, self.port1_link)
         self.sets_mac = self.changes_source_mac
         value = 0x0003 if self.pdi_operational else 0  # PDI operational, PDI watchdog reloaded
         value |= 0x0010 | 0x0200  # port 0: link, open, communication established

@@ -22,8 +22,11 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
-from emulator.esc.device import _TOUCHES_FMMU, _TOUCHES_SM, EscDevice, mark
+from emulator.esc.device import _TOUCHES_FMMU, _TOUCHES_SM, EscDevice, mark, port1_forwarding
 from emulator.esc.registers import (
+    EVENT_DL_STATUS,
+    REG_DL_CONTROL,
+    REG_DL_STATUS,
     REG_ECAT_EVENT,
     REG_ECAT_EVENT_MASK,
     REG_EEPROM_CONFIG,
@@ -72,6 +75,8 @@ def commit_together(
                 if marks:
                     dc = mark(lo, hi, flags, plans.fmmu_end, dc)
     al, _, dl, fmmu, sm = flags
+    if dl:
+        _dl_status(devices, memory, rows)
     fmmu_rows = sm_rows = None
     if fmmu and fmmu_before is not None:
         fmmu_rows = (memory[rows, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1).tolist()
@@ -79,7 +84,7 @@ def commit_together(
         sm_rows = (memory[rows, REG_SM : plans.sm_end] != sm_before).any(axis=1).tolist()
     commands = eeprom.tolist()
     irqs = None
-    if not (dl or dc is not None or al):  # mostly only the event request is left to update
+    if not (dc is not None or al):  # mostly only the event request is left to update
         events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
         enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
         irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
@@ -93,11 +98,32 @@ def commit_together(
             fmmu=fmmu_i,
             sm=sm_i,
             sm_enabled=enabled[i].tobytes() if enabled is not None else b"",
-            dl=dl,
+            dl=False,
             dc=dc,
             eeprom=commands[i],
             al=al,
         )
+
+
+def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:
+    """:meth:`EscDevice._update_dl_status` at every row, after a write of DL control: DL status
+    0x0110 from the PDI, the port 1 link and the loop setting (datasheet II 2.4.3, Table 2), the
+    DL status event where it changed, and each ESC's forwarding and source MAC marking."""
+    link = np.array([dev.port1_link for dev in devices], np.bool_)
+    pdi = np.array([dev.pdi_operational for dev in devices], np.bool_)
+    setting = (memory[rows, REG_DL_CONTROL + 1] >> 2) & 0x03
+    closed = (setting == 0x03) | ((setting <= 0x01) & ~link)
+    value = np.where(pdi, 0x0003, 0) | 0x0010 | 0x0200 | 0x1000 | 0x4000  # ports 0, 2, 3
+    value |= np.where(link, 0x0020 | 0x0800, 0) | np.where(closed, 0x0400, 0)
+    old = memory[rows, REG_DL_STATUS].astype(np.int64)
+    old |= memory[rows, REG_DL_STATUS + 1].astype(np.int64) << 8
+    changed = rows[value != old]
+    memory[changed, REG_DL_STATUS] = value[value != old] & 0xFF
+    memory[changed, REG_DL_STATUS + 1] = value[value != old] >> 8
+    memory[changed, REG_ECAT_EVENT] |= EVENT_DL_STATUS
+    marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
+    for dev, s, on, mac in zip(devices, setting.tolist(), link.tolist(), marks, strict=True):
+        dev.onward, dev.sets_mac = port1_forwarding(s, on), mac
 
 
 def _masked(
