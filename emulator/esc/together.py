@@ -7,8 +7,10 @@ registers, for all of them in one pass over the rows of the chain's memory
 (:attr:`emulator.esc.chain.EcatChain.memory`, one ESC a row): each write is cut and masked once
 (the cut every ESC of a configuration shares), and what differs between the ESCs
 (the SyncManagers enabled before the frame, who owns the EEPROM interface, whose FMMU or
-SyncManager table changed) is a mask of rows. What follows a commit in each ESC (rebuilt tables,
-EEPROM command, AL control) is :meth:`EscDevice.take_effect`, as for one ESC. The work thus grows
+SyncManager table changed) is a mask of rows. DL status after a write of DL control, the event
+request and the DC system time compare (:func:`emulator.esc.dc.compare_together`) are worked out
+over the rows too; what else follows a commit in each ESC (rebuilt tables, EEPROM command, AL
+control) is :meth:`EscDevice.take_effect`, as for one ESC. The work thus grows
 with the bytes written and the ESCs whose state the write changes, not with one Python pass per
 ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under hostile frames.
 """
@@ -117,9 +119,10 @@ def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows
     value |= np.where(link, 0x0020 | 0x0800, 0) | np.where(closed, 0x0400, 0)
     old = memory[rows, REG_DL_STATUS].astype(np.int64)
     old |= memory[rows, REG_DL_STATUS + 1].astype(np.int64) << 8
-    changed = rows[value != old]
-    memory[changed, REG_DL_STATUS] = value[value != old] & 0xFF
-    memory[changed, REG_DL_STATUS + 1] = value[value != old] >> 8
+    differs = value != old
+    changed, new = rows[differs], value[differs]
+    memory[changed, REG_DL_STATUS] = new & 0xFF
+    memory[changed, REG_DL_STATUS + 1] = new >> 8
     memory[changed, REG_ECAT_EVENT] |= EVENT_DL_STATUS
     marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
     for dev, s, on, mac in zip(devices, setting.tolist(), link.tolist(), marks, strict=True):
