@@ -75,6 +75,7 @@ _LOGICAL: Final = frozenset({10, 11, 12})
 _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
 _BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
+_LRD: Final = int(Command.LRD)
 
 
 def _register_read(lo: int, hi: int) -> bool:
@@ -309,8 +310,12 @@ class EcatChain:
                     lad = adp | ado << 16
                     targets = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
                 wkc_inc, changed = 0, False
+                lrd, lad = cmd == _LRD, adp | ado << 16
                 for p in targets:
                     dev = line[p]
+                    if lrd and dev.read_buffered(lad, buf, data_at, n):
+                        wkc_inc += 1  # the common LRD: a whole buffer, no event changes
+                        continue
                     before = dev.irq
                     wkc_inc += dev.process(cmd, adp, ado, buf, data_at, n)[1]
                     changed = changed or dev.irq != before

@@ -922,15 +922,23 @@ class EscDevice:
         sm.buf = None
 
     # --- logical access through the FMMUs ------------------------------------------------------
+    def read_buffered(self, lad: int, buf: bytearray, off: int, n: int) -> bool:
+        """An LRD of ``n`` bytes at ``lad`` (data at ``buf[off:]``) in its common case, the
+        whole buffer of one read SyncManager (:meth:`_plan_lrd`): done, with the working counter
+        to count 1, when True; False leaves the LRD to :meth:`process` (the chain asks this
+        first, for every ESC an LRD of the process image reaches)."""
+        if self.trace is not None:
+            return False
+        key = (lad, n)
+        plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
+        if plan is None or plan[1].locked or self.dc_sampling:
+            return False
+        self._read_buffer(plan[1], buf, off + plan[0])
+        return True
+
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
-        if cmd == _LRD and self.trace is None:
-            key = (lad, n)
-            plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
-            if plan is not None:
-                rel, sm = plan
-                if not sm.locked and not self.dc_sampling:
-                    self._read_buffer(sm, buf, off + rel)
-                    return 1
+        if cmd == _LRD and self.read_buffered(lad, buf, off, n):
+            return 1
         plans = self._logical_plans
         access = (cmd, lad, n)
         found = plans.get(access)
