@@ -88,6 +88,7 @@ def test_compare_together_equals_clock_by_clock(seed: int) -> None:
         # the next frame: the same instant, a cycle later, exactly the first clock's tau later
         # (the last compare's gap, a float, equals tau, an int: Python takes the float), or
         # after more than tau
-        tau = max(1, struct.unpack_from("<H", memory[0], dc.REG_DC_SPEED_START)[0] & 0x7FFF)
-        advance = rng.choice((0, 1_000_000, 5_000 * tau, rng.randrange(1 << 30), 1 << 40))
+        speed = max(1, struct.unpack_from("<H", memory[0], dc.REG_DC_SPEED_START)[0] & 0x7FFF)
+        tau_ns = speed * dc.PHASE_NS_PER_SPEED_COUNT
+        advance = rng.choice((0, 1_000_000, tau_ns, rng.randrange(1 << 30), 1 << 40))
         clocks[0].timebase.frame_ns += advance
