@@ -55,6 +55,11 @@ from emulator.errors import TopologyError
 from emulator.esc.dc import REG_DC_END, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU, DcClock
 from emulator.esc.registers import (
     ADDRESS_SPACE,
+    DL_PDI_OPERATIONAL,
+    DL_PORT0,
+    DL_PORT1_CLOSED,
+    DL_PORT1_LINK,
+    DL_PORTS_2_3_CLOSED,
     EE_ACK_ERROR,
     EE_CHECKSUM_ERROR,
     EE_CMD_READ,
@@ -1257,14 +1262,13 @@ class EscDevice:
         """
         self.onward = port1_forwarding((self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03, self.port1_link)
         self.sets_mac = self.changes_source_mac
-        value = 0x0003 if self.pdi_operational else 0  # PDI operational, PDI watchdog reloaded
-        value |= 0x0010 | 0x0200  # port 0: link, open, communication established
-        setting = (self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03
+        value = DL_PORT0 | DL_PORTS_2_3_CLOSED
+        if self.pdi_operational:
+            value |= DL_PDI_OPERATIONAL
         if self.port1_link:
-            value |= 0x0020 | 0x0800
-        if setting == 0x03 or (setting in (0, 1) and not self.port1_link):
-            value |= 0x0400  # port 1 loop closed
-        value |= 0x1000 | 0x4000  # ports 2 and 3 not implemented: closed
+            value |= DL_PORT1_LINK
+        if self.onward is False:  # the loop is closed (forced, or auto without a link)
+            value |= DL_PORT1_CLOSED
         old = self.mem[REG_DL_STATUS] | self.mem[REG_DL_STATUS + 1] << 8
         if value != old:
             struct.pack_into("<H", self.mem, REG_DL_STATUS, value)

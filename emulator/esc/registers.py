@@ -15,6 +15,11 @@ from emulator.esc.dc import dc_write_masks
 
 __all__ = [
     "ADDRESS_SPACE",
+    "DL_PDI_OPERATIONAL",
+    "DL_PORT0",
+    "DL_PORT1_CLOSED",
+    "DL_PORT1_LINK",
+    "DL_PORTS_2_3_CLOSED",
     "EE_ACK_ERROR",
     "EE_CHECKSUM_ERROR",
     "EE_CMD_READ",
@@ -115,6 +120,13 @@ EE_WRITE_ENABLE_ERROR: Final = 0x4000
 EE_CMD_READ: Final = 1
 EE_CMD_WRITE: Final = 2
 EE_CMD_RELOAD: Final = 4
+
+# DL status 0x0110 bits (datasheet II 2.4.3, Table 2)
+DL_PDI_OPERATIONAL: Final = 0x0003  # PDI operational, PDI watchdog reloaded
+DL_PORT0: Final = 0x0010 | 0x0200  # port 0: link, open, communication established
+DL_PORT1_LINK: Final = 0x0020 | 0x0800  # port 1: link, communication established
+DL_PORT1_CLOSED: Final = 0x0400  # port 1 loop closed
+DL_PORTS_2_3_CLOSED: Final = 0x1000 | 0x4000  # ports 2 and 3 not implemented: closed
 
 # ECAT event request 0x0210 (datasheet II 2.7)
 EVENT_DL_STATUS: Final = 0x0004

@@ -26,6 +26,11 @@ import numpy.typing as npt
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
 from emulator.esc.device import _TOUCHES_FMMU, _TOUCHES_SM, EscDevice, mark, port1_forwarding
 from emulator.esc.registers import (
+    DL_PDI_OPERATIONAL,
+    DL_PORT0,
+    DL_PORT1_CLOSED,
+    DL_PORT1_LINK,
+    DL_PORTS_2_3_CLOSED,
     EVENT_DL_STATUS,
     REG_DL_CONTROL,
     REG_DL_STATUS,
@@ -111,12 +116,15 @@ def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows
     """:meth:`EscDevice._update_dl_status` at every row, after a write of DL control: DL status
     0x0110 from the PDI, the port 1 link and the loop setting (datasheet II 2.4.3, Table 2), the
     DL status event where it changed, and each ESC's forwarding and source MAC marking."""
+    setting = ((memory[rows, REG_DL_CONTROL + 1] >> 2) & 0x03).tolist()
+    marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
+    for dev, s, mac in zip(devices, setting, marks, strict=True):
+        dev.onward, dev.sets_mac = port1_forwarding(s, dev.port1_link), mac
     link = np.array([dev.port1_link for dev in devices], np.bool_)
     pdi = np.array([dev.pdi_operational for dev in devices], np.bool_)
-    setting = (memory[rows, REG_DL_CONTROL + 1] >> 2) & 0x03
-    closed = (setting == 0x03) | ((setting <= 0x01) & ~link)
-    value = np.where(pdi, 0x0003, 0) | 0x0010 | 0x0200 | 0x1000 | 0x4000  # ports 0, 2, 3
-    value |= np.where(link, 0x0020 | 0x0800, 0) | np.where(closed, 0x0400, 0)
+    closed = np.array([dev.onward is False for dev in devices], np.bool_)
+    value = np.where(pdi, DL_PDI_OPERATIONAL, 0) | DL_PORT0 | DL_PORTS_2_3_CLOSED
+    value |= np.where(link, DL_PORT1_LINK, 0) | np.where(closed, DL_PORT1_CLOSED, 0)
     old = memory[rows, REG_DL_STATUS].astype(np.int64)
     old |= memory[rows, REG_DL_STATUS + 1].astype(np.int64) << 8
     differs = value != old
@@ -124,9 +132,6 @@ def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows
     memory[changed, REG_DL_STATUS] = new & 0xFF
     memory[changed, REG_DL_STATUS + 1] = new >> 8
     memory[changed, REG_ECAT_EVENT] |= EVENT_DL_STATUS
-    marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
-    for dev, s, on, mac in zip(devices, setting.tolist(), link.tolist(), marks, strict=True):
-        dev.onward, dev.sets_mac = port1_forwarding(s, on), mac
 
 
 def _masked(
