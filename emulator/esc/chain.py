@@ -310,7 +310,7 @@ class EcatChain:
                     lad = adp | ado << 16
                     targets = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
                 wkc_inc, changed = 0, False
-                lrd, lad = cmd == _LRD, adp | ado << 16
+                lrd = cmd == _LRD  # then targets come from the logical branch, with its lad
                 for p in targets:
                     dev = line[p]
                     if lrd and dev.read_buffered(lad, buf, data_at, n):
