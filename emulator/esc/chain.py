@@ -29,7 +29,7 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.dc import REG_DC_END, REG_DC_RECEIVE, DcTimebase
-from emulator.esc.device import EscConfig, EscDevice, TraceCopy
+from emulator.esc.device import EscConfig, EscDevice, TraceCopy, _LogicalPlan
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     EVENT_AL_STATUS,
@@ -46,7 +46,12 @@ from emulator.esc.registers import (
 )
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 from emulator.esc.state_machine import AlState, SkinPatchApplication
-from emulator.esc.together import TOGETHER_MIN, commit_together
+from emulator.esc.together import (
+    LOGICAL_TOGETHER_MIN,
+    TOGETHER_MIN,
+    commit_together,
+    logical_together,
+)
 from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -76,6 +81,7 @@ _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
 _BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
 _LRD: Final = int(Command.LRD)
+_NO_ACCESS: Final[_LogicalPlan] = ((), ())  # a logical plan that reads and writes nothing
 
 
 def _register_read(lo: int, hi: int) -> bool:
@@ -292,6 +298,7 @@ class EcatChain:
                 wkc_inc, changed = self._everyone(line, cmd, adp, ado, buf, data_at, n)
             else:
                 targets: list[int] = []
+                wkc_inc, changed = 0, False
                 if cmd in _AUTO_INCREMENT:
                     pos = -adp & 0xFFFF
                     if pos < reach:
@@ -308,14 +315,10 @@ class EcatChain:
                             np.array([d.fmmu_span[1] for d in line], dtype=np.int64),
                         )
                     lad = adp | ado << 16
-                    targets = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
-                wkc_inc, changed = 0, False
-                lrd = cmd == _LRD  # then targets come from the logical branch, with its lad
+                    hit = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
+                    wkc_inc, changed = self._logical(line, hit, cmd, adp, ado, buf, data_at, n)
                 for p in targets:
                     dev = line[p]
-                    if lrd and dev.read_buffered(lad, buf, data_at, n):
-                        wkc_inc += 1  # the common LRD: a whole buffer, no event changes
-                        continue
                     before = dev.irq
                     wkc_inc += dev.process(cmd, adp, ado, buf, data_at, n)[1]
                     changed = changed or dev.irq != before
@@ -343,6 +346,56 @@ class EcatChain:
         if mac_bit:
             buf[6] |= ethercat.RETURNED_MAC_BIT
         return bytes(buf)
+
+    def _logical(
+        self,
+        line: list[EscDevice],
+        targets: list[int],
+        cmd: int,
+        adp: int,
+        ado: int,
+        buf: bytearray,
+        at: int,
+        n: int,
+    ) -> tuple[int, bool]:
+        """A logical datagram through the ESCs of ``line`` at ``targets`` (those whose FMMUs
+        map part of it), in chain order: (the working counter's increment, whether an ESC's
+        event request changed). An LRD of a whole input buffer is one call
+        (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
+        memory with one plan (:meth:`EscDevice.plain_plan`) are done at once over their rows
+        (:func:`logical_together`); any other ESC on its own, as :meth:`EscDevice.process`.
+        """
+        lad = adp | ado << 16
+        wkc_inc, changed = 0, False
+        run: list[int] = []  # consecutive targets whose plain plan is run_plan, not done yet
+        run_plan: _LogicalPlan = _NO_ACCESS
+
+        def plain() -> int:  # the run: over its rows when long enough (no event changes)
+            if len(run) >= LOGICAL_TOGETHER_MIN:
+                return logical_together(self.memory, run, run_plan, cmd, buf, at, n)
+            return sum(line[q].process(cmd, adp, ado, buf, at, n)[1] for q in run)
+
+        for p in targets:
+            dev = line[p]
+            if run:
+                plan = dev.plain_plan(cmd, lad, n)
+                if plan == _NO_ACCESS:
+                    continue  # its FMMUs map none of the datagram's bytes: untouched
+                if plan == run_plan:
+                    run.append(p)
+                    continue
+                wkc_inc += plain()
+                run = []  # the ESCs before this one are done: now it
+            before = dev.irq
+            done = dev.logical_unless_plain(cmd, lad, buf, at, n)
+            if isinstance(done, int):
+                wkc_inc += done
+                changed = changed or dev.irq != before
+            elif done != _NO_ACCESS:
+                run, run_plan = [p], done
+        if run:
+            wkc_inc += plain()
+        return wkc_inc, changed
 
     def _everyone(
         self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int

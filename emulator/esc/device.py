@@ -149,7 +149,7 @@ _LogicalPlan = tuple[tuple[_LogicalOp, ...], tuple[_LogicalOp, ...]]  # reads, w
 # active FMMUs, the logical span they map, and the plans of logical accesses through them
 # (shared by every ESC whose FMMU registers hold the same bytes)
 _FmmuTable = tuple[
-    tuple[tuple[int, ...], ...], tuple[int, int], dict[tuple[int, int, int], _LogicalPlan]
+    tuple[tuple[int, ...], ...], tuple[int, int], dict[tuple[int, int, int], "_Access"]
 ]
 _SmTable = tuple[tuple[int, int, int, int, int], ...]
 _FMMU_CACHE: dict[bytes, _FmmuTable] = {}
@@ -405,6 +405,33 @@ def _plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
     return tuple(plan[0]), tuple(plan[1])
 
 
+class _Access:
+    """A logical access by one FMMU table: its plan (:func:`_plan_logical`), and whether it is
+    all plain memory (:func:`_plain`) with the SyncManager areas and memory top last asked."""
+
+    __slots__ = ("areas", "plain", "plan", "top")
+
+    def __init__(self, plan: _LogicalPlan) -> None:
+        self.plan = plan
+        self.areas: _SmTable | None = None
+        self.top = 0
+        self.plain = False
+
+
+def _plain(plan: _LogicalPlan, areas: _SmTable, top: int) -> bool:
+    """Whether every part ``plan`` reads or writes is plain memory: at or above the registers
+    (0x0F80), below ``top``, in no SyncManager's area of ``areas`` (:func:`_decode_sms`)."""
+    for bytewise, a, b, c, *_ in (*plan[0], *plan[1]):
+        lo, hi = a, a + (c if bytewise else b)
+        if (
+            lo < REGISTER_END
+            or hi > top
+            or any(start < hi and start + n > lo for _, start, n, *_ in areas)
+        ):
+            return False
+    return True
+
+
 def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
     """Trim [lo, hi) to the logical bytes no lower-numbered FMMU took (datasheet I 7)."""
     if claimed is None or lo >= hi:
@@ -437,6 +464,43 @@ class EscDevice:
         sii: a different EEPROM image (for example a corrupted one).
         app: the PDI application; a :class:`SkinPatchApplication` by default.
     """
+
+    # every ESC of a chain is asked for its state in each frame: slots keep that quick (one
+    # attribute more than 29 in an instance dict made every frame at 160 ESCs 10 % slower);
+    # __dict__ still takes what a script sets on an ESC
+    __slots__ = (
+        "__dict__",
+        "_active",
+        "_completed",
+        "_dc_written",
+        "_fmmus",
+        "_logical_plans",
+        "_lrd_plans",
+        "_mailbox_due",
+        "_mailbox_hook",
+        "_masks",
+        "_reset_progress",
+        "_reset_written",
+        "_sii_image",
+        "_sm_areas",
+        "_sms",
+        "app",
+        "config",
+        "dc",
+        "fmmu_span",
+        "info",
+        "irq",
+        "mem",
+        "onward",
+        "pdi_operational",
+        "pending",
+        "port1_link",
+        "position",
+        "sets_mac",
+        "sii",
+        "trace",
+        "write_plans",
+    )
 
     def __init__(
         self,
@@ -471,12 +535,13 @@ class EscDevice:
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[tuple[int, ...], ...] = ()
-        self._logical_plans: dict[tuple[int, int, int], _LogicalPlan] = {}
+        self._logical_plans: dict[tuple[int, int, int], _Access] = {}
         self.fmmu_span = (0, 0)
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
         # the general path decides; worked out per FMMU and SyncManager configuration
         self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm] | None] = {}
+        self._sm_areas: _SmTable = ()  # the SyncManager table _active follows
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
@@ -522,6 +587,7 @@ class EscDevice:
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self._logical_plans = {}
         self._lrd_plans.clear()
+        self._sm_areas = ()
         self.fmmu_span = (0, 0)
         self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
@@ -941,17 +1007,50 @@ class EscDevice:
         self._read_buffer(plan[1], buf, off + plan[0])
         return True
 
-    def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
-        if cmd == _LRD and self.read_buffered(lad, buf, off, n):
-            return 1
+    def _access(self, cmd: int, lad: int, n: int) -> _Access:
+        """A logical access by this ESC's FMMUs (:func:`_plan_logical`), worked out once per
+        FMMU table and access; whether it is all plain memory is remembered for the
+        SyncManager table last asked about (ESCs configured alike ask alike)."""
         plans = self._logical_plans
         access = (cmd, lad, n)
         found = plans.get(access)
         if found is None:
-            found = _remember(
-                plans, access, _plan_logical(self._fmmus, cmd, lad, n), _PLAN_CACHE_ENTRIES
-            )
-        reads, writes = found
+            plan = _plan_logical(self._fmmus, cmd, lad, n)
+            found = _remember(plans, access, _Access(plan), _PLAN_CACHE_ENTRIES)
+        top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
+        if found.areas is not self._sm_areas or found.top != top:
+            found.areas, found.top = self._sm_areas, top
+            found.plain = _plain(found.plan, self._sm_areas, top)
+        return found
+
+    def plain_plan(self, cmd: int, lad: int, n: int) -> _LogicalPlan | None:
+        """The plan of a logical access when every part it reads or writes is plain memory:
+        user or process RAM this ESC gives ECAT access to, no SyncManager's area, no register;
+        else None. Such an access has no side effect and counts its working counter whatever
+        the bytes are, so the chain may do it for many ESCs with the same plan at once
+        (:func:`emulator.esc.together.logical_together`)."""
+        found = self._access(cmd, lad, n)
+        return found.plan if found.plain else None
+
+    def logical_unless_plain(
+        self, cmd: int, lad: int, buf: bytearray, off: int, n: int
+    ) -> int | _LogicalPlan:
+        """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
+        counter's increment; but when it is plain (:meth:`plain_plan`), its plan, untouched,
+        for the chain to do it together with the ESCs after this one."""
+        if cmd == _LRD and self.read_buffered(lad, buf, off, n):
+            return 1
+        found = self._access(cmd, lad, n)
+        return found.plan if found.plain else self._through(found.plan, cmd, buf, off, n)
+
+    def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
+        if cmd == _LRD and self.read_buffered(lad, buf, off, n):
+            return 1
+        return self._through(self._access(cmd, lad, n).plan, cmd, buf, off, n)
+
+    def _through(self, plan: _LogicalPlan, cmd: int, buf: bytearray, off: int, n: int) -> int:
+        """A logical access through the FMMUs by ``plan`` (:func:`_plan_logical`)."""
+        reads, writes = plan
         r = w = 0
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
         for bytewise, a, b, c, d, e, f in reads:
@@ -1253,6 +1352,7 @@ class EscDevice:
             controlling.append(old)
         self._active = [controlling[i] for i in order]  # by start, ECAT's before PDI-locked
         self._lrd_plans.clear()
+        self._sm_areas = decoded
 
     def _update_dl_status(self) -> None:
         """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).

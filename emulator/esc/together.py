@@ -13,6 +13,11 @@ over the rows too; what else follows a commit in each ESC (rebuilt tables, EEPRO
 control) is :meth:`EscDevice.take_effect`, as for one ESC. The work thus grows
 with the bytes written and the ESCs whose state the write changes, not with one Python pass per
 ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under hostile frames.
+
+A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan map onto plain memory
+(:meth:`EscDevice.plain_plan`) is done for all of them at once by :func:`logical_together`:
+hostile FMMUs, bit-wise ones among them, cost the ESCs one pass over rows instead of big-integer
+arithmetic ESC by ESC.
 """
 
 from __future__ import annotations
@@ -24,7 +29,16 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
-from emulator.esc.device import _TOUCHES_FMMU, _TOUCHES_SM, EscDevice, mark, port1_forwarding
+from emulator.esc.device import (
+    _LRD,
+    _LWR,
+    _TOUCHES_FMMU,
+    _TOUCHES_SM,
+    EscDevice,
+    _LogicalPlan,
+    mark,
+    port1_forwarding,
+)
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -46,9 +60,10 @@ from emulator.esc.registers import (
     SM_BYTES,
 )
 
-__all__ = ["TOGETHER_MIN", "commit_together"]
+__all__ = ["LOGICAL_TOGETHER_MIN", "TOGETHER_MIN", "commit_together", "logical_together"]
 
 TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows beats one by one
+LOGICAL_TOGETHER_MIN: Final = 8  # ESCs with one plain logical plan from which rows beat one by one
 _Rows = npt.NDArray[np.intp]
 
 
@@ -136,7 +151,7 @@ def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows
 
 def _masked(
     memory: npt.NDArray[np.uint8],
-    rows: _Rows,
+    rows: _Rows | slice,
     lo: int,
     hi: int,
     data: npt.NDArray[np.uint8],
@@ -194,3 +209,68 @@ def _special(
                 new[on, a - lo : b - lo] = memory[rows[on], a:b]
     _masked(memory, rows, lo, hi, new, masks[lo:hi])
     flags[4] = True
+
+
+def logical_together(
+    memory: npt.NDArray[np.uint8],
+    rows: Sequence[int],
+    plan: _LogicalPlan,
+    cmd: int,
+    buf: bytearray,
+    off: int,
+    n: int,
+) -> int:
+    """A logical datagram (data ``buf[off:off+n]``, in place) through the ESCs of ``rows`` in
+    chain order, each of which maps it onto plain memory with ``plan``
+    (:meth:`EscDevice.plain_plan`), as :meth:`EscDevice._logical` at each in turn would do it:
+    the working counter's increment.
+
+    An ESC reads before it writes, and its write takes the data as it arrived (datasheet I
+    Table 7). Its reads replace the same frame bits at every ESC, so the data arriving at an
+    ESC is the first ESC's with those bits from the previous ESC's memory, as it was: every
+    ESC's read and write follow from the memory before the datagram, one array operation per
+    part of the plan for all the ESCs.
+    """
+    reads, writes = plan
+    m = len(rows)
+    at: _Rows | slice = np.asarray(rows, np.intp)
+    if rows[-1] - rows[0] == m - 1:
+        at = slice(rows[0], rows[-1] + 1)  # consecutive: views instead of copies
+    arrived = np.frombuffer(buf, np.uint8, n, off)
+    left = np.repeat(arrived[None, :], m, axis=0)  # the data as each ESC leaves it
+    for bytewise, a, b, c, d, e, f in reads:
+        if bytewise:  # physical a, frame offset b, c bytes
+            left[:, b : b + c] = memory[at, a : a + c]
+        else:  # physical bytes [a, a + b), shift c, mask d, frame bytes [e, e + f)
+            _masked(left, slice(None), e, e + f, _shifted(memory[at, a : a + b], c, f), _mask(d, f))
+    if writes:
+        data_in = left if not reads else np.concatenate((arrived[None, :], left[:-1]))
+        for bytewise, a, b, c, d, e, f in writes:
+            if bytewise:  # physical a, frame offset b, c bytes
+                memory[at, a : a + c] = data_in[:, b : b + c]
+            else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
+                _masked(memory, at, a, a + b, _shifted(data_in[:, e : e + f], -c, b), _mask(d, b))
+    if reads:
+        buf[off : off + n] = left[-1].tobytes()
+    r, w = int(bool(reads)), int(bool(writes))
+    return m * (r if cmd == _LRD else w if cmd == _LWR else r + 2 * w)
+
+
+def _shifted(data: npt.NDArray[np.uint8], shift: int, width: int) -> npt.NDArray[np.uint8]:
+    """Row by row, the ``width`` low bytes of the little-endian integer in ``data`` shifted
+    right by ``shift`` bits (left when negative): ``(int.from_bytes(row, "little") >> shift)``
+    as bytes, zeros shifted in."""
+    q, r = divmod(shift, 8)  # shift = 8q + r, 0 <= r < 8
+    rows, length = data.shape
+    moved = np.zeros((rows, width + 1), np.uint8)  # moved[:, i] = data[:, i + q] or 0
+    lo, hi = max(0, -q), min(width + 1, length - q)
+    if lo < hi:
+        moved[:, lo:hi] = data[:, lo + q : hi + q]
+    if r == 0:
+        return moved[:, :width]
+    return (moved[:, :width] >> np.uint8(r)) | (moved[:, 1:] << np.uint8(8 - r))
+
+
+def _mask(bits: int, width: int) -> npt.NDArray[np.uint8]:
+    """An integer mask as ``width`` little-endian bytes."""
+    return np.frombuffer(bits.to_bytes(width, "little"), np.uint8)

@@ -1,0 +1,161 @@
+"""Logical datagrams that ESCs map onto plain memory with one FMMU plan are done for all of them at
+once (:func:`emulator.esc.together.logical_together`, chosen ESC by ESC with
+:meth:`EscDevice.plain_plan`), and that leaves the same bytes as ESC by ESC
+(:meth:`EscDevice.process`, the path of :meth:`EcatChain._pass`): the same returned frame, memory
+and event request at every ESC, frame after frame. The FMMU tables aim at what the shortcut takes
+over (bit-wise mappings at every bit offset, byte-wise ones, overlapping ones; reads, writes,
+both) and at its edges: SyncManager areas, registers, the end of the address space, and process
+RAM that an ESC whose EEPROM did not load keeps closed (datasheet I 11.2.1)."""
+
+from __future__ import annotations
+
+import random
+import struct
+
+import numpy as np
+import pytest
+
+from emulator.esc import together
+from emulator.esc.chain import EcatChain, configure_frames
+from emulator.esc.device import EscDevice
+from emulator.esc.sii import SlaveInfo, build_sii
+from skinframes import ethercat
+from skinframes.ethercat import Command, Datagram, EcatFrame
+
+NODES, SIZE = 12, 8
+CLOSED = 5  # the ESC whose EEPROM checksum is wrong: no process RAM from ECAT
+# physical starts: user RAM, process RAM, its end; the input SyncManager's area (0x1000 + 8)
+# and registers, which the shortcut leaves to each ESC
+PLAIN = (0x0F80, 0x0FF0, 0x1200, 0x1201, 0x1FFF, 0x7000, 0xFFF0, 0xFFFF)
+EDGES = (0x0F7C, 0x0FFC, 0x1000, 0x1004, 0x0120, 0x0000)
+LOGICAL = (Command.LRD, Command.LWR, Command.LRW)
+
+
+class OneByOne(EcatChain):
+    """The reference: every ESC in turn runs every datagram, then ends the frame."""
+
+    def process_frame(self, frame: bytes | bytearray) -> bytes | None:
+        return self._run(frame, [])
+
+
+def line(kind: type[EcatChain]) -> EcatChain:
+    """``NODES`` skin patches configured as a master leaves them, one of them without PDI."""
+    devices = []
+    for p in range(NODES):
+        info = SlaveInfo.skin_patch(SIZE, serial=p + 1)
+        image = bytearray(build_sii(info))
+        if p == CLOSED:
+            image[14] ^= 0xFF  # configuration area checksum
+        devices.append(EscDevice(info, sii=bytes(image)))
+    chain = kind(devices)
+    for frame in configure_frames(devices[0].info, NODES):
+        chain.process_frame(frame)
+    return chain
+
+
+def fmmu(rng: random.Random) -> bytes:
+    """One FMMU's registers (datasheet II 2.13): mostly onto plain memory, now and then over an
+    edge, any bit offsets, read, write or both, now and then inactive."""
+    phys = rng.choice(PLAIN) if rng.random() < 0.9 else rng.choice(EDGES)
+    return struct.pack(
+        "<IHBBHBBB3x",
+        rng.randrange(96),  # logical start
+        rng.randrange(1, 48),  # length
+        rng.randrange(8),  # logical start bit
+        rng.randrange(8),  # logical stop bit
+        phys,
+        rng.randrange(8) if rng.random() < 0.7 else 0,  # physical start bit
+        rng.choice((1, 2, 3)),  # read, write, both
+        rng.random() < 0.9,  # active
+    )
+
+
+def frame(rng: random.Random) -> bytes:
+    """FMMUs configured at every ESC (now and then at one), plain memory filled at some, or
+    1-3 logical datagrams."""
+    dgs = []
+    what = rng.random()
+    if what < 0.2:
+        at = 0x0600 + 16 * rng.randrange(4)
+        if rng.random() < 0.8:
+            dgs.append(Datagram(Command.BWR, 0, at, fmmu(rng)))
+        else:
+            dgs.append(Datagram(Command.APWR, -rng.randrange(NODES) & 0xFFFF, at, fmmu(rng)))
+    elif what < 0.35:
+        for _ in range(rng.randint(1, 4)):
+            ado = rng.choice(PLAIN[:-1]) + rng.randrange(-2, 3)
+            data = rng.randbytes(rng.randrange(1, min(64, 0x10000 - ado)))
+            dgs.append(Datagram(Command.APWR, -rng.randrange(NODES) & 0xFFFF, ado, data))
+    else:
+        for _ in range(rng.randint(1, 3)):
+            n = rng.randrange(1, 100)
+            cmd = rng.choice(LOGICAL)
+            dgs.append(Datagram.logical(cmd, rng.randrange(100), rng.randbytes(n)))
+    return ethercat.frame(EcatFrame(tuple(dgs))).to_bytes()
+
+
+def assert_same(fast: EcatChain, reference: EcatChain, data: bytes, what: str) -> None:
+    assert fast.process_frame(data) == reference.process_frame(data), what
+    assert np.array_equal(fast.memory, reference.memory), what
+    for a, b in zip(fast.devices, reference.devices, strict=True):
+        assert a.irq == b.irq, what
+
+
+@pytest.mark.parametrize("least", [1, 3, together.LOGICAL_TOGETHER_MIN])
+def test_logical_datagrams_leave_the_same_bytes(
+    least: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``least``: the fewest ESCs in a row done at once (fewer go one by one)."""
+    monkeypatch.setattr("emulator.esc.chain.LOGICAL_TOGETHER_MIN", least)
+    rows: list[int] = []
+    shortcut = together.logical_together
+
+    def counted(memory, run, plan, cmd, buf, off, n):  # type: ignore[no-untyped-def]
+        rows.append(len(run))
+        return shortcut(memory, run, plan, cmd, buf, off, n)
+
+    monkeypatch.setattr("emulator.esc.chain.logical_together", counted)
+    rng = random.Random(least)
+    fast, reference = line(EcatChain), line(OneByOne)
+    assert not fast.devices[CLOSED].pdi_operational
+    for i in range(1_500):
+        assert_same(fast, reference, frame(rng), f"frame {i}")
+    assert len(rows) > 50 and sum(rows) > 500  # the shortcut is taken, a run of 8+ as well
+    assert max(rows) == NODES and min(rows) >= least
+
+
+def test_the_shortcut_is_what_decides(monkeypatch: pytest.MonkeyPatch) -> None:
+    """A shortcut that leaves the memory alone fails the comparison: the test sees it."""
+    fast, reference = line(EcatChain), line(OneByOne)
+    table = struct.pack("<IHBBHBBB3x", 200, 4, 3, 4, 0x0F90, 5, 3, 1)  # bit-wise, read and write
+    assert_same(fast, reference, bwr(0x0610, table), "FMMU 1")
+    lrw = ethercat.frame(
+        EcatFrame((Datagram.logical(Command.LRW, 200, b"\xa5\x5a\xff\x01"),))
+    ).to_bytes()
+    assert_same(fast, reference, lrw, "LRW")
+    assert_same(fast, reference, lrw, "LRW again")
+
+    def reads_only(memory, run, plan, cmd, buf, off, n):  # type: ignore[no-untyped-def]
+        return together.logical_together(memory, run, (plan[0], ()), cmd, buf, off, n) * 3
+
+    monkeypatch.setattr("emulator.esc.chain.logical_together", reads_only)
+    with pytest.raises(AssertionError):
+        assert_same(fast, reference, lrw, "LRW without its writes")
+
+
+def bwr(ado: int, data: bytes) -> bytes:
+    return ethercat.frame(EcatFrame((Datagram(Command.BWR, 0, ado, data),))).to_bytes()
+
+
+@pytest.mark.parametrize("shift", [-17, -9, -8, -7, -1, 0, 1, 3, 7, 8, 9, 16, 23])
+def test_rows_shift_as_integers_do(shift: int) -> None:
+    """Row by row, the bytes of ``int.from_bytes(row, "little") >> shift`` (<< for negative),
+    cut or zero-extended to the width asked for."""
+    rng = np.random.default_rng(shift + 100)
+    data = rng.integers(0, 256, (5, 11), np.uint8)
+    for width in (1, 4, 11, 14):
+        got = together._shifted(data, shift, width)
+        for row, out in zip(data, got, strict=True):
+            value = int.from_bytes(row.tobytes(), "little")
+            value = value >> shift if shift >= 0 else value << -shift
+            assert out.tobytes() == (value & ((1 << 8 * width) - 1)).to_bytes(width, "little")
