@@ -45,7 +45,7 @@ from __future__ import annotations
 
 import itertools
 import struct
-from collections.abc import Callable
+from collections.abc import Callable, Iterable
 from dataclasses import dataclass
 from typing import ClassVar, Final, TypeVar
 
@@ -694,11 +694,18 @@ class EscDevice:
 
     def pdi_deactivate_sm(self, index: int, deactivate: bool) -> None:
         """PDI control 0x0807 bit 0: lock (True) or release a SyncManager (datasheet I 8.7)."""
-        addr = REG_SM + SM_BYTES * index + 7
-        old = self.mem[addr] & 0x01
-        self.mem[addr] = (self.mem[addr] & ~0x01) | (0x01 if deactivate else 0)
-        if old != (1 if deactivate else 0):
-            self._sms[index] = None  # the SyncManager's state is reset
+        self.pdi_deactivate_sms((index,), deactivate)
+
+    def pdi_deactivate_sms(self, indices: Iterable[int], deactivate: bool) -> None:
+        """:meth:`pdi_deactivate_sm` for several SyncManagers, the table rebuilt once."""
+        mem, bit, changed = self.mem, 0x01 if deactivate else 0, False
+        for index in indices:
+            addr = REG_SM + SM_BYTES * index + 7
+            if mem[addr] & 0x01 != bit:
+                mem[addr] = (mem[addr] & ~0x01) | bit
+                self._sms[index] = None  # the SyncManager's state is reset
+                changed = True
+        if changed:
             self._rebuild_sms()
 
     def pdi_set_repeat_ack(self, index: int, value: bool) -> None:

@@ -77,8 +77,7 @@ class Mailbox:
     def start(self, device: EscDevice) -> None:
         """Release SM0/SM1 to the master (entering PREOP) with an empty mailbox."""
         self._reset()
-        device.pdi_deactivate_sm(self.rx, False)
-        device.pdi_deactivate_sm(self.tx, False)
+        device.pdi_deactivate_sms((self.rx, self.tx), False)
         device.pdi_set_repeat_ack(self.tx, bool(self._repeat(device)))
         self.active = True
 
@@ -86,8 +85,7 @@ class Mailbox:
         """Lock SM0/SM1 again (back to INIT); queued messages are dropped."""
         self._reset()
         self.active = False
-        device.pdi_deactivate_sm(self.rx, True)
-        device.pdi_deactivate_sm(self.tx, True)
+        device.pdi_deactivate_sms((self.rx, self.tx), True)
 
     def _reset(self) -> None:
         self.outbox.clear()

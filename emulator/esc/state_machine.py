@@ -177,8 +177,7 @@ class SkinPatchApplication:
     # --- the PDI application protocol ------------------------------------------------------
     def power_on(self, device: EscDevice) -> None:
         """INIT, every SyncManager deactivated by the PDI (ESM state INIT)."""
-        for i in range(device.config.syncmanagers):
-            device.pdi_deactivate_sm(i, True)
+        device.pdi_deactivate_sms(range(device.config.syncmanagers), True)
         if self.mailbox is not None:
             self.mailbox.stop(device)
         device.pdi_set_al_status(AlState.INIT, error=False, code=AlStatusCode.NO_ERROR)
@@ -276,15 +275,17 @@ class SkinPatchApplication:
             code = self._check_process_data_sms(device)
             if code != AlStatusCode.NO_ERROR:
                 return code
-            for i, _ in self._pd_sms:
-                device.pdi_deactivate_sm(i, False)
+            device.pdi_deactivate_sms((i for i, _ in self._pd_sms), False)
             if self._input_start is not None:  # valid inputs before acknowledging SAFEOP
                 device.pdi_write(self._input_start, self.inputs)
         elif requested in (AlState.PREOP, AlState.INIT):
-            for i, _ in self._pd_sms:
-                device.pdi_deactivate_sm(i, True)
-            if requested == AlState.INIT and self.mailbox is not None:
-                self.mailbox.stop(device)
+            mailbox = self.mailbox if requested == AlState.INIT else None
+            locked = [i for i, _ in self._pd_sms]
+            if mailbox is not None:  # its SyncManagers too, in the same rebuild
+                locked += (mailbox.rx, mailbox.tx)
+            device.pdi_deactivate_sms(locked, True)
+            if mailbox is not None:
+                mailbox.stop(device)
         return AlStatusCode.NO_ERROR
 
     def sm_bytes(self, index: int) -> int:
