@@ -808,9 +808,11 @@ class EscDevice:
         if cmd <= _BRW:  # broadcast
             return (adp + 1) & 0xFFFF, self._physical(cmd - _BRD, ado, buf, off, n, broadcast=True)
         if cmd <= _LRW:
-            if not self._fmmus:
+            lad = adp | ado << 16
+            lo, hi = self.fmmu_span  # none of the FMMUs maps a byte outside it
+            if lad >= hi or lad + n <= lo:
                 return adp, 0
-            return adp, self._logical(cmd, adp | ado << 16, buf, off, n)
+            return adp, self._logical(cmd, lad, buf, off, n)
         return adp, 0  # reserved command values: ignored
 
     def _physical(
