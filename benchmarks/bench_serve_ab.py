@@ -1,0 +1,141 @@
+"""CPU per hostile frame of two checkouts of this project, frame by frame on one CPU (issue 11).
+
+On a shared machine a process's CPU time per frame can differ by 2x from one process to the next
+(seen here: the same code, 3.7 ms per frame in one process and 8.1 ms in the next), and two
+processes running side by side disagree as well. So the checkouts run in two worker processes
+pinned to the same CPU, and take turns ten frames at a time: whatever slows the machine
+slows both. Each worker runs the frames of ``bench_serve_hostile`` (hostile frames, a master's
+reset every 500) through its own chain of ``--nodes`` configured patches, ``--runs`` times, and
+keeps each frame's least CPU time (this thread's clock, garbage collected between frames).
+
+Printed per checkout: frames above 2 ms, total, median and maximum CPU per frame; then the frames
+whose time changed most. Run with the same checkout twice to see the method's own spread.
+
+    python benchmarks/bench_serve_ab.py OLD_CHECKOUT [NEW_CHECKOUT] [--frames 3000] [--runs 2]
+        [--nodes 160] [--cpu 0]
+
+A checkout is a directory with this project's sources (``git worktree add`` or
+``git archive COMMIT | tar -x -C DIR``); NEW_CHECKOUT defaults to this one.
+"""
+
+from __future__ import annotations
+
+import argparse
+import gc
+import json
+import os
+import statistics
+import subprocess
+import sys
+import time
+from pathlib import Path
+from typing import IO
+
+ROOT = Path(__file__).resolve().parent.parent
+BUDGET_US = 2000
+BATCH = 10  # frames a worker runs before the other one takes its turn
+
+
+def worker(checkout: str, nodes: int, frames: int) -> None:
+    """Serve the master's requests on stdin: ``reset`` (a fresh configured chain) or ``run LO HI``
+    (those frames; their CPU times in us as a JSON list)."""
+    sys.path[:0] = [checkout, os.path.join(checkout, "benchmarks")]
+    from bench_serve_hostile import configured_chain, with_resets  # the checkout's own
+
+    sent = [f for f, _ in with_resets(frames, nodes, 8, 11, 500)]
+    cpu = time.thread_time_ns
+    chain = None
+    gc.disable()
+    for line in sys.stdin:
+        words = line.split()
+        if words[0] == "reset":
+            chain = configured_chain(nodes, 8, True)
+            print("ok", flush=True)
+            continue
+        assert chain is not None
+        us = []
+        for frame in sent[int(words[1]) : int(words[2])]:
+            c0 = cpu()
+            chain.process_frame(frame)
+            us.append((cpu() - c0) // 1000)
+            gc.collect(0)
+        print(json.dumps(us), flush=True)
+
+
+def ask(proc: subprocess.Popen[str], request: str) -> str:
+    stdin, stdout = proc.stdin, proc.stdout
+    assert stdin is not None and stdout is not None
+    stdin.write(request + "\n")
+    stdin.flush()
+    return stdout.readline()
+
+
+def start(checkout: str, nodes: int, frames: int, cpu: int) -> subprocess.Popen[str]:
+    return subprocess.Popen(
+        [sys.executable, __file__, "--worker", checkout, "--nodes", str(nodes),
+         "--frames", str(frames)],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        preexec_fn=lambda: os.sched_setaffinity(0, {cpu}),
+    )  # fmt: skip
+
+
+def report(name: str, least: list[int], out: IO[str]) -> None:
+    over = sum(t > BUDGET_US for t in least)
+    print(
+        f"{name}: {over} frames above {BUDGET_US} us, total {sum(least) / 1e3:.0f} ms, "
+        f"median {statistics.median(least):.0f} us, max {max(least)} us",
+        file=out,
+    )
+
+
+def main() -> None:
+    parser = argparse.ArgumentParser(description=__doc__.split("\n", 1)[0])
+    parser.add_argument("old", help="a checkout of this project (the reference)")
+    parser.add_argument("new", nargs="?", default=str(ROOT), help="default: this checkout")
+    parser.add_argument("--frames", type=int, default=3000, help="hostile frames (default 3000)")
+    parser.add_argument("--runs", type=int, default=2, help="runs per checkout (default 2)")
+    parser.add_argument("--nodes", type=int, default=160, help="patches (default 160)")
+    parser.add_argument("--cpu", type=int, default=0, help="the CPU both workers run on")
+    parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
+    args = parser.parse_args()
+    if args.worker:
+        worker(args.old, args.nodes, args.frames)
+        return
+    sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
+    from bench_serve_hostile import describe, with_resets
+
+    sent = [f for f, _ in with_resets(args.frames, args.nodes, 8, 11, 500)]
+    checkouts = {"old": args.old, "new": args.new}
+    procs = {k: start(v, args.nodes, args.frames, args.cpu) for k, v in checkouts.items()}
+    least = {k: [1 << 62] * len(sent) for k in checkouts}
+    for _ in range(args.runs):
+        for proc in procs.values():
+            ask(proc, "reset")
+        for lo in range(0, len(sent), BATCH):
+            for k, proc in procs.items():
+                for j, us in enumerate(json.loads(ask(proc, f"run {lo} {lo + BATCH}"))):
+                    least[k][lo + j] = min(least[k][lo + j], us)
+    for proc in procs.values():
+        assert proc.stdin is not None
+        proc.stdin.close()
+        proc.wait()
+    print(
+        f"{len(sent)} frames ({args.frames} hostile), {args.nodes} slaves, least of "
+        f"{args.runs} runs, both checkouts on CPU {args.cpu}, {BATCH} frames a turn"
+    )
+    for k, path in checkouts.items():
+        report(f"  {k} ({path})", least[k], sys.stdout)
+    old, new = least["old"], least["new"]
+    order = sorted(range(len(sent)), key=lambda i: new[i] - old[i])
+    print("  most faster (frame: old us -> new us, datagrams cmd@ado+bytes):")
+    for i in order[:8]:
+        print(f"    {i}: {old[i]} -> {new[i]}  {describe(sent[i])}")
+    print("  most slower:")
+    for i in order[-8:][::-1]:
+        print(f"    {i}: {old[i]} -> {new[i]}  {describe(sent[i])}")
+
+
+if __name__ == "__main__":
+    main()
