@@ -180,6 +180,16 @@ class DcTimebase:
         """The port 0 times of :meth:`port_times_ps` at many positions at once."""
         return positions * _forward_ps(self.params)
 
+    def port1_times_ps(
+        self, positions: npt.NDArray[np.int64]
+    ) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.bool_]]:
+        """The port 1 times of :meth:`port_times_ps` at many positions at once, and where
+        there is one (not at the last ESC); 0 where there is none."""
+        p, last = self.params, self.line_length - 1
+        forward, back = _forward_ps(p), p.ecat_forwarding_ps + p.cable_ps
+        there = positions < last
+        return np.where(there, (last + 1) * forward + (last - 1 - positions) * back, 0), there
+
 
 def _forward_ps(p: TimingParams) -> int:
     """One pass in processing direction: an ESC and its cable to the next."""
@@ -466,9 +476,10 @@ def compare_together(
     and :meth:`DcClock._control` do them on Python numbers, so every clock ends in the same
     state. Python divides the integer difference by tau exactly and rounds once, numpy
     rounds the difference to float64 first: the same up to 2^53 ns, and beyond it both
-    quotients exceed 1e7 and the correction is clamped to the same +-500 ppm. Where the write
-    also latches receive times (0x0900), or where the clocks do not share one timebase, the
-    clocks write one by one.
+    quotients exceed 1e7 and the correction is clamped to the same +-500 ppm. The receive time
+    latch (a write of 0x0900, which a master sends to measure propagation delays) is worked out
+    over arrays too (:meth:`DcClock._latch`). Where the clocks do not share one timebase, they
+    write one by one.
     """
     hi = lo + len(data)
     state = [_STATE(c) for c in clocks]
@@ -476,22 +487,29 @@ def compare_together(
         zip(*state, strict=True) if state else ((),) * 9
     )
     timebase = clocks[0].timebase if clocks else None
-    if (
-        timebase is None
-        or (lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE)
-        or timebases.count(timebase) != len(clocks)
-    ):
+    if timebase is None or timebases.count(timebase) != len(clocks):
         for clock, row in zip(clocks, rows.tolist(), strict=True):
             clock.write(memoryview(memory[row]), lo, data)
         return
-    if not (lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME):
+    latch = lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE
+    compare = lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME
+    if not (latch or compare):
         return  # 0x0904-0x090F: nothing happens
-    t0 = timebase.port0_times_ps(np.array(position, np.int64))
-    host = timebase.frame_ns + t0 / 1000  # DcClock._arrival_ns
-    elapsed = host - np.array(anchor_host, np.int64)
-    local = np.array(anchor_local, np.uint64) + np.rint(elapsed * np.array(rate)).astype(
-        np.int64
-    ).astype(np.uint64)  # DcClock.local_at, modulo 2^64
+    positions = np.array(position, np.int64)
+    anchors = np.array(anchor_host, np.int64), np.array(anchor_local, np.uint64), np.array(rate)
+    host = timebase.frame_ns + timebase.port0_times_ps(positions) / 1000  # _arrival_ns
+    local = _local_at(host, *anchors)
+    if latch:  # DcClock._latch: the local times the frame passed port 0 and came back to 1
+        back_ps, back = timebase.port1_times_ps(positions)
+        port1 = np.where(back, _local_at(timebase.frame_ns + back_ps / 1000, *anchors), 0)
+        _put(memory, rows, REG_DC_RECEIVE, (local & 0xFFFFFFFF).astype(np.uint32))
+        _put(memory, rows, REG_DC_RECEIVE + 4, (port1 & 0xFFFFFFFF).astype(np.uint32))
+        memory[rows, REG_DC_RECEIVE + 8 : REG_DC_RECEIVE + 16] = 0
+        memory[rows, REG_DC_RECEIVE_PU : REG_DC_RECEIVE_PU + 8] = (
+            local.astype("<u8").view(np.uint8).reshape(-1, 8)
+        )
+        if not compare:
+            return
     system = local + _u64(memory, rows, REG_DC_OFFSET)
     a, b = max(lo, REG_DC_SYSTEM_TIME), min(hi, REG_DC_RECEIVE_PU)
     received = system.astype("<u8").view(np.uint8).reshape(len(clocks), 8)
@@ -542,6 +560,17 @@ def compare_together(
     ):  # DcClock._set_rate and the loop's state
         clock._anchor_local, clock._anchor_host, clock._rate = at_local, at_host, new
         clock._integral, clock._diff_ns, clock._last_compare = held_i, mean_i, at_host
+
+
+def _local_at(
+    host_ns: npt.NDArray[np.float64],
+    anchor_host: npt.NDArray[np.int64],
+    anchor_local: npt.NDArray[np.uint64],
+    rate: npt.NDArray[np.float64],
+) -> npt.NDArray[np.uint64]:
+    """:meth:`DcClock.local_at` of many clocks (modulo 2^64 as the uint64 sum wraps)."""
+    elapsed = host_ns - anchor_host
+    return anchor_local + np.rint(elapsed * rate).astype(np.int64).astype(np.uint64)
 
 
 def _u64(

@@ -2,7 +2,8 @@
 clock and its registers as :meth:`DcClock.write` does clock by clock: the same bytes, the same
 floats and ints, the same types, over random clock states, partial and 32-bit writes,
 differences beyond float64's exact integers (2^53 ns, where the arrays round the difference
-and Python does not), first compares and long gaps."""
+and Python does not), first compares and long gaps; and the receive time latch (0x0900) alone
+and together with a compare, at every position of the line (the last one has no port 1 time)."""
 
 from __future__ import annotations
 
@@ -21,7 +22,7 @@ EXACT = 1 << 53  # integers up to this magnitude are exact as float64
 SLOTS = [s for s in DcClock.__slots__ if s not in ("timebase", "position")]
 WRITES = (  # (address, length): the master's ARMW/FRMW and hostile neighbours
     (0x0910, 8), (0x0910, 4), (0x0912, 2), (0x0914, 4), (0x0916, 4), (0x090C, 8),
-    (0x0911, 1), (0x0904, 4), (0x0908, 16), (0x0900, 4), (0x0918, 8),
+    (0x0911, 1), (0x0904, 4), (0x0908, 16), (0x0900, 4), (0x0918, 8), (0x0900, 24),
 )  # fmt: skip
 
 
@@ -46,6 +47,7 @@ def line(rng: random.Random) -> tuple[list[DcClock], np.ndarray]:
         delay = rng.randrange(2000) if synchronized else rng.randrange(1 << 32)
         struct.pack_into("<I", row, dc.REG_DC_DELAY, delay)
         row[dc.REG_DC_DIFF_FILTER] = rng.randrange(256)
+        row[dc.REG_DC_RECEIVE : dc.REG_DC_RECEIVE + 32] = rng.randbytes(32)  # latched before
         speed = rng.choice((0, 1, 0x1000, 0x1000, 0x8000, rng.randrange(1 << 16)))
         struct.pack_into("<H", row, dc.REG_DC_SPEED_START, speed)
     return clocks, memory
@@ -79,7 +81,8 @@ def test_compare_together_equals_clock_by_clock(seed: int) -> None:
     for step in range(300):
         ones, mem_ones = copy.deepcopy((clocks, memory))
         lo, n = rng.choice(WRITES)
-        data = written(rng, clocks, memory)[:n]
+        before = rng.randbytes(max(0, dc.REG_DC_SYSTEM_TIME - lo))  # latch, ports 1-3
+        data = (before + written(rng, clocks, memory))[:n]
         together = rng.sample(range(CLOCKS), rng.randint(1, CLOCKS))  # a group of the line
         for p in together:
             ones[p].write(memoryview(mem_ones[p]), lo, data)
