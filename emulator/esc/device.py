@@ -421,14 +421,15 @@ class _Access:
 def _plain(plan: _LogicalPlan, areas: _SmTable, top: int) -> bool:
     """Whether every part ``plan`` reads or writes is plain memory: at or above the registers
     (0x0F80), below ``top``, in no SyncManager's area of ``areas`` (:func:`_decode_sms`)."""
-    for bytewise, a, b, c, *_ in (*plan[0], *plan[1]):
-        lo, hi = a, a + (c if bytewise else b)
-        if (
-            lo < REGISTER_END
-            or hi > top
-            or any(start < hi and start + n > lo for _, start, n, *_ in areas)
-        ):
-            return False
+    for ops in plan:
+        for op in ops:
+            lo = op[1]
+            hi = lo + (op[3] if op[0] else op[2])
+            if lo < REGISTER_END or hi > top:
+                return False
+            for area in areas:  # (index, start, length, ...)
+                if area[1] < hi and area[1] + area[2] > lo:
+                    return False
     return True
 
 

@@ -27,7 +27,7 @@ CLOSED = 5  # the ESC whose EEPROM checksum is wrong: no process RAM from ECAT
 # physical starts: user RAM, process RAM, its end; the input SyncManager's area (0x1000 + 8)
 # and registers, which the shortcut leaves to each ESC
 PLAIN = (0x0F80, 0x0FF0, 0x1200, 0x1201, 0x1FFF, 0x7000, 0xFFF0, 0xFFFF)
-EDGES = (0x0F7C, 0x0FFC, 0x1000, 0x1004, 0x0120, 0x0000)
+EDGES = (0x0F7C, 0x0F7F, 0x0FFC, 0x1000, 0x1004, 0x0120, 0x0000)
 LOGICAL = (Command.LRD, Command.LWR, Command.LRW)
 
 
@@ -55,16 +55,20 @@ def line(kind: type[EcatChain]) -> EcatChain:
 
 def fmmu(rng: random.Random) -> bytes:
     """One FMMU's registers (datasheet II 2.13): mostly onto plain memory, now and then over an
-    edge, any bit offsets, read, write or both, now and then inactive."""
+    edge; byte-wise (bits 0 to 7, physical bit 0) or with any bit offsets; read, write or both;
+    now and then inactive."""
     phys = rng.choice(PLAIN) if rng.random() < 0.9 else rng.choice(EDGES)
+    bits = (
+        (0, 7, 0) if rng.random() < 0.4 else (rng.randrange(8), rng.randrange(8), rng.randrange(8))
+    )
     return struct.pack(
         "<IHBBHBBB3x",
         rng.randrange(96),  # logical start
         rng.randrange(1, 48),  # length
-        rng.randrange(8),  # logical start bit
-        rng.randrange(8),  # logical stop bit
+        bits[0],  # logical start bit
+        bits[1],  # logical stop bit
         phys,
-        rng.randrange(8) if rng.random() < 0.7 else 0,  # physical start bit
+        bits[2],  # physical start bit
         rng.choice((1, 2, 3)),  # read, write, both
         rng.random() < 0.9,  # active
     )
