@@ -419,18 +419,33 @@ class _Access:
 
 
 def _plain(plan: _LogicalPlan, areas: _SmTable, top: int) -> bool:
-    """Whether every part ``plan`` reads or writes is plain memory: at or above the registers
-    (0x0F80), below ``top``, in no SyncManager's area of ``areas`` (:func:`_decode_sms`)."""
-    for ops in plan:
+    """Whether every part ``plan`` reads or writes is plain memory: below ``top``, in no
+    SyncManager's area of ``areas`` (:func:`_decode_sms`), and at or above the registers
+    (0x0F80), except that it may read registers whose read has no side effect (not DL or AL
+    status, whose events it clears, nor the DC registers, which run with the clock): a read
+    of them is their committed bytes."""
+    for side, ops in enumerate(plan):  # reads, writes
         for op in ops:
             lo = op[1]
             hi = lo + (op[3] if op[0] else op[2])
-            if lo < REGISTER_END or hi > top:
+            if hi > top:
+                return False
+            if lo < REGISTER_END and (side or not _quiet_read(lo, min(hi, REGISTER_END))):
                 return False
             for area in areas:  # (index, start, length, ...)
                 if area[1] < hi and area[1] + area[2] > lo:
                     return False
     return True
+
+
+def _quiet_read(lo: int, hi: int) -> bool:
+    """A read of registers [lo, hi) without side effects (what :meth:`EscDevice._read_phys`
+    does besides copying them): no DL or AL status, no DC register."""
+    return not (
+        (lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS)
+        or (lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS)
+        or (lo < REG_DC_END and hi > REG_DC_RECEIVE)
+    )
 
 
 def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
@@ -1035,9 +1050,10 @@ class EscDevice:
 
     def plain_plan(self, cmd: int, lad: int, n: int) -> _LogicalPlan | None:
         """The plan of a logical access when every part it reads or writes is plain memory:
-        user or process RAM this ESC gives ECAT access to, no SyncManager's area, no register;
-        else None. Such an access has no side effect and counts its working counter whatever
-        the bytes are, so the chain may do it for many ESCs with the same plan at once
+        user or process RAM this ESC gives ECAT access to, no SyncManager's area, no register
+        written, no register read that has a side effect (:func:`_plain`); else None. Such an
+        access changes nothing but the bytes and counts its working counter whatever they are,
+        so the chain may do it for many ESCs with the same plan at once
         (:func:`emulator.esc.together.logical_together`)."""
         found = self._access(cmd, lad, n)
         return found.plan if found.plain else None
