@@ -1,7 +1,7 @@
 """CPU per hostile frame of two checkouts of this project, frame by frame on one CPU (issue 11).
 
 On a shared machine a process's CPU time per frame can differ by 2x from one process to the next
-(seen here: the same code, 3.7 ms per frame in one process and 8.1 ms in the next), and two
+(seen here: the same code and frame, 4.3 ms in one process and 8.1 ms in the next), and two
 processes running side by side disagree as well. So the checkouts run in two worker processes
 pinned to the same CPU, and take turns ten frames at a time: whatever slows the machine
 slows both. Each worker runs the frames of ``bench_serve_hostile`` (hostile frames, a master's
