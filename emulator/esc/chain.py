@@ -28,16 +28,19 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.esc.dc import REG_DC_END, REG_DC_RECEIVE, DcTimebase
-from emulator.esc.device import EscConfig, EscDevice, TraceCopy, _LogicalPlan
+from emulator.esc.dc import DcTimebase
+from emulator.esc.device import (
+    EscConfig,
+    EscDevice,
+    TraceCopy,
+    _LogicalPlan,
+    cleared_events,
+    reads_dc,
+)
 from emulator.esc.registers import (
     ADDRESS_SPACE,
-    EVENT_AL_STATUS,
-    EVENT_DL_STATUS,
-    REG_AL_STATUS,
     REG_ALIAS,
     REG_DL_CONTROL,
-    REG_DL_STATUS,
     REG_ECAT_EVENT,
     REG_RESET_ECAT,
     REG_RW_OFFSET,
@@ -86,24 +89,17 @@ _NO_ACCESS: Final[_LogicalPlan] = ((), ())  # a logical plan that reads and writ
 
 def _register_read(lo: int, hi: int) -> bool:
     """A read of registers [lo, hi) below 0x0F80 that does not read DC times (which run with
-    the clock): it reads bytes, and may clear event bits (:func:`_cleared_events`)."""
+    the clock): it reads bytes, and may clear event bits (:func:`cleared_events`)."""
     return (
         lo < REGISTER_END  # an empty access at 0x0F80 or beyond touches no register: no count
         and hi <= REGISTER_END
-        and not (lo < REG_DC_END and hi > REG_DC_RECEIVE)
+        and not reads_dc(lo, hi)
     )
-
-
-def _cleared_events(lo: int, hi: int) -> int:
-    """The ECAT event bits (0x0210) a read of [lo, hi) clears: DL status, AL status (datasheet I
-    Table 3)."""
-    dl = EVENT_DL_STATUS if lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS else 0
-    return dl | (EVENT_AL_STATUS if lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS else 0)
 
 
 def _plain_read(lo: int, hi: int) -> bool:
     """A read of registers [lo, hi) that changes nothing: a register read that clears no event."""
-    return _register_read(lo, hi) and not _cleared_events(lo, hi)
+    return _register_read(lo, hi) and not cleared_events(lo, hi)
 
 
 def _plain_write(lo: int, hi: int) -> bool:
@@ -421,7 +417,7 @@ class EcatChain:
             if _register_read(ado, end):
                 ored = np.bitwise_or.reduce(memory[:reach, ado:end])
                 buf[at : at + n] = (ored | np.frombuffer(buf, np.uint8, n, at)).tobytes()
-                events = _cleared_events(ado, end)
+                events = cleared_events(ado, end)
                 return reach, bool(events) and self._clear_events(line, events)
         elif cmd == _BRW:
             if _plain_read(ado, end):

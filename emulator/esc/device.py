@@ -430,7 +430,7 @@ def _plain(plan: _LogicalPlan, areas: _SmTable, top: int) -> bool:
             hi = lo + (op[3] if op[0] else op[2])
             if hi > top:
                 return False
-            if lo < REGISTER_END and (side or not _quiet_read(lo, min(hi, REGISTER_END))):
+            if lo < REGISTER_END and (side or reads_dc(lo, hi) or cleared_events(lo, hi)):
                 return False
             for area in areas:  # (index, start, length, ...)
                 if area[1] < hi and area[1] + area[2] > lo:
@@ -438,14 +438,17 @@ def _plain(plan: _LogicalPlan, areas: _SmTable, top: int) -> bool:
     return True
 
 
-def _quiet_read(lo: int, hi: int) -> bool:
-    """A read of registers [lo, hi) without side effects (what :meth:`EscDevice._read_phys`
-    does besides copying them): no DL or AL status, no DC register."""
-    return not (
-        (lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS)
-        or (lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS)
-        or (lo < REG_DC_END and hi > REG_DC_RECEIVE)
-    )
+def reads_dc(lo: int, hi: int) -> bool:
+    """Whether a read of [lo, hi) reads DC registers, which run with the clock: the ESC brings
+    them up to the frame's time first (:meth:`DcClock.refresh`)."""
+    return lo < REG_DC_END and hi > REG_DC_RECEIVE
+
+
+def cleared_events(lo: int, hi: int) -> int:
+    """The ECAT event bits (0x0210) a read of registers [lo, hi) clears: DL status, AL status
+    (datasheet I Table 3)."""
+    dl = EVENT_DL_STATUS if lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS else 0
+    return dl | (EVENT_AL_STATUS if lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS else 0)
 
 
 def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
@@ -871,13 +874,12 @@ class EscDevice:
         pos = addr
         if pos < REGISTER_END:
             hi = min(end, REGISTER_END)
-            if pos < REG_DC_END and hi > REG_DC_RECEIVE:
+            if reads_dc(pos, hi):
                 self.dc.refresh(mem, pos, hi)  # DC registers run with the clock
             out.append((0, bytes(mem[pos:hi]), -1, 0))
-            if pos <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS:
-                self._clear_event(EVENT_DL_STATUS)
-            if pos <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS:
-                self._clear_event(EVENT_AL_STATUS)
+            events = cleared_events(pos, hi)
+            if events:
+                self._clear_event(events)
             pos = hi
         if pos >= end:
             return out
@@ -1406,9 +1408,9 @@ class EscDevice:
         self._update_dl_status()
         self.update_irq()
 
-    def _clear_event(self, bit: int) -> None:
-        if self.mem[REG_ECAT_EVENT] & bit:
-            self.mem[REG_ECAT_EVENT] &= ~bit
+    def _clear_event(self, bits: int) -> None:
+        if self.mem[REG_ECAT_EVENT] & bits:
+            self.mem[REG_ECAT_EVENT] &= ~bits
             self.update_irq()
 
     def update_irq(self) -> None:

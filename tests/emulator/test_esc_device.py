@@ -215,6 +215,48 @@ def test_irq_field_carries_masked_event_requests() -> None:
     assert one(chain, Datagram(C.BRD, 0, 0x0000, bytes(1))).irq == 0
 
 
+@pytest.mark.parametrize("how", ["APRD", "BRD", "LRD"])
+@pytest.mark.parametrize(
+    ("ado", "n", "cleared"),
+    [
+        (0x010F, 1, 0),  # just below DL status
+        (0x010F, 2, 0x04),  # its first byte
+        (0x0111, 1, 0x04),  # its second byte alone
+        (0x0112, 30, 0),  # just above, up to just below AL status
+        (0x012F, 2, 0x08),  # AL status, first byte
+        (0x0131, 1, 0x08),  # its second byte alone
+        (0x0132, 4, 0),  # just above
+        (0x0100, 0x40, 0x0C),  # both
+    ],
+)
+def test_reading_dl_or_al_status_clears_its_event(how: str, ado: int, n: int, cleared: int) -> None:
+    """Datasheet I Table 3: the DL status event (0x0210 bit 2) clears on a read of DL status
+    0x0110:0x0111, the AL status event (bit 3) on a read of AL status 0x0130:0x0131, whatever
+    reads them: one ESC, a broadcast, or an FMMU mapping the registers."""
+    chain = EcatChain.skin(10, 16)
+    send(chain, Datagram(C.BWR, 0, 0x0200, u16(0x000C)))  # both events in the IRQ field
+    table = struct.pack("<IHBBHBBB3x", 0x100, n, 0, 7, ado, 0, 0x01, 0x01)  # byte-wise, read
+    send(chain, Datagram(C.BWR, 0, 0x0600, table))
+    for dev in chain.devices:
+        dev.pdi_write(0x0210, bytes((dev.registers(0x0210, 1)[0] | 0x0C,)))
+        dev.update_irq()
+    if how == "APRD":
+        send(chain, Datagram(C.APRD, 0, ado, bytes(n)))
+        reading = [0]
+    elif how == "BRD":
+        send(chain, Datagram(C.BRD, 0, ado, bytes(n)))
+        reading = list(range(10))
+    else:
+        assert one(chain, Datagram.logical(C.LRD, 0x100, bytes(n))).wkc == 10
+        reading = list(range(10))
+    pending = 0
+    for p, dev in enumerate(chain.devices):
+        left = 0x0C & ~cleared if p in reading else 0x0C
+        assert dev.registers(0x0210, 1)[0] & 0x0C == left, (p, hex(ado), n)
+        pending |= left
+    assert one(chain, Datagram(C.BRD, 0, 0x0000, bytes(1))).irq == pending  # ORed over ESCs
+
+
 def test_frame_length_padding_and_source_mac() -> None:
     chain = EcatChain.skin(2, 16)
     ecat = EcatFrame((Datagram(C.BRD, 0, 0x0130, bytes(2)),))
