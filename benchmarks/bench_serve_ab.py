@@ -4,15 +4,16 @@ On a shared machine a process's CPU time per frame can differ by 2x from one pro
 (seen here: the same code and frame, 4.3 ms in one process and 8.1 ms in the next), and two
 processes running side by side disagree as well. So the checkouts run in two worker processes
 pinned to the same CPU, and take turns ten frames at a time: whatever slows the machine
-slows both. Each worker runs the frames of ``bench_serve_hostile`` (hostile frames, a master's
-reset every 500) through its own chain of ``--nodes`` configured patches, ``--runs`` times, and
-keeps each frame's least CPU time (this thread's clock, garbage collected between frames).
+slows both. Each worker runs the frames of ``bench_serve_hostile`` with its defaults (hostile
+frames of ``--seed``, 8 bytes a patch, a master's reset every 500) through its own chain of
+``--nodes`` configured patches, ``--runs`` times, and keeps each frame's least CPU time (this
+thread's clock, garbage collected between frames).
 
 Printed per checkout: frames above 2 ms, total, median and maximum CPU per frame; then the frames
 whose time changed most. Run with the same checkout twice to see the method's own spread.
 
     python benchmarks/bench_serve_ab.py OLD_CHECKOUT [NEW_CHECKOUT] [--frames 3000] [--runs 2]
-        [--nodes 160] [--cpu 0]
+        [--nodes 160] [--seed 0] [--cpu 0]
 
 A checkout is a directory with this project's sources (``git worktree add`` or
 ``git archive COMMIT | tar -x -C DIR``); NEW_CHECKOUT defaults to this one.
@@ -34,22 +35,23 @@ from typing import IO
 ROOT = Path(__file__).resolve().parent.parent
 BUDGET_US = 2000
 BATCH = 10  # frames a worker runs before the other one takes its turn
+SIZE, EVERY = 8, 500  # bench_serve_hostile's defaults: bytes a patch, frames between resets
 
 
-def worker(checkout: str, nodes: int, frames: int) -> None:
+def worker(checkout: str, nodes: int, frames: int, seed: int) -> None:
     """Serve the master's requests on stdin: ``reset`` (a fresh configured chain) or ``run LO HI``
     (those frames; their CPU times in us as a JSON list)."""
     sys.path[:0] = [checkout, os.path.join(checkout, "benchmarks")]
     from bench_serve_hostile import configured_chain, with_resets  # the checkout's own
 
-    sent = [f for f, _ in with_resets(frames, nodes, 8, 11, 500)]
+    sent = [f for f, _ in with_resets(frames, nodes, SIZE, seed, EVERY)]
     cpu = time.thread_time_ns
     chain = None
     gc.disable()
     for line in sys.stdin:
         words = line.split()
         if words[0] == "reset":
-            chain = configured_chain(nodes, 8, True)
+            chain = configured_chain(nodes, SIZE, True)
             print("ok", flush=True)
             continue
         assert chain is not None
@@ -70,10 +72,10 @@ def ask(proc: subprocess.Popen[str], request: str) -> str:
     return stdout.readline()
 
 
-def start(checkout: str, nodes: int, frames: int, cpu: int) -> subprocess.Popen[str]:
+def start(checkout: str, nodes: int, frames: int, seed: int, cpu: int) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [sys.executable, __file__, "--worker", checkout, "--nodes", str(nodes),
-         "--frames", str(frames)],
+         "--frames", str(frames), "--seed", str(seed)],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -97,18 +99,21 @@ def main() -> None:
     parser.add_argument("--frames", type=int, default=3000, help="hostile frames (default 3000)")
     parser.add_argument("--runs", type=int, default=2, help="runs per checkout (default 2)")
     parser.add_argument("--nodes", type=int, default=160, help="patches (default 160)")
+    parser.add_argument("--seed", type=int, default=0, help="of the hostile frames (default 0)")
     parser.add_argument("--cpu", type=int, default=0, help="the CPU both workers run on")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        worker(args.old, args.nodes, args.frames)
+        worker(args.old, args.nodes, args.frames, args.seed)
         return
     sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
     from bench_serve_hostile import describe, with_resets
 
-    sent = [f for f, _ in with_resets(args.frames, args.nodes, 8, 11, 500)]
+    sent = [f for f, _ in with_resets(args.frames, args.nodes, SIZE, args.seed, EVERY)]
     checkouts = {"old": args.old, "new": args.new}
-    procs = {k: start(v, args.nodes, args.frames, args.cpu) for k, v in checkouts.items()}
+    procs = {
+        k: start(v, args.nodes, args.frames, args.seed, args.cpu) for k, v in checkouts.items()
+    }
     least = {k: [1 << 62] * len(sent) for k in checkouts}
     for _ in range(args.runs):
         for proc in procs.values():
@@ -122,8 +127,8 @@ def main() -> None:
         proc.stdin.close()
         proc.wait()
     print(
-        f"{len(sent)} frames ({args.frames} hostile), {args.nodes} slaves, least of "
-        f"{args.runs} runs, both checkouts on CPU {args.cpu}, {BATCH} frames a turn"
+        f"{len(sent)} frames ({args.frames} hostile, seed {args.seed}), {args.nodes} slaves, "
+        f"least of {args.runs} runs, both checkouts on CPU {args.cpu}, {BATCH} frames a turn"
     )
     for k, path in checkouts.items():
         report(f"  {k} ({path})", least[k], sys.stdout)
