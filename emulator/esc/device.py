@@ -386,22 +386,20 @@ def _plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
         claimed = bytearray(n) if len(side) > 1 else None
         for f in side:
             log_start, log_end, phys = f[:3]
-            a, b = _claim(claimed, lad, max(lad, log_start), min(lad + n, log_end))
-            if a >= b:
-                continue
-            if f[8]:  # byte-wise mapping
-                ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
-                continue
-            # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
-            b0, b1, p0 = _bit_span(f, a, b)
-            if b0 > b1:
-                continue
-            first, last = p0 // 8, (p0 + b1 - b0) // 8
-            at, end = (b0 - lad * 8) // 8, (b1 - lad * 8) // 8  # the frame bytes
-            shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
-            bits = (1 << (b1 - b0 + 1)) - 1
-            mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
-            ops.append((False, first, last - first + 1, shift, mask, at, end - at + 1))
+            for a, b in _claim(claimed, lad, max(lad, log_start), min(lad + n, log_end)):
+                if f[8]:  # byte-wise mapping
+                    ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
+                    continue
+                # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
+                b0, b1, p0 = _bit_span(f, a, b)
+                if b0 > b1:
+                    continue
+                first, last = p0 // 8, (p0 + b1 - b0) // 8
+                at, end = (b0 - lad * 8) // 8, (b1 - lad * 8) // 8  # the frame bytes
+                shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
+                bits = (1 << (b1 - b0 + 1)) - 1
+                mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
+                ops.append((False, first, last - first + 1, shift, mask, at, end - at + 1))
     return tuple(plan[0]), tuple(plan[1])
 
 
@@ -451,17 +449,23 @@ def cleared_events(lo: int, hi: int) -> int:
     return dl | (EVENT_AL_STATUS if lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS else 0)
 
 
-def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> tuple[int, int]:
-    """Trim [lo, hi) to the logical bytes no lower-numbered FMMU took (datasheet I 7)."""
+def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> list[tuple[int, int]]:
+    """The runs of [lo, hi) that no lower-numbered FMMU took, now taken (datasheet I 7): a
+    lower FMMU's bytes inside the range split it."""
     if claimed is None or lo >= hi:
-        return lo, hi
-    first = claimed.find(0, lo - lad, hi - lad)
-    if first < 0:
-        return lo, lo
-    last = claimed.rfind(0, lo - lad, hi - lad)
-    lo, hi = lad + first, lad + last + 1
-    claimed[lo - lad : hi - lad] = b"\x01" * (hi - lo)
-    return lo, hi
+        return [(lo, hi)] if lo < hi else []
+    runs = []
+    at, end = lo - lad, hi - lad
+    while at < end:
+        first = claimed.find(0, at, end)
+        if first < 0:
+            break
+        at = claimed.find(1, first, end)
+        if at < 0:
+            at = end
+        claimed[first:at] = b"\x01" * (at - first)
+        runs.append((lad + first, lad + at))
+    return runs
 
 
 def _bit_span(f: tuple[int, ...], lo: int, hi: int) -> tuple[int, int, int]:

@@ -687,6 +687,29 @@ def test_lower_numbered_fmmu_wins_a_logical_byte() -> None:
     assert one(chain, Datagram.logical(C.LRD, 0, bytes(2))).data == b"\x11\x22"
 
 
+@pytest.mark.parametrize("bitwise", [False, True])
+def test_lower_numbered_fmmu_wins_inside_a_higher_ones_range(bitwise: bool) -> None:
+    # FMMU0 maps logical bytes 2-3, FMMU1 bytes 0-5 around them, FMMU2 the same as FMMU1: FMMU1
+    # keeps bytes 0-1 and 4-5 on both sides of FMMU0's, FMMU2 nothing. Bit-wise, FMMU1 and
+    # FMMU2 start at logical bit 0.1 and physical bit 0x0F80.1 (bit 0 of byte 0 not mapped).
+    chain = bare_chain()
+    send(chain, Datagram(C.APWR, 0, 0x0F80, bytes(range(0x10, 0x16))))
+    send(chain, Datagram(C.APWR, 0, 0x0FA0, b"\xa2\xa3"))
+    map_bytes(chain, 0, 2, 2, 0x0FA0, 3)
+    start_bit, phys_bit = (1, 1) if bitwise else (0, 0)
+    for index in (1, 2):
+        entry = struct.pack("<IHBBHBBB3x", 0, 6, start_bit, 7, 0x0F80, phys_bit, 3, 1)
+        send(chain, Datagram(C.APWR, 0, 0x0600 + 16 * index, entry))
+    d = one(chain, Datagram.logical(C.LRD, 0, bytes(6)))
+    assert (d.data, d.wkc) == (b"\x10\x11\xa2\xa3\x14\x15", 1)
+    d = one(chain, Datagram.logical(C.LWR, 0, b"\xe1\xe2\xe3\xe4\xe5\xe6"))
+    assert d.wkc == 1
+    ram = chain.devices[0].registers(0x0F80, 6) + chain.devices[0].registers(0x0FA0, 2)
+    # FMMU1 wrote bytes 0-1 and 4-5 (bit 0 of byte 0 only byte-wise), FMMU0 bytes 2-3
+    first = 0xE0 if bitwise else 0xE1
+    assert ram == bytes([first, 0xE2, 0x12, 0x13, 0xE5, 0xE6, 0xE3, 0xE4])
+
+
 # --- every configuration a frame can set is legal input (issue 11) ------------------------------
 def test_bitwise_fmmu_at_the_end_of_the_address_space_maps_only_existing_bits() -> None:
     # the crash of issue 11: a bit-wise write FMMU with physical start 0xFFFF.3, then an LWR.
