@@ -29,14 +29,8 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.dc import DcTimebase
-from emulator.esc.device import (
-    EscConfig,
-    EscDevice,
-    TraceCopy,
-    _LogicalPlan,
-    cleared_events,
-    reads_dc,
-)
+from emulator.esc.device import EscConfig, EscDevice, TraceCopy
+from emulator.esc.mapping import LogicalPlan
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     REG_ALIAS,
@@ -46,6 +40,8 @@ from emulator.esc.registers import (
     REG_RW_OFFSET,
     REG_STATION,
     REGISTER_END,
+    cleared_events,
+    reads_dc,
 )
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 from emulator.esc.state_machine import AlState, SkinPatchApplication
@@ -84,7 +80,7 @@ _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
 _BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
 _LRD: Final = int(Command.LRD)
-_NO_ACCESS: Final[_LogicalPlan] = ((), ())  # a logical plan that reads and writes nothing
+_NO_ACCESS: Final[LogicalPlan] = ((), ())  # a logical plan that reads and writes nothing
 
 
 def _register_read(lo: int, hi: int) -> bool:
@@ -364,7 +360,7 @@ class EcatChain:
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
         run: list[int] = []  # consecutive targets whose plain plan is run_plan, not done yet
-        run_plan: _LogicalPlan = _NO_ACCESS
+        run_plan: LogicalPlan = _NO_ACCESS
 
         def plain() -> int:  # the run: over its rows when long enough (no event changes)
             if len(run) >= LOGICAL_TOGETHER_MIN:

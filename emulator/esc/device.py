@@ -35,6 +35,11 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
   clipped to the 64 KiB address space, register writes are masked as whole integers, so the
   work per frame is bounded by the frame, not by what the configuration asks for.
 
+The FMMU and SyncManager tables are decoded and logical accesses planned in
+:mod:`emulator.esc.mapping`; register writes are cut into their parts in
+:mod:`emulator.esc.write_plans`; what a register read does besides the bytes is
+:func:`emulator.esc.registers.reads_dc` and :func:`~emulator.esc.registers.cleared_events`.
+
 Not modelled: watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
 circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI is a
 :class:`emulator.esc.state_machine.PdiApplication`; the skin patch's is
@@ -43,16 +48,26 @@ circulating bit, UDP encapsulation and a second PDI. The slave application behin
 
 from __future__ import annotations
 
-import itertools
 import struct
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass
-from typing import ClassVar, Final, TypeVar
-
-import numpy as np
+from typing import Final
 
 from emulator.errors import TopologyError
-from emulator.esc.dc import REG_DC_END, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU, DcClock
+from emulator.esc.dc import REG_DC_RECEIVE, DcClock
+from emulator.esc.mapping import (
+    FMMU_CACHE,
+    PLAN_CACHE_ENTRIES,
+    SM_CACHE,
+    Access,
+    LogicalPlan,
+    SmTable,
+    decode_fmmus,
+    decode_sms,
+    plain,
+    plan_logical,
+    remember,
+)
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     DL_PDI_OPERATIONAL,
@@ -110,10 +125,12 @@ from emulator.esc.registers import (
     SM_WRITE_OPEN,
     EscConfig,
     Memory,
-    write_masks,
+    cleared_events,
+    reads_dc,
 )
 from emulator.esc.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
 from emulator.esc.state_machine import PdiApplication, SkinPatchApplication
+from emulator.esc.write_plans import TOUCHES_FMMU, TOUCHES_SM, WritePlans, mark
 
 __all__ = [
     "ADDRESS_SPACE",
@@ -128,8 +145,6 @@ __all__ = [
 _APRD, _APWR, _APRW, _FPRD, _FPWR, _FPRW, _BRD, _BWR, _BRW = range(1, 10)
 _LRD, _LWR, _LRW, _ARMW, _FRMW = range(10, 15)
 _RESET_SEQUENCE: Final = b"RES"
-_SM_TABLE: Final = struct.Struct("<HHBBBB")  # one SyncManager's registers (datasheet II 2.14)
-_FMMU_TABLE: Final = struct.Struct("<IHBBHBBB3x")  # one FMMU's registers (datasheet II 2.13)
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,71 +156,6 @@ class TraceCopy:
     src: int  # offset in the SyncManager buffer
     dst: int  # offset in the frame buffer
     length: int
-
-
-_DECODE_CACHE_ENTRIES: Final = 4096  # distinct FMMU/SM tables remembered (memory bound)
-_LogicalOp = tuple[bool, int, int, int, int, int, int]  # see _plan_logical
-_LogicalPlan = tuple[tuple[_LogicalOp, ...], tuple[_LogicalOp, ...]]  # reads, writes
-# active FMMUs, the logical span they map, and the plans of logical accesses through them
-# (shared by every ESC whose FMMU registers hold the same bytes)
-_FmmuTable = tuple[
-    tuple[tuple[int, ...], ...], tuple[int, int], dict[tuple[int, int, int], "_Access"]
-]
-_SmTable = tuple[tuple[int, int, int, int, int], ...]
-_FMMU_CACHE: dict[bytes, _FmmuTable] = {}
-_K = TypeVar("_K")
-_V = TypeVar("_V")
-# decoded SyncManager tables, the order of their entries by start (PDI-locked last), and the
-# status registers (0x0805 + 8 y) of the SyncManagers without a buffer
-_SM_CACHE: dict[bytes, tuple[_SmTable, tuple[int, ...], tuple[int, ...]]] = {}
-
-
-def _remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = _DECODE_CACHE_ENTRIES) -> _V:
-    """Store ``value`` under ``key``; when the cache is full its oldest 1/64 goes (bounded
-    memory; emptying a full table cache at once had taken 13 ms inside one frame)."""
-    if len(cache) >= limit:
-        for old in list(itertools.islice(cache, max(1, limit // 64))):
-            del cache[old]
-    cache[key] = value
-    return value
-
-
-def _decode_fmmus(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
-    """The active FMMUs of the registers 0x0600+ (datasheet II 2.13) in register order, clipped,
-    and the logical span they map.
-
-    Every value a frame can write is legal: the logical side ends at 0xFFFFFFFF, and the
-    physical side ends with the 64 KiB address space (datasheet I 1.1): logical bytes (or
-    bits) whose physical counterpart would lie beyond 0xFFFF are not mapped, so they are
-    neither read nor written and do not count. Entry: (logical start, logical end,
-    physical start, start bit, stop bit, physical bit, read, write, byte-wise, mapped bits).
-    """
-    fmmus: list[tuple[int, ...]] = []
-    for log, length, sbit, ebit, phys, pbit, kind, act in _FMMU_TABLE.iter_unpack(table):
-        if not (act & 0x01 and length and kind & 0x03):
-            continue
-        log_end = min(log + length, 1 << 32)
-        bytewise = sbit == 0 and ebit == 7 and pbit == 0
-        if bytewise:
-            log_end = min(log_end, log + ADDRESS_SPACE - phys)
-        phys_bits = ADDRESS_SPACE * 8 - (phys * 8 + pbit)  # bits left in the address space
-        if log_end > log:
-            fmmus.append(
-                (log, log_end, phys, sbit, ebit, pbit, kind & 1, kind >> 1 & 1, bytewise, phys_bits)
-            )
-    span = (min(f[0] for f in fmmus), max(f[1] for f in fmmus)) if fmmus else (0, 0)
-    return tuple(fmmus), span  # span: logical bytes any FMMU maps (the chain skips the others)
-
-
-def _decode_sms(table: bytes) -> _SmTable:
-    """(index, start, length clipped to 64 KiB, control, PDI-locked) of the SyncManagers that
-    control memory: enabled, length >= 2 (datasheet I 8.5, II 2.14)."""
-    out = []
-    for y, (start, length, control, _, activate, pdi) in enumerate(_SM_TABLE.iter_unpack(table)):
-        length = min(length, ADDRESS_SPACE - start)  # no memory beyond 0xFFFF (I 1.1)
-        if activate & 0x01 and length >= 2:
-            out.append((y, start, length, control, pdi & 0x01))
-    return tuple(out)
 
 
 class _Sm:
@@ -241,105 +191,6 @@ class _Sm:
         self.buf: bytes | bytearray | None = None  # ECAT's buffer while open
 
 
-_TOUCHES_FMMU: Final = 1
-_TOUCHES_SM: Final = 2
-_PLAN_CACHE_ENTRIES: Final = 1 << 12  # distinct accesses remembered (memory bound)
-_Segment = tuple[int, int, int, bool]  # lo, hi, mask (-1: side effects), may set a flag
-_Plan = tuple[tuple[_Segment, ...], int]
-
-
-class _WritePlans:
-    """How a register write of (address, length) is cut for ESCs of one configuration.
-
-    Plain parts are masked as whole integers (their write mask, datasheet II "ECAT" column,
-    and whether they touch AL control, DL control, FMMUs or DC registers); the registers with
-    side effects (error counters 0x0300-0x0313, 0x0442-0x0443, the EEPROM interface
-    0x0500-0x050F byte 0x0500/0x0501 one by one, SyncManagers, DC receive times 0x0900-0x0917)
-    are cut into the parts :meth:`EscDevice._special_write` handles. One plan serves every
-    ESC a broadcast reaches.
-    """
-
-    _by_config: ClassVar[dict[EscConfig, _WritePlans]] = {}
-
-    @classmethod
-    def of(cls, config: EscConfig) -> _WritePlans:
-        plans = cls._by_config.get(config)
-        if plans is None:
-            plans = cls._by_config[config] = cls(config)
-        return plans
-
-    def __init__(self, config: EscConfig) -> None:
-        self.masks = write_masks(config)
-        self.mask_array = np.frombuffer(self.masks, np.uint8)  # for many ESCs' rows at once
-        self.fmmu_end = REG_FMMU + FMMU_BYTES * config.fmmus
-        self.sm_end = REG_SM + SM_BYTES * config.syncmanagers
-        self.special = (  # registers written in parts (side effects), ascending
-            (REG_ERROR_COUNTERS, 0x0314),
-            (0x0442, 0x0444),
-            (REG_EEPROM_CONFIG, 0x0510),
-            (REG_SM, self.sm_end),
-            (REG_DC_RECEIVE, REG_DC_RECEIVE_PU),
-        )
-        self._plans: dict[tuple[int, int], _Plan] = {}
-
-    def plan(self, addr: int, n: int) -> _Plan:
-        """The segments of a write of ``n`` bytes at ``addr`` (< 0x0F80, not beyond it)."""
-        key = (addr, n)
-        found = self._plans.get(key)
-        if found is None:
-            found = _remember(self._plans, key, self._cut(addr, addr + n), _PLAN_CACHE_ENTRIES)
-        return found
-
-    def _cut(self, pos: int, end: int) -> _Plan:
-        segments: list[_Segment] = []
-        touches = 0
-        while pos < end:
-            hi = min(end, self._next_special(pos))
-            if hi > pos:
-                mask = int.from_bytes(self.masks[pos:hi], "little")
-                marks = (
-                    pos <= REG_AL_CONTROL < hi
-                    or (pos < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL)
-                    or (pos < self.fmmu_end and hi > REG_FMMU)
-                    or (pos < REG_DC_END and hi > REG_DC_OFFSET)
-                )
-                segments.append((pos, hi, mask, marks))
-                if pos < self.fmmu_end and hi > REG_FMMU:
-                    touches |= _TOUCHES_FMMU
-                pos = hi
-            if pos < end:
-                hi = self._special_end(pos, end)
-                segments.append((pos, hi, -1, True))
-                if REG_SM <= pos < self.sm_end:
-                    touches |= _TOUCHES_SM
-                pos = hi
-        return tuple(segments), touches
-
-    def _next_special(self, pos: int) -> int:
-        """The first register at or after ``pos`` that a write cannot simply mask."""
-        for lo, hi in self.special:
-            if pos < hi:
-                return max(pos, lo)
-        return REGISTER_END
-
-    def _special_end(self, lo: int, end: int) -> int:
-        """Where the part of a write at ``lo`` (in a special block) that one call of
-        :meth:`EscDevice._special_write` handles ends."""
-        if lo < REG_PU_ERRORS:  # the RX error counters, cleared together
-            return min(end, REG_PU_ERRORS)
-        if lo < 0x0314:
-            return min(end, 0x0314)
-        if lo < REG_EEPROM_CONFIG:  # 0x0442-0x0443
-            return min(end, 0x0444)
-        if lo < REG_EEPROM_CONTROL:  # 0x0500, 0x0501: byte by byte
-            return lo + 1
-        if lo < 0x0510:
-            return min(end, 0x0510)
-        if lo >= REG_DC_RECEIVE:
-            return min(end, REG_DC_RECEIVE_PU)
-        return min(end, self.sm_end)
-
-
 def port1_forwarding(setting: int, link: bool) -> bool | None:
     """Where port 1 sends a processed frame under DL control bits 10-11 ``setting`` (datasheet
     II 2.4.1) and the port's ``link``: on (True), back towards the master (False, the loop is
@@ -349,133 +200,6 @@ def port1_forwarding(setting: int, link: bool) -> bool | None:
     if setting == 0x02:  # open, whatever the link
         return True if link else None
     return link  # auto, auto close: open with a link
-
-
-def mark(
-    lo: int, hi: int, flags: list[bool], fmmu_end: int, dc: tuple[int, int] | None
-) -> tuple[int, int] | None:
-    """Note in ``flags`` what a masked register write of [lo, hi) changed (AL control, DL
-    control, the FMMUs below ``fmmu_end``); the DC registers written, [lo, hi) joined to ``dc``."""
-    if lo <= REG_AL_CONTROL < hi:
-        flags[0] = True
-    if lo < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL:
-        flags[2] = True
-    if lo < fmmu_end and hi > REG_FMMU:
-        flags[3] = True
-    if lo < REG_DC_END and hi > REG_DC_OFFSET:
-        return (lo, hi) if dc is None else (min(dc[0], lo), max(dc[1], hi))
-    return dc
-
-
-def _plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> _LogicalPlan:
-    """How a logical access of ``n`` bytes at ``lad`` reads and writes through ``fmmus``
-    (datasheet I 7): the parts each FMMU maps, in register order, the lower-numbered FMMU
-    winning a logical byte claimed twice (reads and writes claim separately); a part the
-    64 KiB address space clips away is not mapped. Operation (byte-wise, a, b, c, d, e, f):
-    byte-wise, physical address a, frame offset b, c bytes; bit-wise, physical bytes
-    [a, a + b) hold the mapped bits, which lie in frame bytes [e, e + f) (the datagram's data),
-    c is where a frame bit lies in the physical bytes minus where it lies in the frame bytes,
-    d masks the mapped bits: of the frame bytes (read) or of the physical bytes (write). The
-    bit-wise work is thus bounded by the mapped bytes, not by the datagram's length."""
-    lo, hi = lad, lad + n
-    hit = [f for f in fmmus if not (f[1] <= lo or f[0] >= hi)]
-    reads = [f for f in hit if f[6] and cmd != _LWR]
-    writes = [f for f in hit if f[7] and cmd != _LRD]
-    plan: list[list[_LogicalOp]] = [[], []]
-    for ops, side, write in ((plan[0], reads, False), (plan[1], writes, True)):
-        claimed = bytearray(n) if len(side) > 1 else None
-        for f in side:
-            log_start, log_end, phys = f[:3]
-            for a, b in _claim(claimed, lad, max(lad, log_start), min(lad + n, log_end)):
-                if f[8]:  # byte-wise mapping
-                    ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
-                    continue
-                # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
-                b0, b1, p0 = _bit_span(f, a, b)
-                if b0 > b1:
-                    continue
-                first, last = p0 // 8, (p0 + b1 - b0) // 8
-                at, end = (b0 - lad * 8) // 8, (b1 - lad * 8) // 8  # the frame bytes
-                shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
-                bits = (1 << (b1 - b0 + 1)) - 1
-                mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
-                ops.append((False, first, last - first + 1, shift, mask, at, end - at + 1))
-    return tuple(plan[0]), tuple(plan[1])
-
-
-class _Access:
-    """A logical access by one FMMU table: its plan (:func:`_plan_logical`), and whether it is
-    all plain memory (:func:`_plain`) with the SyncManager areas and memory top last asked."""
-
-    __slots__ = ("areas", "plain", "plan", "top")
-
-    def __init__(self, plan: _LogicalPlan) -> None:
-        self.plan = plan
-        self.areas: _SmTable | None = None
-        self.top = 0
-        self.plain = False
-
-
-def _plain(plan: _LogicalPlan, areas: _SmTable, top: int) -> bool:
-    """Whether every part ``plan`` reads or writes is plain memory: below ``top``, in no
-    SyncManager's area of ``areas`` (:func:`_decode_sms`), and at or above the registers
-    (0x0F80), except that it may read registers whose read has no side effect (not DL or AL
-    status, whose events it clears, nor the DC registers, which run with the clock): a read
-    of them is their committed bytes."""
-    for side, ops in enumerate(plan):  # reads, writes
-        for op in ops:
-            lo = op[1]
-            hi = lo + (op[3] if op[0] else op[2])
-            if hi > top:
-                return False
-            if lo < REGISTER_END and (side or reads_dc(lo, hi) or cleared_events(lo, hi)):
-                return False
-            for area in areas:  # (index, start, length, ...)
-                if area[1] < hi and area[1] + area[2] > lo:
-                    return False
-    return True
-
-
-def reads_dc(lo: int, hi: int) -> bool:
-    """Whether a read of [lo, hi) reads DC registers, which run with the clock: the ESC brings
-    them up to the frame's time first (:meth:`DcClock.refresh`)."""
-    return lo < REG_DC_END and hi > REG_DC_RECEIVE
-
-
-def cleared_events(lo: int, hi: int) -> int:
-    """The ECAT event bits (0x0210) a read of registers [lo, hi) clears: DL status, AL status
-    (datasheet I Table 3)."""
-    dl = EVENT_DL_STATUS if lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS else 0
-    return dl | (EVENT_AL_STATUS if lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS else 0)
-
-
-def _claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> list[tuple[int, int]]:
-    """The runs of [lo, hi) that no lower-numbered FMMU took, now taken (datasheet I 7): a
-    lower FMMU's bytes inside the range split it."""
-    if claimed is None or lo >= hi:
-        return [(lo, hi)] if lo < hi else []
-    runs = []
-    at, end = lo - lad, hi - lad
-    while at < end:
-        first = claimed.find(0, at, end)
-        if first < 0:
-            break
-        at = claimed.find(1, first, end)
-        if at < 0:
-            at = end
-        claimed[first:at] = b"\x01" * (at - first)
-        runs.append((lad + first, lad + at))
-    return runs
-
-
-def _bit_span(f: tuple[int, ...], lo: int, hi: int) -> tuple[int, int, int]:
-    """Logical bits [b0, b1] of bytes [lo, hi) that FMMU ``f`` maps, and the physical bit
-    of b0; b0 > b1 when none (the mapping is clipped to the 64 KiB address space)."""
-    log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
-    l0 = log_start * 8 + start_bit
-    l1 = min((log_end - 1) * 8 + stop_bit, l0 + f[9] - 1)  # inclusive
-    b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
-    return b0, b1, phys * 8 + phys_bit + (b0 - l0)
 
 
 class EscDevice:
@@ -539,7 +263,7 @@ class EscDevice:
         self._sii_image = sii if sii is not None else build_sii(info)
         if len(self._sii_image) % 2 or len(self._sii_image) < 2 * 0x40:
             raise TopologyError(f"SII image of {len(self._sii_image)} bytes (even, >= 128)")
-        self.write_plans = _WritePlans.of(self.config)  # how register writes are cut (shared)
+        self.write_plans = WritePlans.of(self.config)  # how register writes are cut (shared)
         self._masks = self.write_plans.masks
         self.dc = DcClock()  # distributed clocks (dc.py); the chain shares its timebase
         self._dc_written: tuple[int, int] | None = None
@@ -558,13 +282,13 @@ class EscDevice:
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[tuple[int, ...], ...] = ()
-        self._logical_plans: dict[tuple[int, int, int], _Access] = {}
+        self._logical_plans: dict[tuple[int, int, int], Access] = {}
         self.fmmu_span = (0, 0)
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
         # the general path decides; worked out per FMMU and SyncManager configuration
         self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm] | None] = {}
-        self._sm_areas: _SmTable = ()  # the SyncManager table _active follows
+        self._sm_areas: SmTable = ()  # the SyncManager table _active follows
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
@@ -1038,26 +762,26 @@ class EscDevice:
         self._read_buffer(plan[1], buf, off + plan[0])
         return True
 
-    def _access(self, cmd: int, lad: int, n: int) -> _Access:
-        """A logical access by this ESC's FMMUs (:func:`_plan_logical`), worked out once per
+    def _access(self, cmd: int, lad: int, n: int) -> Access:
+        """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
         FMMU table and access; whether it is all plain memory is remembered for the
         SyncManager table last asked about (ESCs configured alike ask alike)."""
         plans = self._logical_plans
         access = (cmd, lad, n)
         found = plans.get(access)
         if found is None:
-            plan = _plan_logical(self._fmmus, cmd, lad, n)
-            found = _remember(plans, access, _Access(plan), _PLAN_CACHE_ENTRIES)
+            plan = plan_logical(self._fmmus, cmd, lad, n)
+            found = remember(plans, access, Access(plan), PLAN_CACHE_ENTRIES)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         if found.areas is not self._sm_areas or found.top != top:
             found.areas, found.top = self._sm_areas, top
-            found.plain = _plain(found.plan, self._sm_areas, top)
+            found.plain = plain(found.plan, self._sm_areas, top)
         return found
 
-    def plain_plan(self, cmd: int, lad: int, n: int) -> _LogicalPlan | None:
+    def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:
         """The plan of a logical access when every part it reads or writes is plain memory:
         user or process RAM this ESC gives ECAT access to, no SyncManager's area, no register
-        written, no register read that has a side effect (:func:`_plain`); else None. Such an
+        written, no register read that has a side effect (:func:`plain`); else None. Such an
         access changes nothing but the bytes and counts its working counter whatever they are,
         so the chain may do it for many ESCs with the same plan at once
         (:func:`emulator.esc.together.logical_together`)."""
@@ -1066,7 +790,7 @@ class EscDevice:
 
     def logical_unless_plain(
         self, cmd: int, lad: int, buf: bytearray, off: int, n: int
-    ) -> int | _LogicalPlan:
+    ) -> int | LogicalPlan:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
         counter's increment; but when it is plain (:meth:`plain_plan`), its plan, untouched,
         for the chain to do it together with the ESCs after this one."""
@@ -1080,8 +804,8 @@ class EscDevice:
             return 1
         return self._through(self._access(cmd, lad, n).plan, cmd, buf, off, n)
 
-    def _through(self, plan: _LogicalPlan, cmd: int, buf: bytearray, off: int, n: int) -> int:
-        """A logical access through the FMMUs by ``plan`` (:func:`_plan_logical`)."""
+    def _through(self, plan: LogicalPlan, cmd: int, buf: bytearray, off: int, n: int) -> int:
+        """A logical access through the FMMUs by ``plan`` (:func:`plan_logical`)."""
         reads, writes = plan
         r = w = 0
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
@@ -1109,7 +833,7 @@ class EscDevice:
     def _bit_read(
         self, first: int, count: int, shift: int, mask: int, buf: bytearray, off: int, n: int
     ) -> int:
-        """A bit-wise FMMU read (:func:`_plan_logical`): the readable bits of physical bytes
+        """A bit-wise FMMU read (:func:`plan_logical`): the readable bits of physical bytes
         [first, first + count), shifted to their bits in frame bytes [off, off + n), replace
         those under ``mask``."""
         segments = self._read_phys(first, count)
@@ -1131,7 +855,7 @@ class EscDevice:
 
     def _plan_lrd(self, key: tuple[int, int]) -> tuple[int, _Sm] | None:
         """How an LRD of ``key`` = (address, length) reads, when it is the common case the
-        general path (:func:`_plan_logical`, :meth:`_read_phys`, :meth:`_sm_read`) would take
+        general path (:func:`plan_logical`, :meth:`_read_phys`, :meth:`_sm_read`) would take
         one way: one read FMMU, byte-wise, maps part of it onto exactly the whole buffer of a
         buffered read SyncManager in process memory, which no other SyncManager overlaps."""
         lad, n = key
@@ -1149,7 +873,7 @@ class EscDevice:
                 and not (hit[0].mailbox or hit[0].ecat_writes)
             ):
                 plan = (lo - lad, hit[0])
-        return _remember(self._lrd_plans, key, plan, _PLAN_CACHE_ENTRIES)
+        return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
     def _read_buffer(self, sm: _Sm, buf: bytearray, at: int) -> None:
         """ECAT reads a whole buffer of a read SyncManager, opening and completing it in one
@@ -1173,7 +897,7 @@ class EscDevice:
         SyncManager configuration); the plain parts are masked as whole integers, so the work
         is bounded by the bytes written, whatever they ask for. How a write of (address,
         length) is cut, its masks and what it touches are worked out once per configuration
-        (:meth:`_WritePlans.plan`) and shared by every ESC of that configuration.
+        (:meth:`WritePlans.plan`) and shared by every ESC of that configuration.
         """
         mem = self.mem
         plans = self.write_plans
@@ -1183,9 +907,9 @@ class EscDevice:
         for _, _, (_, touches) in pending:
             touched |= touches
         sm_before = fmmu_before = b""
-        if touched & _TOUCHES_SM:  # rebuild caches only when these change
+        if touched & TOUCHES_SM:  # rebuild caches only when these change
             sm_before = bytes(mem[REG_SM : plans.sm_end])
-        if touched & _TOUCHES_FMMU:
+        if touched & TOUCHES_FMMU:
             fmmu_before = bytes(mem[REG_FMMU : plans.fmmu_end])
         sm_enabled = sm_before[6::SM_BYTES]  # bit 0
         flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
@@ -1337,12 +1061,12 @@ class EscDevice:
 
     def _rebuild_fmmus(self) -> None:
         """Cache the active FMMUs (datasheet II 2.13): decoded once per distinct register
-        bytes (:func:`_decode_fmmus`), so that a broadcast configuring every ESC alike costs
+        bytes (:func:`decode_fmmus`), so that a broadcast configuring every ESC alike costs
         each ESC one lookup."""
         table = bytes(self.mem[REG_FMMU : REG_FMMU + FMMU_BYTES * self.config.fmmus])
-        decoded = _FMMU_CACHE.get(table)
+        decoded = FMMU_CACHE.get(table)
         if decoded is None:
-            decoded = _remember(_FMMU_CACHE, table, (*_decode_fmmus(table), {}))
+            decoded = remember(FMMU_CACHE, table, (*decode_fmmus(table), {}))
         self._fmmus, self.fmmu_span, self._logical_plans = decoded
         self._lrd_plans.clear()
 
@@ -1351,19 +1075,19 @@ class EscDevice:
 
         A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
         deactivated by the PDI locks its whole area (datasheet I 8.5, 8.7). The register table
-        is decoded once per distinct bytes (:func:`_decode_sms`).
+        is decoded once per distinct bytes (:func:`decode_sms`).
         """
         mem, sms = self.mem, self._sms
         table = bytes(mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers])
-        found = _SM_CACHE.get(table)
+        found = SM_CACHE.get(table)
         if found is None:
-            entries = _decode_sms(table)
+            entries = decode_sms(table)
             by_start = sorted(
                 range(len(entries)), key=lambda i: (entries[i][1], entries[i][4] != 0)
             )
             enabled = {e[0] for e in entries}
             idle = tuple(REG_SM + SM_BYTES * z + 5 for z in range(len(sms)) if z not in enabled)
-            found = _remember(_SM_CACHE, table, (entries, tuple(by_start), idle))
+            found = remember(SM_CACHE, table, (entries, tuple(by_start), idle))
         decoded, order, idle = found
         for st in idle:  # disabled or too short: no buffer
             if mem[st] != SM_NO_BUFFER or sms[(st - REG_SM) // SM_BYTES] is not None:

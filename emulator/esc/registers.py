@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from typing import Final, TypeAlias
 
 from emulator.errors import TopologyError
-from emulator.esc.dc import dc_write_masks
+from emulator.esc.dc import REG_DC_END, REG_DC_RECEIVE, dc_write_masks
 
 __all__ = [
     "ADDRESS_SPACE",
@@ -70,6 +70,8 @@ __all__ = [
     "SM_WRITE_OPEN",
     "EscConfig",
     "Memory",
+    "cleared_events",
+    "reads_dc",
     "write_masks",
 ]
 
@@ -196,3 +198,16 @@ def write_masks(cfg: EscConfig) -> bytes:
         put(REG_SM + SM_BYTES * y, 0xFF, 0xFF, 0xFF, 0xFF, 0x7F, 0x00, 0xC3, 0x00)
     dc_write_masks(m)
     return bytes(m)
+
+
+def reads_dc(lo: int, hi: int) -> bool:
+    """Whether a read of [lo, hi) reads DC registers, which run with the clock: the ESC brings
+    them up to the frame's time first (:meth:`DcClock.refresh`)."""
+    return lo < REG_DC_END and hi > REG_DC_RECEIVE
+
+
+def cleared_events(lo: int, hi: int) -> int:
+    """The ECAT event bits (0x0210) a read of registers [lo, hi) clears: DL status, AL status
+    (datasheet I Table 3)."""
+    dl = EVENT_DL_STATUS if lo <= REG_DL_STATUS + 1 and hi > REG_DL_STATUS else 0
+    return dl | (EVENT_AL_STATUS if lo <= REG_AL_STATUS + 1 and hi > REG_AL_STATUS else 0)

@@ -29,16 +29,8 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
-from emulator.esc.device import (
-    _LRD,
-    _LWR,
-    _TOUCHES_FMMU,
-    _TOUCHES_SM,
-    EscDevice,
-    _LogicalPlan,
-    mark,
-    port1_forwarding,
-)
+from emulator.esc.device import _LRD, _LWR, EscDevice, port1_forwarding
+from emulator.esc.mapping import LogicalPlan
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -59,6 +51,7 @@ from emulator.esc.registers import (
     REG_SM,
     SM_BYTES,
 )
+from emulator.esc.write_plans import TOUCHES_FMMU, TOUCHES_SM, mark
 
 __all__ = ["LOGICAL_TOGETHER_MIN", "TOGETHER_MIN", "commit_together", "logical_together"]
 
@@ -81,8 +74,8 @@ def commit_together(
     touched = 0
     for _, _, (_, touches) in pending:
         touched |= touches
-    sm_before = memory[rows, REG_SM : plans.sm_end] if touched & _TOUCHES_SM else None
-    fmmu_before = memory[rows, REG_FMMU : plans.fmmu_end] if touched & _TOUCHES_FMMU else None
+    sm_before = memory[rows, REG_SM : plans.sm_end] if touched & TOUCHES_SM else None
+    fmmu_before = memory[rows, REG_FMMU : plans.fmmu_end] if touched & TOUCHES_FMMU else None
     enabled = sm_before[:, 6::SM_BYTES] if sm_before is not None else None  # bit 0
     flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
     eeprom = np.zeros(len(rows), np.bool_)
@@ -214,7 +207,7 @@ def _special(
 def logical_together(
     memory: npt.NDArray[np.uint8],
     rows: Sequence[int],
-    plan: _LogicalPlan,
+    plan: LogicalPlan,
     cmd: int,
     buf: bytearray,
     off: int,

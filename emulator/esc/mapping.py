@@ -1,0 +1,200 @@
+"""How an ESC maps its memory: the FMMU and SyncManager register tables decoded, and logical
+accesses planned through the FMMUs (datasheet I 7, 8; II 2.13, 2.14).
+
+Functions of register bytes only: a table is decoded once per distinct bytes, a plan worked out
+once per table and access, in caches of bounded size (:func:`remember`), shared by every ESC
+configured alike. :class:`emulator.esc.device.EscDevice` carries the plans out.
+"""
+
+from __future__ import annotations
+
+import itertools
+import struct
+from typing import Final, TypeVar
+
+from emulator.esc.registers import ADDRESS_SPACE, REGISTER_END, cleared_events, reads_dc
+from skinframes.ethercat import Command
+
+__all__ = [
+    "FMMU_CACHE",
+    "FMMU_ENTRY",
+    "SM_CACHE",
+    "SM_ENTRY",
+    "Access",
+    "LogicalPlan",
+    "SmTable",
+    "decode_fmmus",
+    "decode_sms",
+    "plain",
+    "plan_logical",
+    "remember",
+]
+
+_LRD: Final = int(Command.LRD)
+_LWR: Final = int(Command.LWR)
+
+SM_ENTRY: Final = struct.Struct("<HHBBBB")  # one SyncManager's registers (datasheet II 2.14)
+FMMU_ENTRY: Final = struct.Struct("<IHBBHBBB3x")  # one FMMU's registers (datasheet II 2.13)
+
+DECODE_CACHE_ENTRIES: Final = 4096  # distinct FMMU/SM tables remembered (memory bound)
+PLAN_CACHE_ENTRIES: Final = 1 << 12  # distinct accesses remembered (memory bound)
+LogicalOp = tuple[bool, int, int, int, int, int, int]  # see plan_logical
+LogicalPlan = tuple[tuple[LogicalOp, ...], tuple[LogicalOp, ...]]  # reads, writes
+# active FMMUs, the logical span they map, and the plans of logical accesses through them
+# (shared by every ESC whose FMMU registers hold the same bytes)
+FmmuTable = tuple[
+    tuple[tuple[int, ...], ...], tuple[int, int], dict[tuple[int, int, int], "Access"]
+]
+SmTable = tuple[tuple[int, int, int, int, int], ...]
+FMMU_CACHE: dict[bytes, FmmuTable] = {}
+_K = TypeVar("_K")
+_V = TypeVar("_V")
+# decoded SyncManager tables, the order of their entries by start (PDI-locked last), and the
+# status registers (0x0805 + 8 y) of the SyncManagers without a buffer
+SM_CACHE: dict[bytes, tuple[SmTable, tuple[int, ...], tuple[int, ...]]] = {}
+
+
+def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_ENTRIES) -> _V:
+    """Store ``value`` under ``key``; when the cache is full its oldest 1/64 goes (bounded
+    memory; emptying a full table cache at once had taken 13 ms inside one frame)."""
+    if len(cache) >= limit:
+        for old in list(itertools.islice(cache, max(1, limit // 64))):
+            del cache[old]
+    cache[key] = value
+    return value
+
+
+def decode_fmmus(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
+    """The active FMMUs of the registers 0x0600+ (datasheet II 2.13) in register order, clipped,
+    and the logical span they map.
+
+    Every value a frame can write is legal: the logical side ends at 0xFFFFFFFF, and the
+    physical side ends with the 64 KiB address space (datasheet I 1.1): logical bytes (or
+    bits) whose physical counterpart would lie beyond 0xFFFF are not mapped, so they are
+    neither read nor written and do not count. Entry: (logical start, logical end,
+    physical start, start bit, stop bit, physical bit, read, write, byte-wise, mapped bits).
+    """
+    fmmus: list[tuple[int, ...]] = []
+    for log, length, sbit, ebit, phys, pbit, kind, act in FMMU_ENTRY.iter_unpack(table):
+        if not (act & 0x01 and length and kind & 0x03):
+            continue
+        log_end = min(log + length, 1 << 32)
+        bytewise = sbit == 0 and ebit == 7 and pbit == 0
+        if bytewise:
+            log_end = min(log_end, log + ADDRESS_SPACE - phys)
+        phys_bits = ADDRESS_SPACE * 8 - (phys * 8 + pbit)  # bits left in the address space
+        if log_end > log:
+            fmmus.append(
+                (log, log_end, phys, sbit, ebit, pbit, kind & 1, kind >> 1 & 1, bytewise, phys_bits)
+            )
+    span = (min(f[0] for f in fmmus), max(f[1] for f in fmmus)) if fmmus else (0, 0)
+    return tuple(fmmus), span  # span: logical bytes any FMMU maps (the chain skips the others)
+
+
+def decode_sms(table: bytes) -> SmTable:
+    """(index, start, length clipped to 64 KiB, control, PDI-locked) of the SyncManagers that
+    control memory: enabled, length >= 2 (datasheet I 8.5, II 2.14)."""
+    out = []
+    for y, (start, length, control, _, activate, pdi) in enumerate(SM_ENTRY.iter_unpack(table)):
+        length = min(length, ADDRESS_SPACE - start)  # no memory beyond 0xFFFF (I 1.1)
+        if activate & 0x01 and length >= 2:
+            out.append((y, start, length, control, pdi & 0x01))
+    return tuple(out)
+
+
+def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> LogicalPlan:
+    """How a logical access of ``n`` bytes at ``lad`` reads and writes through ``fmmus``
+    (datasheet I 7): the parts each FMMU maps, in register order, the lower-numbered FMMU
+    winning a logical byte claimed twice (reads and writes claim separately); a part the
+    64 KiB address space clips away is not mapped. Operation (byte-wise, a, b, c, d, e, f):
+    byte-wise, physical address a, frame offset b, c bytes; bit-wise, physical bytes
+    [a, a + b) hold the mapped bits, which lie in frame bytes [e, e + f) (the datagram's data),
+    c is where a frame bit lies in the physical bytes minus where it lies in the frame bytes,
+    d masks the mapped bits: of the frame bytes (read) or of the physical bytes (write). The
+    bit-wise work is thus bounded by the mapped bytes, not by the datagram's length."""
+    lo, hi = lad, lad + n
+    hit = [f for f in fmmus if not (f[1] <= lo or f[0] >= hi)]
+    reads = [f for f in hit if f[6] and cmd != _LWR]
+    writes = [f for f in hit if f[7] and cmd != _LRD]
+    plan: list[list[LogicalOp]] = [[], []]
+    for ops, side, write in ((plan[0], reads, False), (plan[1], writes, True)):
+        claimed = bytearray(n) if len(side) > 1 else None
+        for f in side:
+            log_start, log_end, phys = f[:3]
+            for a, b in claim(claimed, lad, max(lad, log_start), min(lad + n, log_end)):
+                if f[8]:  # byte-wise mapping
+                    ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
+                    continue
+                # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
+                b0, b1, p0 = bit_span(f, a, b)
+                if b0 > b1:
+                    continue
+                first, last = p0 // 8, (p0 + b1 - b0) // 8
+                at, end = (b0 - lad * 8) // 8, (b1 - lad * 8) // 8  # the frame bytes
+                shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
+                bits = (1 << (b1 - b0 + 1)) - 1
+                mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
+                ops.append((False, first, last - first + 1, shift, mask, at, end - at + 1))
+    return tuple(plan[0]), tuple(plan[1])
+
+
+class Access:
+    """A logical access by one FMMU table: its plan (:func:`plan_logical`), and whether it is
+    all plain memory (:func:`plain`) with the SyncManager areas and memory top last asked."""
+
+    __slots__ = ("areas", "plain", "plan", "top")
+
+    def __init__(self, plan: LogicalPlan) -> None:
+        self.plan = plan
+        self.areas: SmTable | None = None
+        self.top = 0
+        self.plain = False
+
+
+def plain(plan: LogicalPlan, areas: SmTable, top: int) -> bool:
+    """Whether every part ``plan`` reads or writes is plain memory: below ``top``, in no
+    SyncManager's area of ``areas`` (:func:`decode_sms`), and at or above the registers
+    (0x0F80), except that it may read registers whose read has no side effect (not DL or AL
+    status, whose events it clears, nor the DC registers, which run with the clock): a read
+    of them is their committed bytes."""
+    for side, ops in enumerate(plan):  # reads, writes
+        for op in ops:
+            lo = op[1]
+            hi = lo + (op[3] if op[0] else op[2])
+            if hi > top:
+                return False
+            if lo < REGISTER_END and (side or reads_dc(lo, hi) or cleared_events(lo, hi)):
+                return False
+            for area in areas:  # (index, start, length, ...)
+                if area[1] < hi and area[1] + area[2] > lo:
+                    return False
+    return True
+
+
+def claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> list[tuple[int, int]]:
+    """The runs of [lo, hi) that no lower-numbered FMMU took, now taken (datasheet I 7): a
+    lower FMMU's bytes inside the range split it."""
+    if claimed is None or lo >= hi:
+        return [(lo, hi)] if lo < hi else []
+    runs = []
+    at, end = lo - lad, hi - lad
+    while at < end:
+        first = claimed.find(0, at, end)
+        if first < 0:
+            break
+        at = claimed.find(1, first, end)
+        if at < 0:
+            at = end
+        claimed[first:at] = b"\x01" * (at - first)
+        runs.append((lad + first, lad + at))
+    return runs
+
+
+def bit_span(f: tuple[int, ...], lo: int, hi: int) -> tuple[int, int, int]:
+    """Logical bits [b0, b1] of bytes [lo, hi) that FMMU ``f`` maps, and the physical bit
+    of b0; b0 > b1 when none (the mapping is clipped to the 64 KiB address space)."""
+    log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
+    l0 = log_start * 8 + start_bit
+    l1 = min((log_end - 1) * 8 + stop_bit, l0 + f[9] - 1)  # inclusive
+    b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
+    return b0, b1, phys * 8 + phys_bit + (b0 - l0)
