@@ -534,12 +534,20 @@ class CaptureWriter:
             for at, src, n in layout.frames:
                 image[:, at : at + n] = row[src : src + n]
             self._image_holds = holds
+        runs = _runs_of(places, k)
         for start in range(0, k, len(image)):
             rows = min(len(image), k - start)
             part = image[:rows]
             self._stamp(layout, times[start : start + rows])
-            for at, values in places:
-                part[:, at : at + values.shape[1]] = values[start : start + rows]
+            for at, step, values in runs:
+                if step:  # m fills of n bytes, step bytes apart: one copy
+                    _, m, n = values.shape
+                    dest = np.lib.stride_tricks.as_strided(
+                        part[:, at:], (rows, m, n), (part.strides[0], step, 1), writeable=True
+                    )
+                    dest[...] = values[start : start + rows]
+                else:
+                    part[:, at : at + values.shape[1]] = values[start : start + rows]
             f.write(part.data)
             self._records += rows * r
             self._bytes += part.nbytes
@@ -749,3 +757,41 @@ def _integers(name: str, values: npt.ArrayLike, ndim: int) -> npt.NDArray[np.int
     if arr.dtype == np.uint64 and arr.size and int(arr.max()) > np.iinfo(np.int64).max:
         raise FieldRangeError(f"capture block: {name} does not fit int64", field=name)
     return arr.astype(np.int64, copy=False)
+
+
+def _runs_of(
+    places: list[tuple[int, npt.NDArray[np.uint8]]], k: int
+) -> list[tuple[int, int, npt.NDArray[np.uint8]]]:
+    """The fills of :meth:`CaptureWriter.write_repeated` in their order, consecutive ones that
+    are one strided copy joined: m fills of equal shape and strides, equally spaced in the image
+    (``step`` >= their width: they do not overlap) and in memory (e.g. the nodes' taxels of one
+    (k, nodes, bytes) array) become (at, step, (k, m, n) view). One numpy copy instead of m
+    (the 160 PRes of an EPL cycle: 4x faster). A lone fill is (at, 0, values)."""
+    import numpy as np  # here, not at the top: reading captures needs no numpy
+
+    out: list[tuple[int, int, npt.NDArray[np.uint8]]] = []
+    i = 0
+    while i < len(places):
+        at, v = places[i]
+        address = v.__array_interface__["data"][0]
+        j, step, gap = i + 1, 0, 0
+        if j < len(places):
+            step = places[j][0] - at
+            gap = places[j][1].__array_interface__["data"][0] - address
+        while (
+            j < len(places)
+            and step >= max(v.shape[1], 1)
+            and places[j][1].shape == v.shape
+            and places[j][1].strides == v.strides
+            and places[j][0] - at == (j - i) * step
+            and places[j][1].__array_interface__["data"][0] - address == (j - i) * gap
+        ):
+            j += 1
+        if j - i < 2:
+            out.append((at, 0, v))
+            i += 1
+            continue
+        shape, strides = (k, j - i, v.shape[1]), (v.strides[0], gap, v.strides[1])
+        out.append((at, step, np.lib.stride_tricks.as_strided(v, shape, strides, writeable=False)))
+        i = j
+    return out

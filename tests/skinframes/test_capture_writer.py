@@ -514,6 +514,66 @@ def test_write_repeated_equals_write_one_by_one(
         assert many.read_bytes() == one.read_bytes()
 
 
+@given(st.data())
+def test_write_repeated_joins_strided_fills_and_keeps_their_order(data: st.DataObject) -> None:
+    # fills that are one (k, m, bytes) array's columns, equally spaced in the frames (across
+    # frames of one length, as an EPL cycle's PRes, or inside one frame, as an LRD per slave),
+    # are written with one strided copy: the bytes must be those of the fills one by one, and a
+    # fill after them that overlaps them must still win
+    fmt = data.draw(st.sampled_from(["pcap", "pcapng"]))
+    length = data.draw(st.integers(4, 40))
+    frames = data.draw(st.integers(1, 5))
+    lengths = np.array([length] * frames + data.draw(st.lists(st.integers(1, 9), max_size=1)))
+    starts = np.concatenate(([0], np.cumsum(lengths)))[:-1]
+    total = int(lengths.sum())
+    template = np.frombuffer(data.draw(st.binary(min_size=total, max_size=total)), np.uint8)
+    k = data.draw(st.integers(1, 4))
+    base = np.frombuffer(data.draw(st.binary(min_size=k * 8 * 12, max_size=k * 8 * 12)), np.uint8)
+    base = base.reshape(k, 8, 12)
+    n = data.draw(st.integers(1, min(length, 10)))
+    lo, col = data.draw(st.integers(0, length - n)), data.draw(st.integers(0, 12 - n))
+    if data.draw(st.booleans()):  # one fill per frame of that length
+        fills = [(int(starts[j]) + lo, base[:, j, col : col + n]) for j in range(frames)]
+    else:  # m fills inside the first frame, step bytes apart
+        step = data.draw(st.integers(n, max(n, length - lo - n)))
+        m = min(8, (length - lo - n) // step + 1)
+        fills = [(lo + p * step, base[:, p, col : col + n]) for p in range(m)]
+    if data.draw(st.booleans()):  # a lone fill over the first of them, last
+        fills.append((fills[0][0], np.full((k, 1), 0xEE, np.uint8)))
+    rows = np.tile(template, (k, 1))
+    for at, values in fills:
+        rows[:, at : at + values.shape[1]] = values
+    times = np.arange(k * len(lengths), dtype=np.int64).reshape(k, len(lengths))
+    with tempfile.TemporaryDirectory() as tmp:
+        one, many = Path(tmp) / "one", Path(tmp) / "many"
+        with CaptureWriter(many, fmt=fmt) as w:
+            w.write_repeated(times, lengths, template, fills=fills)
+        with CaptureWriter(one, fmt=fmt) as w1:
+            for c in range(k):
+                for j, size in enumerate(lengths.tolist()):
+                    w1.write(int(times[c, j]), rows[c, starts[j] : starts[j] + size].tobytes())
+        assert many.read_bytes() == one.read_bytes()
+
+
+def test_fills_of_one_array_equally_spaced_are_one_copy() -> None:
+    # the image columns and the (k, nodes, bytes) taxels of an EPL cycle: 3 PRes 100 bytes apart
+    taxels = np.arange(2 * 3 * 4, dtype=np.uint8).reshape(2, 3, 4)
+    places = [(10 + 100 * j, taxels[:, j, :]) for j in range(3)]
+    ((at, step, values),) = capture_writer._runs_of(places, 2)
+    assert (at, step, values.shape) == (10, 100, (2, 3, 4))
+    assert np.array_equal(values, taxels)
+    # not equally spaced, or overlapping: one by one
+    uneven = [places[0], places[1], (205, taxels[:, 2, :])]
+    assert [s for _, s, _ in capture_writer._runs_of(uneven, 2)] == [100, 0]
+    overlapping = [(10 + 2 * j, taxels[:, j, :]) for j in range(3)]
+    assert [s for _, s, _ in capture_writer._runs_of(overlapping, 2)] == [0, 0, 0]
+    # equally spaced in the image but not in memory, or of other widths: one by one
+    back = [places[0], places[1], (210, taxels[:, 0, :])]
+    assert [s for _, s, _ in capture_writer._runs_of(back, 2)] == [100, 0]
+    widths = [places[0], (110, taxels[:, 1, :3]), (210, taxels[:, 2, :])]
+    assert [s for _, s, _ in capture_writer._runs_of(widths, 2)] == [0, 0, 0]
+
+
 def test_a_fill_must_stay_inside_one_frame(tmp_path: Path) -> None:
     with CaptureWriter(tmp_path / "x.pcap") as w:
         lengths = np.array([60, 60])
