@@ -111,7 +111,9 @@ def main() -> None:
             # raw write and emulator alternate, each on a fresh file: the median of three each
             raws, walls, rsss, cpus, raw_cpus = [], [], [], [], []
             for _ in range(3):
+                os.sync()  # each side starts with no dirty pages to write back (README)
                 raw, raw_cpu = raw_write(Path(tmp) / "raw.bin", size)
+                os.sync()
                 wall, rss, _, cpu = emulate(argv)
                 pcap.unlink()
                 raws.append(raw)
