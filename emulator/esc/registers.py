@@ -1,4 +1,5 @@
-"""The ESC register map: addresses, bits, reset identity and ECAT write masks.
+"""The ESC register map: addresses, bits, reset identity, ECAT write masks, and what a read of
+registers does besides returning bytes (:func:`reads_dc`, :func:`cleared_events`).
 
 Beckhoff ESC datasheet section II ("register description"), chapter 2, for the registers the
 emulated ESC (:mod:`emulator.esc.device`) implements; section I 1.1 for the address space
