@@ -13,7 +13,9 @@
    needs. Printed for the first run and for the least: median, p99 and maximum, frames above
    2 ms, for all frames and apart for the hostile frames (what issue 11 bounds) and the
    master's reset frames (broadcasts that every ESC applies to its own hostile state); the
-   costliest frames' datagrams, and for reference the CPU of an ordinary LRD of the
+   hostile frames by kind (:func:`kind`: a long logical datagram, a write to every ESC's
+   SyncManager or FMMU registers, another logical datagram, the rest); the costliest frames'
+   datagrams, and for reference the CPU of an ordinary LRD of the
    whole process image. Afterwards a master resets and configures the line again and an LRD
    must return every patch's inputs.
 2. ``--live``: the same frames sent to ``skinframes serve ecat --nodes N`` over a veth pair in a
@@ -146,6 +148,49 @@ def describe(frame: bytes) -> str:
     return " ".join(f"{int(d.cmd)}@{d.ado:#06x}+{len(d.data)}" for d in ecat.datagrams)
 
 
+# what a hostile frame asks of every ESC, first match wins (for the report by kind)
+LONG_LOGICAL_BYTES = 256
+KINDS = (
+    "logical >= 256 B",
+    "SyncManager registers",
+    "FMMU registers",
+    "other logical",
+    "other",
+)
+_LOGICAL = {Command.LRD, Command.LWR, Command.LRW}
+_TO_ALL = {Command.BWR, Command.BRW, Command.ARMW, Command.FRMW}  # writes every ESC applies
+
+
+def kind(frame: bytes) -> str:
+    """The kind of a hostile frame (:data:`KINDS`): a long logical datagram, a write to every
+    ESC's SyncManager registers (0x0800-0x087F) or FMMU registers (0x0600-0x06FF), another
+    logical datagram, or none of these."""
+    try:
+        ecat, _, _ = ethercat.decode(frame[14:], strict=False)
+    except DecodeError:
+        return "other"
+    dgs = ecat.datagrams
+    if any(d.cmd in _LOGICAL and len(d.data) >= LONG_LOGICAL_BYTES for d in dgs):
+        return KINDS[0]
+    for name, lo, hi in ((KINDS[1], 0x0800, 0x0880), (KINDS[2], 0x0600, 0x0700)):
+        if any(d.cmd in _TO_ALL and d.ado < hi and d.ado + len(d.data) > lo for d in dgs):
+            return name
+    return KINDS[3] if any(d.cmd in _LOGICAL for d in dgs) else KINDS[4]
+
+
+def print_kinds(frames: list[bytes], us: npt.NDArray[np.float64]) -> None:
+    """The hostile frames by :func:`kind`: how many, median, p99, how many above the budget."""
+    kinds = np.array([kind(f) for f in frames])
+    print(f"  by kind: {'frames':>7} {'median us':>10} {'p99 us':>8} {'above':>6}")
+    for name in KINDS:
+        part = us[kinds == name]
+        if len(part):
+            print(
+                f"    {name:<22} {len(part):>7} {np.median(part):>10.0f} "
+                f"{np.percentile(part, 99):>8.0f} {int((part > BUDGET_US).sum()):>6}"
+            )
+
+
 def with_resets(
     frames: int, nodes: int, size: int, seed: int, every: int
 ) -> Iterator[tuple[bytes, bool]]:
@@ -211,6 +256,7 @@ def in_process(
     print_costs(f"  of which the hostile frames ({what})", least[~reset])
     if reset.any():
         print_costs(f"  of which the master's reset frames ({what})", least[reset])
+    print_kinds([f for f, r in zip(sent, masters, strict=True) if not r], least[~reset])
     print(
         f"  reference: one LRD of the whole image {ref_median:.0f} us; max / reference "
         f"{least.max() / ref_median:.1f}"
