@@ -30,7 +30,7 @@ import numpy.typing as npt
 from emulator.errors import TopologyError
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
-from emulator.esc.mapping import LogicalPlan
+from emulator.esc.mapping import PlainAccess, cut
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     REG_ALIAS,
@@ -80,7 +80,7 @@ _EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
 _INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
 _BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
 _LRD: Final = int(Command.LRD)
-_NO_ACCESS: Final[LogicalPlan] = ((), ())  # a logical plan that reads and writes nothing
+_UNTOUCHED: Final[PlainAccess] = (((), ()), ())  # a logical access that maps nothing
 
 
 def _register_read(lo: int, hi: int) -> bool:
@@ -354,24 +354,27 @@ class EcatChain:
         map part of it), in chain order: (the working counter's increment, whether an ESC's
         event request changed). An LRD of a whole input buffer is one call
         (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
-        memory with one plan (:meth:`EscDevice.plain_plan`) are done at once over their rows
-        (:func:`logical_together`); any other ESC on its own, as :meth:`EscDevice.process`.
+        memory with one plan and the same holes (:meth:`EscDevice.plain_access`) are done at
+        once over their rows (:func:`logical_together`), a few of them each straight in its
+        memory (:meth:`EscDevice.plain_logical`); any other ESC on its own, as
+        :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
-        run: list[int] = []  # consecutive targets whose plain plan is run_plan, not done yet
-        run_plan: LogicalPlan = _NO_ACCESS
+        run: list[int] = []  # consecutive targets whose plain access is run_plan, not done yet
+        run_plan: PlainAccess = _UNTOUCHED
 
         def plain() -> int:  # the run: over its rows when long enough (no event changes)
             if len(run) >= LOGICAL_TOGETHER_MIN:
-                return logical_together(self.memory, run, run_plan, cmd, buf, at, n)
-            return sum(line[q].process(cmd, adp, ado, buf, at, n)[1] for q in run)
+                plan = cut(*run_plan)
+                return logical_together(self.memory, run, plan, cmd, buf, at, n)
+            return sum(line[q].plain_logical(run_plan, cmd, buf, at, n) for q in run)
 
         for p in targets:
             dev = line[p]
             if run:
-                plan = dev.plain_plan(cmd, lad, n)
-                if plan == _NO_ACCESS:
+                plan = dev.plain_access(cmd, lad, n)
+                if plan == _UNTOUCHED:
                     continue  # its FMMUs map none of the datagram's bytes: untouched
                 if plan == run_plan:
                     run.append(p)
@@ -383,7 +386,7 @@ class EcatChain:
             if isinstance(done, int):
                 wkc_inc += done
                 changed = changed or dev.irq != before
-            elif done != _NO_ACCESS:
+            elif done != _UNTOUCHED:
                 run, run_plan = [p], done
         if run:
             wkc_inc += plain()

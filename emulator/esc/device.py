@@ -61,10 +61,12 @@ from emulator.esc.mapping import (
     SM_CACHE,
     Access,
     LogicalPlan,
+    PlainAccess,
     SmTable,
+    cut,
     decode_fmmus,
     decode_sms,
-    plain,
+    plain_access,
     plan_logical,
     remember,
 )
@@ -764,7 +766,7 @@ class EscDevice:
 
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
-        FMMU table and access; whether it is all plain memory is remembered for the
+        FMMU table and access; whether it is plain (:func:`plain_access`) is remembered for the
         SyncManager table last asked about (ESCs configured alike ask alike)."""
         plans = self._logical_plans
         access = (cmd, lad, n)
@@ -775,29 +777,67 @@ class EscDevice:
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         if found.areas is not self._sm_areas or found.top != top:
             found.areas, found.top = self._sm_areas, top
-            found.plain = plain(found.plan, self._sm_areas, top)
+            found.plain = plain_access(found.plan, self._sm_areas, top)
         return found
 
     def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:
-        """The plan of a logical access when every part it reads or writes is plain memory:
-        user or process RAM this ESC gives ECAT access to, no SyncManager's area, no register
-        written, no register read that has a side effect (:func:`plain`); else None. Such an
-        access changes nothing but the bytes and counts its working counter whatever they are,
-        so the chain may do it for many ESCs with the same plan at once
-        (:func:`emulator.esc.together.logical_together`)."""
-        found = self._access(cmd, lad, n)
-        return found.plan if found.plain else None
+        """What a logical access does when all it does is plain memory: user or process RAM
+        this ESC gives ECAT access to, no buffer of a SyncManager, no register written, no
+        register read that has a side effect; its plan without the bytes where it does nothing
+        (:meth:`plain_access`, :func:`emulator.esc.mapping.cut`); else None."""
+        found = self._access(cmd, lad, n).plain
+        return None if found is None else cut(*found)
+
+    def plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
+        """A logical access when all it does is plain memory (:meth:`plain_plan`): its plan and
+        the bytes where it does nothing (:func:`emulator.esc.mapping.plain_access`); else None.
+        Such an access changes nothing but the bytes and counts its working counter whatever
+        they are, so the chain may do it for many ESCs with the same plan and holes at once
+        (:func:`emulator.esc.together.logical_together` of the plan cut)."""
+        return self._access(cmd, lad, n).plain
 
     def logical_unless_plain(
         self, cmd: int, lad: int, buf: bytearray, off: int, n: int
-    ) -> int | LogicalPlan:
+    ) -> int | PlainAccess:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
-        counter's increment; but when it is plain (:meth:`plain_plan`), its plan, untouched,
+        counter's increment; but when it is plain (:meth:`plain_access`), that access, untouched,
         for the chain to do it together with the ESCs after this one."""
         if cmd == _LRD and self.read_buffered(lad, buf, off, n):
             return 1
         found = self._access(cmd, lad, n)
-        return found.plan if found.plain else self._through(found.plan, cmd, buf, off, n)
+        if found.plain is not None:
+            return found.plain
+        return self._through(found.plan, cmd, buf, off, n)
+
+    def plain_logical(self, access: PlainAccess, cmd: int, buf: bytearray, off: int, n: int) -> int:
+        """A plain logical datagram (data ``buf[off:off+n]``, in place; ``access`` from
+        :meth:`plain_access`): the working counter's increment. Without holes, straight to and
+        from memory, what :meth:`_through` does there without asking for side effects, since
+        there are none; with holes, :meth:`_through`, which skips them as it goes."""
+        (reads, writes), holes = access
+        if holes:
+            return self._through(access[0], cmd, buf, off, n)
+        mem = self.mem
+        data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
+        for bytewise, a, b, c, d, e, f in reads:
+            if bytewise:  # physical a, frame offset b, c bytes
+                buf[off + b : off + b + c] = mem[a : a + c]
+            else:  # physical bytes [a, a + b), shift c, mask d of frame bytes [e, e + f)
+                value = int.from_bytes(mem[a : a + b], "little")
+                value = value >> c if c >= 0 else value << -c
+                at = off + e
+                frame = int.from_bytes(buf[at : at + f], "little")
+                buf[at : at + f] = ((frame & ~d) | (value & d)).to_bytes(f, "little")
+        for bytewise, a, b, c, d, e, f in writes:
+            if bytewise:
+                mem[a : a + c] = data_in[b : b + c]
+            else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
+                target = int.from_bytes(mem[a : a + b], "little")
+                value = int.from_bytes(data_in[e : e + f], "little")
+                value = value << c if c >= 0 else value >> -c
+                mem[a : a + b] = ((target & ~d) | (value & d)).to_bytes(b, "little")
+        r, w = int(bool(reads)), int(bool(writes))
+        return r if cmd == _LRD else w if cmd == _LWR else r + 2 * w
 
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
         if cmd == _LRD and self.read_buffered(lad, buf, off, n):

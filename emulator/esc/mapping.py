@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import itertools
 import struct
+from collections.abc import Sequence
 from typing import Final, TypeVar
 
 from emulator.esc.registers import ADDRESS_SPACE, REGISTER_END, cleared_events, reads_dc
@@ -21,11 +22,14 @@ __all__ = [
     "SM_CACHE",
     "SM_ENTRY",
     "Access",
+    "Holes",
     "LogicalPlan",
+    "PlainAccess",
     "SmTable",
+    "cut",
     "decode_fmmus",
     "decode_sms",
-    "plain",
+    "plain_access",
     "plan_logical",
     "remember",
 ]
@@ -138,9 +142,17 @@ def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int)
     return tuple(plan[0]), tuple(plan[1])
 
 
+# the bytes of a plan's parts where it does nothing: (side 0 reads / 1 writes, index of the
+# part, its holes [start, end) in physical bytes), in plan order
+Holes = tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...]
+# a logical access that is all plain memory: its plan and the holes to cut (plain_access)
+PlainAccess = tuple[LogicalPlan, Holes]
+
+
 class Access:
     """A logical access by one FMMU table: its plan (:func:`plan_logical`), and whether it is
-    all plain memory (:func:`plain`) with the SyncManager areas and memory top last asked."""
+    all plain memory (:func:`plain_access`) with the SyncManager areas and memory top last
+    asked."""
 
     __slots__ = ("areas", "plain", "plan", "top")
 
@@ -148,27 +160,84 @@ class Access:
         self.plan = plan
         self.areas: SmTable | None = None
         self.top = 0
-        self.plain = False
+        self.plain: PlainAccess | None = None
 
 
-def plain(plan: LogicalPlan, areas: SmTable, top: int) -> bool:
-    """Whether every part ``plan`` reads or writes is plain memory: below ``top``, in no
-    SyncManager's area of ``areas`` (:func:`decode_sms`), and at or above the registers
-    (0x0F80), except that it may read registers whose read has no side effect (not DL or AL
-    status, whose events it clears, nor the DC registers, which run with the clock): a read
-    of them is their committed bytes."""
+def plain_access(plan: LogicalPlan, areas: SmTable, top: int) -> PlainAccess | None:
+    """``(plan, holes)`` when all ``plan`` does is plain memory, with the bytes where it does
+    nothing (:data:`Holes`, cut away by :func:`cut`); else None.
+
+    It does nothing in a SyncManager's area that is locked (deactivated by the PDI) or of the
+    other direction (ECAT neither reads a write buffer nor writes a read buffer), nor at or
+    above ``top`` outside SyncManager areas (process RAM closed, datasheet I 8, 11.2.1). Plain
+    is the rest: at or above the registers (0x0F80), except that it may read registers whose
+    read has no side effect (not DL or AL status, whose events it clears, nor the DC registers,
+    which run with the clock): a read of them is their committed bytes. A part that meets
+    another SyncManager's area makes the access not plain. (Below 0x0F80 the registers are
+    accessed whatever SyncManager area lies there.)"""
+    found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
     for side, ops in enumerate(plan):  # reads, writes
-        for op in ops:
+        for k, op in enumerate(ops):
             lo = op[1]
             hi = lo + (op[3] if op[0] else op[2])
-            if hi > top:
-                return False
             if lo < REGISTER_END and (side or reads_dc(lo, hi) or cleared_events(lo, hi)):
-                return False
-            for area in areas:  # (index, start, length, ...)
-                if area[1] < hi and area[1] + area[2] > lo:
-                    return False
-    return True
+                return None
+            holes: tuple[tuple[int, int], ...] = ()
+            for area in areas:  # (index, start, length, control, PDI-locked)
+                start, end = area[1], area[1] + area[2]
+                if start < hi and end > lo:
+                    if not area[4] and ((area[3] >> 2) & 0x03 == 0x01) == (side == 1):
+                        return None  # a buffer ECAT accesses (writes/reads): its own rules
+                    start = max(start, REGISTER_END)
+                    if start < end:
+                        holes += ((start, end),)
+            if hi > top and hi > REGISTER_END:
+                holes += ((max(top, REGISTER_END), hi),)
+            if holes:
+                found.append((side, k, holes))
+    return plan, tuple(found)
+
+
+def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
+    """``plan`` without the bytes where it does nothing (:func:`plain_access`): byte-wise parts
+    as the runs left, bit-wise ones with the holes' bits out of their masks; a part left with
+    none goes."""
+    if not holes:
+        return plan
+    out = (list(plan[0]), list(plan[1]))
+    for side, k, parts in reversed(holes):  # from the end: the indices stay valid
+        out[side][k : k + 1] = _without(plan[side][k], parts, side == 1)
+    return tuple(out[0]), tuple(out[1])
+
+
+def _without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> list[LogicalOp]:
+    """``op`` (:func:`plan_logical`) without its physical bytes in ``holes``: a byte-wise part
+    as the runs left; a bit-wise part with the same bytes and the holes' bits out of its mask
+    (of the physical bits for a write, of the frame bits for a read), or nothing when no byte
+    is left."""
+    lo = op[1]
+    hi = lo + (op[3] if op[0] else op[2])
+    runs, at = [], lo
+    for start, end in sorted(holes):
+        if start > at:
+            runs.append((at, start))  # (every hole starts before the part ends)
+        at = max(at, end)
+        if at >= hi:
+            break
+    if at < hi:
+        runs.append((at, hi))
+    if op[0]:  # byte-wise: physical a, frame offset b, c bytes
+        return [(True, x, op[2] + (x - lo), y - x, 0, 0, 0) for x, y in runs if x < y]
+    valid = 0
+    for x, y in runs:
+        if x < y:
+            valid |= ((1 << 8 * (y - x)) - 1) << 8 * (x - lo)
+    if not valid:
+        return []
+    shift = op[3]
+    if not write:  # the valid physical bits where they lie in the frame bytes
+        valid = valid >> shift if shift >= 0 else valid << -shift
+    return [(False, lo, op[2], shift, op[4] & valid, op[5], op[6])]
 
 
 def claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> list[tuple[int, int]]:

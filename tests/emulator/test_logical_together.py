@@ -17,7 +17,7 @@ import struct
 import numpy as np
 import pytest
 
-from emulator.esc import together
+from emulator.esc import mapping, together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
 from emulator.esc.sii import SlaveInfo, build_sii
@@ -33,6 +33,10 @@ CLOSED = 5  # the ESC whose EEPROM checksum is wrong: no process RAM from ECAT
 PLAIN = (0x0F80, 0x0FF0, 0x1200, 0x1201, 0x1FFF, 0x7000, 0xFFF0, 0xFFFF)
 EDGES = (0x0F7C, 0x0F7F, 0x0FFC, 0x1000, 0x1004, 0x0000, 0x0108, 0x0111, 0x012C, 0x0131, 0x08F8)
 LOGICAL = (Command.LRD, Command.LWR, Command.LRW)
+# SyncManager 1 as a buffer ECAT writes at 0x1200 + 16 (datasheet II 2.14: buffered, direction
+# ECAT writes, enabled): ECAT does not read it; the PDI locks it at some ESCs, and the inputs'
+# buffer at others, so that logical accesses meet SyncManager areas where they do nothing
+WRITE_SM = struct.pack("<HHBBBB", 0x1200, 16, 0x04, 0, 0x01, 0)
 
 
 class OneByOne(EcatChain):
@@ -55,6 +59,12 @@ def line(kind: type[EcatChain]) -> EcatChain:
     chain.clock_ns = itertools.count(10**9, 1_234_567).__next__  # DC registers run with it
     for frame in configure_frames(devices[0].info, NODES):
         chain.process_frame(frame)
+    chain.process_frame(bwr(0x0808, WRITE_SM))
+    for p, dev in enumerate(devices):
+        if p % 3 == 1:
+            dev.pdi_deactivate_sm(0, True)  # the inputs' buffer locked
+        if p % 4 == 2:
+            dev.pdi_deactivate_sm(1, True)
     return chain
 
 
@@ -180,3 +190,47 @@ def test_rows_shift_as_integers_do(shift: int) -> None:
             value = int.from_bytes(row.tobytes(), "little")
             value = value >> shift if shift >= 0 else value << -shift
             assert out.tobytes() == (value & ((1 << 8 * width) - 1)).to_bytes(width, "little")
+
+
+# SyncManager areas (index, start, length, control, PDI-locked) as decode_sms gives them:
+# control 0x00 a buffer ECAT reads, 0x04 one ECAT writes (datasheet II 2.14)
+LOCKED_READ_BUFFER = (0, 0x0F00, 0x90, 0x00, 1)  # [0x0F00, 0x0F90), partly over registers
+WRITE_BUFFER = (1, 0x2000, 2, 0x04, 0)  # [0x2000, 0x2002)
+
+
+def parts(plan: mapping.LogicalPlan, areas: mapping.SmTable, top: int) -> object:
+    """What the ESCs of ``areas`` and memory ``top`` do of ``plan``, holes cut (or None)."""
+    found = mapping.plain_access(plan, areas, top)
+    return None if found is None else mapping.cut(*found)
+
+
+def test_plain_parts_cut_away_the_bytes_where_an_access_does_nothing() -> None:
+    """Hand-worked cuts: a locked buffer is a hole from 0x0F80 on (below it the registers are
+    read whatever SyncManager area lies there); ECAT does not read a buffer it writes; process
+    RAM above the top is closed. A bit-wise part keeps its bytes and loses the holes' bits."""
+    areas = (LOCKED_READ_BUFFER, WRITE_BUFFER)
+    byte_read = (True, 0x0F70, 0, 0x30, 0, 0, 0)  # physical [0x0F70, 0x0FA0) to frame 0..47
+    # physical bytes 0x1FFE..0x2001, frame bit = physical bit - 3, frame bytes 4..7
+    bit_read = (False, 0x1FFE, 4, 3, 0x0FFF_FFFF, 4, 4)
+    got = parts(((byte_read, bit_read), ()), areas, 0x10000)
+    # registers 0x0F70-0x0F7F, then 0x0F90-0x0F9F; of the bit-wise part only the physical bits
+    # 0-15 (0x1FFE, 0x1FFF) stay: frame bits 0-12
+    assert got == (
+        (
+            (True, 0x0F70, 0, 0x10, 0, 0, 0),
+            (True, 0x0F90, 0x20, 0x10, 0, 0, 0),
+            (False, 0x1FFE, 4, 3, 0x1FFF, 4, 4),
+        ),
+        (),
+    )
+    # written: the write buffer is ECAT's (not plain); elsewhere, the mask keeps physical bits
+    bit_write = (False, 0x1FFC, 4, 3, 0xFFFF_FFF0, 4, 4)  # physical bytes 0x1FFC..0x1FFF
+    top = 0x1FFE  # process RAM closed from 0x1FFE: physical bits 16-31 are a hole
+    cut = ((False, 0x1FFC, 4, 3, 0xFFF0, 4, 4),)
+    assert parts(((), (bit_write,)), (), top) == ((), cut)
+    cut = ((False, 0x1FFC, 4, 3, 0xFFFFF0, 4, 4),)  # the last byte closed
+    assert parts(((), (bit_write,)), (), 0x1FFF) == ((), cut)
+    assert parts(((), (bit_write,)), (), 0x1FFC) == ((), ())  # nothing left
+    assert parts(((), ((True, 0x2000, 0, 2, 0, 0, 0),)), areas, 0x10000) is None
+    plan = ((byte_read,), ())
+    assert mapping.plain_access(plan, (), 0x10000) == (plan, ())  # nothing to cut
