@@ -775,9 +775,10 @@ class EscDevice:
             plan = plan_logical(self._fmmus, cmd, lad, n)
             found = remember(plans, access, Access(plan), PLAN_CACHE_ENTRIES)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
-        if found.areas is not self._sm_areas or found.top != top:
-            found.areas, found.top = self._sm_areas, top
-            found.plain = plain_access(found.plan, self._sm_areas, top)
+        writes = self.write_plans
+        if found.areas is not self._sm_areas or found.top != top or found.writes is not writes:
+            found.areas, found.top, found.writes = self._sm_areas, top, writes
+            found.plain = plain_access(found.plan, self._sm_areas, top, writes.inert)
         return found
 
     def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:

@@ -10,7 +10,7 @@ from __future__ import annotations
 
 import itertools
 import struct
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from typing import Final, TypeVar
 
 from emulator.esc.registers import ADDRESS_SPACE, REGISTER_END, cleared_events, reads_dc
@@ -151,19 +151,22 @@ PlainAccess = tuple[LogicalPlan, Holes]
 
 class Access:
     """A logical access by one FMMU table: its plan (:func:`plan_logical`), and whether it is
-    all plain memory (:func:`plain_access`) with the SyncManager areas and memory top last
-    asked."""
+    all plain memory (:func:`plain_access`) with the SyncManager areas, memory top and register
+    write plans last asked."""
 
-    __slots__ = ("areas", "plain", "plan", "top")
+    __slots__ = ("areas", "plain", "plan", "top", "writes")
 
     def __init__(self, plan: LogicalPlan) -> None:
         self.plan = plan
         self.areas: SmTable | None = None
         self.top = 0
+        self.writes: object = None  # the register write plans (which writes are inert)
         self.plain: PlainAccess | None = None
 
 
-def plain_access(plan: LogicalPlan, areas: SmTable, top: int) -> PlainAccess | None:
+def plain_access(
+    plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
+) -> PlainAccess | None:
     """``(plan, holes)`` when all ``plan`` does is plain memory, with the bytes where it does
     nothing (:data:`Holes`, cut away by :func:`cut`); else None.
 
@@ -172,17 +175,25 @@ def plain_access(plan: LogicalPlan, areas: SmTable, top: int) -> PlainAccess | N
     above ``top`` outside SyncManager areas (process RAM closed, datasheet I 8, 11.2.1). Plain
     is the rest: at or above the registers (0x0F80), except that it may read registers whose
     read has no side effect (not DL or AL status, whose events it clears, nor the DC registers,
-    which run with the clock): a read of them is their committed bytes. A part that meets
-    another SyncManager's area makes the access not plain. (Below 0x0F80 the registers are
-    accessed whatever SyncManager area lies there.)"""
+    which run with the clock): a read of them is their committed bytes; and it may write
+    registers where ``inert(address, length)`` says the write changes nothing (read-only ones,
+    :meth:`emulator.esc.write_plans.WritePlans.inert`): a hole that still counts. A part that
+    meets another SyncManager's area makes the access not plain. (Below 0x0F80 the registers
+    are accessed whatever SyncManager area lies there.)"""
     found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
     for side, ops in enumerate(plan):  # reads, writes
         for k, op in enumerate(ops):
             lo = op[1]
             hi = lo + (op[3] if op[0] else op[2])
-            if lo < REGISTER_END and (side or reads_dc(lo, hi) or cleared_events(lo, hi)):
-                return None
             holes: tuple[tuple[int, int], ...] = ()
+            if lo < REGISTER_END:
+                if not side:
+                    if reads_dc(lo, hi) or cleared_events(lo, hi):
+                        return None
+                elif inert is not None and inert(lo, min(hi, REGISTER_END) - lo):
+                    holes = ((lo, min(hi, REGISTER_END)),)  # counts: ECAT wrote registers
+                else:
+                    return None
             for area in areas:  # (index, start, length, control, PDI-locked)
                 start, end = area[1], area[1] + area[2]
                 if start < hi and end > lo:
@@ -201,12 +212,17 @@ def plain_access(plan: LogicalPlan, areas: SmTable, top: int) -> PlainAccess | N
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
     """``plan`` without the bytes where it does nothing (:func:`plain_access`): byte-wise parts
     as the runs left, bit-wise ones with the holes' bits out of their masks; a part left with
-    none goes."""
+    none goes, unless it wrote registers: then it stays, writing no byte, for the working
+    counter."""
     if not holes:
         return plan
     out = (list(plan[0]), list(plan[1]))
     for side, k, parts in reversed(holes):  # from the end: the indices stay valid
-        out[side][k : k + 1] = _without(plan[side][k], parts, side == 1)
+        op = plan[side][k]
+        left = _without(op, parts, side == 1)
+        if not left and side == 1 and op[1] < REGISTER_END:  # registers written count
+            left = [(True, op[1], op[2] if op[0] else op[5], 0, 0, 0, 0)]  # writing no byte
+        out[side][k : k + 1] = left
     return tuple(out[0]), tuple(out[1])
 
 

@@ -19,6 +19,7 @@ from emulator.esc.registers import (
     REG_ERROR_COUNTERS,
     REG_FMMU,
     REG_PU_ERRORS,
+    REG_RESET_ECAT,
     REG_SM,
     REGISTER_END,
     SM_BYTES,
@@ -75,6 +76,14 @@ class WritePlans:
         if found is None:
             found = remember(self._plans, key, self._cut(addr, addr + n), PLAN_CACHE_ENTRIES)
         return found
+
+    def inert(self, addr: int, n: int) -> bool:
+        """Whether a write of ``n`` bytes at ``addr`` (< 0x0F80, not beyond it) changes nothing:
+        registers without side effects whose ECAT write mask is 0 (read-only or reserved), and
+        not the reset register, whose writes count towards a reset (datasheet II 2.3)."""
+        if addr <= REG_RESET_ECAT < addr + n:
+            return False
+        return all(mask == 0 for _, _, mask, _ in self.plan(addr, n)[0])
 
     def _cut(self, pos: int, end: int) -> WritePlan:
         segments: list[Segment] = []

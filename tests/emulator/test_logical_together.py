@@ -234,3 +234,31 @@ def test_plain_parts_cut_away_the_bytes_where_an_access_does_nothing() -> None:
     assert parts(((), ((True, 0x2000, 0, 2, 0, 0, 0),)), areas, 0x10000) is None
     plan = ((byte_read,), ())
     assert mapping.plain_access(plan, (), 0x10000) == (plan, ())  # nothing to cut
+
+
+def test_logical_writes_of_res_reset_every_esc() -> None:
+    """An FMMU that maps the reset register 0x0040 (datasheet II 2.3): 'R', 'E', 'S' written in
+    three frames through it reset every ESC of a line long enough for the joint path, with the
+    working counter of a write at each; a write of the read-only bytes beside it changes
+    nothing but counts as well."""
+    nodes = together.LOGICAL_TOGETHER_MIN + 2
+    chain = EcatChain.skin(nodes, SIZE)
+    for p in range(nodes):
+        apwr = Datagram(Command.APWR, -p & 0xFFFF, 0x0010, struct.pack("<H", 0x1001 + p))
+        chain.process_frame(ethercat.frame(EcatFrame((apwr,))).to_bytes())
+    # FMMU 0: logical 0x10000, 1 byte, byte-wise onto 0x0040, write; FMMU 1: 0x20000 onto 0x0041
+    for at, phys in ((0x0600, 0x0040), (0x0610, 0x0041)):
+        chain.process_frame(bwr(at, struct.pack("<IHBBHBBB3x", phys << 8, 1, 0, 7, phys, 0, 2, 1)))
+
+    def lwr(lad: int, data: bytes) -> int:
+        frame = ethercat.frame(EcatFrame((Datagram.logical(Command.LWR, lad, data),)))
+        back = chain.process_frame(frame.to_bytes())
+        assert back is not None
+        return ethercat.decode(back[14:])[0].datagrams[0].wkc
+
+    assert lwr(0x4100, b"\xff") == nodes  # read-only: nothing changes
+    assert [dev.station for dev in chain.devices] == [0x1001 + p for p in range(nodes)]
+    for i, ch in enumerate(b"RES"):
+        assert [dev.station for dev in chain.devices][:1] == [0x1001]
+        assert lwr(0x4000, bytes([ch])) == nodes, i
+    assert {dev.station for dev in chain.devices} == {0}  # reset values
