@@ -67,8 +67,8 @@ from emulator.esc.mapping import (
     decode_fmmus,
     decode_sms,
     plain_access,
-    plan_logical,
     remember,
+    shared_access,
 )
 from emulator.esc.registers import (
     ADDRESS_SPACE,
@@ -766,14 +766,15 @@ class EscDevice:
 
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
-        FMMU table and access; whether it is plain (:func:`plain_access`) is remembered for the
-        SyncManager table last asked about (ESCs configured alike ask alike)."""
+        FMMUs it meets and access (:func:`shared_access`), looked up once per FMMU table;
+        whether it is plain (:func:`plain_access`) is remembered for the SyncManager table
+        last asked about (ESCs configured alike ask alike)."""
         plans = self._logical_plans
         access = (cmd, lad, n)
         found = plans.get(access)
         if found is None:
-            plan = plan_logical(self._fmmus, cmd, lad, n)
-            found = remember(plans, access, Access(plan), PLAN_CACHE_ENTRIES)
+            found = shared_access(self._fmmus, cmd, lad, n)
+            remember(plans, access, found, PLAN_CACHE_ENTRIES)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         writes = self.write_plans
         if found.areas is not self._sm_areas or found.top != top or found.writes is not writes:

@@ -17,6 +17,7 @@ from emulator.esc.registers import ADDRESS_SPACE, REGISTER_END, cleared_events, 
 from skinframes.ethercat import Command
 
 __all__ = [
+    "ACCESS_CACHE",
     "FMMU_CACHE",
     "FMMU_ENTRY",
     "SM_CACHE",
@@ -32,6 +33,7 @@ __all__ = [
     "plain_access",
     "plan_logical",
     "remember",
+    "shared_access",
 ]
 
 _LRD: Final = int(Command.LRD)
@@ -53,6 +55,8 @@ SmTable = tuple[tuple[int, int, int, int, int], ...]
 FMMU_CACHE: dict[bytes, FmmuTable] = {}
 _K = TypeVar("_K")
 _V = TypeVar("_V")
+# logical accesses by the FMMUs they meet (shared_access)
+ACCESS_CACHE: dict[tuple[object, ...], Access] = {}
 # decoded SyncManager tables, the order of their entries by start (PDI-locked last), and the
 # status registers (0x0805 + 8 y) of the SyncManagers without a buffer
 SM_CACHE: dict[bytes, tuple[SmTable, tuple[int, ...], tuple[int, ...]]] = {}
@@ -162,6 +166,20 @@ class Access:
         self.top = 0
         self.writes: object = None  # the register write plans (which writes are inert)
         self.plain: PlainAccess | None = None
+
+
+def shared_access(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
+    """The :class:`Access` of a logical access through ``fmmus`` (active FMMUs in register
+    order): one per FMMUs the access meets, in order, and access (:data:`ACCESS_CACHE`), since
+    the others do not change its plan; FMMU tables that differ only elsewhere share it."""
+    lo, hi = lad, lad + n
+    hit = tuple(f for f in fmmus if not (f[1] <= lo or f[0] >= hi))
+    key = (hit, cmd, lad, n)
+    found = ACCESS_CACHE.get(key)
+    if found is None:
+        found = Access(plan_logical(hit, cmd, lad, n))
+        remember(ACCESS_CACHE, key, found, PLAN_CACHE_ENTRIES)
+    return found
 
 
 def plain_access(

@@ -262,3 +262,18 @@ def test_logical_writes_of_res_reset_every_esc() -> None:
         assert [dev.station for dev in chain.devices][:1] == [0x1001]
         assert lwr(0x4000, bytes([ch])) == nodes, i
     assert {dev.station for dev in chain.devices} == {0}  # reset values
+
+
+def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
+    """The plan of a logical access depends on the FMMUs it meets, in order, alone: tables that
+    differ in another FMMU share one (and its plain parts); one that differs in a met FMMU
+    does not."""
+    met = (0x100, 0x110, 0x1200, 0, 7, 0, 1, 1, True, 0)  # logical 0x100-0x10F onto 0x1200
+    other = (0x8000, 0x8004, 0x1400, 0, 7, 0, 1, 0, True, 0)
+    moved = (*other[:2], 0x1500, *other[3:])  # physical start 0x1500
+    lrw = int(Command.LRW)
+    a = mapping.shared_access((met, other), lrw, 0x100, 8)
+    b = mapping.shared_access((met, moved), lrw, 0x100, 8)
+    c = mapping.shared_access(((*met[:2], 0x1300, *met[3:]),), lrw, 0x100, 8)
+    assert a is b and a is not c
+    assert a.plan == ((((True, 0x1200, 0, 8, 0, 0, 0),), ((True, 0x1200, 0, 8, 0, 0, 0),)))
