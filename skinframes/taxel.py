@@ -245,32 +245,62 @@ class ContactStream:
         self._words = np.random.Generator(self._bits)
         self._length = patches * triangles * TAXELS_PER_TRIANGLE  # taxels (= bytes) per sample
         self._blobs: _Contacts | None = None
-        self._first = 0
+        self._drawn = 0  # samples whose words are drawn
+        self._first = 0  # samples filled
 
     def take(self, m: int) -> npt.NDArray[np.uint8]:
         """The next ``m`` samples, (m, patches, triangles, 12) uint8 (m >= 1, within samples)."""
-        if not 1 <= m <= self.samples - self._first:
-            raise FieldRangeError(
-                f"contact stream: {m} samples asked, {self.samples - self._first} left"
-            )
-        length, no_load = self._length, self._no_load
-        if self._contacts and self._blobs is None and m < self.samples:
-            skipped = _skip_words(self._seed, self.samples * length // 4)
-            self._blobs = _Contacts.draw(skipped, self._contacts, length, no_load)
+        self._before_draw(m)
         # RandomState.bytes(n): n // 4 32-bit outputs, little-endian (length is a multiple of
         # 12); drawn from the bit generator directly, 1.5x faster, the same bytes
         # Generator.integers over the full 32-bit range returns the raw outputs as uint32 (no
         # uint64 array to convert): the same words, 1.4x faster than random_raw
-        values = np.empty(m * length, np.uint8)
+        values = np.empty(m * self._length, np.uint8)
         for lo in range(0, len(values), _NOISE_STEP):  # a cache's size at a time
             part = values[lo : lo + _NOISE_STEP]
             words = self._words.integers(0, 1 << 32, len(part) // 4, dtype=np.uint32)
-            _noise_values(words.astype("<u4", copy=False).view(np.uint8), no_load, out=part)
-        if self._contacts:
-            if self._blobs is None:  # one take: the generator has just drawn all the noise
-                rng = np.random.RandomState()
-                rng.set_state({"bit_generator": "MT19937", "state": self._bits.state["state"]})
-                self._blobs = _Contacts.draw(rng, self._contacts, length, no_load)
+            _noise_values(words.astype("<u4", copy=False).view(np.uint8), self._no_load, out=part)
+        self._after_draw(m)
+        return self._pressed(values, m)
+
+    def draw(self, m: int) -> npt.NDArray[np.uint32]:
+        """The generator's words for the next ``m`` samples, for :meth:`fill` (which another
+        thread may run: ``fill(draw(m), m)`` is ``take(m)``, in the same order)."""
+        self._before_draw(m)
+        words = self._words.integers(0, 1 << 32, m * self._length // 4, dtype=np.uint32)
+        self._after_draw(m)
+        return words
+
+    def fill(self, words: npt.NDArray[np.uint32], m: int) -> npt.NDArray[np.uint8]:
+        """The ``m`` samples of :meth:`draw`'s ``words`` (calls in the order of the draws)."""
+        raw = words.astype("<u4", copy=False).view(np.uint8)
+        values = np.empty(m * self._length, np.uint8)
+        for lo in range(0, len(values), _NOISE_STEP):  # a cache's size at a time
+            part = values[lo : lo + _NOISE_STEP]
+            _noise_values(raw[lo : lo + len(part)], self._no_load, out=part)
+        return self._pressed(values, m)
+
+    def _before_draw(self, m: int) -> None:
+        """Check ``m``; before a first draw of fewer than all samples, draw the contacts by a
+        jump past the noise."""
+        if not 1 <= m <= self.samples - self._drawn:
+            raise FieldRangeError(
+                f"contact stream: {m} samples asked, {self.samples - self._drawn} left"
+            )
+        if self._contacts and self._blobs is None and m < self.samples:
+            skipped = _skip_words(self._seed, self.samples * self._length // 4)
+            self._blobs = _Contacts.draw(skipped, self._contacts, self._length, self._no_load)
+
+    def _after_draw(self, m: int) -> None:
+        self._drawn += m
+        if self._contacts and self._blobs is None:  # one draw: all the noise is drawn
+            rng = np.random.RandomState()
+            rng.set_state({"bit_generator": "MT19937", "state": self._bits.state["state"]})
+            self._blobs = _Contacts.draw(rng, self._contacts, self._length, self._no_load)
+
+    def _pressed(self, values: npt.NDArray[np.uint8], m: int) -> npt.NDArray[np.uint8]:
+        """The noise ``values`` of the next ``m`` samples, pressed by the contacts."""
+        if self._blobs is not None:
             self._blobs.press(values, self._first, m)
         self._first += m
         return values.reshape(m, *self.shape)
@@ -419,6 +449,15 @@ class PayloadStream:
     def take(self, m: int) -> npt.NDArray[np.uint8]:
         """The next ``m`` samples' payload rows."""
         return _payload_rows(self._stream.take(m), self._data_bytes)
+
+    def draw(self, m: int) -> npt.NDArray[np.uint32]:
+        """The generator's words for the next ``m`` samples (:meth:`ContactStream.draw`)."""
+        return self._stream.draw(m)
+
+    def fill(self, words: npt.NDArray[np.uint32], m: int) -> npt.NDArray[np.uint8]:
+        """The payload rows of :meth:`draw`'s ``words``: ``fill(draw(m), m)`` is ``take(m)``;
+        the fills may run on another thread than the draws, in the same order."""
+        return _payload_rows(self._stream.fill(words, m), self._data_bytes)
 
 
 def _payload_rows(taxels: npt.NDArray[np.uint8], data_bytes: int) -> npt.NDArray[np.uint8]:

@@ -16,7 +16,7 @@ import queue
 import threading
 from collections import Counter, deque
 from collections.abc import Callable, Iterable, Iterator
-from typing import Final, Protocol, TypeAlias
+from typing import Final, Protocol, TypeAlias, TypeVar
 
 import numpy as np
 import numpy.typing as npt
@@ -42,6 +42,7 @@ BLOCK_BYTES: Final = 32 << 20  # frame bytes per block of repeated cycles (taxel
 MAX_LISTED: Final = 10_000  # cycles_detail entries at most (the rest are counted)
 PREFETCH_BYTES: Final = 8 << 20  # taxel bytes per chunk the producer thread draws ahead
 PREFETCH_CHUNKS: Final = 2  # chunks waiting at most (memory: about 3 chunks)
+_T = TypeVar("_T")
 # taxels to carry: (cycles, nodes, data_bytes) uint8, or such chunks in order (TaxelSource)
 Payloads: TypeAlias = npt.NDArray[np.uint8] | Iterable[npt.NDArray[np.uint8]]
 
@@ -131,11 +132,14 @@ class TaxelSource:
     (m, nodes, data_bytes) chunks from an iterator that yields them as they are needed (a CAN
     log read as the cycles go, :class:`emulator.skin_samples.SkinLog`), whose lengths add up
     to ``cycles``.
-    Seeded taxels are drawn ahead by a producer thread, chunk by chunk (``PREFETCH_BYTES`` each,
-    at most ``PREFETCH_CHUNKS`` waiting), while the driver assembles and writes the cycles
-    before them: the generator releases the GIL, and so do numpy's copies and the file writes.
-    The thread draws the chunks in order, so the bytes are those of one stream however they are
-    cut; :meth:`close` stops it.
+    Seeded taxels are made ahead, chunk by chunk (``PREFETCH_BYTES`` each, at most
+    ``PREFETCH_CHUNKS`` waiting), while the driver assembles and writes the cycles before them,
+    by two threads in a pipeline: one draws the generator's words of a chunk
+    (:meth:`skinframes.taxel.PayloadStream.draw`), the other turns the words of the chunk
+    before into taxels (:meth:`~skinframes.taxel.PayloadStream.fill`: noise and contacts). The
+    generator releases the GIL, and so do numpy's arithmetic, its copies and the file writes.
+    Each thread takes the chunks in order, so the bytes are those of one stream however they
+    are cut; :meth:`close` stops both.
     """
 
     def __init__(
@@ -158,7 +162,7 @@ class TaxelSource:
         )
         self._ahead: npt.NDArray[np.uint8] | None = None  # the rest of the chunk being taken
         self._stop = threading.Event()
-        self._thread: threading.Thread | None = None
+        self._threads: list[threading.Thread] = []
         if isinstance(payloads, np.ndarray | list | tuple):  # one array (nested lists too)
             self._given = self._checked(np.asarray(payloads), cycles)
             return
@@ -167,10 +171,16 @@ class TaxelSource:
             return
         stream = taxel.PayloadStream(nodes, cycles, data_bytes, seed=seed)
         chunk = max(1, PREFETCH_BYTES // (nodes * max(data_bytes, taxel.PATCH_BYTES)))
-        self._thread = threading.Thread(
-            target=self._produce, args=(stream, cycles, chunk), name="taxels", daemon=True
-        )
-        self._thread.start()
+        words: queue.Queue[tuple[npt.NDArray[np.uint32], int] | BaseException] = queue.Queue(1)
+        self._threads = [
+            threading.Thread(target=target, args=args, name=name, daemon=True)
+            for target, args, name in (
+                (self._draw, (stream, cycles, chunk, words), "taxel-words"),
+                (self._fill, (stream, cycles, words), "taxels"),
+            )
+        ]
+        for thread in self._threads:
+            thread.start()
 
     def _checked(self, arr: npt.NDArray[np.uint8], cycles: int) -> npt.NDArray[np.uint8]:
         """``arr`` if it is uint8 (cycles, nodes, data_bytes), else PayloadError."""
@@ -180,21 +190,59 @@ class TaxelSource:
             )
         return arr
 
-    def _produce(self, stream: taxel.PayloadStream, cycles: int, chunk: int) -> None:
-        """The producer thread: every cycle's taxels, chunk by chunk, into the queue."""
+    def _draw(
+        self,
+        stream: taxel.PayloadStream,
+        cycles: int,
+        chunk: int,
+        words: queue.Queue[tuple[npt.NDArray[np.uint32], int] | BaseException],
+    ) -> None:
+        """The first thread: the generator's words of every chunk, in order."""
         try:
             for first in range(0, cycles, chunk):
-                self._put(stream.take(min(chunk, cycles - first)))
-        except BaseException as e:  # handed to the consumer, raised there
-            self._put(e)
+                if self._stop.is_set():
+                    return
+                m = min(chunk, cycles - first)
+                self._put(words, (stream.draw(m), m))
+        except BaseException as e:  # handed on to the consumer, raised there
+            self._put(words, e)
 
-    def _put(self, item: npt.NDArray[np.uint8] | BaseException) -> None:
+    def _fill(
+        self,
+        stream: taxel.PayloadStream,
+        cycles: int,
+        words: queue.Queue[tuple[npt.NDArray[np.uint32], int] | BaseException],
+    ) -> None:
+        """The second thread: every chunk's taxels from its words, into the consumer's queue."""
+        try:
+            done = 0
+            while done < cycles:
+                item = self._get(words)
+                if item is None:
+                    return  # stopped
+                if isinstance(item, BaseException):
+                    raise item
+                self._put(self._chunks, stream.fill(*item))
+                done += item[1]
+        except BaseException as e:  # handed to the consumer, raised there
+            self._put(self._chunks, e)
+
+    def _put(self, into: queue.Queue[_T], item: _T) -> None:
         while not self._stop.is_set():
             try:
-                self._chunks.put(item, timeout=0.1)
+                into.put(item, timeout=0.1)
                 return
             except queue.Full:
                 continue
+
+    def _get(self, source: queue.Queue[_T]) -> _T | None:
+        """The next item, or None once stopped."""
+        while not self._stop.is_set():
+            try:
+                return source.get(timeout=0.1)
+            except queue.Empty:
+                continue
+        return None
 
     def take(self, count: int) -> npt.NDArray[np.uint8]:
         """The next ``count`` cycles' taxels, (count, nodes, data_bytes)."""
@@ -253,11 +301,11 @@ class TaxelSource:
             raise PayloadError(f"payloads: the chunks hold {total} cycles, {self._cycles} expected")
 
     def close(self) -> None:
-        """Stop the producer thread (it ends within its current chunk)."""
+        """Stop the producer threads (they end within their current chunk)."""
         self._stop.set()
-        if self._thread is not None:
-            self._thread.join()
-            self._thread = None
+        for thread in self._threads:
+            thread.join()
+        self._threads = []
 
 
 class _Overlap:

@@ -1,5 +1,6 @@
-"""The driver's taxel source: seeded taxels drawn ahead by a producer thread, cut anyhow, are the
-bytes of :func:`skinframes.taxel.sample_payloads` (whose digests test_taxel.py pins)."""
+"""The driver's taxel source: seeded taxels made ahead by two producer threads (the generator's
+words, then the taxels), cut anyhow, are the bytes of :func:`skinframes.taxel.sample_payloads`
+(whose digests test_taxel.py pins)."""
 
 from __future__ import annotations
 
@@ -56,22 +57,43 @@ def test_given_payloads_are_taken_as_they_are() -> None:
 
 
 @pytest.mark.usefixtures("small_chunks")
-def test_an_error_of_the_producer_is_raised_by_take(monkeypatch: pytest.MonkeyPatch) -> None:
-    def broken(self: taxel.PayloadStream, m: int) -> np.ndarray:
-        raise FieldRangeError("broken stream")
+@pytest.mark.parametrize("stage", ["draw", "fill"])
+def test_an_error_of_either_producer_thread_is_raised_by_take(
+    stage: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def broken(self: taxel.PayloadStream, *args: object) -> np.ndarray:
+        raise FieldRangeError(f"broken {stage}")
 
-    monkeypatch.setattr(taxel.PayloadStream, "take", broken)
+    monkeypatch.setattr(taxel.PayloadStream, stage, broken)
     source = TaxelSource(NODES, BYTES, CYCLES, seed=SEED)
-    with pytest.raises(FieldRangeError, match="broken stream"):
+    with pytest.raises(FieldRangeError, match=f"broken {stage}"):
         source.take(1)
     source.close()
 
 
 @pytest.mark.usefixtures("small_chunks")
-def test_close_stops_a_producer_that_is_ahead() -> None:
+def test_close_stops_producers_that_are_ahead() -> None:
     source = TaxelSource(NODES, BYTES, CYCLES, seed=SEED)
-    thread = source._thread
-    assert thread is not None
-    source.take(1)  # the producer fills the queue and waits for room
+    threads = list(source._threads)
+    assert len(threads) == 2
+    source.take(1)  # the producers fill their queues and wait for room
     source.close()
-    assert not thread.is_alive()
+    assert not any(thread.is_alive() for thread in threads)
+
+
+@pytest.mark.usefixtures("small_chunks")
+def test_closed_producers_draw_no_more_chunks(monkeypatch: pytest.MonkeyPatch) -> None:
+    """After close, the words thread stops drawing: it does not go on to the last cycle (here
+    2,500 chunks) while the run that closed it waits."""
+    drawn: list[int] = []
+    draw = taxel.PayloadStream.draw
+
+    def counted(self: taxel.PayloadStream, m: int) -> np.ndarray:
+        drawn.append(m)
+        return draw(self, m)
+
+    monkeypatch.setattr(taxel.PayloadStream, "draw", counted)
+    source = TaxelSource(NODES, BYTES, 10_000, seed=SEED)
+    source.take(1)
+    source.close()
+    assert len(drawn) < 20  # the chunks in the queues and in the threads' hands

@@ -320,3 +320,27 @@ def test_payload_stream_cut_anyhow_equals_sample_payloads(
     assert np.concatenate(pieces).tobytes() == whole.tobytes()
     with pytest.raises(FieldRangeError, match="0 left"):
         stream.take(1)
+
+
+@given(
+    st.integers(1, 4),
+    st.lists(st.tuples(st.integers(1, 7), st.booleans()), min_size=1, max_size=6),
+    st.integers(0, 2**32 - 1),
+    st.sampled_from([12, 192, 500]),
+)
+def test_payload_stream_draws_and_fills_as_it_takes(
+    patches: int, cuts: list[tuple[int, bool]], seed: int, data_bytes: int
+) -> None:
+    """``fill(draw(m), m)``, with every draw made before its fill or takes between them (one
+    cut being all the samples, or the first of several), is the seeded payloads."""
+    samples = sum(m for m, _ in cuts)
+    stream = taxel.PayloadStream(patches, samples, data_bytes, seed=seed)
+    drawn = [(stream.draw(m), m) for m, _ in cuts]  # all words first, as a thread ahead would
+    pieces = [stream.fill(words, m) for words, m in drawn]
+    whole = taxel.sample_payloads(patches, samples, data_bytes, seed=seed)
+    assert np.concatenate(pieces).tobytes() == whole.tobytes()
+    stream = taxel.PayloadStream(patches, samples, data_bytes, seed=seed)
+    mixed = [stream.take(m) if take else stream.fill(stream.draw(m), m) for m, take in cuts]
+    assert np.concatenate(mixed).tobytes() == whole.tobytes()
+    with pytest.raises(FieldRangeError, match="0 left"):
+        stream.draw(1)
