@@ -50,6 +50,7 @@ from emulator.esc.together import (
     TOGETHER_MIN,
     commit_together,
     logical_together,
+    lrd_last_readers,
 )
 from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
@@ -356,15 +357,20 @@ class EcatChain:
         (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
         memory with one plan and the same holes (:meth:`EscDevice.plain_access`) are done at
         once over their rows (:func:`logical_together`), a few of them each straight in its
-        memory (:meth:`EscDevice.plain_logical`); any other ESC on its own, as
-        :meth:`EscDevice.process`.
+        memory (:meth:`EscDevice.plain_logical`); an LRD's consecutive plain ESCs, whatever
+        their plans, from the last back (:func:`lrd_last_readers`); any other ESC on its own,
+        as :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
+        lrd = cmd == _LRD  # its plain ESCs need not share a plan (lrd_last_readers)
         run: list[int] = []  # consecutive targets whose plain access is run_plan, not done yet
         run_plan: PlainAccess = _UNTOUCHED
+        accesses: list[PlainAccess] = []  # an LRD's: those of the run
 
         def plain() -> int:  # the run: over its rows when long enough (no event changes)
+            if lrd:
+                return lrd_last_readers([line[q] for q in run], accesses, buf, at, n)
             if len(run) >= LOGICAL_TOGETHER_MIN:
                 plan = cut(*run_plan)
                 return logical_together(self.memory, run, plan, cmd, buf, at, n)
@@ -376,18 +382,20 @@ class EcatChain:
                 plan = dev.plain_access(cmd, lad, n)
                 if plan == _UNTOUCHED:
                     continue  # its FMMUs map none of the datagram's bytes: untouched
-                if plan == run_plan:
+                if plan == run_plan or (lrd and plan is not None):
                     run.append(p)
+                    if lrd:
+                        accesses.append(plan)
                     continue
                 wkc_inc += plain()
-                run = []  # the ESCs before this one are done: now it
+                run, accesses = [], []  # the ESCs before this one are done: now it
             before = dev.irq
             done = dev.logical_unless_plain(cmd, lad, buf, at, n)
             if isinstance(done, int):
                 wkc_inc += done
                 changed = changed or dev.irq != before
             elif done != _UNTOUCHED:
-                run, run_plan = [p], done
+                run, run_plan, accesses = [p], done, [done]
         if run:
             wkc_inc += plain()
         return wkc_inc, changed

@@ -30,10 +30,12 @@ __all__ = [
     "cut",
     "decode_fmmus",
     "decode_sms",
+    "leaves_bytes",
     "plain_access",
     "plan_logical",
     "remember",
     "shared_access",
+    "without",
 ]
 
 _LRD: Final = int(Command.LRD)
@@ -237,14 +239,28 @@ def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
     out = (list(plan[0]), list(plan[1]))
     for side, k, parts in reversed(holes):  # from the end: the indices stay valid
         op = plan[side][k]
-        left = _without(op, parts, side == 1)
+        left = without(op, parts, side == 1)
         if not left and side == 1 and op[1] < REGISTER_END:  # registers written count
             left = [(True, op[1], op[2] if op[0] else op[5], 0, 0, 0, 0)]  # writing no byte
         out[side][k : k + 1] = left
     return tuple(out[0]), tuple(out[1])
 
 
-def _without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> list[LogicalOp]:
+def leaves_bytes(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> bool:
+    """Whether ``op`` (:func:`plan_logical`) has physical bytes outside ``holes``."""
+    lo = op[1]
+    hi = lo + (op[3] if op[0] else op[2])
+    at = lo
+    for start, end in sorted(holes):
+        if start > at:
+            return True
+        at = max(at, end)
+        if at >= hi:
+            return False
+    return at < hi
+
+
+def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> list[LogicalOp]:
     """``op`` (:func:`plan_logical`) without its physical bytes in ``holes``: a byte-wise part
     as the runs left; a bit-wise part with the same bytes and the holes' bits out of its mask
     (of the physical bits for a write, of the frame bits for a read), or nothing when no byte

@@ -30,7 +30,7 @@ import numpy.typing as npt
 
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
 from emulator.esc.device import _LRD, _LWR, EscDevice, port1_forwarding
-from emulator.esc.mapping import LogicalPlan
+from emulator.esc.mapping import LogicalOp, LogicalPlan, PlainAccess, leaves_bytes, without
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -53,7 +53,13 @@ from emulator.esc.registers import (
 )
 from emulator.esc.write_plans import TOUCHES_FMMU, TOUCHES_SM, mark
 
-__all__ = ["LOGICAL_TOGETHER_MIN", "TOGETHER_MIN", "commit_together", "logical_together"]
+__all__ = [
+    "LOGICAL_TOGETHER_MIN",
+    "TOGETHER_MIN",
+    "commit_together",
+    "logical_together",
+    "lrd_last_readers",
+]
 
 TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows beats one by one
 LOGICAL_TOGETHER_MIN: Final = 8  # ESCs with one plain logical plan from which rows beat one by one
@@ -267,3 +273,54 @@ def _shifted(data: npt.NDArray[np.uint8], shift: int, width: int) -> npt.NDArray
 def _mask(bits: int, width: int) -> npt.NDArray[np.uint8]:
     """An integer mask as ``width`` little-endian bytes."""
     return np.frombuffer(bits.to_bytes(width, "little"), np.uint8)
+
+
+def lrd_last_readers(
+    devices: Sequence[EscDevice],
+    accesses: Sequence[PlainAccess],
+    buf: bytearray,
+    off: int,
+    n: int,
+) -> int:
+    """An LRD (data ``buf[off:off+n]``, in place) through consecutive ESCs ``devices``, each
+    of which maps it onto plain memory by its own plan (:meth:`EscDevice.plain_access`), as
+    each in turn would do it: the working counter's increment.
+
+    An ESC's reads replace their bits of the frame and nothing else happens, so a bit leaves
+    with the value of the last ESC that reads it. The ESCs are worked from the last back, each
+    reading only the bits no later ESC reads: once every bit is read, the ESCs before count
+    in the working counter and read nothing, whatever their FMMUs ask for.
+    """
+    uncovered = (1 << 8 * n) - 1  # the bits no later ESC reads
+    frame: int | None = None
+    wkc = 0
+    for dev, (plan, holes) in zip(reversed(devices), reversed(accesses), strict=True):
+        holed = {k: parts for side, k, parts in holes if side == 0}
+        reads = False  # whether it reads a byte (not all holes): it counts
+        for k, op in enumerate(plan[0]):
+            parts = holed.get(k)
+            if not uncovered:  # nothing left to read: only whether it counts
+                reads = parts is None or leaves_bytes(op, parts)
+                if reads:
+                    break
+                continue
+            ops: Sequence[LogicalOp] = (op,) if parts is None else without(op, parts, False)
+            for bytewise, a, b, c, d, e, _ in ops:
+                reads = True
+                if bytewise:  # physical a, frame offset b, c bytes
+                    mask = ((1 << 8 * c) - 1) << 8 * b
+                    value = int.from_bytes(dev.mem[a : a + c], "little") << 8 * b
+                else:  # physical bytes [a, a + b), shift c, mask d of frame bytes [e, e + f)
+                    mask = d << 8 * e
+                    value = int.from_bytes(dev.mem[a : a + b], "little")
+                    value = (value >> c if c >= 0 else value << -c) << 8 * e
+                new = mask & uncovered
+                if new:
+                    if frame is None:
+                        frame = int.from_bytes(buf[off : off + n], "little")
+                    frame = (frame & ~new) | (value & new)
+                    uncovered ^= new  # (new is inside uncovered)
+        wkc += reads
+    if frame is not None:
+        buf[off : off + n] = frame.to_bytes(n, "little")
+    return wkc

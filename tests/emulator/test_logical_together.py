@@ -277,3 +277,22 @@ def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
     c = mapping.shared_access(((*met[:2], 0x1300, *met[3:]),), lrw, 0x100, 8)
     assert a is b and a is not c
     assert a.plan == ((((True, 0x1200, 0, 8, 0, 0, 0),), ((True, 0x1200, 0, 8, 0, 0, 0),)))
+
+
+@pytest.mark.parametrize(
+    ("holes", "left"),
+    [
+        ([(0x1001, 0x1010)], True),  # byte 0x1000
+        ([(0x1000, 0x1010)], False),
+        ([(0x1000, 0x1005), (0x1006, 0x1010)], True),  # byte 0x1005
+        ([(0x1006, 0x1010), (0x1000, 0x1005)], True),  # in any order
+        ([(0x1000, 0x1008), (0x1004, 0x1010)], False),  # overlapping holes
+        ([(0x0FF0, 0x1020)], False),
+        ([(0x1000, 0x100F)], True),  # the last byte
+    ],
+)
+def test_a_part_leaves_bytes_outside_its_holes(holes: list[tuple[int, int]], left: bool) -> None:
+    byte_wise = (True, 0x1000, 0, 0x10, 0, 0, 0)  # physical [0x1000, 0x1010)
+    bit_wise = (False, 0x1000, 0x10, 3, 0xFF, 0, 1)  # the same physical bytes
+    assert mapping.leaves_bytes(byte_wise, holes) is left
+    assert mapping.leaves_bytes(bit_wise, holes) is left
