@@ -128,10 +128,10 @@ def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int)
     writes = [f for f in hit if f[7] and cmd != _LRD]
     plan: list[list[LogicalOp]] = [[], []]
     for ops, side, write in ((plan[0], reads, False), (plan[1], writes, True)):
-        claimed = bytearray(n) if len(side) > 1 else None
+        claimed: list[tuple[int, int]] | None = [] if len(side) > 1 else None
         for f in side:
             log_start, log_end, phys = f[:3]
-            for a, b in claim(claimed, lad, max(lad, log_start), min(lad + n, log_end)):
+            for a, b in claim(claimed, max(lad, log_start), min(lad + n, log_end)):
                 if f[8]:  # byte-wise mapping
                     ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
                     continue
@@ -290,22 +290,36 @@ def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> lis
     return [(False, lo, op[2], shift, op[4] & valid, op[5], op[6])]
 
 
-def claim(claimed: bytearray | None, lad: int, lo: int, hi: int) -> list[tuple[int, int]]:
+def claim(claimed: list[tuple[int, int]] | None, lo: int, hi: int) -> list[tuple[int, int]]:
     """The runs of [lo, hi) that no lower-numbered FMMU took, now taken (datasheet I 7): a
-    lower FMMU's bytes inside the range split it."""
-    if claimed is None or lo >= hi:
-        return [(lo, hi)] if lo < hi else []
-    runs = []
-    at, end = lo - lad, hi - lad
-    while at < end:
-        first = claimed.find(0, at, end)
-        if first < 0:
+    lower FMMU's bytes inside the range split it. ``claimed``: the ranges taken so far,
+    sorted and apart (None: no other FMMU claims)."""
+    if lo >= hi:
+        return []
+    if claimed is None:
+        return [(lo, hi)]
+    runs, at = [], lo
+    for start, end in claimed:
+        if end <= at:
+            continue
+        if start >= hi:
             break
-        at = claimed.find(1, first, end)
-        if at < 0:
-            at = end
-        claimed[first:at] = b"\x01" * (at - first)
-        runs.append((lad + first, lad + at))
+        if start > at:
+            runs.append((at, start))
+        at = end
+        if at >= hi:
+            break
+    if at < hi:
+        runs.append((at, hi))
+    kept = []
+    for start, end in claimed:  # in order: those that meet [lo, hi) join it
+        if end < lo or start > hi:
+            kept.append((start, end))
+        else:
+            lo, hi = min(lo, start), max(hi, end)
+    kept.append((lo, hi))
+    kept.sort()
+    claimed[:] = kept
     return runs
 
 

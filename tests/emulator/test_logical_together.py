@@ -16,6 +16,8 @@ import struct
 
 import numpy as np
 import pytest
+from hypothesis import given
+from hypothesis import strategies as st
 
 from emulator.esc import mapping, together
 from emulator.esc.chain import EcatChain, configure_frames
@@ -296,3 +298,23 @@ def test_a_part_leaves_bytes_outside_its_holes(holes: list[tuple[int, int]], lef
     bit_wise = (False, 0x1000, 0x10, 3, 0xFF, 0, 1)  # the same physical bytes
     assert mapping.leaves_bytes(byte_wise, holes) is left
     assert mapping.leaves_bytes(bit_wise, holes) is left
+
+
+@given(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 40)), max_size=8))
+def test_claims_leave_the_bytes_no_earlier_claim_took(ranges: list[tuple[int, int]]) -> None:
+    """FMMU claims in register order (datasheet I 7): each gets the maximal runs of its range
+    that no earlier claim took, as sets of bytes say."""
+    claimed: list[tuple[int, int]] = []
+    taken: set[int] = set()
+    for lo, hi in ranges:
+        free = [x for x in range(lo, hi) if x not in taken]
+        runs: list[tuple[int, int]] = []
+        for x in free:
+            if runs and runs[-1][1] == x:
+                runs[-1] = (runs[-1][0], x + 1)
+            else:
+                runs.append((x, x + 1))
+        assert mapping.claim(claimed, lo, hi) == runs
+        taken |= set(range(lo, hi))
+        assert claimed == sorted(claimed)
+        assert all(a[1] < b[0] for a, b in itertools.pairwise(claimed))  # apart
