@@ -1117,7 +1117,10 @@ class EscDevice:
 
         A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
         deactivated by the PDI locks its whole area (datasheet I 8.5, 8.7). The register table
-        is decoded once per distinct bytes (:func:`decode_sms`).
+        is decoded once per distinct bytes (:func:`decode_sms`). When it decodes to the
+        SyncManagers the ESC has (bytes changed that set none of them: a disabled one's
+        configuration, the repeat or latch bits), nothing changes: they were enabled before
+        the frame too, and keep their buffers.
         """
         mem, sms = self.mem, self._sms
         table = bytes(mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers])
@@ -1130,6 +1133,16 @@ class EscDevice:
             enabled = {e[0] for e in entries}
             idle = tuple(REG_SM + SM_BYTES * z + 5 for z in range(len(sms)) if z not in enabled)
             found = remember(SM_CACHE, table, (entries, tuple(by_start), idle))
+        if found[0] == self._sm_areas:
+            return  # the same SyncManagers (bytes that set none of them changed): as they are
+        self._build_sms(found, enabled_before)
+
+    def _build_sms(
+        self, found: tuple[SmTable, tuple[int, ...], tuple[int, ...]], enabled_before: bytes | None
+    ) -> None:
+        """:meth:`_rebuild_sms` by the decoded table ``found`` (:data:`SM_CACHE`): the
+        SyncManagers that left or changed lose their state, the others keep it."""
+        mem, sms = self.mem, self._sms
         decoded, order, idle = found
         for st in idle:  # disabled or too short: no buffer
             if mem[st] != SM_NO_BUFFER or sms[(st - REG_SM) // SM_BYTES] is not None:

@@ -16,6 +16,7 @@ import pytest
 from emulator.errors import TopologyError
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
+from emulator.esc.device import EscDevice
 from emulator.esc.hostile import hostile_frames, master_reset_frames
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -166,3 +167,51 @@ def test_an_esc_belongs_to_one_chain() -> None:
     chain = EcatChain.skin(2, SIZE)
     with pytest.raises(TopologyError, match="already in a chain"):
         EcatChain(chain.devices)
+
+
+def sm_state(chain: EcatChain) -> list[list[tuple[object, ...]]]:
+    """Every ESC's SyncManagers as it runs them: area, lock, buffer state."""
+    return [
+        [
+            (sm.index, sm.start, sm.length, sm.locked, sm.open, sm.complete, sm.full, sm.buf)
+            for sm in dev._active
+        ]
+        for dev in chain.devices
+    ]
+
+
+def test_syncmanager_tables_that_decode_alike_keep_the_syncmanagers(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Register bytes that set no SyncManager (a disabled one's configuration, repeat and latch
+    bits) change nothing: an ESC keeps its SyncManagers (``EscDevice._rebuild_sms`` returns
+    early). A chain whose ESCs rebuild them every time leaves the same bytes and SyncManager
+    states under hostile frames, which write SyncManager registers at every ESC."""
+    fast, reference = EcatChain.configured(NODES, SIZE), EcatChain.configured(NODES, SIZE)
+    rebuild, build = EscDevice._rebuild_sms, EscDevice._build_sms
+    references = {id(dev) for dev in reference.devices}
+    calls = {"rebuild": 0, "build": 0}
+
+    def always(self: EscDevice, enabled_before: bytes | None = None) -> None:
+        if id(self) in references:
+            self._sm_areas = ((-1, -1, -1, -1, -1),)  # never a decoded table: built
+        else:
+            calls["rebuild"] += 1
+        rebuild(self, enabled_before)
+
+    def counted(self: EscDevice, *args: object) -> None:
+        if id(self) not in references:
+            calls["build"] += 1
+        build(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EscDevice, "_rebuild_sms", always)
+    monkeypatch.setattr(EscDevice, "_build_sms", counted)
+    setup = master_reset_frames(NODES) + configure_frames(fast.devices[0].info, NODES)
+    for i, f in enumerate(hostile_frames(3_000, nodes=NODES, input_bytes=SIZE, seed=9)):
+        assert fast.process_frame(f) == reference.process_frame(f), f"frame {i}"
+        assert np.array_equal(fast.memory, reference.memory), f"frame {i}"
+        assert sm_state(fast) == sm_state(reference), f"frame {i}"
+        if i % 300 == 299:
+            for g in setup:
+                assert fast.process_frame(g) == reference.process_frame(g)
+    assert calls["rebuild"] - calls["build"] > 500  # kept, not rebuilt, that often
