@@ -767,8 +767,9 @@ class EscDevice:
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
         FMMUs it meets and access (:func:`shared_access`), looked up once per FMMU table;
-        whether it is plain (:func:`plain_access`) is remembered for the SyncManager table
-        last asked about (ESCs configured alike ask alike)."""
+        whether it is plain (:func:`plain_access`) is remembered for the SyncManager table,
+        memory top and register write plans last asked about (ESCs configured alike ask
+        alike)."""
         plans = self._logical_plans
         access = (cmd, lad, n)
         found = plans.get(access)
@@ -784,9 +785,10 @@ class EscDevice:
 
     def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:
         """What a logical access does when all it does is plain memory: user or process RAM
-        this ESC gives ECAT access to, no buffer of a SyncManager, no register written, no
-        register read that has a side effect; its plan without the bytes where it does nothing
-        (:meth:`plain_access`, :func:`emulator.esc.mapping.cut`); else None."""
+        this ESC gives ECAT access to, no buffer of a SyncManager, no register written but
+        read-only ones, no register read that has a side effect; its plan without the bytes
+        where it does nothing (:meth:`plain_access`, :func:`emulator.esc.mapping.cut`); else
+        None."""
         found = self._access(cmd, lad, n).plain
         return None if found is None else cut(*found)
 
