@@ -28,6 +28,18 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.esc.commands import (
+    ARMW,
+    AUTO_INCREMENT,
+    BRD,
+    BRW,
+    BWR,
+    CONFIGURED,
+    EVERYONE,
+    INCREMENTS,
+    LOGICAL,
+    LRD,
+)
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
 from emulator.esc.mapping import PlainAccess, cut
@@ -73,14 +85,6 @@ MAX_SLAVES: Final = 0xFFFF  # auto-increment addresses are 16 bits
 _VLAN_TPID: Final = 0x8100
 _ETH_HEADER: Final = ethernet.HEADER_BYTES
 _U16 = struct.Struct("<H")
-# command classes (ETG.1000.4 Table 14) for the frame plan of EcatChain._run_planned
-_AUTO_INCREMENT: Final = frozenset({1, 2, 3})
-_CONFIGURED: Final = frozenset({4, 5, 6})
-_LOGICAL: Final = frozenset({10, 11, 12})
-_EVERYONE: Final = frozenset({7, 8, 9, 13, 14})  # broadcasts, ARMW, FRMW
-_INCREMENTS: Final = frozenset({1, 2, 3, 7, 8, 9, 13})  # ADP + 1 at every ESC
-_BRD, _BWR, _BRW, _ARMW = (int(c) for c in (Command.BRD, Command.BWR, Command.BRW, Command.ARMW))
-_LRD: Final = int(Command.LRD)
 _UNTOUCHED: Final[PlainAccess] = (((), ()), ())  # a logical access that maps nothing
 
 
@@ -287,21 +291,21 @@ class EcatChain:
         spans: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None
         for k, (cmd, _, ado, data_at, n, irq_at) in enumerate(layout):
             adp = adps[k]
-            if cmd in _EVERYONE:
+            if cmd in EVERYONE:
                 wkc_inc, changed = self._everyone(line, cmd, adp, ado, buf, data_at, n)
             else:
                 targets: list[int] = []
                 wkc_inc, changed = 0, False
-                if cmd in _AUTO_INCREMENT:
+                if cmd in AUTO_INCREMENT:
                     pos = -adp & 0xFFFF
                     if pos < reach:
                         targets.append(pos)
                         adp = 0
-                elif cmd in _CONFIGURED:
+                elif cmd in CONFIGURED:
                     if stations is None:
                         stations = self._addresses(reach)
                     targets = self._addressed(stations, adp)
-                elif cmd in _LOGICAL and n:
+                elif cmd in LOGICAL and n:
                     if spans is None:
                         spans = (
                             np.array([d.fmmu_span[0] for d in line], dtype=np.int64),
@@ -327,7 +331,7 @@ class EcatChain:
             if irq_all:
                 self._or_irq(buf, irq_at, irq_all)
         for k, (cmd, adp_at, *_) in enumerate(layout):
-            if cmd in _INCREMENTS:
+            if cmd in INCREMENTS:
                 adp = (adps[k] + reach) & 0xFFFF
                 buf[adp_at] = adp & 0xFF
                 buf[adp_at + 1] = adp >> 8
@@ -363,7 +367,7 @@ class EcatChain:
         """
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
-        lrd = cmd == _LRD  # its plain ESCs need not share a plan (lrd_last_readers)
+        lrd = cmd == LRD  # its plain ESCs need not share a plan (lrd_last_readers)
         run: list[int] = []  # consecutive targets whose plain access is run_plan, not done yet
         run_plan: PlainAccess = _UNTOUCHED
         accesses: list[PlainAccess] = []  # an LRD's: those of the run
@@ -414,19 +418,19 @@ class EcatChain:
         process memory) each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
-        if cmd == _BWR:
+        if cmd == BWR:
             if _plain_write(ado, end):
                 entry = (ado, bytes(buf[at : at + n]))
                 for dev in line:
                     dev.pending.append(entry)
                 return reach, False
-        elif cmd == _BRD:
+        elif cmd == BRD:
             if _register_read(ado, end):
                 ored = np.bitwise_or.reduce(memory[:reach, ado:end])
                 buf[at : at + n] = (ored | np.frombuffer(buf, np.uint8, n, at)).tobytes()
                 events = cleared_events(ado, end)
                 return reach, bool(events) and self._clear_events(line, events)
-        elif cmd == _BRW:
+        elif cmd == BRW:
             if _plain_read(ado, end):
                 frame = np.frombuffer(buf, np.uint8, n, at).copy()
                 offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
@@ -438,7 +442,7 @@ class EcatChain:
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
         total, changed = 0, False
-        step = 1 if cmd in _INCREMENTS else 0
+        step = 1 if cmd in INCREMENTS else 0
         for p, dev in enumerate(line):
             before = dev.irq
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
@@ -469,7 +473,7 @@ class EcatChain:
         data as it arrives among its shadow writes (datasheet I Table 7)."""
         reach = len(line)
         addressed = self._addressed
-        readers = [-adp & 0xFFFF] if cmd == _ARMW else addressed(self._addresses(reach), adp)
+        readers = [-adp & 0xFFFF] if cmd == ARMW else addressed(self._addresses(reach), adp)
         plain = _plain_read(ado, ado + n)
         entry = (ado, bytes(buf[at : at + n]))
         first, total, changed = 0, 0, False
@@ -485,7 +489,7 @@ class EcatChain:
                 total += 1
             else:
                 before = dev.irq
-                total += dev.process(cmd, 0 if cmd == _ARMW else adp, ado, buf, at, n)[1]
+                total += dev.process(cmd, 0 if cmd == ARMW else adp, ado, buf, at, n)[1]
                 changed = changed or dev.irq != before
             entry, first = (ado, bytes(buf[at : at + n])), p + 1
         for dev in line[first:]:

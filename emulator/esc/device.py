@@ -54,6 +54,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
+from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, DcClock
 from emulator.esc.mapping import (
     FMMU_CACHE,
@@ -143,9 +144,6 @@ __all__ = [
     "TraceCopy",
 ]
 
-# commands (ETG.1000.4 Table 14; datasheet I Table 6) as plain ints for the hot path
-_APRD, _APWR, _APRW, _FPRD, _FPWR, _FPRW, _BRD, _BWR, _BRW = range(1, 10)
-_LRD, _LWR, _LRW, _ARMW, _FRMW = range(10, 15)
 _RESET_SEQUENCE: Final = b"RES"
 
 
@@ -533,30 +531,30 @@ class EscDevice:
         Returns:
             (the ADP this ESC passes on, the working-counter increment).
         """
-        if cmd <= _APRW or cmd == _ARMW:  # auto increment (NOP is 0: untouched)
+        if cmd <= APRW or cmd == ARMW:  # auto increment (NOP is 0: untouched)
             if cmd == 0:
                 return adp, 0
             out = (adp + 1) & 0xFFFF
-            if cmd == _ARMW:
+            if cmd == ARMW:
                 if adp == 0:
                     return out, self._read(ado, buf, off, n, False)
                 return out, self._write(ado, bytes(buf[off : off + n]))
             if adp != 0:
                 return out, 0
-            return out, self._physical(cmd - _APRD, ado, buf, off, n)
-        if cmd <= _FPRW or cmd == _FRMW:  # configured station address or alias
+            return out, self._physical(cmd - APRD, ado, buf, off, n)
+        if cmd <= FPRW or cmd == FRMW:  # configured station address or alias
             mem = self.mem
             hit = adp == mem[REG_STATION] | mem[REG_STATION + 1] << 8 or (
                 mem[REG_DL_CONTROL + 3] & 0x01 and adp == mem[REG_ALIAS] | mem[REG_ALIAS + 1] << 8
             )
-            if cmd == _FRMW:
+            if cmd == FRMW:
                 if hit:
                     return adp, self._read(ado, buf, off, n, False)
                 return adp, self._write(ado, bytes(buf[off : off + n]))
-            return adp, (self._physical(cmd - _FPRD, ado, buf, off, n) if hit else 0)
-        if cmd <= _BRW:  # broadcast
-            return (adp + 1) & 0xFFFF, self._physical(cmd - _BRD, ado, buf, off, n, broadcast=True)
-        if cmd <= _LRW:
+            return adp, (self._physical(cmd - FPRD, ado, buf, off, n) if hit else 0)
+        if cmd <= BRW:  # broadcast
+            return (adp + 1) & 0xFFFF, self._physical(cmd - BRD, ado, buf, off, n, broadcast=True)
+        if cmd <= LRW:
             lad = adp | ado << 16
             lo, hi = self.fmmu_span  # none of the FMMUs maps a byte outside it
             if lad >= hi or lad + n <= lo:
@@ -806,7 +804,7 @@ class EscDevice:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
         counter's increment; but when it is plain (:meth:`plain_access`), that access, untouched,
         for the chain to do it together with the ESCs after this one."""
-        if cmd == _LRD and self.read_buffered(lad, buf, off, n):
+        if cmd == LRD and self.read_buffered(lad, buf, off, n):
             return 1
         found = self._access(cmd, lad, n)
         if found.plain is not None:
@@ -841,10 +839,10 @@ class EscDevice:
                 value = value << c if c >= 0 else value >> -c
                 mem[a : a + b] = ((target & ~d) | (value & d)).to_bytes(b, "little")
         r, w = int(bool(reads)), int(bool(writes))
-        return r if cmd == _LRD else w if cmd == _LWR else r + 2 * w
+        return r if cmd == LRD else w if cmd == LWR else r + 2 * w
 
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
-        if cmd == _LRD and self.read_buffered(lad, buf, off, n):
+        if cmd == LRD and self.read_buffered(lad, buf, off, n):
             return 1
         return self._through(self._access(cmd, lad, n).plan, cmd, buf, off, n)
 
@@ -868,9 +866,9 @@ class EscDevice:
                     value = value << c if c >= 0 else value >> -c
                     target = (target & ~d) | (value & d)
                     w |= self._write(a, target.to_bytes(b, "little"))
-        if cmd == _LRD:
+        if cmd == LRD:
             return r
-        if cmd == _LWR:
+        if cmd == LWR:
             return w
         return r + 2 * w
 

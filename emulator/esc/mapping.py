@@ -13,8 +13,8 @@ import struct
 from collections.abc import Callable, Sequence
 from typing import Final, TypeVar
 
+from emulator.esc.commands import LRD, LWR
 from emulator.esc.registers import ADDRESS_SPACE, REGISTER_END, cleared_events, reads_dc
-from skinframes.ethercat import Command
 
 __all__ = [
     "ACCESS_CACHE",
@@ -38,8 +38,6 @@ __all__ = [
     "without",
 ]
 
-_LRD: Final = int(Command.LRD)
-_LWR: Final = int(Command.LWR)
 
 SM_ENTRY: Final = struct.Struct("<HHBBBB")  # one SyncManager's registers (datasheet II 2.14)
 FMMU_ENTRY: Final = struct.Struct("<IHBBHBBB3x")  # one FMMU's registers (datasheet II 2.13)
@@ -124,8 +122,8 @@ def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int)
     bit-wise work is thus bounded by the mapped bytes, not by the datagram's length."""
     lo, hi = lad, lad + n
     hit = [f for f in fmmus if not (f[1] <= lo or f[0] >= hi)]
-    reads = [f for f in hit if f[6] and cmd != _LWR]
-    writes = [f for f in hit if f[7] and cmd != _LRD]
+    reads = [f for f in hit if f[6] and cmd != LWR]
+    writes = [f for f in hit if f[7] and cmd != LRD]
     plan: list[list[LogicalOp]] = [[], []]
     for ops, side, write in ((plan[0], reads, False), (plan[1], writes, True)):
         claimed: list[tuple[int, int]] | None = [] if len(side) > 1 else None

@@ -28,8 +28,9 @@ from typing import Final
 import numpy as np
 import numpy.typing as npt
 
+from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
-from emulator.esc.device import _LRD, _LWR, EscDevice, port1_forwarding
+from emulator.esc.device import EscDevice, port1_forwarding
 from emulator.esc.mapping import LogicalOp, LogicalPlan, PlainAccess, leaves_bytes, without
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
@@ -252,7 +253,7 @@ def logical_together(
     if reads:
         buf[off : off + n] = left[-1].tobytes()
     r, w = int(bool(reads)), int(bool(writes))
-    return m * (r if cmd == _LRD else w if cmd == _LWR else r + 2 * w)
+    return m * (r if cmd == LRD else w if cmd == LWR else r + 2 * w)
 
 
 def _shifted(data: npt.NDArray[np.uint8], shift: int, width: int) -> npt.NDArray[np.uint8]:
