@@ -246,16 +246,7 @@ def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
 
 def leaves_bytes(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> bool:
     """Whether ``op`` (:func:`plan_logical`) has physical bytes outside ``holes``."""
-    lo = op[1]
-    hi = lo + (op[3] if op[0] else op[2])
-    at = lo
-    for start, end in sorted(holes):
-        if start > at:
-            return True
-        at = max(at, end)
-        if at >= hi:
-            return False
-    return at < hi
+    return bool(_outside(op, holes))
 
 
 def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> list[LogicalOp]:
@@ -263,29 +254,37 @@ def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> lis
     as the runs left; a bit-wise part with the same bytes and the holes' bits out of its mask
     (of the physical bits for a write, of the frame bits for a read), or nothing when no byte
     is left."""
+    runs, lo = _outside(op, holes), op[1]
+    if op[0]:  # byte-wise: physical a, frame offset b, c bytes
+        return [(True, x, op[2] + (x - lo), y - x, 0, 0, 0) for x, y in runs]
+    if not runs:
+        return []
+    valid = 0
+    for x, y in runs:
+        valid |= ((1 << 8 * (y - x)) - 1) << 8 * (x - lo)
+    shift = op[3]
+    if not write:  # the valid physical bits where they lie in the frame bytes
+        valid = valid >> shift if shift >= 0 else valid << -shift
+    return [(False, lo, op[2], shift, op[4] & valid, op[5], op[6])]
+
+
+def _outside(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The runs [x, y) of ``op``'s physical bytes outside ``holes`` (in any order, may
+    overlap), in order."""
     lo = op[1]
     hi = lo + (op[3] if op[0] else op[2])
     runs, at = [], lo
     for start, end in sorted(holes):
+        if start >= hi:
+            break
         if start > at:
-            runs.append((at, start))  # (every hole starts before the part ends)
+            runs.append((at, start))
         at = max(at, end)
         if at >= hi:
             break
     if at < hi:
         runs.append((at, hi))
-    if op[0]:  # byte-wise: physical a, frame offset b, c bytes
-        return [(True, x, op[2] + (x - lo), y - x, 0, 0, 0) for x, y in runs if x < y]
-    valid = 0
-    for x, y in runs:
-        if x < y:
-            valid |= ((1 << 8 * (y - x)) - 1) << 8 * (x - lo)
-    if not valid:
-        return []
-    shift = op[3]
-    if not write:  # the valid physical bits where they lie in the frame bytes
-        valid = valid >> shift if shift >= 0 else valid << -shift
-    return [(False, lo, op[2], shift, op[4] & valid, op[5], op[6])]
+    return runs
 
 
 def claim(claimed: list[tuple[int, int]] | None, lo: int, hi: int) -> list[tuple[int, int]]:

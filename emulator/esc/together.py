@@ -301,8 +301,8 @@ def lrd_last_readers(
         for k, op in enumerate(plan[0]):
             parts = holed.get(k)
             if not uncovered:  # nothing left to read: only whether it counts
-                reads = parts is None or leaves_bytes(op, parts)
-                if reads:
+                if reads or parts is None or leaves_bytes(op, parts):
+                    reads = True
                     break
                 continue
             ops: Sequence[LogicalOp] = (op,) if parts is None else without(op, parts, False)

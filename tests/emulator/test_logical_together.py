@@ -318,3 +318,31 @@ def test_claims_leave_the_bytes_no_earlier_claim_took(ranges: list[tuple[int, in
         taken |= set(range(lo, hi))
         assert claimed == sorted(claimed)
         assert all(a[1] < b[0] for a, b in itertools.pairwise(claimed))  # apart
+
+
+def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
+    """An LRD of 2 bytes: the last ESC reads byte 1; the one before reads byte 0 through FMMU 0
+    and would read byte 1 through FMMU 1, which maps a buffer its PDI locked (a hole). Worked from
+    the last back, every bit is read once the first ESC's FMMU 0 is done: its FMMU 1 reads
+    nothing, yet the ESC read byte 0 and counts (working counter 2, as ESC by ESC)."""
+    chains = [kind.configured(2, SIZE) for kind in (EcatChain, OneByOne)]
+    for chain in chains:
+        first, last = chain.devices
+        first.pdi_deactivate_sm(0, True)  # the inputs' buffer at 0x1000: locked
+        for dev, fmmus in (
+            (first, ((0x8000, 0x1100), (0x8001, 0x1000))),
+            (last, ((0x8001, 0x1100), None)),
+        ):
+            dev.pdi_write(0x1100, bytes((0xA0 + dev.position,)))
+            for k, fmmu in enumerate(fmmus):
+                regs = bytes(16)
+                if fmmu is not None:  # one byte, byte-wise, read, active
+                    regs = struct.pack("<IHBBHBBB3x", fmmu[0], 1, 0, 7, fmmu[1], 0, 1, 1)
+                apwr = Datagram(Command.APWR, -dev.position & 0xFFFF, 0x0600 + 16 * k, regs)
+                chain.process_frame(ethercat.frame(EcatFrame((apwr,))).to_bytes())
+    lrd = ethercat.frame(EcatFrame((Datagram.logical(Command.LRD, 0x8000, bytes(2)),))).to_bytes()
+    fast, reference = (chain.process_frame(lrd) for chain in chains)
+    assert fast == reference
+    assert fast is not None
+    (d,) = ethercat.decode(fast[14:])[0].datagrams
+    assert (d.data, d.wkc) == (bytes((0xA0, 0xA1)), 2)
