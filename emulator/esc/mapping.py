@@ -2,8 +2,8 @@
 accesses planned through the FMMUs (datasheet I 7, 8; II 2.13, 2.14).
 
 Functions of register bytes only: a table is decoded once per distinct bytes, a plan worked out
-once per table and access, in caches of bounded size (:func:`remember`), shared by every ESC
-configured alike. :class:`emulator.esc.device.EscDevice` carries the plans out.
+once per access and the FMMUs it meets, in caches of bounded size (:func:`remember`), shared by
+every ESC configured alike. :class:`emulator.esc.device.EscDevice` carries the plans out.
 """
 
 from __future__ import annotations
@@ -154,7 +154,7 @@ PlainAccess = tuple[LogicalPlan, Holes]
 
 
 class Access:
-    """A logical access by one FMMU table: its plan (:func:`plan_logical`), and whether it is
+    """A logical access by the FMMUs it meets: its plan (:func:`plan_logical`), and whether it is
     all plain memory (:func:`plain_access`) with the SyncManager areas, memory top and register
     write plans last asked."""
 
