@@ -42,7 +42,7 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
-from emulator.esc.mapping import PlainAccess, cut
+from emulator.esc.mapping import PlainAccess
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     REG_ALIAS,
@@ -85,7 +85,7 @@ MAX_SLAVES: Final = 0xFFFF  # auto-increment addresses are 16 bits
 _VLAN_TPID: Final = 0x8100
 _ETH_HEADER: Final = ethernet.HEADER_BYTES
 _U16 = struct.Struct("<H")
-_UNTOUCHED: Final[PlainAccess] = (((), ()), ())  # a logical access that maps nothing
+_UNTOUCHED: Final[PlainAccess] = (((), ()), (), ((), ()))  # a logical access that maps nothing
 
 
 def _register_read(lo: int, hi: int) -> bool:
@@ -376,8 +376,7 @@ class EcatChain:
             if lrd:
                 return lrd_last_readers([line[q] for q in run], accesses, buf, at, n)
             if len(run) >= LOGICAL_TOGETHER_MIN:
-                plan = cut(*run_plan)
-                return logical_together(self.memory, run, plan, cmd, buf, at, n)
+                return logical_together(self.memory, run, run_plan[2], cmd, buf, at, n)
             return sum(line[q].plain_logical(run_plan, cmd, buf, at, n) for q in run)
 
         for p in targets:

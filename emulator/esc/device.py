@@ -64,7 +64,6 @@ from emulator.esc.mapping import (
     LogicalPlan,
     PlainAccess,
     SmTable,
-    cut,
     decode_fmmus,
     decode_sms,
     plain_access,
@@ -788,7 +787,7 @@ class EscDevice:
         where it does nothing (:meth:`plain_access`, :func:`emulator.esc.mapping.cut`); else
         None."""
         found = self._access(cmd, lad, n).plain
-        return None if found is None else cut(*found)
+        return None if found is None else found[2]
 
     def plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
         """A logical access when all it does is plain memory (:meth:`plain_plan`): its plan and
@@ -813,12 +812,10 @@ class EscDevice:
 
     def plain_logical(self, access: PlainAccess, cmd: int, buf: bytearray, off: int, n: int) -> int:
         """A plain logical datagram (data ``buf[off:off+n]``, in place; ``access`` from
-        :meth:`plain_access`): the working counter's increment. Without holes, straight to and
-        from memory, what :meth:`_through` does there without asking for side effects, since
-        there are none; with holes, :meth:`_through`, which skips them as it goes."""
-        (reads, writes), holes = access
-        if holes:
-            return self._through(access[0], cmd, buf, off, n)
+        :meth:`plain_access`): the working counter's increment. Its plan with the holes cut,
+        straight to and from memory: what :meth:`_through` does there without asking for side
+        effects, since there are none, and skipping the holes, where it does nothing."""
+        reads, writes = access[2]
         mem = self.mem
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
         for bytewise, a, b, c, d, e, f in reads:

@@ -30,7 +30,7 @@ __all__ = [
     "cut",
     "decode_fmmus",
     "decode_sms",
-    "leaves_bytes",
+    "forget",
     "plain_access",
     "plan_logical",
     "remember",
@@ -60,6 +60,14 @@ ACCESS_CACHE: dict[tuple[object, ...], Access] = {}
 # decoded SyncManager tables, the order of their entries by start (PDI-locked last), and the
 # status registers (0x0805 + 8 y) of the SyncManagers without a buffer
 SM_CACHE: dict[bytes, tuple[SmTable, tuple[int, ...], tuple[int, ...]]] = {}
+
+
+def forget() -> None:
+    """Empty the caches shared by every ESC (tables, accesses): a run that starts with them
+    empty pays what a process that has seen nothing pays (benchmarks)."""
+    FMMU_CACHE.clear()
+    ACCESS_CACHE.clear()
+    SM_CACHE.clear()
 
 
 def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_ENTRIES) -> _V:
@@ -149,8 +157,9 @@ def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int)
 # the bytes of a plan's parts where it does nothing: (side 0 reads / 1 writes, index of the
 # part, its holes [start, end) in physical bytes), in plan order
 Holes = tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...]
-# a logical access that is all plain memory: its plan and the holes to cut (plain_access)
-PlainAccess = tuple[LogicalPlan, Holes]
+# a logical access that is all plain memory: its plan, the holes, and the plan with the holes
+# cut (plain_access)
+PlainAccess = tuple[LogicalPlan, Holes, LogicalPlan]
 
 
 class Access:
@@ -185,8 +194,8 @@ def shared_access(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
 def plain_access(
     plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
 ) -> PlainAccess | None:
-    """``(plan, holes)`` when all ``plan`` does is plain memory, with the bytes where it does
-    nothing (:data:`Holes`, cut away by :func:`cut`); else None.
+    """``(plan, holes, cut plan)`` when all ``plan`` does is plain memory: the bytes where it
+    does nothing (:data:`Holes`), and the plan without them (:func:`cut`); else None.
 
     It does nothing in a SyncManager's area that is locked (deactivated by the PDI) or of the
     other direction (ECAT neither reads a write buffer nor writes a read buffer), nor at or
@@ -224,7 +233,8 @@ def plain_access(
                 holes += ((max(top, REGISTER_END), hi),)
             if holes:
                 found.append((side, k, holes))
-    return plan, tuple(found)
+    every: Holes = tuple(found)
+    return plan, every, cut(plan, every)
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
@@ -244,28 +254,33 @@ def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
     return tuple(out[0]), tuple(out[1])
 
 
-def leaves_bytes(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> bool:
-    """Whether ``op`` (:func:`plan_logical`) has physical bytes outside ``holes``."""
-    return bool(_outside(op, holes))
-
-
 def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> list[LogicalOp]:
     """``op`` (:func:`plan_logical`) without its physical bytes in ``holes``: a byte-wise part
-    as the runs left; a bit-wise part with the same bytes and the holes' bits out of its mask
-    (of the physical bits for a write, of the frame bits for a read), or nothing when no byte
-    is left."""
+    as the runs left; a bit-wise part narrowed to the physical bytes from the first run left to
+    the end of the last, and the frame bytes their bits lie in, with the holes' bits out of its
+    mask (of the physical bits for a write, of the frame bits for a read); or nothing when no
+    byte is left (every byte of a bit-wise part from :func:`plan_logical` holds a mapped bit).
+    """
     runs, lo = _outside(op, holes), op[1]
     if op[0]:  # byte-wise: physical a, frame offset b, c bytes
         return [(True, x, op[2] + (x - lo), y - x, 0, 0, 0) for x, y in runs]
     if not runs:
         return []
-    valid = 0
+    first, end = runs[0][0], runs[-1][1]
+    valid = 0  # the physical bits left, from byte ``first``
     for x, y in runs:
-        valid |= ((1 << 8 * (y - x)) - 1) << 8 * (x - lo)
-    shift = op[3]
-    if not write:  # the valid physical bits where they lie in the frame bytes
-        valid = valid >> shift if shift >= 0 else valid << -shift
-    return [(False, lo, op[2], shift, op[4] & valid, op[5], op[6])]
+        valid |= ((1 << 8 * (y - x)) - 1) << 8 * (x - first)
+    _, _, _, shift, mask, at, width = op
+    bit = 8 * (first - lo) - shift  # the frame bit (from byte ``at``) of ``first``'s bit 0
+    skip = max(0, bit // 8)  # frame bytes before the first one left
+    shift = 8 * skip - bit  # physical bit - frame bit, from ``first`` and ``at + skip``
+    width = min(width - skip, -(-(8 * (end - first) - shift) // 8))
+    if write:  # a mask of physical bits
+        mask = (mask >> 8 * (first - lo)) & valid
+    else:  # a mask of frame bits: the valid physical bits where they lie in the frame bytes
+        moved = valid >> shift if shift >= 0 else valid << -shift
+        mask = (mask >> 8 * skip) & moved & ((1 << 8 * width) - 1)
+    return [(False, first, end - first, shift, mask, at + skip, width)] if mask else []
 
 
 def _outside(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:

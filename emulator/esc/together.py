@@ -31,7 +31,7 @@ import numpy.typing as npt
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
 from emulator.esc.device import EscDevice, port1_forwarding
-from emulator.esc.mapping import LogicalOp, LogicalPlan, PlainAccess, leaves_bytes, without
+from emulator.esc.mapping import LogicalPlan, PlainAccess
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -290,38 +290,34 @@ def lrd_last_readers(
     An ESC's reads replace their bits of the frame and nothing else happens, so a bit leaves
     with the value of the last ESC that reads it. The ESCs are worked from the last back, each
     reading only the bits no later ESC reads: once every bit is read, the ESCs before count
-    in the working counter and read nothing, whatever their FMMUs ask for.
+    in the working counter and read nothing, whatever their FMMUs ask for. The work per part
+    is bounded by the frame bytes it maps (the bits still unread are kept per frame byte).
     """
-    uncovered = (1 << 8 * n) - 1  # the bits no later ESC reads
-    frame: int | None = None
+    unread = bytearray(b"\xff") * n  # per frame byte, the bits no later ESC reads
+    left = 8 * n  # how many
     wkc = 0
-    for dev, (plan, holes) in zip(reversed(devices), reversed(accesses), strict=True):
-        holed = {k: parts for side, k, parts in holes if side == 0}
-        reads = False  # whether it reads a byte (not all holes): it counts
-        for k, op in enumerate(plan[0]):
-            parts = holed.get(k)
-            if not uncovered:  # nothing left to read: only whether it counts
-                if reads or parts is None or leaves_bytes(op, parts):
-                    reads = True
-                    break
-                continue
-            ops: Sequence[LogicalOp] = (op,) if parts is None else without(op, parts, False)
-            for bytewise, a, b, c, d, e, _ in ops:
-                reads = True
-                if bytewise:  # physical a, frame offset b, c bytes
-                    mask = ((1 << 8 * c) - 1) << 8 * b
-                    value = int.from_bytes(dev.mem[a : a + c], "little") << 8 * b
-                else:  # physical bytes [a, a + b), shift c, mask d of frame bytes [e, e + f)
-                    mask = d << 8 * e
-                    value = int.from_bytes(dev.mem[a : a + b], "little")
-                    value = (value >> c if c >= 0 else value << -c) << 8 * e
-                new = mask & uncovered
-                if new:
-                    if frame is None:
-                        frame = int.from_bytes(buf[off : off + n], "little")
-                    frame = (frame & ~new) | (value & new)
-                    uncovered ^= new  # (new is inside uncovered)
-        wkc += reads
-    if frame is not None:
-        buf[off : off + n] = frame.to_bytes(n, "little")
+    for dev, access in zip(reversed(devices), reversed(accesses), strict=True):
+        reads = access[2][0]  # the plan with the holes cut: each part reads a byte
+        if not reads:
+            continue
+        wkc += 1
+        if not left:  # nothing left to read: it only counts
+            continue
+        mem = dev.mem
+        for bytewise, a, b, c, d, e, f in reads:
+            if bytewise:  # physical a, frame offset b, c bytes
+                at, width, mask = b, c, (1 << 8 * c) - 1
+                value = int.from_bytes(mem[a : a + c], "little")
+            else:  # physical bytes [a, a + b), shift c, mask d of frame bytes [e, e + f)
+                at, width, mask = e, f, d
+                value = int.from_bytes(mem[a : a + b], "little")
+                value = value >> c if c >= 0 else value << -c
+            still = int.from_bytes(unread[at : at + width], "little")
+            new = mask & still
+            if new:
+                frame = int.from_bytes(buf[off + at : off + at + width], "little")
+                frame = (frame & ~new) | (value & new)
+                buf[off + at : off + at + width] = frame.to_bytes(width, "little")
+                unread[at : at + width] = (still ^ new).to_bytes(width, "little")
+                left -= new.bit_count()
     return wkc

@@ -203,39 +203,54 @@ WRITE_BUFFER = (1, 0x2000, 2, 0x04, 0)  # [0x2000, 0x2002)
 def parts(plan: mapping.LogicalPlan, areas: mapping.SmTable, top: int) -> object:
     """What the ESCs of ``areas`` and memory ``top`` do of ``plan``, holes cut (or None)."""
     found = mapping.plain_access(plan, areas, top)
-    return None if found is None else mapping.cut(*found)
+    if found is not None:
+        assert found[2] == mapping.cut(found[0], found[1])
+    return None if found is None else found[2]
 
 
 def test_plain_parts_cut_away_the_bytes_where_an_access_does_nothing() -> None:
     """Hand-worked cuts: a locked buffer is a hole from 0x0F80 on (below it the registers are
     read whatever SyncManager area lies there); ECAT does not read a buffer it writes; process
-    RAM above the top is closed. A bit-wise part keeps its bytes and loses the holes' bits."""
+    RAM above the top is closed. A bit-wise part narrows to the bytes left and loses the holes'
+    bits."""
     areas = (LOCKED_READ_BUFFER, WRITE_BUFFER)
     byte_read = (True, 0x0F70, 0, 0x30, 0, 0, 0)  # physical [0x0F70, 0x0FA0) to frame 0..47
     # physical bytes 0x1FFE..0x2001, frame bit = physical bit - 3, frame bytes 4..7
     bit_read = (False, 0x1FFE, 4, 3, 0x0FFF_FFFF, 4, 4)
     got = parts(((byte_read, bit_read), ()), areas, 0x10000)
     # registers 0x0F70-0x0F7F, then 0x0F90-0x0F9F; of the bit-wise part only the physical bits
-    # 0-15 (0x1FFE, 0x1FFF) stay: frame bits 0-12
+    # 0-15 (0x1FFE, 0x1FFF) stay: frame bits 0-12, in frame bytes 4 and 5
     assert got == (
         (
             (True, 0x0F70, 0, 0x10, 0, 0, 0),
             (True, 0x0F90, 0x20, 0x10, 0, 0, 0),
-            (False, 0x1FFE, 4, 3, 0x1FFF, 4, 4),
+            (False, 0x1FFE, 2, 3, 0x1FFF, 4, 2),
         ),
         (),
     )
     # written: the write buffer is ECAT's (not plain); elsewhere, the mask keeps physical bits
     bit_write = (False, 0x1FFC, 4, 3, 0xFFFF_FFF0, 4, 4)  # physical bytes 0x1FFC..0x1FFF
     top = 0x1FFE  # process RAM closed from 0x1FFE: physical bits 16-31 are a hole
-    cut = ((False, 0x1FFC, 4, 3, 0xFFF0, 4, 4),)
+    # physical bits 4-15 from frame bits 1-12 (frame bytes 4, 5)
+    cut = ((False, 0x1FFC, 2, 3, 0xFFF0, 4, 2),)
     assert parts(((), (bit_write,)), (), top) == ((), cut)
-    cut = ((False, 0x1FFC, 4, 3, 0xFFFFF0, 4, 4),)  # the last byte closed
+    # the last byte closed: physical bits 4-23 from frame bits 1-20 (frame bytes 4-6)
+    cut = ((False, 0x1FFC, 3, 3, 0xFFFFF0, 4, 3),)
     assert parts(((), (bit_write,)), (), 0x1FFF) == ((), cut)
+    # a hole in front: a locked buffer [0x0FFC, 0x0FFE) of physical bytes 0x0FFC..0x0FFF
+    # (frame bit = physical bit - 3 from frame byte 4, frame bits 0-27 mapped). Physical bits
+    # 16-31 are left: frame bits 13-27, which are bits 5-19 from frame byte 5; so physical bit
+    # = frame bit - 5 from byte 0x0FFE, in frame bytes 5-7
+    front = ((0, 0x0FFC, 2, 0x00, 1),)
+    bit_read = (False, 0x0FFC, 4, 3, 0x0FFF_FFFF, 4, 4)
+    assert parts(((bit_read,), ()), front, 0x10000) == (
+        ((False, 0x0FFE, 2, -5, 0x0F_FFE0, 5, 3),),
+        (),
+    )
     assert parts(((), (bit_write,)), (), 0x1FFC) == ((), ())  # nothing left
     assert parts(((), ((True, 0x2000, 0, 2, 0, 0, 0),)), areas, 0x10000) is None
     plan = ((byte_read,), ())
-    assert mapping.plain_access(plan, (), 0x10000) == (plan, ())  # nothing to cut
+    assert mapping.plain_access(plan, (), 0x10000) == (plan, (), plan)  # nothing to cut
 
 
 def test_logical_writes_of_res_reset_every_esc() -> None:
@@ -295,9 +310,12 @@ def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
 )
 def test_a_part_leaves_bytes_outside_its_holes(holes: list[tuple[int, int]], left: bool) -> None:
     byte_wise = (True, 0x1000, 0, 0x10, 0, 0, 0)  # physical [0x1000, 0x1010)
-    bit_wise = (False, 0x1000, 0x10, 3, 0xFF, 0, 1)  # the same physical bytes
-    assert mapping.leaves_bytes(byte_wise, holes) is left
-    assert mapping.leaves_bytes(bit_wise, holes) is left
+    # the same physical bytes, bits 3-127 from frame bits 0-124 (frame bytes 0-15)
+    bit_read = (False, 0x1000, 0x10, 3, (1 << 125) - 1, 0, 16)
+    bit_write = (False, 0x1000, 0x10, 3, ((1 << 125) - 1) << 3, 0, 16)
+    assert bool(mapping.without(byte_wise, holes, False)) is left
+    assert bool(mapping.without(bit_read, holes, False)) is left
+    assert bool(mapping.without(bit_write, holes, True)) is left
 
 
 @given(st.lists(st.tuples(st.integers(0, 40), st.integers(0, 40)), max_size=8))
