@@ -790,8 +790,9 @@ class EscDevice:
         return None if found is None else found[2]
 
     def plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
-        """A logical access when all it does is plain memory (:meth:`plain_plan`): its plan and
-        the bytes where it does nothing (:func:`emulator.esc.mapping.plain_access`); else None.
+        """A logical access when all it does is plain memory (:meth:`plain_plan`): its plan, the
+        bytes where it does nothing and the plan without them
+        (:func:`emulator.esc.mapping.plain_access`); else None.
         Such an access changes nothing but the bytes and counts its working counter whatever
         they are, so the chain may do it for many ESCs with the same plan and holes at once
         (:func:`emulator.esc.together.logical_together` of the plan cut)."""
