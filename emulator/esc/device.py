@@ -190,6 +190,23 @@ class _Sm:
         self.buf: bytes | bytearray | None = None  # ECAT's buffer while open
 
 
+def _bits_written(
+    target: bytes | bytearray | memoryview,
+    data_in: bytes,
+    shift: int,
+    mask: int,
+    at: int,
+    width: int,
+) -> bytes:
+    """A bit-wise FMMU write (:func:`emulator.esc.mapping.plan_logical`): the physical bytes
+    ``target`` with the bits under ``mask`` taken from frame bytes [at, at + width) of
+    ``data_in``, ``shift`` bits further on; the unmapped bits kept."""
+    value = int.from_bytes(data_in[at : at + width], "little")
+    value = value << shift if shift >= 0 else value >> -shift
+    old = int.from_bytes(target, "little")
+    return ((old & ~mask) | (value & mask)).to_bytes(len(target), "little")
+
+
 def port1_forwarding(setting: int, link: bool) -> bool | None:
     """Where port 1 sends a processed frame under DL control bits 10-11 ``setting`` (datasheet
     II 2.4.1) and the port's ``link``: on (True), back towards the master (False, the loop is
@@ -831,11 +848,8 @@ class EscDevice:
         for bytewise, a, b, c, d, e, f in writes:
             if bytewise:
                 mem[a : a + c] = data_in[b : b + c]
-            else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
-                target = int.from_bytes(mem[a : a + b], "little")
-                value = int.from_bytes(data_in[e : e + f], "little")
-                value = value << c if c >= 0 else value >> -c
-                mem[a : a + b] = ((target & ~d) | (value & d)).to_bytes(b, "little")
+            else:
+                mem[a : a + b] = _bits_written(mem[a : a + b], data_in, c, d, e, f)
         r, w = int(bool(reads)), int(bool(writes))
         return r if cmd == LRD else w if cmd == LWR else r + 2 * w
 
@@ -859,11 +873,7 @@ class EscDevice:
                 if bytewise:
                     w |= self._write(a, data_in[b : b + c])
                 else:
-                    target = int.from_bytes(self.mem[a : a + b], "little")  # unmapped bits kept
-                    value = int.from_bytes(data_in[e : e + f], "little")
-                    value = value << c if c >= 0 else value >> -c
-                    target = (target & ~d) | (value & d)
-                    w |= self._write(a, target.to_bytes(b, "little"))
+                    w |= self._write(a, _bits_written(self.mem[a : a + b], data_in, c, d, e, f))
         if cmd == LRD:
             return r
         if cmd == LWR:
