@@ -744,20 +744,40 @@ def _gzip_of_zeros(prefix: bytes, zero_bytes: int) -> bytes:
     return b"".join(out)
 
 
-def test_gzip_bomb_is_refused_with_one_error(monkeypatch: pytest.MonkeyPatch) -> None:
+def test_gzip_bomb_is_refused_with_one_error() -> None:
     from skinframes import pcap
 
-    # zero-length records behind a valid header, compressed about 1000:1; judged after 1 MiB
-    # here instead of 64 MiB, to keep the test short
-    monkeypatch.setattr(pcap, "GZIP_RATIO_AFTER_BYTES", 1 << 20)
+    # zero-length records behind a valid header, compressed about 1000:1: refused once the first
+    # MiB is out, before 8 MiB of records (a `check` of a 4 MB bomb had taken 51 s when the
+    # ratio was judged after 64 MiB)
     bomb = _gzip_of_zeros(pcap_file([]), 8 << 20)
     assert len(bomb) < 10_000
     capture = parse_capture(bomb)
+    records = 0
     with pytest.raises(PcapFormatError, match="gzip bomb"):
         for _ in capture:
-            pass
+            records += 1
+    assert records * 16 <= pcap.GZIP_RATIO_AFTER_BYTES + (1 << 20)
     with pytest.raises(PcapFormatError, match="magic"):  # zeros from the start: no capture
         parse_capture(_gzip_of_zeros(b"", 1 << 20))
+
+
+def test_a_repetitive_gzip_capture_longer_than_the_judged_mib_reads_whole(tmp_path: Path) -> None:
+    """The ratio judged from the first MiB on refuses no real capture: 4,000 EPL cycles of one
+    1-byte CN (1.2 MB, the most repetitive of the emulator's captures, about 13:1 at gzip level 9)
+    read whole."""
+    from emulator import PAPER, simulate_epl
+    from skinframes import pcap
+
+    path = tmp_path / "epl.pcap"
+    simulate_epl(1, 1, PAPER, cycles=4000, seed=7, pcap=path)
+    raw = path.read_bytes()
+    assert len(raw) > pcap.GZIP_RATIO_AFTER_BYTES
+    packed = gzip.compress(raw, 9)
+    assert len(raw) / len(packed) > 10
+    got = [(r.time_ns, r.data) for r in parse_capture(packed)]
+    want = [(r.time_ns, r.data) for r in parse_capture(raw)]
+    assert len(want) > 10_000 and got == want
 
 
 def test_gzip_members_and_trailing_bytes() -> None:
