@@ -59,16 +59,17 @@ from emulator.esc.dc import REG_DC_RECEIVE, DcClock
 from emulator.esc.mapping import (
     FMMU_CACHE,
     PLAN_CACHE_ENTRIES,
-    SM_CACHE,
     Access,
     LogicalPlan,
     PlainAccess,
+    SmChange,
     SmTable,
     decode_fmmus,
-    decode_sms,
     plain_access,
     remember,
     shared_access,
+    sm_change,
+    sm_table,
 )
 from emulator.esc.registers import (
     ADDRESS_SPACE,
@@ -1006,7 +1007,7 @@ class EscDevice:
             self._rebuild_fmmus()
         if sm:
             self._rebuild_sms(sm_enabled)
-            self._mailbox_due = True
+            self.sm_registers_written()
         if dl:
             self._update_dl_status()
         if dc is not None:
@@ -1125,53 +1126,51 @@ class EscDevice:
 
         A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
         deactivated by the PDI locks its whole area (datasheet I 8.5, 8.7). The register table
-        is decoded once per distinct bytes (:func:`decode_sms`). When it decodes to the
+        is decoded once per distinct bytes (:func:`sm_table`). When it decodes to the
         SyncManagers the ESC has (bytes changed that set none of them: a disabled one's
         configuration, the repeat or latch bits), nothing changes: they were enabled before
         the frame too, and keep their buffers.
         """
-        mem, sms = self.mem, self._sms
-        table = bytes(mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers])
-        found = SM_CACHE.get(table)
-        if found is None:
-            entries = decode_sms(table)
-            by_start = sorted(
-                range(len(entries)), key=lambda i: (entries[i][1], entries[i][4] != 0)
-            )
-            enabled = {e[0] for e in entries}
-            idle = tuple(REG_SM + SM_BYTES * z + 5 for z in range(len(sms)) if z not in enabled)
-            found = remember(SM_CACHE, table, (entries, tuple(by_start), idle))
+        found = sm_table(bytes(self.mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers]))
         if found[0] == self._sm_areas:
             return  # the same SyncManagers (bytes that set none of them changed): as they are
-        self._build_sms(found, enabled_before)
+        change = sm_change(self._sm_areas, enabled_before, found)
+        mem = self.mem
+        for st in change[0]:
+            mem[st] = SM_NO_BUFFER
+        self.change_syncmanagers(change, found[0])
 
-    def _build_sms(
-        self, found: tuple[SmTable, tuple[int, ...], tuple[int, ...]], enabled_before: bytes | None
-    ) -> None:
-        """:meth:`_rebuild_sms` by the decoded table ``found`` (:data:`SM_CACHE`): the
-        SyncManagers that left or changed lose their state, the others keep it."""
-        mem, sms = self.mem, self._sms
-        decoded, order, idle = found
-        for st in idle:  # disabled or too short: no buffer
-            if mem[st] != SM_NO_BUFFER or sms[(st - REG_SM) // SM_BYTES] is not None:
-                sms[(st - REG_SM) // SM_BYTES] = None
-                mem[st] = SM_NO_BUFFER
-        controlling: list[_Sm] = []
-        for y, start, length, control, pdi_locked in decoded:
-            old = sms[y]
-            if (
-                old is None
-                or (enabled_before is not None and not enabled_before[y] & 1)  # toggled
-                or old.start != start
-                or old.length != length
-            ):
-                old = sms[y] = _Sm(y, start, length, control)
-                mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
-            old.locked = pdi_locked != 0
-            controlling.append(old)
-        self._active = [controlling[i] for i in order]  # by start, ECAT's before PDI-locked
+    @property
+    def sm_areas(self) -> SmTable:
+        """The decoded SyncManager table the ESC's SyncManagers follow (:func:`sm_table`)."""
+        return self._sm_areas
+
+    def change_syncmanagers(self, change: SmChange, decoded: SmTable) -> None:
+        """The SyncManagers after their table changed to ``decoded`` (:func:`sm_change`): the ones
+        that start anew lose their state, the others keep it (their status registers are the
+        caller's: :meth:`_rebuild_sms`, or the rows of many ESCs in
+        :func:`emulator.esc.together.commit_together`)."""
+        _, gone, fresh, kept, by_start = change
+        sms = self._sms
+        for y in gone:  # disabled or too short: no buffer
+            sms[y] = None
+        for y, start, length, control, locked in fresh:
+            sm = sms[y] = _Sm(y, start, length, control)
+            sm.locked = locked
+        for y, start, length, control, locked in kept:
+            held = sms[y]
+            if held is None:  # reset by the PDI just before (pdi_deactivate_sms)
+                held = sms[y] = _Sm(y, start, length, control)
+                self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+            held.locked = locked
+        self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
         self._lrd_plans.clear()
         self._sm_areas = decoded
+
+    def sm_registers_written(self) -> None:
+        """After a frame changed SyncManager registers: the mailbox handler runs at its end
+        (:meth:`finish_frame`; a repeat request, datasheet II 2.14.7)."""
+        self._mailbox_due = True
 
     def _update_dl_status(self) -> None:
         """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).

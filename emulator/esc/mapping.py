@@ -14,18 +14,28 @@ from collections.abc import Callable, Sequence
 from typing import Final, TypeVar
 
 from emulator.esc.commands import LRD, LWR
-from emulator.esc.registers import ADDRESS_SPACE, REGISTER_END, cleared_events, reads_dc
+from emulator.esc.registers import (
+    ADDRESS_SPACE,
+    REG_SM,
+    REGISTER_END,
+    SM_BYTES,
+    cleared_events,
+    reads_dc,
+)
 
 __all__ = [
     "ACCESS_CACHE",
     "FMMU_CACHE",
     "FMMU_ENTRY",
     "SM_CACHE",
+    "SM_CHANGES",
     "SM_ENTRY",
     "Access",
     "Holes",
     "LogicalPlan",
     "PlainAccess",
+    "SmChange",
+    "SmFound",
     "SmTable",
     "cut",
     "decode_fmmus",
@@ -35,6 +45,8 @@ __all__ = [
     "plan_logical",
     "remember",
     "shared_access",
+    "sm_change",
+    "sm_table",
     "without",
 ]
 
@@ -57,9 +69,22 @@ _K = TypeVar("_K")
 _V = TypeVar("_V")
 # logical accesses by the FMMUs they meet (shared_access)
 ACCESS_CACHE: dict[tuple[object, ...], Access] = {}
-# decoded SyncManager tables, the order of their entries by start (PDI-locked last), and the
-# status registers (0x0805 + 8 y) of the SyncManagers without a buffer
-SM_CACHE: dict[bytes, tuple[SmTable, tuple[int, ...], tuple[int, ...]]] = {}
+# a decoded SyncManager table, the order of its entries by start (PDI-locked last), and the
+# status registers (0x0805 + 8 y) of the SyncManagers without a buffer (sm_table)
+SmFound = tuple[SmTable, tuple[int, ...], tuple[int, ...]]
+SM_CACHE: dict[bytes, SmFound] = {}
+# what a change of the decoded SyncManager table does (sm_change): the status registers set to
+# "no buffer"; the indices of the SyncManagers without a buffer; (index, start, length, control,
+# locked) of those that start anew and of those that keep their state; the indices of the
+# SyncManagers with a buffer, by start (PDI-locked last)
+SmChange = tuple[
+    tuple[int, ...],
+    tuple[int, ...],
+    tuple[tuple[int, int, int, int, bool], ...],
+    tuple[tuple[int, int, int, int, bool], ...],
+    tuple[int, ...],
+]
+SM_CHANGES: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
 
 
 def forget() -> None:
@@ -68,6 +93,7 @@ def forget() -> None:
     FMMU_CACHE.clear()
     ACCESS_CACHE.clear()
     SM_CACHE.clear()
+    SM_CHANGES.clear()
 
 
 def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_ENTRIES) -> _V:
@@ -116,6 +142,55 @@ def decode_sms(table: bytes) -> SmTable:
         if activate & 0x01 and length >= 2:
             out.append((y, start, length, control, pdi & 0x01))
     return tuple(out)
+
+
+def sm_table(table: bytes) -> SmFound:
+    """The SyncManager register bytes ``table`` (0x0800 on, 8 bytes a SyncManager) decoded
+    (:func:`decode_sms`), with the order of its entries and the status registers of the
+    SyncManagers without a buffer: once per distinct bytes (:data:`SM_CACHE`)."""
+    found = SM_CACHE.get(table)
+    if found is None:
+        entries = decode_sms(table)
+        by_start = sorted(range(len(entries)), key=lambda i: (entries[i][1], entries[i][4] != 0))
+        enabled = {e[0] for e in entries}
+        idle = tuple(
+            REG_SM + SM_BYTES * z + 5 for z in range(len(table) // SM_BYTES) if z not in enabled
+        )
+        found = remember(SM_CACHE, table, (entries, tuple(by_start), idle))
+    return found
+
+
+def sm_change(before: SmTable, enabled_before: bytes | None, found: SmFound) -> SmChange:
+    """What an ESC's SyncManagers go through when their decoded table turns from ``before`` into
+    ``found`` (:func:`sm_table`), with ``enabled_before`` the activate bytes before the frame
+    (None: not written by a frame): one that was not controlling memory, was disabled before the
+    frame (toggled) or moved or changed its length starts anew, without a buffer; the others
+    keep their state (datasheet I 8.1, II 2.14.1); those left out have no buffer. It follows
+    from the tables alone, so it is worked out once (:data:`SM_CHANGES`) and shared by every ESC
+    that makes the same change."""
+    key = (before, enabled_before, found)
+    change = SM_CHANGES.get(key)
+    if change is not None:
+        return change
+    after, order, idle = found
+    was = {e[0]: e for e in before}
+    fresh, kept = [], []
+    for y, start, length, control, pdi_locked in after:
+        entry = (y, start, length, control, pdi_locked != 0)
+        old = was.get(y)
+        if (
+            old is None
+            or (enabled_before is not None and not enabled_before[y] & 1)
+            or old[1] != start
+            or old[2] != length
+        ):
+            fresh.append(entry)
+        else:
+            kept.append(entry)
+    no_buffer = idle + tuple(REG_SM + SM_BYTES * e[0] + 5 for e in fresh)
+    gone = tuple((st - REG_SM) // SM_BYTES for st in idle)
+    by_start = tuple(after[i][0] for i in order)
+    return remember(SM_CHANGES, key, (no_buffer, gone, tuple(fresh), tuple(kept), by_start))
 
 
 def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> LogicalPlan:

@@ -9,8 +9,10 @@ registers, for all of them in one pass over the rows of the chain's memory
 (the SyncManagers enabled before the frame, who owns the EEPROM interface, whose FMMU or
 SyncManager table changed) is a mask of rows. DL status after a write of DL control, the event
 request and the DC system time compare (:func:`emulator.esc.dc.compare_together`) are worked out
-over the rows too; what else follows a commit in each ESC (rebuilt tables, EEPROM command, AL
-control) is :meth:`EscDevice.take_effect`, as for one ESC. The work thus grows
+over the rows too, and so are changed SyncManager tables: decoded, and what they change worked
+out, once per distinct table before and after (:func:`emulator.esc.mapping.sm_change`), each ESC
+then only changing its SyncManager objects; what else follows a commit in each ESC (rebuilt FMMU
+tables, EEPROM command, AL control) is :meth:`EscDevice.take_effect`, as for one ESC. The work thus grows
 with the bytes written and the ESCs whose state the write changes, not with one Python pass per
 ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under hostile frames.
 
@@ -31,7 +33,7 @@ import numpy.typing as npt
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
 from emulator.esc.device import EscDevice, port1_forwarding
-from emulator.esc.mapping import LogicalPlan, PlainAccess
+from emulator.esc.mapping import LogicalPlan, PlainAccess, sm_change, sm_table
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -51,6 +53,7 @@ from emulator.esc.registers import (
     REG_PU_ERRORS,
     REG_SM,
     SM_BYTES,
+    SM_NO_BUFFER,
 )
 from emulator.esc.write_plans import TOUCHES_FMMU, TOUCHES_SM, mark
 
@@ -99,32 +102,75 @@ def commit_together(
     al, _, dl, fmmu, sm = flags
     if dl:
         _dl_status(devices, memory, rows)
-    fmmu_rows = sm_rows = None
+    fmmu_rows = None
     if fmmu and fmmu_before is not None:
         fmmu_rows = (memory[rows, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1).tolist()
-    if sm and sm_before is not None:
-        sm_rows = (memory[rows, REG_SM : plans.sm_end] != sm_before).any(axis=1).tolist()
     commands = eeprom.tolist()
+    if sm and sm_before is not None and enabled is not None:  # changed SyncManager tables
+        changed = (memory[rows, REG_SM : plans.sm_end] != sm_before).any(axis=1)
+        _syncmanagers(devices, memory, rows, np.flatnonzero(changed).tolist(), enabled)
     irqs = None
     if not (dc is not None or al):  # mostly only the event request is left to update
         events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
         enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
         irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
-    for i, dev in enumerate(devices):
+    for i, dev in enumerate(devices):  # the rest of take_effect (SyncManagers: done above)
         fmmu_i = fmmu_rows is not None and fmmu_rows[i]
-        sm_i = sm_rows is not None and sm_rows[i]
-        if irqs is not None and not (fmmu_i or sm_i or commands[i]):
+        if irqs is not None and not (fmmu_i or commands[i]):
             dev.irq = irqs[i]  # what EscDevice.update_irq would set
             continue
         dev.take_effect(
             fmmu=fmmu_i,
-            sm=sm_i,
-            sm_enabled=enabled[i].tobytes() if enabled is not None else b"",
+            sm=False,
+            sm_enabled=b"",
             dl=False,
             dc=dc,
             eeprom=commands[i],
             al=al,
         )
+
+
+def _syncmanagers(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: Sequence[int],
+    enabled: npt.NDArray[np.uint8],
+) -> None:
+    """What :meth:`EscDevice.take_effect` does first to the ESCs ``devices[i]`` for ``i`` in
+    ``which`` after a frame changed their SyncManager registers (the rest of it, which an FMMU,
+    DC, EEPROM or AL control write sets off, does not touch the SyncManagers, and follows):
+    their tables decoded and the changes
+    worked out (:func:`sm_table`, :func:`sm_change`) once per distinct table before, table after
+    and activate bytes before the frame (``enabled``, a row each), each change's status
+    registers set over the rows at once, and each ESC's SyncManagers changed as the change
+    says (:meth:`EscDevice.change_syncmanagers`); the mailbox handler runs at the end of the
+    frame."""
+    if not which:
+        return
+    count = enabled.shape[1]
+    width = SM_BYTES * count
+    tables = memory[rows[list(which)], REG_SM : REG_SM + width].tobytes()
+    activate = enabled[list(which)].tobytes()
+    groups: dict[tuple[int, bytes, bytes], list[int]] = {}
+    for k, i in enumerate(which):
+        key = (
+            id(devices[i].sm_areas),
+            tables[k * width : (k + 1) * width],
+            activate[k * count : (k + 1) * count],
+        )
+        groups.setdefault(key, []).append(i)
+    for (_, table, before), members in groups.items():
+        areas = devices[members[0]].sm_areas  # the same object at each of them
+        found = sm_table(table)
+        if found[0] != areas:
+            change = sm_change(areas, before, found)
+            if change[0]:
+                memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
+            for i in members:
+                devices[i].change_syncmanagers(change, found[0])
+        for i in members:
+            devices[i].sm_registers_written()
 
 
 def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:

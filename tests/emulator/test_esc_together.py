@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import random
 import struct
+from typing import Any
 
 import numpy as np
 import pytest
@@ -16,8 +17,11 @@ import pytest
 from emulator.errors import TopologyError
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.device import EscDevice
+from emulator.esc.device import EscDevice, _Sm
 from emulator.esc.hostile import hostile_frames, master_reset_frames
+from emulator.esc.mapping import decode_sms
+from emulator.esc.registers import REG_SM, SM_BYTES, SM_NO_BUFFER
+from emulator.esc.sii import SyncManagerType
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -180,32 +184,75 @@ def sm_state(chain: EcatChain) -> list[list[tuple[object, ...]]]:
     ]
 
 
-def test_syncmanager_tables_that_decode_alike_keep_the_syncmanagers(
+def rebuild_one_by_one(dev: EscDevice, enabled_before: bytes | None = None) -> None:
+    """``EscDevice._rebuild_sms`` as it was before SyncManager changes were worked out once and
+    shared (``mapping.sm_change``), and without its early return: each SyncManager compared
+    with the object the ESC holds (the reference)."""
+    mem, sms = dev.mem, dev._sms
+    table = bytes(mem[REG_SM : REG_SM + SM_BYTES * len(sms)])
+    decoded = decode_sms(table)
+    order = sorted(range(len(decoded)), key=lambda i: (decoded[i][1], decoded[i][4] != 0))
+    enabled = {e[0] for e in decoded}
+    for y in range(len(sms)):
+        if y not in enabled:  # disabled or too short: no buffer
+            sms[y] = None
+            mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+    controlling = []
+    for y, start, length, control, pdi_locked in decoded:
+        old = sms[y]
+        if (
+            old is None
+            or (enabled_before is not None and not enabled_before[y] & 1)
+            or old.start != start
+            or old.length != length
+        ):
+            old = sms[y] = _Sm(y, start, length, control)
+            mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+        old.locked = pdi_locked != 0
+        controlling.append(old)
+    dev._active = [controlling[i] for i in order]
+    dev._lrd_plans.clear()
+    dev._sm_areas = decoded
+
+
+def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """Register bytes that set no SyncManager (a disabled one's configuration, repeat and latch
-    bits) change nothing: an ESC keeps its SyncManagers (``EscDevice._rebuild_sms`` returns
-    early). A chain whose ESCs rebuild them every time leaves the same bytes and SyncManager
-    states under hostile frames, which write SyncManager registers at every ESC."""
-    fast, reference = EcatChain.configured(NODES, SIZE), EcatChain.configured(NODES, SIZE)
-    rebuild, build = EscDevice._rebuild_sms, EscDevice._build_sms
+    """A change of an ESC's SyncManager table does what comparing each SyncManager with the
+    one the ESC holds does (:func:`rebuild_one_by_one`), whether worked out once and shared
+    (``mapping.sm_change``), at one ESC or over the rows of many (``together._syncmanagers``);
+    and register bytes that set no SyncManager (a disabled one's configuration, repeat and
+    latch bits) change nothing: the ESC keeps its SyncManagers. Under hostile frames, which
+    write SyncManager registers at every ESC, the chain leaves the bytes and SyncManager states
+    of a chain whose ESCs rebuild them every time, one by one."""
+    fast, reference = EcatChain.configured(NODES, SIZE), OneByOne.configured(NODES, SIZE)
     references = {id(dev) for dev in reference.devices}
-    calls = {"rebuild": 0, "build": 0}
+    rebuild, change = EscDevice._rebuild_sms, EscDevice.change_syncmanagers
+    written, by_rows = EscDevice.sm_registers_written, together._syncmanagers
+    calls = {"written": 0, "changed": 0, "by rows": 0}
 
-    def always(self: EscDevice, enabled_before: bytes | None = None) -> None:
+    def either(self: EscDevice, enabled_before: bytes | None = None) -> None:
         if id(self) in references:
-            self._sm_areas = ((-1, -1, -1, -1, -1),)  # never a decoded table: built
+            rebuild_one_by_one(self, enabled_before)
         else:
-            calls["rebuild"] += 1
-        rebuild(self, enabled_before)
+            rebuild(self, enabled_before)
 
-    def counted(self: EscDevice, *args: object) -> None:
-        if id(self) not in references:
-            calls["build"] += 1
-        build(self, *args)  # type: ignore[arg-type]
+    def changed(self: EscDevice, *args: Any) -> None:
+        calls["changed"] += id(self) not in references
+        change(self, *args)
 
-    monkeypatch.setattr(EscDevice, "_rebuild_sms", always)
-    monkeypatch.setattr(EscDevice, "_build_sms", counted)
+    def counted(self: EscDevice) -> None:
+        calls["written"] += id(self) not in references
+        written(self)
+
+    def rows(devices: Any, memory: Any, at: Any, which: Any, *args: Any) -> None:
+        calls["by rows"] += len(which)
+        by_rows(devices, memory, at, which, *args)
+
+    monkeypatch.setattr(together, "_syncmanagers", rows)
+    monkeypatch.setattr(EscDevice, "_rebuild_sms", either)
+    monkeypatch.setattr(EscDevice, "change_syncmanagers", changed)
+    monkeypatch.setattr(EscDevice, "sm_registers_written", counted)
     setup = master_reset_frames(NODES) + configure_frames(fast.devices[0].info, NODES)
     for i, f in enumerate(hostile_frames(3_000, nodes=NODES, input_bytes=SIZE, seed=9)):
         assert fast.process_frame(f) == reference.process_frame(f), f"frame {i}"
@@ -214,4 +261,29 @@ def test_syncmanager_tables_that_decode_alike_keep_the_syncmanagers(
         if i % 300 == 299:
             for g in setup:
                 assert fast.process_frame(g) == reference.process_frame(g)
-    assert calls["rebuild"] - calls["build"] > 500  # kept, not rebuilt, that often
+    assert calls["changed"] > 1_000  # changes happened
+    assert calls["by rows"] > 1_000  # many of them over the rows of several ESCs
+    assert calls["written"] - calls["changed"] > 500  # and bytes that set none, often
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_buffer_read_in_the_frame_that_disables_its_syncmanager_is_not_exchanged(
+    kind: type[EcatChain],
+) -> None:
+    """An LRD of the image reads every ESC's whole input buffer, and the same frame disables
+    the input SyncManager (activate 0): at the end of the frame the SyncManager is gone, so the
+    buffer exchange the read asked for does not happen (datasheet I 8.1). Its status register
+    shows no buffer (0x30), not the read interrupt (bit 1) an exchange sets; the LRD still
+    answers with the inputs it read."""
+    chain = kind.configured(NODES, SIZE)
+    chain.publish(np.ascontiguousarray(ROWS[0]))
+    y = chain.devices[0].info.sm_of_type(SyncManagerType.INPUTS)
+    assert y is not None
+    status, activate = REG_SM + SM_BYTES * y + 5, REG_SM + SM_BYTES * y + 6
+    lrd = Datagram.logical(Command.LRD, 0, bytes(NODES * SIZE))
+    off = Datagram(Command.BWR, 0, activate, b"\x00")
+    back = chain.process_frame(ethercat.frame(EcatFrame((lrd, off))).to_bytes())
+    assert back is not None
+    read, written = ethercat.decode(back[14:])[0].datagrams
+    assert (read.wkc, read.data, written.wkc) == (NODES, ROWS[0].tobytes(), NODES)
+    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x30] * NODES
