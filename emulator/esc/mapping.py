@@ -28,7 +28,7 @@ __all__ = [
     "FMMU_CACHE",
     "FMMU_ENTRY",
     "SM_CACHE",
-    "SM_CHANGES",
+    "SM_CHANGE_CACHE",
     "SM_ENTRY",
     "Access",
     "Holes",
@@ -84,7 +84,7 @@ SmChange = tuple[
     tuple[tuple[int, int, int, int, bool], ...],
     tuple[int, ...],
 ]
-SM_CHANGES: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
+SM_CHANGE_CACHE: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
 
 
 def forget() -> None:
@@ -93,7 +93,7 @@ def forget() -> None:
     FMMU_CACHE.clear()
     ACCESS_CACHE.clear()
     SM_CACHE.clear()
-    SM_CHANGES.clear()
+    SM_CHANGE_CACHE.clear()
 
 
 def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_ENTRIES) -> _V:
@@ -166,10 +166,10 @@ def sm_change(before: SmTable, enabled_before: bytes | None, found: SmFound) -> 
     (None: not written by a frame): one that was not controlling memory, was disabled before the
     frame (toggled) or moved or changed its length starts anew, without a buffer; the others
     keep their state (datasheet I 8.1, II 2.14.1); those left out have no buffer. It follows
-    from the tables alone, so it is worked out once (:data:`SM_CHANGES`) and shared by every ESC
-    that makes the same change."""
+    from the tables alone, so it is worked out once (:data:`SM_CHANGE_CACHE`) and shared by
+    every ESC that makes the same change."""
     key = (before, enabled_before, found)
-    change = SM_CHANGES.get(key)
+    change = SM_CHANGE_CACHE.get(key)
     if change is not None:
         return change
     after, order, idle = found
@@ -190,7 +190,7 @@ def sm_change(before: SmTable, enabled_before: bytes | None, found: SmFound) -> 
     no_buffer = idle + tuple(REG_SM + SM_BYTES * e[0] + 5 for e in fresh)
     gone = tuple((st - REG_SM) // SM_BYTES for st in idle)
     by_start = tuple(after[i][0] for i in order)
-    return remember(SM_CHANGES, key, (no_buffer, gone, tuple(fresh), tuple(kept), by_start))
+    return remember(SM_CHANGE_CACHE, key, (no_buffer, gone, tuple(fresh), tuple(kept), by_start))
 
 
 def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> LogicalPlan:
