@@ -7,7 +7,9 @@ pinned to the same CPU, and take turns ten frames at a time: whatever slows the 
 slows both. Each worker runs the frames of ``bench_serve_hostile`` with its defaults (hostile
 frames of ``--seed``, 8 bytes a patch, a master's reset every 500) through its own chain of
 ``--nodes`` configured patches, ``--runs`` times, and keeps each frame's least CPU time (this
-thread's clock, garbage collected between frames).
+thread's clock, garbage collected between frames) until its answer, as serve counts it (a checkout
+whose chain has ``answer`` lets the slaves' firmware react after it, untimed, as serve does; an
+older one's ``process_frame`` includes the firmware).
 
 Printed per checkout: frames above 2 ms, total, median and maximum CPU per frame; then the frames
 whose time changed most. Run with the same checkout twice to see the method's own spread.
@@ -57,10 +59,13 @@ def worker(checkout: str, nodes: int, frames: int, seed: int) -> None:
             continue
         assert chain is not None
         us = []
+        answer = getattr(chain, "answer", chain.process_frame)  # older checkouts: no answer
+        firmware = getattr(chain, "run_firmware", lambda: None)
         for frame in sent[int(words[1]) : int(words[2])]:
             c0 = cpu()
-            chain.process_frame(frame)
+            answer(frame)
             us.append((cpu() - c0) // 1000)
+            firmware()  # as serve does: after the answer, not timed
             gc.collect(0)
         print(json.dumps(us), flush=True)
 

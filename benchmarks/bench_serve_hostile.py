@@ -5,8 +5,10 @@
    logical accesses, mutated configuration frames) through a configured chain of ``--nodes``
    patches, with a master's reset (:func:`emulator.esc.hostile.master_reset_frames`) every
    ``--reset-every`` frames, so that loops the hostile frames closed open again and every frame
-   keeps meeting all slaves; each hostile frame's CPU time (this thread's clock) is measured,
-   with garbage collected between frames as serve does (:class:`emulator.live.BetweenFrames`).
+   keeps meeting all slaves; each hostile frame's CPU time (this thread's clock) is measured
+   until its answer (:meth:`EcatChain.answer`), and apart the slaves' firmware reacting to it
+   afterwards (:meth:`EcatChain.run_firmware`), with garbage collected between frames, as serve
+   does (:class:`emulator.live.BetweenFrames`).
    The frames go through ``--runs`` fresh chains (default 2), each run with the caches the
    ESCs share emptied first (:func:`emulator.esc.mapping.forget`), so that no run is helped by
    plans an earlier run worked out (serve meets each frame once). On a shared machine a
@@ -230,7 +232,7 @@ def in_process(
     cpu = time.thread_time_ns
     sent, masters = zip(*with_resets(frames, nodes, size, seed, every), strict=True)
     reset = np.array(masters, np.bool_)
-    per_run, ref_us = [], []
+    per_run, ref_us, firmware_runs = [], [], []
     for _ in range(runs):  # the same frames through a fresh chain each time
         mapping.forget()  # and nothing remembered from the run before
         chain = configured_chain(nodes, size, mailbox)
@@ -240,13 +242,16 @@ def in_process(
                 c0 = cpu()
                 chain.process_frame(ref)
                 ref_us.append((cpu() - c0) / 1e3)
-            us = np.empty(len(sent))
-            for i, frame in enumerate(sent):
+            us, firmware = np.empty(len(sent)), np.empty(len(sent))
+            for i, frame in enumerate(sent):  # as serve does: the answer, then the firmware
                 c0 = cpu()
-                chain.process_frame(frame)
-                us[i] = (cpu() - c0) / 1e3
+                chain.answer(frame)
+                c1 = cpu()
+                chain.run_firmware()
+                us[i], firmware[i] = (c1 - c0) / 1e3, (cpu() - c1) / 1e3
                 collector.after_frame()
         per_run.append(us)
+        firmware_runs.append(firmware)
     ref_median = float(np.median(ref_us))
     print(
         f"in process: {frames} hostile frames (master reset every {every}), "
@@ -261,6 +266,12 @@ def in_process(
     if reset.any():
         print_costs(f"  of which the master's reset frames ({what})", least[reset])
     print_kinds([f for f, r in zip(sent, masters, strict=True) if not r], least[~reset])
+    firmware = np.min(firmware_runs, axis=0)
+    print(
+        f"  then the slaves' firmware ({what}): median {np.median(firmware):.0f} us, "
+        f"max {firmware.max():.0f} us; with it, {int((least + firmware > BUDGET_US).sum())} "
+        f"frames above {BUDGET_US:.0f} us"
+    )
     print(
         f"  reference: one LRD of the whole image {ref_median:.0f} us; max / reference "
         f"{least.max() / ref_median:.1f}"
@@ -349,6 +360,7 @@ def live(
     print(f"  reset and configuration: {len(setup)} frames, {unanswered} not answered")
     print(f"  afterwards a configured LRD answers correctly: {ok}")
     keys = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_max", "over_budget")
+    keys += ("firmware_us_max",)
     print("  serve:", json.dumps({k: summary.get(k) for k in keys}))
     if summary.get("error_messages"):
         print("  not processed:", summary["error_messages"])

@@ -323,7 +323,9 @@ class ServeStats:
     ``errors`` counts the frames the chain could not process (an internal error: the frame is
     not answered, the ESCs finish it and serving goes on); ``error_messages`` keeps the first
     few (exception type and message). ``cpu_us_max`` is the largest CPU time one frame took
-    (this thread's CPU clock), ``over_budget`` the frames above ``CPU_BUDGET_US``.
+    (this thread's CPU clock) until its answer, ``over_budget`` the frames above
+    ``CPU_BUDGET_US``; ``firmware_us_max`` the largest CPU time the slaves' applications then
+    took to react to one frame (:meth:`EcatChain.run_firmware`, after the answer was sent).
     """
 
     frames_in: int = 0
@@ -334,6 +336,7 @@ class ServeStats:
     error_messages: list[str] = field(default_factory=list)
     cpu_us_max: float = 0.0
     over_budget: int = 0
+    firmware_us_max: float = 0.0
     process_us: list[float] = field(default_factory=list)
 
     def summary(self) -> dict[str, float | int]:
@@ -354,6 +357,7 @@ class ServeStats:
             "process_us_max": round(times[-1], 1) if times else 0.0,
             "cpu_us_max": round(self.cpu_us_max, 1),
             "over_budget": self.over_budget,
+            "firmware_us_max": round(self.firmware_us_max, 1),
         }
 
 
@@ -408,6 +412,23 @@ def _abandon_frame(chain: EcatChain) -> None:
     for dev in chain.devices:
         with contextlib.suppress(Exception):
             dev.end_frame()
+    with contextlib.suppress(Exception):
+        chain.run_firmware()
+    chain.firmware.clear()
+
+
+def _count_error(
+    stats: ServeStats,
+    exc: BaseException,
+    frame: bytes,
+    on_error: Callable[[BaseException, bytes], None] | None,
+) -> None:
+    """An internal error while serving ``frame``: counted, its first messages kept, reported."""
+    stats.errors += 1
+    if len(stats.error_messages) < MAX_ERROR_MESSAGES:
+        stats.error_messages.append(f"{type(exc).__name__}: {exc}")
+    if on_error is not None:
+        on_error(exc, frame)
 
 
 def serve(
@@ -422,6 +443,10 @@ def serve(
     on_error: Callable[[BaseException, bytes], None] | None = None,
 ) -> ServeStats:
     """Answer frames until ``stop`` is set; publish taxels from ``feed`` between frames.
+
+    Each frame is answered as the ESCs return it (:meth:`EcatChain.answer`); then the slaves'
+    firmware reacts to it (:meth:`EcatChain.run_firmware`: the ESM, the mailbox), before the next
+    frame, as a slave's application sees the events its ESC raised once the frame has passed.
 
     Every frame the wire carries is legal input: one that still hits an internal error is
     counted (``errors``), handed to ``on_error`` with the frame, and not answered; serving
@@ -450,14 +475,10 @@ def serve(
                     capture.write(wall_ns(), frame, outbound=False)
                 t0, c0 = clock(), cpu()
                 try:
-                    back = chain.process_frame(frame)
+                    back = chain.answer(frame)
                 except Exception as exc:  # every frame is legal input: count it and go on
                     _abandon_frame(chain)
-                    stats.errors += 1
-                    if len(stats.error_messages) < MAX_ERROR_MESSAGES:
-                        stats.error_messages.append(f"{type(exc).__name__}: {exc}")
-                    if on_error is not None:
-                        on_error(exc, frame)
+                    _count_error(stats, exc, frame, on_error)
                     continue
                 finally:
                     cpu_us = (cpu() - c0) / 1000.0
@@ -467,13 +488,19 @@ def serve(
                         stats.over_budget += 1
                 if back is None:
                     stats.dropped += 1
-                    collector.after_frame()
-                    continue
-                sock.send(back)
-                if capture is not None:
-                    capture.write(wall_ns(), back, outbound=True)
-                stats.frames_out += 1
-                if len(stats.process_us) < keep_times:
-                    stats.process_us.append((clock() - t0) * 1e6)
+                else:
+                    sock.send(back)
+                    if capture is not None:
+                        capture.write(wall_ns(), back, outbound=True)
+                    stats.frames_out += 1
+                    if len(stats.process_us) < keep_times:
+                        stats.process_us.append((clock() - t0) * 1e6)
+                c0 = cpu()  # the slaves' firmware reacts once the frame has passed
+                try:
+                    chain.run_firmware()
+                except Exception as exc:
+                    chain.firmware.clear()
+                    _count_error(stats, exc, frame, on_error)
+                stats.firmware_us_max = max(stats.firmware_us_max, (cpu() - c0) / 1000.0)
                 collector.after_frame()
     return stats

@@ -152,7 +152,8 @@ def run(args: argparse.Namespace) -> int:
             f"{summary['publications']} taxel samples; "
             f"processing median {summary['process_us_median']} us, "
             f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us; "
-            f"CPU max {summary['cpu_us_max']} us per frame"
+            f"CPU max {summary['cpu_us_max']} us per frame, "
+            f"then the firmware max {summary['firmware_us_max']} us"
         )
         for message in stats.error_messages:
             print(f"  not processed: {message}")

@@ -106,14 +106,14 @@ def test_serve_counts_a_frame_it_cannot_process_records_all_and_goes_on(
     chain = EcatChain.configured(2, 4)
     brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
     boom = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0EEE, bytes(2)),))).to_bytes()
-    real = chain.process_frame
+    real = chain.answer
 
     def process(frame: bytes) -> bytes | None:  # an internal error on one frame
         if frame == boom:
             raise IndexError("simulated internal error")
         return real(frame)
 
-    monkeypatch.setattr(chain, "process_frame", process)
+    monkeypatch.setattr(chain, "answer", process)
     stop = threading.Event()
     sock = PairSocket([brd, boom, brd], stop)
     seen: list[bytes] = []
@@ -169,3 +169,47 @@ def test_serve_collects_garbage_between_frames_not_inside_them() -> None:
         assert gc.isenabled() == before
     finally:
         gc.callbacks.pop()
+
+
+def test_serve_answers_before_the_firmware_reacts_and_goes_on_after_its_error(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """serve sends each answer before the slaves' firmware reacts to the frame: a BWR of AL
+    control asking the OP slaves for PREOP is answered, the ESM then takes them to PREOP, and the
+    next BRD of AL status reads PREOP (0x02). An internal error in the firmware's reaction is
+    counted (the frame was answered) and serving goes on."""
+    chain = EcatChain.configured(2, 4)
+    to_preop = ethercat.frame(EcatFrame((Datagram(Command.BWR, 0, 0x0120, b"\x02\x00"),)))
+    status = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
+    order: list[str] = []
+    answer, firmware = chain.answer, chain.run_firmware
+
+    def answered(frame: bytes) -> bytes | None:
+        order.append("answer")
+        return answer(frame)
+
+    def reacted() -> None:
+        order.append("firmware")
+        if len(order) == 9:  # after the third frame
+            raise KeyError("simulated firmware error")
+        firmware()
+
+    monkeypatch.setattr(chain, "answer", answered)
+    monkeypatch.setattr(chain, "run_firmware", reacted)
+    stop = threading.Event()
+    sock = PairSocket([to_preop.to_bytes(), status, status, status], stop)
+    send = sock.send
+
+    def sent(frame: bytes) -> None:
+        order.append("send")
+        send(frame)
+
+    monkeypatch.setattr(sock, "send", sent)
+    stats = serve(chain, sock, stop)  # type: ignore[arg-type]
+    assert order == ["answer", "send", "firmware"] * 4
+    assert (stats.frames_in, stats.frames_out, stats.errors) == (4, 4, 1)
+    assert stats.error_messages == ["KeyError: 'simulated firmware error'"]
+    assert stats.summary()["firmware_us_max"] >= 0
+    for back in sock.outbox[1:]:  # AL status PREOP (0x02) ORed over both slaves, wkc 2
+        (d,) = ethercat.decode(back[14:])[0].datagrams
+        assert (d.data, d.wkc) == (b"\x02\x00", 2)

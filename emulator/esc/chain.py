@@ -12,6 +12,11 @@ processing unit sets bit 0x02 of the first source-MAC octet when DL control bit 
 (datasheet I 3, II 2.4.1). Datagrams are parsed with :func:`skinframes.ethercat.decode`; the
 processing writes the data, ADP, IRQ and WKC fields in place.
 
+The slaves' applications (their firmware: the ESM, the mailbox) react to a frame once it has
+passed, as firmware sees the events its ESC raised (:meth:`EcatChain.run_firmware`):
+:meth:`EcatChain.process_frame` returns the frame and then runs them; :meth:`EcatChain.answer`
+returns the frame and leaves them until the live transport has sent it.
+
 One model serves two users: the live transport (:mod:`emulator.live`) feeds it frames from a
 raw socket, and the timing engine (:mod:`emulator.net.ecat`) asks :meth:`EcatChain.frame_effect`
 once per frame of a cycle what each ESC does to it, and applies that to the ESCs a frame reaches.
@@ -138,6 +143,12 @@ class EcatChain:
             dev.dc.timebase, dev.dc.position = self.timebase, i
         self.frames = 0
         self.dropped = 0
+        # the slave applications' reactions to the frame that just passed (AL control, mailbox
+        # events), run once it has passed (run_firmware), as a slave's firmware reacts to the
+        # events its ESC signals
+        self.firmware: list[tuple[EscDevice, int]] = []
+        for dev in self.devices:
+            dev.firmware_queue = self.firmware
 
     @classmethod
     def skin(
@@ -222,14 +233,35 @@ class EcatChain:
 
     # --- frames -----------------------------------------------------------------------------
     def process_frame(self, frame: bytes | bytearray) -> bytes | None:
-        """Pass an Ethernet frame through the chain; the frame as it returns to the master.
+        """Pass an Ethernet frame through the chain; the frame as it returns to the master,
+        after which the slaves' applications have reacted to it (:meth:`run_firmware`).
 
         Returns:
             The returned frame (same length), or None when the ESCs destroy it: a non-EtherCAT
             frame at an ESC whose DL control forwarding rule destroys them, a malformed
             EtherCAT frame, or a port forced open without a link.
         """
+        back = self._run(frame, None)
+        self.run_firmware()
+        return back
+
+    def answer(self, frame: bytes | bytearray) -> bytes | None:
+        """:meth:`process_frame` up to the returned frame: the ESCs' work, the applications'
+        reactions still to come (:meth:`run_firmware`, before the next frame). A live
+        transport answers the master first, as a slave's ESC returns the frame while its
+        firmware is yet to see the events (AL control, mailbox) the frame raised."""
         return self._run(frame, None)
+
+    def run_firmware(self) -> None:
+        """The slaves' applications react to the frames that passed (the ESM to AL control, the
+        mailbox to its SyncManager events, ETG.1000.6 6.4, 5.6), slave by slave in chain order:
+        what :meth:`EscDevice.end_frame` left for them."""
+        queue = self.firmware
+        while queue:
+            work = sorted(queue, key=lambda w: w[0].position)  # stable: each slave's in order
+            queue.clear()
+            for dev, what in work:
+                dev.react(what)
 
     def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
         self.frames += 1
@@ -656,6 +688,7 @@ class EcatChain:
                 marks.append(dev.position)
             if not onward:
                 break
+        self.run_firmware()
         return FrameEffect(ecat, tuple(slaves), frozenset(marks), self.input_bytes)
 
     def count(self, register: int, position: int, times: int = 1) -> None:

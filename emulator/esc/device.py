@@ -145,6 +145,7 @@ __all__ = [
 ]
 
 _RESET_SEQUENCE: Final = b"RES"
+_MAILBOX_EVENT: Final = -1  # EscDevice.react: a mailbox or SyncManager event, not AL control
 
 
 @dataclass(frozen=True, slots=True)
@@ -251,6 +252,7 @@ class EscDevice:
         "app",
         "config",
         "dc",
+        "firmware_queue",
         "fmmu_span",
         "info",
         "irq",
@@ -315,6 +317,9 @@ class EscDevice:
             self.app, "mailbox_event", None
         )
         self._mailbox_due = False
+        # where the application's reactions to a frame wait until the frame has passed (the
+        # chain's list, EcatChain.run_firmware), or None: the application reacts at once
+        self.firmware_queue: list[tuple[EscDevice, int]] | None = None
         self._power_on()
 
     # --- power-on, EEPROM load ----------------------------------------------------------------
@@ -525,7 +530,7 @@ class EscDevice:
         if self._mailbox_due:
             self._mailbox_due = False
             if self._mailbox_hook is not None:
-                self._mailbox_hook(self)
+                self._react(_MAILBOX_EVENT)
         if self._reset_written is None:
             self._reset_progress = 0
         else:
@@ -537,6 +542,7 @@ class EscDevice:
             self._reset_written = None
             if self._reset_progress == len(_RESET_SEQUENCE):
                 self._reset_progress = 0
+                self.react_now()  # what the application was to do before the reset
                 self._power_on()
         self.mem[REG_RESET_ECAT] = self._reset_progress
 
@@ -1020,7 +1026,36 @@ class EscDevice:
             if mem[REG_PDI_CONTROL + 1] & 0x01:  # device emulation: AL control -> AL status
                 self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
             else:
-                self.app.al_control(self, value)
+                self._react(value)
+
+    def _react(self, what: int) -> None:
+        """The application reacts to the frame (:meth:`react`), once the frame has passed when
+        the chain holds its reactions (:attr:`firmware_queue`), else at once."""
+        if self.firmware_queue is None:
+            self.react(what)
+        else:
+            self.firmware_queue.append((self, what))
+
+    def react(self, what: int) -> None:
+        """The application's reaction to a frame: to a write of AL control with value ``what``
+        (the ESM, ETG.1000.6 6.4), or to a mailbox or SyncManager event (``what`` < 0): what
+        the slave's firmware does after the ESC signalled the event (datasheet I 3.4, 8)."""
+        if what == _MAILBOX_EVENT:
+            assert self._mailbox_hook is not None
+            self._mailbox_hook(self)
+        else:
+            self.app.al_control(self, what)
+
+    def react_now(self) -> None:
+        """The reactions of this ESC's application still held (:attr:`firmware_queue`), in
+        order: before an ESC reset, which the firmware would have seen after them."""
+        queue = self.firmware_queue
+        if not queue or all(dev is not self for dev, _ in queue):
+            return
+        mine = [what for dev, what in queue if dev is self]
+        queue[:] = [(dev, what) for dev, what in queue if dev is not self]
+        for what in mine:
+            self.react(what)
 
     def _masked_write(self, lo: int, data: bytes, flags: list[bool]) -> None:
         """Bytes [lo, lo + len(data)) without side effects but change flags: masked at once."""

@@ -45,7 +45,9 @@ class OneByOne(EcatChain):
     """The reference: every ESC in turn runs every datagram, then ends the frame."""
 
     def process_frame(self, frame: bytes | bytearray) -> bytes | None:
-        return self._run(frame, [])
+        back = self._run(frame, [])
+        self.run_firmware()
+        return back
 
 
 def line(kind: type[EcatChain]) -> EcatChain:
