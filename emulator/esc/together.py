@@ -10,11 +10,12 @@ registers, for all of them in one pass over the rows of the chain's memory
 SyncManager table changed) is a mask of rows. DL status after a write of DL control, the event
 request and the DC system time compare (:func:`emulator.esc.dc.compare_together`) are worked out
 over the rows too, and so are changed SyncManager tables: decoded, and what they change worked
-out, once per distinct table before and after (:func:`emulator.esc.mapping.sm_change`), each ESC
-then only changing its SyncManager objects; what else follows a commit in each ESC (rebuilt FMMU
-tables, EEPROM command, AL control) is :meth:`EscDevice.take_effect`, as for one ESC. The work thus grows
-with the bytes written and the ESCs whose state the write changes, not with one Python pass per
-ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under hostile frames.
+out, once per distinct table before and after (:func:`emulator.esc.mapping.sm_change`), each
+ESC then only changing its SyncManager objects. What else follows a commit in each ESC (rebuilt
+FMMU tables, EEPROM command, AL control) is :meth:`EscDevice.take_effect`, as for one ESC. The
+work thus grows with the bytes written and the ESCs whose state the write changes, not with one
+Python pass per ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under
+hostile frames.
 
 A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan map onto plain memory
 (:meth:`EscDevice.plain_plan`) is done for all of them at once by :func:`logical_together`:
@@ -140,12 +141,11 @@ def _syncmanagers(
     """What :meth:`EscDevice.take_effect` does first to the ESCs ``devices[i]`` for ``i`` in
     ``which`` after a frame changed their SyncManager registers (the rest of it, which an FMMU,
     DC, EEPROM or AL control write sets off, does not touch the SyncManagers, and follows):
-    their tables decoded and the changes
-    worked out (:func:`sm_table`, :func:`sm_change`) once per distinct table before, table after
-    and activate bytes before the frame (``enabled``, a row each), each change's status
-    registers set over the rows at once, and each ESC's SyncManagers changed as the change
-    says (:meth:`EscDevice.change_syncmanagers`); the mailbox handler runs at the end of the
-    frame."""
+    their tables decoded and the changes worked out (:func:`sm_table`, :func:`sm_change`) once
+    per distinct table before, table after and activate bytes before the frame (``enabled``, a
+    row each), each change's status registers set over the rows at once, and each ESC's
+    SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers`); the
+    mailbox handler runs once the frame has passed."""
     if not which:
         return
     count = enabled.shape[1]
