@@ -247,9 +247,9 @@ class EcatChain:
 
     def answer(self, frame: bytes | bytearray) -> bytes | None:
         """:meth:`process_frame` up to the returned frame: the ESCs' work, the applications'
-        reactions still to come (:meth:`run_firmware`, before the next frame). A live
-        transport answers the master first, as a slave's ESC returns the frame while its
-        firmware is yet to see the events (AL control, mailbox) the frame raised."""
+        reactions still to come (:meth:`run_firmware`; the next frame runs them first if
+        nobody did). A live transport answers the master first, as a slave's ESC returns the
+        frame while its firmware is yet to see the events (AL control, mailbox) it raised."""
         return self._run(frame, None)
 
     def run_firmware(self) -> None:
@@ -264,6 +264,8 @@ class EcatChain:
                 dev.react(what)
 
     def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
+        if self.firmware:  # reactions to the frame before, not yet run: first them
+            self.run_firmware()
         self.frames += 1
         self.timebase.frame_ns = self.clock_ns()
         buf = bytearray(frame)
@@ -663,6 +665,7 @@ class EcatChain:
         The chain's state moves on as for any frame (a skin patch's LRD changes nothing that a
         later LRD would see).
         """
+        self.run_firmware()  # reactions to the frame before, if any were left
         frame = ethercat.frame(ecat).to_bytes()
         buf = bytearray(frame)
         layout = self._parse(buf)

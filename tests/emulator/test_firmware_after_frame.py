@@ -80,3 +80,16 @@ def test_firmware_after_the_frame_leaves_what_firmware_at_once_leaves() -> None:
             if i % 300 == 299:
                 for g in setup:
                     assert later.process_frame(g) == at_once.process_frame(g)
+
+
+def test_the_next_frame_runs_the_reactions_nobody_ran() -> None:
+    """``answer`` leaves the reactions for later; if nobody runs them, the next frame does, before
+    its own work: a BRD of AL status after a PREOP request answered but not reacted to reads
+    PREOP (0x02, ORed over the slaves), and nothing is left held."""
+    chain = EcatChain.configured(NODES, SIZE)
+    chain.answer(frame(Datagram(Command.BWR, 0, AL_CONTROL, b"\x02\x00")))
+    assert len(chain.firmware) == NODES
+    back = chain.answer(frame(Datagram(Command.BRD, 0, AL_STATUS, bytes(2))))
+    assert back is not None
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    assert (d.data, d.wkc) == (b"\x02\x00", NODES) and not chain.firmware
