@@ -366,3 +366,31 @@ def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
     assert fast is not None
     (d,) = ethercat.decode(fast[14:])[0].datagrams
     assert (d.data, d.wkc) == (bytes((0xA0, 0xA1)), 2)
+
+
+def test_broadcasts_of_memory_keep_to_what_each_esc_opens() -> None:
+    """A BWR and a BRD of user and process RAM, at the chain as every ESC in turn would do
+    them, keep to what each ESC opens to ECAT. Hand-worked: a BWR of
+    11 22 33 44 at 0x0FF0 (user RAM) writes at all 12 ESCs; one at the input buffer (0x1000, a
+    read SyncManager) writes nothing (0); one of 55 66 at 0x1300 (process RAM) writes at the 11
+    ESCs whose EEPROM loaded, not at the one whose did not; a BRD of 0x12FF + 4 then reads
+    00 55 66 00 from those 11."""
+    fast, reference = line(EcatChain), line(OneByOne)
+
+    def both(cmd: Command, ado: int, data: bytes) -> Datagram:
+        f = ethercat.frame(EcatFrame((Datagram(cmd, 0, ado, data),))).to_bytes()
+        back = fast.process_frame(f)
+        assert back == reference.process_frame(f)
+        assert np.array_equal(fast.memory, reference.memory)
+        assert back is not None
+        (d,) = ethercat.decode(back[14:])[0].datagrams
+        return d
+
+    assert both(Command.BWR, 0x0FF0, b"\x11\x22\x33\x44").wkc == NODES
+    assert {fast.memory[p, 0x0FF0:0x0FF4].tobytes() for p in range(NODES)} == {b"\x11\x22\x33\x44"}
+    assert both(Command.BWR, 0x1000, b"\x55\x66").wkc == 0
+    assert both(Command.BWR, 0x1300, b"\x55\x66").wkc == NODES - 1
+    written = [fast.memory[p, 0x1300:0x1302].tobytes() for p in range(NODES)]
+    assert written == [b"\x00\x00" if p == CLOSED else b"\x55\x66" for p in range(NODES)]
+    read = both(Command.BRD, 0x12FF, bytes(4))
+    assert (read.wkc, read.data) == (NODES - 1, b"\x00\x55\x66\x00")
