@@ -19,7 +19,8 @@
    master's reset frames (broadcasts that every ESC applies to its own hostile state); the
    hostile frames by kind (:func:`kind`: a long logical datagram, a write to every ESC's
    SyncManager or FMMU registers, another logical datagram, the rest); the costliest frames'
-   datagrams, and for reference the CPU of an ordinary LRD of the
+   datagrams, a master's own start-up (each broadcast of AL control and the first LRD of the
+   image: until the answer, then the firmware), and for reference the CPU of an ordinary LRD of the
    whole process image. Afterwards a master resets and configures the line again and an LRD
    must return every patch's inputs.
 2. ``--live``: the same frames sent to ``skinframes serve ecat --nodes N`` over a veth pair in a
@@ -219,6 +220,38 @@ def configured_chain(nodes: int, size: int, mailbox: bool) -> EcatChain:
     return chain
 
 
+def print_startup(nodes: int, size: int, mailbox: bool, runs: int) -> None:
+    """A master's own start-up, no hostile frame: the CPU of each broadcast of AL control and of
+    the first LRD of the image, until the answer and then the firmware (least of ``runs``
+    fresh chains, the caches emptied before each)."""
+    frames = final_frames(nodes, size, mailbox)
+    picked = [
+        (i, describe(f))
+        for i, f in enumerate(frames)
+        if i == len(frames) - 1 or describe(f).startswith(f"{int(Command.BWR)}@0x0120+")
+    ]
+    least: dict[int, list[float]] = {}
+    cpu = time.thread_time_ns
+    for _ in range(runs):
+        mapping.forget()
+        chain = EcatChain.skin(nodes, size, mailbox=mailbox)
+        for i, frame in enumerate(frames):
+            c0 = cpu()
+            chain.answer(frame)
+            c1 = cpu()
+            chain.run_firmware()
+            times = [(c1 - c0) / 1e3, (cpu() - c1) / 1e3]
+            least[i] = [min(a, b) for a, b in zip(least.get(i, times), times, strict=True)]
+    print(f"  a master's start-up ({what_runs(runs)}): until the answer, then the firmware")
+    for i, text in picked:
+        answer, firmware = least[i]
+        print(f"    frame {i} {text}: {answer:.0f} us, then {firmware:.0f} us")
+
+
+def what_runs(runs: int) -> str:
+    return f"least of {runs} runs" if runs > 1 else "first run"
+
+
 def print_costs(what: str, us: npt.NDArray[np.float64]) -> None:
     print(
         f"  {what}: median {np.median(us):.0f} us, p99 {np.percentile(us, 99):.0f} us, "
@@ -261,11 +294,12 @@ def in_process(
     least = np.min(per_run, axis=0)
     if runs > 1:  # what a frame needs: the machine only ever adds to a frame's CPU time
         print_costs(f"least of {runs} runs", least)
-    what = f"least of {runs} runs" if runs > 1 else "first run"
+    what = what_runs(runs)
     print_costs(f"  of which the hostile frames ({what})", least[~reset])
     if reset.any():
         print_costs(f"  of which the master's reset frames ({what})", least[reset])
     print_kinds([f for f, r in zip(sent, masters, strict=True) if not r], least[~reset])
+    print_startup(nodes, size, mailbox, runs)
     firmware = np.min(firmware_runs, axis=0)
     print(
         f"  then the slaves' firmware ({what}): median {np.median(firmware):.0f} us, "
