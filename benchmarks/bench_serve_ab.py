@@ -71,9 +71,13 @@ def worker(checkout: str, nodes: int, frames: int, seed: int) -> None:
 
 
 def forget_caches() -> None:
-    """Empty the checkout's caches shared by every ESC (module-level dicts named ``*_CACHE`` in
-    ``emulator.esc``, also in checkouts older than :func:`emulator.esc.mapping.forget`): each
-    run pays what a process that has seen none of the frames pays, as serve does."""
+    """Empty the checkout's caches shared by every ESC: :func:`emulator.esc.mapping.forget`
+    where the checkout has it, and every module-level dict named ``*_CACHE`` in
+    ``emulator.esc`` (checkouts older than ``forget``): each run pays what a process that has
+    seen none of the frames pays, as serve does."""
+    forget = getattr(sys.modules.get("emulator.esc.mapping"), "forget", None)
+    if forget is not None:
+        forget()
     for name, module in list(sys.modules.items()):
         if name.startswith("emulator.esc"):
             for attr, value in vars(module).items():
