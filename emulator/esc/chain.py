@@ -393,11 +393,12 @@ class EcatChain:
         map part of it), in chain order: (the working counter's increment, whether an ESC's
         event request changed). An LRD of a whole input buffer is one call
         (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
-        memory with one plan and the same holes (:meth:`EscDevice.plain_access`) are done at
+        memory with one plan and the same holes (:meth:`EscDevice.row_access`) are done at
         once over their rows (:func:`logical_together`), a few of them each straight in its
         memory (:meth:`EscDevice.plain_logical`); an LRD's consecutive plain ESCs, whatever
-        their plans, from the last back (:func:`lrd_last_readers`); any other ESC on its own,
-        as :meth:`EscDevice.process`.
+        their plans, from the last back (:func:`lrd_last_readers`); then those of them that
+        read DL or AL status clear its event (:meth:`EscDevice.clear_read_events`); any other
+        ESC on its own, as :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
@@ -405,36 +406,50 @@ class EcatChain:
         run: list[int] = []  # consecutive targets whose plain access is run_plan, not done yet
         run_plan: PlainAccess = _UNTOUCHED
         accesses: list[PlainAccess] = []  # an LRD's: those of the run
+        events: list[tuple[int, int]] = []  # (target, the events its reads clear) of the run
 
-        def plain() -> int:  # the run: over its rows when long enough (no event changes)
+        def plain() -> tuple[int, bool]:  # the run: over its rows when long enough
             if lrd:
-                return lrd_last_readers([line[q] for q in run], accesses, buf, at, n)
-            if len(run) >= LOGICAL_TOGETHER_MIN:
-                return logical_together(self.memory, run, run_plan[2], cmd, buf, at, n)
-            return sum(line[q].plain_logical(run_plan, cmd, buf, at, n) for q in run)
+                inc = lrd_last_readers([line[q] for q in run], accesses, buf, at, n)
+            elif len(run) >= LOGICAL_TOGETHER_MIN:
+                inc = logical_together(self.memory, run, run_plan[2], cmd, buf, at, n)
+            else:
+                inc = sum(line[q].plain_logical(run_plan, cmd, buf, at, n) for q in run)
+            cleared = False  # then each ESC's reads of DL or AL status clear their events
+            for q, bits in events:
+                cleared = line[q].clear_read_events(bits) or cleared
+            return inc, cleared
 
         for p in targets:
             dev = line[p]
             if run:
-                plan = dev.plain_access(cmd, lad, n)
+                found = dev.row_access(cmd, lad, n)
+                plan = found.plain
                 if plan == _UNTOUCHED:
                     continue  # its FMMUs map none of the datagram's bytes: untouched
                 if plan == run_plan or (lrd and plan is not None):
                     run.append(p)
                     if lrd:
                         accesses.append(plan)
+                    if found.events:
+                        events.append((p, found.events))
                     continue
-                wkc_inc += plain()
-                run, accesses = [], []  # the ESCs before this one are done: now it
+                inc, cleared = plain()
+                wkc_inc, changed = wkc_inc + inc, changed or cleared
+                run, accesses, events = [], [], []  # the ESCs before this one are done: now it
             before = dev.irq
-            done = dev.logical_unless_plain(cmd, lad, buf, at, n)
+            done = dev.logical_unless_rows(cmd, lad, buf, at, n)
             if isinstance(done, int):
                 wkc_inc += done
                 changed = changed or dev.irq != before
-            elif done != _UNTOUCHED:
-                run, run_plan, accesses = [p], done, [done]
+            elif done.plain != _UNTOUCHED:
+                assert done.plain is not None
+                run, run_plan, accesses = [p], done.plain, [done.plain]
+                if done.events:
+                    events.append((p, done.events))
         if run:
-            wkc_inc += plain()
+            inc, cleared = plain()
+            wkc_inc, changed = wkc_inc + inc, changed or cleared
         return wkc_inc, changed
 
     def _everyone(

@@ -65,8 +65,8 @@ from emulator.esc.mapping import (
     SmChange,
     SmTable,
     decode_fmmus,
-    plain_access,
     remember,
+    row_access,
     shared_access,
     sm_change,
     sm_table,
@@ -788,9 +788,9 @@ class EscDevice:
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
         FMMUs it meets and access (:func:`shared_access`), looked up once per FMMU table;
-        whether it is plain (:func:`plain_access`) is remembered for the SyncManager table,
-        memory top and register write plans last asked about (ESCs configured alike ask
-        alike)."""
+        whether the chain may do it over the rows (:func:`row_access`) is remembered for the
+        SyncManager table, memory top and register write plans last asked about (ESCs
+        configured alike ask alike)."""
         plans = self._logical_plans
         access = (cmd, lad, n)
         found = plans.get(access)
@@ -801,7 +801,8 @@ class EscDevice:
         writes = self.write_plans
         if found.areas is not self._sm_areas or found.top != top or found.writes is not writes:
             found.areas, found.top, found.writes = self._sm_areas, top, writes
-            found.plain = plain_access(found.plan, self._sm_areas, top, writes.inert)
+            rows = row_access(found.plan, self._sm_areas, top, writes.inert)
+            found.plain, found.events = (None, 0) if rows is None else rows
         return found
 
     def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:
@@ -810,7 +811,7 @@ class EscDevice:
         read-only ones, no register read that has a side effect; its plan without the bytes
         where it does nothing (:meth:`plain_access`, :func:`emulator.esc.mapping.cut`); else
         None."""
-        found = self._access(cmd, lad, n).plain
+        found = self.plain_access(cmd, lad, n)
         return None if found is None else found[2]
 
     def plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
@@ -820,7 +821,35 @@ class EscDevice:
         Such an access changes nothing but the bytes and counts its working counter whatever
         they are, so the chain may do it for many ESCs with the same plan and holes at once
         (:func:`emulator.esc.together.logical_together` of the plan cut)."""
-        return self._access(cmd, lad, n).plain
+        found = self._access(cmd, lad, n)
+        return None if found.events else found.plain
+
+    def row_access(self, cmd: int, lad: int, n: int) -> Access:
+        """A logical access with what the chain may do over the rows (:attr:`Access.plain`: a
+        plain access, :meth:`plain_access`, or one that is plain but for reads of DL or AL
+        status, whose events, :attr:`Access.events`, the ESC then clears,
+        :meth:`clear_read_events`; :func:`emulator.esc.mapping.row_access`)."""
+        return self._access(cmd, lad, n)
+
+    def clear_read_events(self, events: int) -> bool:
+        """ECAT read the registers that clear ``events`` (0x0210 bits: DL status, AL status;
+        datasheet I Table 3): whether the event request to the master (:attr:`irq`) changed."""
+        before = self.irq
+        self._clear_event(events)
+        return self.irq != before
+
+    def logical_unless_rows(
+        self, cmd: int, lad: int, buf: bytearray, off: int, n: int
+    ) -> int | Access:
+        """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
+        counter's increment; but when the chain may do it over the rows (:meth:`row_access`),
+        that access, untouched, for the chain to do it together with the ESCs after this one."""
+        if cmd == LRD and self.read_buffered(lad, buf, off, n):
+            return 1
+        found = self._access(cmd, lad, n)
+        if found.plain is not None:
+            return found
+        return self._through(found.plan, cmd, buf, off, n)
 
     def logical_unless_plain(
         self, cmd: int, lad: int, buf: bytearray, off: int, n: int
@@ -828,12 +857,12 @@ class EscDevice:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
         counter's increment; but when it is plain (:meth:`plain_access`), that access, untouched,
         for the chain to do it together with the ESCs after this one."""
-        if cmd == LRD and self.read_buffered(lad, buf, off, n):
-            return 1
-        found = self._access(cmd, lad, n)
-        if found.plain is not None:
-            return found.plain
-        return self._through(found.plan, cmd, buf, off, n)
+        done = self.logical_unless_rows(cmd, lad, buf, off, n)
+        if isinstance(done, int):
+            return done
+        if done.plain is not None and not done.events:
+            return done.plain
+        return self._through(done.plan, cmd, buf, off, n)
 
     def plain_logical(self, access: PlainAccess, cmd: int, buf: bytearray, off: int, n: int) -> int:
         """A plain logical datagram (data ``buf[off:off+n]``, in place; ``access`` from

@@ -16,6 +16,7 @@ from typing import Final, TypeVar
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.registers import (
     ADDRESS_SPACE,
+    REG_ECAT_EVENT,
     REG_SM,
     REGISTER_END,
     SM_BYTES,
@@ -44,6 +45,7 @@ __all__ = [
     "plain_access",
     "plan_logical",
     "remember",
+    "row_access",
     "shared_access",
     "sm_change",
     "sm_table",
@@ -238,11 +240,12 @@ PlainAccess = tuple[LogicalPlan, Holes, LogicalPlan]
 
 
 class Access:
-    """A logical access by the FMMUs it meets: its plan (:func:`plan_logical`), and whether it is
-    all plain memory (:func:`plain_access`) with the SyncManager areas, memory top and register
-    write plans last asked."""
+    """A logical access by the FMMUs it meets: its plan (:func:`plan_logical`), and whether the
+    chain may do it over the rows (:func:`row_access`: ``plain``, and the events its register
+    reads clear, ``events``) with the SyncManager areas, memory top and register write plans
+    last asked."""
 
-    __slots__ = ("areas", "plain", "plan", "top", "writes")
+    __slots__ = ("areas", "events", "plain", "plan", "top", "writes")
 
     def __init__(self, plan: LogicalPlan) -> None:
         self.plan = plan
@@ -250,6 +253,7 @@ class Access:
         self.top = 0
         self.writes: object = None  # the register write plans (which writes are inert)
         self.plain: PlainAccess | None = None
+        self.events = 0
 
 
 def shared_access(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
@@ -282,6 +286,31 @@ def plain_access(
     :meth:`emulator.esc.write_plans.WritePlans.inert`): a hole that still counts. A part that
     meets another SyncManager's area makes the access not plain. (Below 0x0F80 the registers
     are accessed whatever SyncManager area lies there.)"""
+    found = _plain(plan, areas, top, inert, clearing=False)
+    return None if found is None else found[0]
+
+
+def row_access(
+    plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
+) -> tuple[PlainAccess, int] | None:
+    """What the chain may do over the rows of many ESCs (:func:`plain_access`), and the ECAT
+    events (0x0210 bits) the access clears: plain, or plain but for reads of DL or AL status.
+    Such a read is of the committed bytes, and clears its event once the part is read
+    (:func:`emulator.esc.registers.cleared_events`, datasheet I Table 3): so after the
+    datagram's reads at that ESC, unless a later part of the plan reads the event request
+    (0x0210) and would see it cleared, which is left to the ESC (None)."""
+    return _plain(plan, areas, top, inert, clearing=True)
+
+
+def _plain(
+    plan: LogicalPlan,
+    areas: SmTable,
+    top: int,
+    inert: Callable[[int, int], bool] | None,
+    clearing: bool,
+) -> tuple[PlainAccess, int] | None:
+    """:func:`plain_access`, with the events cleared (allowed when ``clearing``)."""
+    events = 0
     found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
     for side, ops in enumerate(plan):  # reads, writes
         for k, op in enumerate(ops):
@@ -290,8 +319,14 @@ def plain_access(
             holes: tuple[tuple[int, int], ...] = ()
             if lo < REGISTER_END:
                 if not side:
-                    if reads_dc(lo, hi) or cleared_events(lo, hi):
+                    if reads_dc(lo, hi):
                         return None
+                    if events and lo <= REG_ECAT_EVENT < hi:
+                        return None  # it sees what a read before it cleared: the ESC's order
+                    cleared = cleared_events(lo, hi)
+                    if cleared and not clearing:
+                        return None
+                    events |= cleared  # once this part is read (its own bytes as they were)
                 elif inert is not None and inert(lo, min(hi, REGISTER_END) - lo):
                     holes = ((lo, min(hi, REGISTER_END)),)  # counts: ECAT wrote registers
                 else:
@@ -309,7 +344,7 @@ def plain_access(
             if holes:
                 found.append((side, k, holes))
     every: Holes = tuple(found)
-    return plan, every, cut(plan, every)
+    return (plan, every, cut(plan, every)), events
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:

@@ -29,9 +29,9 @@ from skinframes.ethercat import Command, Datagram, EcatFrame
 NODES, SIZE = 12, 8
 CLOSED = 5  # the ESC whose EEPROM checksum is wrong: no process RAM from ECAT
 # physical starts: user RAM, process RAM, its end; the input SyncManager's area (0x1000 + 8),
-# which the shortcut leaves to each ESC, and registers, which it reads when their read has no
-# side effect (DL status 0x0110, AL status 0x0130 and the DC registers 0x0900+ have one) and
-# never writes
+# which the shortcut leaves to each ESC, and registers, which it reads unless they are DC
+# registers (0x0900+, running with the clock), clearing the events a read of DL status (0x0110)
+# or AL status (0x0130) clears, and never writes
 PLAIN = (0x0F80, 0x0FF0, 0x1200, 0x1201, 0x1FFF, 0x7000, 0xFFF0, 0xFFFF)
 EDGES = (0x0F7C, 0x0F7F, 0x0FFC, 0x1000, 0x1004, 0x0000, 0x0108, 0x0111, 0x012C, 0x0131, 0x08F8)
 LOGICAL = (Command.LRD, Command.LWR, Command.LRW)
@@ -281,6 +281,74 @@ def test_logical_writes_of_res_reset_every_esc() -> None:
         assert [dev.station for dev in chain.devices][:1] == [0x1001]
         assert lwr(0x4000, bytes([ch])) == nodes, i
     assert {dev.station for dev in chain.devices} == {0}  # reset values
+
+
+def lrd(chain: EcatChain, lad: int, n: int) -> Datagram:
+    back = chain.process_frame(
+        ethercat.frame(EcatFrame((Datagram.logical(Command.LRD, lad, bytes(n)),))).to_bytes()
+    )
+    assert back is not None
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    return d
+
+
+def read_fmmu(lad: int, phys: int, n: int) -> bytes:
+    """An FMMU's registers (datasheet II 2.13): logical ``lad``, ``n`` bytes, byte-wise onto
+    ``phys``, read, active."""
+    return struct.pack("<IHBBHBBB3x", lad, n, 0, 7, phys, 0, 1, 1)
+
+
+def test_reads_of_al_status_clear_its_event_over_the_rows(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """An FMMU onto AL status (0x0130) at every ESC: an LRD of it is done from the last ESC back
+    (lrd_last_readers) and returns the last ESC's AL status, OP (0x08); every ESC has read it,
+    so every ESC's AL status event (0x0210 bit 3) is cleared and its DL status event (bit 2)
+    is not (datasheet I Table 3)."""
+    runs: list[int] = []
+    shortcut = together.lrd_last_readers
+
+    def counted(devices, accesses, buf, off, n):  # type: ignore[no-untyped-def]
+        runs.append(len(devices))
+        return shortcut(devices, accesses, buf, off, n)
+
+    monkeypatch.setattr("emulator.esc.chain.lrd_last_readers", counted)
+    chain = line(EcatChain)
+    chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3
+    raise_events(chain)
+    d = lrd(chain, 0x4000, 2)
+    assert (d.data, d.wkc) == (b"\x08\x00", NODES)
+    assert runs == [NODES]
+    assert [dev.registers(0x0210, 1)[0] & 0x0C for dev in chain.devices] == [0x04] * NODES
+
+
+@pytest.mark.parametrize("order", ["AL status first", "event request first", "one part"])
+def test_a_read_of_the_event_request_sees_what_the_reads_before_it_cleared(order: str) -> None:
+    """AL status (0x0130) and the event request (0x0210) read into two frame bytes: by FMMU 1 and
+    FMMU 2 in either order, or by one FMMU onto 0x0130-0x0211 (bit-wise from bit 0: physical
+    bytes in frame bytes 0 to 225). An ESC reads through its FMMUs in their order, and clears
+    the AL status event once a part that read AL status is read: the event request it returns
+    has bit 3 cleared only when AL status was read by an FMMU before."""
+    chain = line(EcatChain)
+    raise_events(chain)
+    if order == "one part":
+        chain.process_frame(bwr(0x0610, read_fmmu(0x4000, 0x0130, 0x0212 - 0x0130)))
+    else:
+        first, second = (0x0130, 0x0210) if order == "AL status first" else (0x0210, 0x0130)
+        chain.process_frame(bwr(0x0610, read_fmmu(0x4000, first, 1)))
+        chain.process_frame(bwr(0x0620, read_fmmu(0x4001, second, 1)))
+    last = chain.devices[-1]
+    events = last.registers(0x0210, 1)[0]
+    assert events & 0x0C == 0x0C
+    if order == "one part":
+        d = lrd(chain, 0x4000, 0x0212 - 0x0130)
+        got = d.data[0], d.data[0x0210 - 0x0130]
+    else:
+        d = lrd(chain, 0x4000, 2)
+        got = (d.data[0], d.data[1]) if order == "AL status first" else (d.data[1], d.data[0])
+    assert got == (0x08, events & ~0x08 if order == "AL status first" else events)
+    assert d.wkc == NODES
+    assert last.registers(0x0210, 1)[0] == events & ~0x08
 
 
 def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
