@@ -47,7 +47,7 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
-from emulator.esc.mapping import PlainAccess
+from emulator.esc.mapping import LogicalPlan
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     REG_ALIAS,
@@ -66,8 +66,8 @@ from emulator.esc.together import (
     LOGICAL_TOGETHER_MIN,
     TOGETHER_MIN,
     commit_together,
+    last_readers,
     logical_together,
-    lrd_last_readers,
 )
 from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
@@ -90,7 +90,7 @@ MAX_SLAVES: Final = 0xFFFF  # auto-increment addresses are 16 bits
 _VLAN_TPID: Final = 0x8100
 _ETH_HEADER: Final = ethernet.HEADER_BYTES
 _U16 = struct.Struct("<H")
-_UNTOUCHED: Final[PlainAccess] = (((), ()), (), ((), ()))  # a logical access that maps nothing
+_UNTOUCHED: Final[LogicalPlan] = ((), ())  # the cut plan of an access that does nothing
 
 
 def _register_read(lo: int, hi: int) -> bool:
@@ -393,28 +393,28 @@ class EcatChain:
         map part of it), in chain order: (the working counter's increment, whether an ESC's
         event request changed). An LRD of a whole input buffer is one call
         (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
-        memory with one plan and the same holes (:meth:`EscDevice.row_access`) are done at
-        once over their rows (:func:`logical_together`), a few of them each straight in its
-        memory (:meth:`EscDevice.plain_logical`); an LRD's consecutive plain ESCs, whatever
-        their plans, from the last back (:func:`lrd_last_readers`); then those of them that
+        memory with one plan cut (:meth:`EscDevice.row_access`) are done at once over their
+        rows (:func:`logical_together`), a few of them each straight in its memory
+        (:meth:`EscDevice.logical_cut`); an LRD's consecutive plain ESCs, whatever their
+        plans, from the last back (:func:`last_readers`); then those of them that
         read DL or AL status clear its event (:meth:`EscDevice.clear_read_events`); any other
         ESC on its own, as :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
-        lrd = cmd == LRD  # its plain ESCs need not share a plan (lrd_last_readers)
-        run: list[int] = []  # consecutive targets whose plain access is run_plan, not done yet
-        run_plan: PlainAccess = _UNTOUCHED
-        accesses: list[PlainAccess] = []  # an LRD's: those of the run
+        lrd = cmd == LRD  # its plain ESCs need not share a plan (last_readers)
+        run: list[int] = []  # consecutive targets whose plan cut is run_plan, not done yet
+        run_plan: LogicalPlan = _UNTOUCHED
+        cuts: list[LogicalPlan] = []  # an LRD's: those of the run
         events: list[tuple[int, int]] = []  # (target, the events its reads clear) of the run
 
         def plain() -> tuple[int, bool]:  # the run: over its rows when long enough
             if lrd:
-                inc = lrd_last_readers([line[q] for q in run], accesses, buf, at, n)
+                inc = last_readers([line[q] for q in run], cuts, buf, at, n)
             elif len(run) >= LOGICAL_TOGETHER_MIN:
-                inc = logical_together(self.memory, run, run_plan[2], cmd, buf, at, n)
+                inc = logical_together(self.memory, run, run_plan, cmd, buf, at, n)
             else:
-                inc = sum(line[q].plain_logical(run_plan, cmd, buf, at, n) for q in run)
+                inc = sum(line[q].logical_cut(run_plan, cmd, buf, at, n) for q in run)
             cleared = False  # then each ESC's reads of DL or AL status clear their events
             for q, bits in events:
                 cleared = line[q].clear_read_events(bits) or cleared
@@ -424,27 +424,27 @@ class EcatChain:
             dev = line[p]
             if run:
                 found = dev.row_access(cmd, lad, n)
-                plan = found.plain
-                if plan == _UNTOUCHED:
-                    continue  # its FMMUs map none of the datagram's bytes: untouched
-                if plan == run_plan or (lrd and plan is not None):
+                cut = found.cut
+                if cut == _UNTOUCHED:
+                    continue  # it does nothing with the datagram's bytes
+                if cut == run_plan or (lrd and cut is not None):
                     run.append(p)
                     if lrd:
-                        accesses.append(plan)
+                        cuts.append(cut)
                     if found.events:
                         events.append((p, found.events))
                     continue
                 inc, cleared = plain()
                 wkc_inc, changed = wkc_inc + inc, changed or cleared
-                run, accesses, events = [], [], []  # the ESCs before this one are done: now it
+                run, cuts, events = [], [], []  # the ESCs before this one are done: now it
             before = dev.irq
             done = dev.logical_unless_rows(cmd, lad, buf, at, n)
             if isinstance(done, int):
                 wkc_inc += done
                 changed = changed or dev.irq != before
-            elif done.plain != _UNTOUCHED:
-                assert done.plain is not None
-                run, run_plan, accesses = [p], done.plain, [done.plain]
+            else:  # a run starts, even one that does nothing: the next are asked row_access
+                assert done.cut is not None
+                run, run_plan, cuts = [p], done.cut, [done.cut]
                 if done.events:
                     events.append((p, done.events))
         if run:

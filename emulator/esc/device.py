@@ -66,7 +66,6 @@ from emulator.esc.mapping import (
     SmTable,
     decode_fmmus,
     remember,
-    row_access,
     shared_access,
     sm_change,
     sm_table,
@@ -788,7 +787,7 @@ class EscDevice:
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
         FMMUs it meets and access (:func:`shared_access`), looked up once per FMMU table;
-        whether the chain may do it over the rows (:func:`row_access`) is remembered for the
+        what the chain may do over the rows (:meth:`Access.rows`) is remembered for the
         SyncManager table, memory top and register write plans last asked about (ESCs
         configured alike ask alike)."""
         plans = self._logical_plans
@@ -798,11 +797,7 @@ class EscDevice:
             found = shared_access(self._fmmus, cmd, lad, n)
             remember(plans, access, found, PLAN_CACHE_ENTRIES)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
-        writes = self.write_plans
-        if found.areas is not self._sm_areas or found.top != top or found.writes is not writes:
-            found.areas, found.top, found.writes = self._sm_areas, top, writes
-            rows = row_access(found.plan, self._sm_areas, top, writes.inert)
-            found.plain, found.events = (None, 0) if rows is None else rows
+        found.rows(self._sm_areas, top, self.write_plans)
         return found
 
     def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:
@@ -825,9 +820,9 @@ class EscDevice:
         return None if found.events else found.plain
 
     def row_access(self, cmd: int, lad: int, n: int) -> Access:
-        """A logical access with what the chain may do over the rows (:attr:`Access.plain`: a
-        plain access, :meth:`plain_access`, or one that is plain but for reads of DL or AL
-        status, whose events, :attr:`Access.events`, the ESC then clears,
+        """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the
+        plan cut, of a plain access, :meth:`plain_access`, or of one that is plain but for
+        reads of DL or AL status, whose events, :attr:`Access.events`, the ESC then clears,
         :meth:`clear_read_events`; :func:`emulator.esc.mapping.row_access`)."""
         return self._access(cmd, lad, n)
 
@@ -847,7 +842,7 @@ class EscDevice:
         if cmd == LRD and self.read_buffered(lad, buf, off, n):
             return 1
         found = self._access(cmd, lad, n)
-        if found.plain is not None:
+        if found.cut is not None:
             return found
         return self._through(found.plan, cmd, buf, off, n)
 
@@ -860,8 +855,9 @@ class EscDevice:
         done = self.logical_unless_rows(cmd, lad, buf, off, n)
         if isinstance(done, int):
             return done
-        if done.plain is not None and not done.events:
-            return done.plain
+        plain = done.plain
+        if plain is not None and not done.events:
+            return plain
         return self._through(done.plan, cmd, buf, off, n)
 
     def plain_logical(self, access: PlainAccess, cmd: int, buf: bytearray, off: int, n: int) -> int:
@@ -869,7 +865,11 @@ class EscDevice:
         :meth:`plain_access`): the working counter's increment. Its plan with the holes cut,
         straight to and from memory: what :meth:`_through` does there without asking for side
         effects, since there are none, and skipping the holes, where it does nothing."""
-        reads, writes = access[2]
+        return self.logical_cut(access[2], cmd, buf, off, n)
+
+    def logical_cut(self, plan: LogicalPlan, cmd: int, buf: bytearray, off: int, n: int) -> int:
+        """:meth:`plain_logical` of an access's plan cut (:attr:`Access.cut`)."""
+        reads, writes = plan
         mem = self.mem
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
         for bytewise, a, b, c, d, e, f in reads:

@@ -11,7 +11,7 @@ from __future__ import annotations
 import itertools
 import struct
 from collections.abc import Callable, Sequence
-from typing import Final, TypeVar
+from typing import Final, Protocol, TypeVar
 
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.registers import (
@@ -28,6 +28,7 @@ __all__ = [
     "ACCESS_CACHE",
     "FMMU_CACHE",
     "FMMU_ENTRY",
+    "PARTS_CACHE",
     "SM_CACHE",
     "SM_CHANGE_CACHE",
     "SM_ENTRY",
@@ -38,6 +39,7 @@ __all__ = [
     "SmChange",
     "SmFound",
     "SmTable",
+    "WritesInert",
     "cut",
     "decode_fmmus",
     "decode_sms",
@@ -49,6 +51,7 @@ __all__ = [
     "shared_access",
     "sm_change",
     "sm_table",
+    "unclaimed",
     "without",
 ]
 
@@ -71,6 +74,9 @@ _K = TypeVar("_K")
 _V = TypeVar("_V")
 # logical accesses by the FMMUs they meet (shared_access)
 ACCESS_CACHE: dict[tuple[object, ...], Access] = {}
+# the accesses of an access's first FMMU and of the FMMUs after it, by the FMMUs they meet
+# (Access.rows)
+PARTS_CACHE: dict[tuple[object, ...], Access] = {}
 # a decoded SyncManager table, the order of its entries by start (PDI-locked last), and the
 # status registers (0x0805 + 8 y) of the SyncManagers without a buffer (sm_table)
 SmFound = tuple[SmTable, tuple[int, ...], tuple[int, ...]]
@@ -94,6 +100,7 @@ def forget() -> None:
     empty pays what a process that has seen nothing pays (benchmarks)."""
     FMMU_CACHE.clear()
     ACCESS_CACHE.clear()
+    PARTS_CACHE.clear()
     SM_CACHE.clear()
     SM_CHANGE_CACHE.clear()
 
@@ -239,21 +246,181 @@ Holes = tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...]
 PlainAccess = tuple[LogicalPlan, Holes, LogicalPlan]
 
 
+class WritesInert(Protocol):
+    """What :class:`Access` asks of an ESC's register write plans
+    (:class:`emulator.esc.write_plans.WritePlans`)."""
+
+    def inert(self, addr: int, n: int) -> bool: ...
+
+
+_UNASKED: Final = object()  # Access.plain not worked out yet
+
+
 class Access:
-    """A logical access by the FMMUs it meets: its plan (:func:`plan_logical`), and whether the
-    chain may do it over the rows (:func:`row_access`: ``plain``, and the events its register
-    reads clear, ``events``) with the SyncManager areas, memory top and register write plans
-    last asked."""
+    """A logical access (``cmd``, ``n`` bytes at ``lad``) by the FMMUs it meets, ``hit`` (active
+    FMMUs in register order): its plan (:attr:`plan`, worked out when first asked), and what the
+    chain may do over the rows (:meth:`rows`) with the SyncManager areas, memory top and
+    register write plans last asked: ``cut``, the plan without the bytes where it does nothing
+    (None: not plain, :func:`row_access`), ``events``, those its register reads clear, and
+    :attr:`plain`, the plain access with its plan and holes."""
 
-    __slots__ = ("areas", "events", "plain", "plan", "top", "writes")
+    __slots__ = (
+        "_first",
+        "_others",
+        "_plain",
+        "_plan",
+        "_registers",
+        "areas",
+        "cmd",
+        "cut",
+        "events",
+        "hit",
+        "lad",
+        "n",
+        "top",
+        "writes",
+    )
 
-    def __init__(self, plan: LogicalPlan) -> None:
-        self.plan = plan
+    def __init__(self, hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> None:
+        self.hit, self.cmd, self.lad, self.n = hit, cmd, lad, n
+        self._plan: LogicalPlan | None = None
+        self._registers: tuple[bool, bool] | None = None
+        self._first: Access | None = None  # the first FMMU's access (PARTS_CACHE)
+        self._others: Access | None = None  # the others' (PARTS_CACHE)
         self.areas: SmTable | None = None
         self.top = 0
-        self.writes: object = None  # the register write plans (which writes are inert)
-        self.plain: PlainAccess | None = None
+        self.writes: WritesInert | None = None  # the register write plans (inert writes)
+        self._plain: object = _UNASKED
+        self.cut: LogicalPlan | None = None
         self.events = 0
+
+    @property
+    def plan(self) -> LogicalPlan:
+        """:func:`plan_logical` of the access."""
+        if self._plan is None:
+            self._plan = plan_logical(self.hit, self.cmd, self.lad, self.n)
+        return self._plan
+
+    @property
+    def registers(self) -> tuple[bool, bool]:
+        """Whether the plan reads, and whether it writes, registers (below 0x0F80)."""
+        if self._registers is None:
+            reads, writes = (any(op[1] < REGISTER_END for op in ops) for ops in self.plan)
+            self._registers = reads, writes
+        return self._registers
+
+    @property
+    def plain(self) -> PlainAccess | None:
+        """:func:`row_access` of the plan with the areas, top and write plans last asked
+        (:meth:`rows`): the plain access (plan, holes, cut), or None."""
+        if self._plain is _UNASKED:
+            assert self.areas is not None and self.writes is not None
+            found = row_access(self.plan, self.areas, self.top, self.writes.inert)
+            self._plain = None if found is None else found[0]
+        return self._plain  # type: ignore[return-value]
+
+    def rows(self, areas: SmTable, top: int, writes: WritesInert) -> None:
+        """Work out :attr:`cut` and :attr:`events` for SyncManager ``areas``, memory ``top`` and
+        register write plans ``writes`` (:func:`row_access`), unless they were the last asked.
+
+        When the access meets several FMMUs, the first FMMU's part and the others' (accesses of
+        their own, :data:`PARTS_CACHE`, shared by every access they are part of) are worked out
+        apart: after a broadcast to the FMMUs of ESCs that each map their own
+        logical bytes with FMMU 0, every ESC's FMMUs differ in the first alone, and the
+        others' cut is worked out once. The first FMMU claims its logical bytes
+        from the others (datasheet I 7), so the others' cut loses the bits of those frame
+        bytes (:func:`unclaimed`); which bytes are plain follows byte by byte, and what the
+        others' parts do in registers (read without side effect) too, so the cut is that of the
+        whole plan."""
+        if self.areas is areas and self.top == top and self.writes is writes:
+            return
+        self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
+        if len(self.hit) > 1 and self._apart(areas, top, writes):
+            return
+        found = row_access(self.plan, areas, top, writes.inert)
+        self._plain = None if found is None else found[0]
+        self.cut, self.events = (None, 0) if found is None else (found[0][2], found[1])
+
+    def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
+        """:meth:`rows` from the first FMMU's part and the others' cut, when another access met
+        the others before (:data:`PARTS_CACHE`; else each ESC would work out the others as
+        well as the whole plan), and the others are plain, write no register and clear no
+        event, and read no register after a read of the first that clears one; False leaves
+        it to the whole plan."""
+        cmd, lad, n = self.cmd, self.lad, self.n
+        others = self._others
+        if others is None:
+            key = (self.hit[1:], cmd, lad, n)
+            others = PARTS_CACHE.get(key)
+            if others is None:  # met for the first time: shared by no other access (yet)
+                remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+                return False
+            self._others = others
+        reads_registers, writes_registers = others.registers
+        if writes_registers:  # an inert write of registers counts, whatever the claims leave
+            return False
+        others.rows(areas, top, writes)
+        if others.cut is None or others.events:
+            return False
+        first = self._first
+        if first is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
+            key = (self.hit[:1], cmd, lad, n)
+            first = PARTS_CACHE.get(key)
+            if first is None:
+                first = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+            self._first = first
+        first.rows(areas, top, writes)
+        if first.cut is None or (first.events and reads_registers):
+            return False  # (a read of the event request after the first cleared an event)
+        f = self.hit[0]
+        lo, hi = max(lad, f[0]) - lad, min(lad + n, f[1]) - lad  # the frame bytes it claims
+        reads, writes_ = others.cut
+        if f[6] and cmd != LWR:
+            reads = unclaimed(reads, lo, hi, False)
+        if f[7] and cmd != LRD:
+            writes_ = unclaimed(writes_, lo, hi, True)
+        self.cut = (first.cut[0] + reads, first.cut[1] + writes_)
+        self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
+        return True
+
+
+def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tuple[LogicalOp, ...]:
+    """The parts ``ops`` (:func:`plan_logical`) without frame bytes [lo, hi), which an earlier
+    FMMU claimed: a byte-wise part as the runs left, a bit-wise part with the bits of those
+    frame bytes out of its mask (of the physical bits, shifted, for a write); a part with no
+    bit left goes."""
+    out: list[LogicalOp] = []
+    for op in ops:
+        bytewise, a, b, c, d, e, f = op
+        if bytewise:  # physical a, frame offset b, c bytes
+            if b >= hi or b + c <= lo:
+                out.append(op)
+                continue
+            if lo > b:
+                out.append((True, a, b, lo - b, 0, 0, 0))
+            if hi < b + c:
+                out.append((True, a + (hi - b), hi, b + c - hi, 0, 0, 0))
+            continue
+        # physical bytes [a, a + b), shift c, mask d, frame bytes [e, e + f)
+        if e >= hi or e + f <= lo:
+            out.append(op)
+            continue
+        x, y = 8 * (max(lo, e) - e), 8 * (min(hi, e + f) - e)  # frame bits from byte e
+        if write:
+            x, y = max(0, x + c), max(0, y + c)  # physical bits from byte a
+        mask = d & ~(((1 << (y - x)) - 1) << x) if y > x else d
+        if mask:
+            out.append((False, a, b, c, mask, e, f))
+    return tuple(out)
+
+
+def _access(hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
+    key = (hit, cmd, lad, n)
+    found = ACCESS_CACHE.get(key)
+    if found is None:
+        found = Access(hit, cmd, lad, n)
+        remember(ACCESS_CACHE, key, found, PLAN_CACHE_ENTRIES)
+    return found
 
 
 def shared_access(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
@@ -261,13 +428,7 @@ def shared_access(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
     order): one per FMMUs the access meets, in order, and access (:data:`ACCESS_CACHE`), since
     the others do not change its plan; FMMU tables that differ only elsewhere share it."""
     lo, hi = lad, lad + n
-    hit = tuple(f for f in fmmus if not (f[1] <= lo or f[0] >= hi))
-    key = (hit, cmd, lad, n)
-    found = ACCESS_CACHE.get(key)
-    if found is None:
-        found = Access(plan_logical(hit, cmd, lad, n))
-        remember(ACCESS_CACHE, key, found, PLAN_CACHE_ENTRIES)
-    return found
+    return _access(tuple(f for f in fmmus if not (f[1] <= lo or f[0] >= hi)), cmd, lad, n)
 
 
 def plain_access(

@@ -62,6 +62,7 @@ __all__ = [
     "LOGICAL_TOGETHER_MIN",
     "TOGETHER_MIN",
     "commit_together",
+    "last_readers",
     "logical_together",
     "lrd_last_readers",
 ]
@@ -339,11 +340,18 @@ def lrd_last_readers(
     in the working counter and read nothing, whatever their FMMUs ask for. The work per part
     is bounded by the frame bytes it maps (the bits still unread are kept per frame byte).
     """
+    return last_readers(devices, [access[2] for access in accesses], buf, off, n)
+
+
+def last_readers(
+    devices: Sequence[EscDevice], plans: Sequence[LogicalPlan], buf: bytearray, off: int, n: int
+) -> int:
+    """:func:`lrd_last_readers` of the ESCs' plans cut (:attr:`emulator.esc.mapping.Access.cut`)."""
     unread = bytearray(b"\xff") * n  # per frame byte, the bits no later ESC reads
     left = 8 * n  # how many
     wkc = 0
-    for dev, access in zip(reversed(devices), reversed(accesses), strict=True):
-        reads = access[2][0]  # the plan with the holes cut: each part reads a byte
+    for dev, plan in zip(reversed(devices), reversed(plans), strict=True):
+        reads = plan[0]  # the plan with the holes cut: each part reads a byte
         if not reads:
             continue
         wkc += 1

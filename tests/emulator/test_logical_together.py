@@ -302,17 +302,17 @@ def test_reads_of_al_status_clear_its_event_over_the_rows(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """An FMMU onto AL status (0x0130) at every ESC: an LRD of it is done from the last ESC back
-    (lrd_last_readers) and returns the last ESC's AL status, OP (0x08); every ESC has read it,
+    (last_readers) and returns the last ESC's AL status, OP (0x08); every ESC has read it,
     so every ESC's AL status event (0x0210 bit 3) is cleared and its DL status event (bit 2)
     is not (datasheet I Table 3)."""
     runs: list[int] = []
-    shortcut = together.lrd_last_readers
+    shortcut = together.last_readers
 
-    def counted(devices, accesses, buf, off, n):  # type: ignore[no-untyped-def]
+    def counted(devices, plans, buf, off, n):  # type: ignore[no-untyped-def]
         runs.append(len(devices))
-        return shortcut(devices, accesses, buf, off, n)
+        return shortcut(devices, plans, buf, off, n)
 
-    monkeypatch.setattr("emulator.esc.chain.lrd_last_readers", counted)
+    monkeypatch.setattr("emulator.esc.chain.last_readers", counted)
     chain = line(EcatChain)
     chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3
     raise_events(chain)
@@ -406,6 +406,143 @@ def test_claims_leave_the_bytes_no_earlier_claim_took(ranges: list[tuple[int, in
         taken |= set(range(lo, hi))
         assert claimed == sorted(claimed)
         assert all(a[1] < b[0] for a, b in itertools.pairwise(claimed))  # apart
+
+
+def bit_pairs(plan: mapping.LogicalPlan) -> tuple[set[tuple[int, int]], ...]:
+    """What a plan (cut) maps, read and written: the pairs (frame bit, physical bit), as the
+    parts' fields say (plan_logical): byte-wise, physical a, frame offset b, c bytes; bit-wise,
+    physical bytes from a, physical bit = frame bit + c, mask d of frame bits from byte e (a
+    read) or of physical bits from byte a (a write)."""
+    out: tuple[set[tuple[int, int]], ...] = (set(), set())
+    for side, ops in enumerate(plan):
+        for bytewise, a, b, c, d, e, _ in ops:
+            if bytewise:
+                out[side].update((8 * b + i, 8 * a + i) for i in range(8 * c))
+            elif side == 0:
+                out[0].update(
+                    (8 * e + j, 8 * a + j + c) for j in range(d.bit_length()) if d >> j & 1
+                )
+            else:
+                out[1].update(
+                    (8 * e + p - c, 8 * a + p) for p in range(d.bit_length()) if d >> p & 1
+                )
+    return out
+
+
+class Inert:
+    """Register write plans under which writes from 0x0E00 on change nothing."""
+
+    def inert(self, addr: int, n: int) -> bool:
+        return addr >= 0x0E00
+
+
+# physical starts: the first FMMU's anywhere, the others' mostly in RAM, near SyncManager areas
+FIRST_PHYS = (0x0000, 0x0130, 0x0E10, 0x0F7E, 0x1000, 0x1100, 0xFFF8)
+OTHER_PHYS = (0x1000, 0x1004, 0x1010, 0x1100, 0x1103, 0x17FC, 0xFFF8, 0x0F7E)
+
+
+def an_fmmu(phys: st.SearchStrategy[int]) -> st.SearchStrategy[tuple[int, ...]]:
+    """(logical start, length, (start bit, stop bit, physical bit), physical start, kind)."""
+    return st.tuples(
+        st.integers(0, 40),
+        st.integers(1, 24),
+        st.sampled_from([(0, 7, 0), (0, 7, 0), (3, 4, 5), (7, 0, 1), (5, 6, 7), (0, 7, 3)]),
+        phys,
+        st.integers(1, 3),  # read, write, both
+    )
+
+
+@given(
+    an_fmmu(st.sampled_from(FIRST_PHYS)),
+    st.lists(an_fmmu(st.sampled_from(OTHER_PHYS)), min_size=1, max_size=3),
+    st.lists(
+        st.tuples(
+            st.sampled_from([0x1000, 0x1008, 0x1104, 0x1800]),
+            st.integers(2, 12),
+            st.sampled_from([0x00, 0x04]),  # ECAT reads, ECAT writes
+            st.booleans(),  # PDI-locked
+        ),
+        max_size=2,
+    ),
+    st.sampled_from(LOGICAL),
+    st.integers(0, 20),
+    st.integers(1, 40),
+    st.sampled_from([0x1008, 0x10000]),
+)
+def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
+    first: tuple[int, ...],
+    others: list[tuple[int, ...]],
+    sms: list[tuple[int, int, int, bool]],
+    cmd: Command,
+    lad: int,
+    n: int,
+    top: int,
+) -> None:
+    """An access through several FMMUs, the first worked out apart from the others
+    (:meth:`mapping.Access.rows`), against the whole plan (plan_logical with its claims, then
+    row_access): plain alike, the same frame and physical bits read and written, the same
+    events cleared, and parts on the same sides (the working counter)."""
+    table = b"".join(
+        struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
+        for log, length, bits, phys, kind in (first, *others)
+    )
+    decoded, _ = mapping.decode_fmmus(table)
+    hit = tuple(f for f in decoded if not (f[1] <= lad or f[0] >= lad + n))
+    areas = tuple(
+        (k, start, length, control, int(locked))
+        for k, (start, length, control, locked) in enumerate(sms)
+    )
+    whole = mapping.row_access(
+        mapping.plan_logical(hit, int(cmd), lad, n), areas, top, Inert().inert
+    )
+    mapping.forget()
+    mapping.Access(hit, int(cmd), lad, n).rows(areas, top, Inert())  # meets the others first
+    access = mapping.Access(hit, int(cmd), lad, n)  # another ESC's, alike
+    access.rows(areas, top, Inert())
+    if whole is None:
+        assert access.cut is None
+        return
+    assert access.cut is not None
+    assert bit_pairs(access.cut) == bit_pairs(whole[0][2])
+    assert access.events == whole[1]
+    assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
+    assert access.plain == whole[0]
+
+
+def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Hand-worked: FMMU 0 reads AL status (0x0130, 2 bytes) into logical 0x10-0x11; FMMU 1 maps
+    logical 0x10-0x13 bit-wise onto physical bits from 0x1100 bit 4, read and write. An LRW of
+    0x10-0x13: FMMU 0 reads frame bytes 0-1 and clears the AL status event (0x08); FMMU 1 reads
+    only frame bytes 2-3 (its cut keeps its parts and loses frame bits 0-15 from its mask) and
+    writes all 4 bytes (FMMU 0 claims nothing among the writes) into physical bits 4-35.
+    Once another ESC's access met FMMU 1, neither the plan of both FMMUs nor their holes are
+    worked out: the first FMMU's plan and the others' cut are."""
+    first = (0x10, 0x12, 0x0130, 0, 7, 0, 1, 0, True, 8 * (0x10000 - 0x0130))
+    other = (0x10, 0x14, 0x1100, 0, 7, 4, 1, 1, False, 8 * (0x10000 - 0x1100) - 4)
+    whole: list[object] = []
+    planned = mapping.plan_logical
+
+    def plan(fmmus, cmd, lad, n):  # type: ignore[no-untyped-def]
+        if len(fmmus) > 1:
+            whole.append(fmmus)
+        return planned(fmmus, cmd, lad, n)
+
+    monkeypatch.setattr(mapping, "plan_logical", plan)
+    mapping.forget()
+    lrw = int(Command.LRW)
+    elsewhere = (0x100, 0x102, *first[2:])  # another ESC's FMMU 0, not in the datagram
+    mapping.Access((elsewhere, other), lrw, 0x10, 4).rows((), 0x10000, Inert())
+    whole.clear()  # that first access of FMMU 1 worked out the whole plan
+    access = mapping.Access((first, other), lrw, 0x10, 4)
+    access.rows((), 0x10000, Inert())
+    assert access.cut == (
+        ((True, 0x0130, 0, 2, 0, 0, 0), (False, 0x1100, 5, 4, 0xFFFF_0000, 0, 4)),
+        ((False, 0x1100, 5, 4, 0xF_FFFF_FFF0, 0, 4),),
+    )
+    assert access.events == 0x08
+    assert whole == []
 
 
 def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
