@@ -34,7 +34,7 @@ import numpy.typing as npt
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
 from emulator.esc.device import EscDevice, port1_forwarding
-from emulator.esc.mapping import LogicalPlan, PlainAccess, sm_change, sm_table
+from emulator.esc.mapping import LogicalOp, LogicalPlan, PlainAccess, sm_change, sm_table
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -276,31 +276,58 @@ def logical_together(
     Table 7). Its reads replace the same frame bits at every ESC, so the data arriving at an
     ESC is the first ESC's with those bits from the previous ESC's memory, as it was: every
     ESC's read and write follow from the memory before the datagram, one array operation per
-    part of the plan for all the ESCs.
+    part of the plan for all the ESCs. The frame leaves with the last ESC's reads; a write
+    of frame bytes that no part reads takes the data as it arrived, alike at every ESC: one
+    row, shifted once, for all (every write of an LWR).
     """
     reads, writes = plan
     m = len(rows)
     at: _Rows | slice = np.asarray(rows, np.intp)
     if rows[-1] - rows[0] == m - 1:
         at = slice(rows[0], rows[-1] + 1)  # consecutive: views instead of copies
-    arrived = np.frombuffer(buf, np.uint8, n, off)
-    left = np.repeat(arrived[None, :], m, axis=0)  # the data as each ESC leaves it
-    for bytewise, a, b, c, d, e, f in reads:
+    arrived = np.frombuffer(buf, np.uint8, n, off)[None, :]
+    if reads:  # the frame leaves with the last ESC's reads
+        out = arrived.copy()
+        _read_rows(memory, slice(rows[-1], rows[-1] + 1), reads, out)
+    read = [(b, b + c) if bytewise else (e, e + f) for bytewise, _, b, c, _, e, f in reads]
+    met = [  # per write, whether a read replaces some of its frame bytes
+        any(x < hi and y > lo for x, y in read)
+        for lo, hi in (
+            (b, b + c) if bytewise else (e, e + f) for bytewise, _, b, c, _, e, f in writes
+        )
+    ]
+    data_in = arrived  # the frame bytes no ESC reads arrive alike at every ESC: one row
+    if any(met):  # per ESC, the data as it arrived there, from the memory before any write
+        left = np.repeat(arrived, m, axis=0)  # the data as each ESC leaves it
+        _read_rows(memory, at, reads, left)
+        data_in = np.concatenate((arrived, left[:-1]))
+    for (bytewise, a, b, c, d, e, f), varies in zip(writes, met, strict=True):
+        src = data_in if varies else arrived
         if bytewise:  # physical a, frame offset b, c bytes
-            left[:, b : b + c] = memory[at, a : a + c]
-        else:  # physical bytes [a, a + b), shift c, mask d, frame bytes [e, e + f)
-            _masked(left, slice(None), e, e + f, _shifted(memory[at, a : a + b], c, f), _mask(d, f))
-    if writes:
-        data_in = left if not reads else np.concatenate((arrived[None, :], left[:-1]))
-        for bytewise, a, b, c, d, e, f in writes:
-            if bytewise:  # physical a, frame offset b, c bytes
-                memory[at, a : a + c] = data_in[:, b : b + c]
-            else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
-                _masked(memory, at, a, a + b, _shifted(data_in[:, e : e + f], -c, b), _mask(d, b))
+            memory[at, a : a + c] = src[:, b : b + c]
+        else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
+            _masked(memory, at, a, a + b, _shifted(src[:, e : e + f], -c, b), _mask(d, b))
     if reads:
-        buf[off : off + n] = left[-1].tobytes()
+        buf[off : off + n] = out[0].tobytes()
     r, w = int(bool(reads)), int(bool(writes))
     return m * (r if cmd == LRD else w if cmd == LWR else r + 2 * w)
+
+
+def _read_rows(
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows | slice,
+    reads: Sequence[LogicalOp],
+    left: npt.NDArray[np.uint8],
+) -> None:
+    """The parts ``reads`` of a plan (cut) read from the memory of ``rows`` into ``left``, the
+    datagram's data as it arrived at each of them (a row each)."""
+    for bytewise, a, b, c, d, e, f in reads:
+        if bytewise:  # physical a, frame offset b, c bytes
+            left[:, b : b + c] = memory[rows, a : a + c]
+        else:  # physical bytes [a, a + b), shift c, mask d, frame bytes [e, e + f)
+            _masked(
+                left, slice(None), e, e + f, _shifted(memory[rows, a : a + b], c, f), _mask(d, f)
+            )
 
 
 def _shifted(data: npt.NDArray[np.uint8], shift: int, width: int) -> npt.NDArray[np.uint8]:
