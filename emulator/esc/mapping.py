@@ -344,9 +344,11 @@ class Access:
     def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
         """:meth:`rows` from the first FMMU's part and the others' cut, when another access met
         the others before (:data:`PARTS_CACHE`; else each ESC would work out the others as
-        well as the whole plan), and the others are plain, write no register and clear no
-        event, and read no register after a read of the first that clears one; False leaves
-        it to the whole plan."""
+        well as the whole plan), and the others are plain and clear no event, read no register
+        after a read of the first that clears one, and write (inert) registers only in parts
+        whose frame bytes the first does not claim (such a write counts in the working counter
+        if the claims leave any of it, though it writes no byte); False leaves it to the whole
+        plan."""
         cmd, lad, n = self.cmd, self.lad, self.n
         others = self._others
         if others is None:
@@ -357,8 +359,6 @@ class Access:
                 return False
             self._others = others
         reads_registers, writes_registers = others.registers
-        if writes_registers:  # an inert write of registers counts, whatever the claims leave
-            return False
         others.rows(areas, top, writes)
         if others.cut is None or others.events:
             return False
@@ -378,10 +378,20 @@ class Access:
         if f[6] and cmd != LWR:
             reads = unclaimed(reads, lo, hi, False)
         if f[7] and cmd != LRD:
+            if writes_registers and any(
+                op[1] < REGISTER_END and _frame_bytes(op)[0] < hi and _frame_bytes(op)[1] > lo
+                for op in others.plan[1]
+            ):
+                return False  # a write of (inert) registers counts if the claims leave any of it
             writes_ = unclaimed(writes_, lo, hi, True)
         self.cut = (first.cut[0] + reads, first.cut[1] + writes_)
         self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
         return True
+
+
+def _frame_bytes(op: LogicalOp) -> tuple[int, int]:
+    """The frame bytes [start, end) of a part of a plan (:func:`plan_logical`)."""
+    return (op[2], op[2] + op[3]) if op[0] else (op[5], op[5] + op[6])
 
 
 def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tuple[LogicalOp, ...]:

@@ -545,6 +545,24 @@ def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
     assert whole == []
 
 
+def test_a_write_of_inert_registers_counts_whatever_the_claims_leave() -> None:
+    """Hand-worked: FMMU 1 writes logical 0x10-0x13 onto 0x0F7E-0x0F81 (two registers whose write
+    changes nothing, then two bytes of user RAM); FMMU 0 claims logical 0x12-0x13 and writes them
+    into a buffer the PDI locked. An LWR of 0x10-0x13 writes no byte, but FMMU 1 writes the
+    registers (a part that writes no byte, and counts in the working counter), however the
+    others' part is worked out."""
+    first = (0x12, 0x14, 0x2000, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x2000))
+    other = (0x10, 0x14, 0x0F7E, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x0F7E))
+    locked = ((0, 0x2000, 2, 0x04, 1),)
+    lwr = int(Command.LWR)
+    mapping.forget()
+    elsewhere = (0x100, 0x102, *first[2:])  # another ESC's FMMU 0, not in the datagram
+    mapping.Access((elsewhere, other), lwr, 0x10, 4).rows(locked, 0x10000, Inert())
+    access = mapping.Access((first, other), lwr, 0x10, 4)
+    access.rows(locked, 0x10000, Inert())
+    assert access.cut == ((), ((True, 0x0F7E, 0, 0, 0, 0, 0),))
+
+
 def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
     """An LRD of 2 bytes: the last ESC reads byte 1; the one before reads byte 0 through FMMU 0
     and would read byte 1 through FMMU 1, which maps a buffer its PDI locked (a hole). Worked from
