@@ -325,13 +325,12 @@ class Access:
 
         When the access meets several FMMUs, the first FMMU's part and the others' (accesses of
         their own, :data:`PARTS_CACHE`, shared by every access they are part of) are worked out
-        apart: after a broadcast to the FMMUs of ESCs that each map their own
-        logical bytes with FMMU 0, every ESC's FMMUs differ in the first alone, and the
-        others' cut is worked out once. The first FMMU claims its logical bytes
-        from the others (datasheet I 7), so the others' cut loses the bits of those frame
-        bytes (:func:`unclaimed`); which bytes are plain follows byte by byte, and what the
-        others' parts do in registers (read without side effect) too, so the cut is that of the
-        whole plan."""
+        apart: after a broadcast to the FMMUs of ESCs that each map their own logical bytes
+        with FMMU 0, every ESC's FMMUs differ in the first alone, and the others' cut is worked
+        out once. The first FMMU claims its logical bytes from the others (datasheet I 7), so
+        the others' cut loses the bits of those frame bytes (:func:`unclaimed`); which bytes
+        are plain follows byte by byte, and what the others' parts do in registers (read
+        without side effect) too, so the cut is that of the whole plan (:meth:`_apart`)."""
         if self.areas is areas and self.top == top and self.writes is writes:
             return
         self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
