@@ -28,6 +28,7 @@ __all__ = [
     "ACCESS_CACHE",
     "FMMU_CACHE",
     "FMMU_ENTRY",
+    "FMMU_PARTS_CACHE",
     "PARTS_CACHE",
     "SM_CACHE",
     "SM_CHANGE_CACHE",
@@ -41,6 +42,7 @@ __all__ = [
     "SmTable",
     "WritesInert",
     "cut",
+    "decode_entries",
     "decode_fmmus",
     "decode_sms",
     "forget",
@@ -70,6 +72,8 @@ FmmuTable = tuple[
 ]
 SmTable = tuple[tuple[int, int, int, int, int], ...]
 FMMU_CACHE: dict[bytes, FmmuTable] = {}
+# FMMU 0's registers and the others', decoded (decode_fmmus)
+FMMU_PARTS_CACHE: dict[bytes, tuple[tuple[tuple[int, ...], ...], tuple[int, int]]] = {}
 _K = TypeVar("_K")
 _V = TypeVar("_V")
 # logical accesses by the FMMUs they meet (shared_access)
@@ -99,6 +103,7 @@ def forget() -> None:
     """Empty the caches shared by every ESC (tables, accesses): a run that starts with them
     empty pays what a process that has seen nothing pays (benchmarks)."""
     FMMU_CACHE.clear()
+    FMMU_PARTS_CACHE.clear()
     ACCESS_CACHE.clear()
     PARTS_CACHE.clear()
     SM_CACHE.clear()
@@ -117,7 +122,32 @@ def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_
 
 def decode_fmmus(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
     """The active FMMUs of the registers 0x0600+ (datasheet II 2.13) in register order, clipped,
-    and the logical span they map.
+    and the logical span they map (:func:`decode_entries`): FMMU 0 and the others decoded
+    apart, each once per distinct bytes (:data:`FMMU_PARTS_CACHE`), since a broadcast to the
+    FMMUs of a configured line leaves every ESC's FMMUs differing in FMMU 0 alone (its own
+    logical bytes)."""
+    size = FMMU_ENTRY.size
+    if len(table) <= size:
+        return decode_entries(table)
+    parts = FMMU_PARTS_CACHE
+    head, rest = table[:size], table[size:]
+    first = parts.get(head)
+    if first is None:
+        first = remember(parts, head, decode_entries(head))
+    others = parts.get(rest)
+    if others is None:
+        others = remember(parts, rest, decode_entries(rest))
+    if not first[0]:
+        return others
+    if not others[0]:
+        return first
+    span = (min(first[1][0], others[1][0]), max(first[1][1], others[1][1]))
+    return first[0] + others[0], span
+
+
+def decode_entries(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
+    """The active FMMUs of the registers 0x0600+ (datasheet II 2.13), or of some of them, in
+    register order, clipped, and the logical span they map.
 
     Every value a frame can write is legal: the logical side ends at 0xFFFFFFFF, and the
     physical side ends with the 64 KiB address space (datasheet I 1.1): logical bytes (or

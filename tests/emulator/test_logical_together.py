@@ -563,6 +563,37 @@ def test_a_write_of_inert_registers_counts_whatever_the_claims_leave() -> None:
     assert access.cut == ((), ((True, 0x0F7E, 0, 0, 0, 0, 0),))
 
 
+@given(
+    st.lists(
+        st.lists(
+            st.sampled_from(
+                [
+                    bytes(16),  # inactive
+                    struct.pack("<IHBBHBBB3x", 8, 8, 0, 7, 0x1000, 0, 1, 1),
+                    struct.pack("<IHBBHBBB3x", 16, 8, 0, 7, 0x1000, 0, 2, 1),
+                    struct.pack("<IHBBHBBB3x", 0, 35039, 5, 6, 0x0F00, 7, 1, 1),
+                    struct.pack("<IHBBHBBB3x", 0xFFFF_FFE7, 25, 2, 6, 0, 1, 2, 1),
+                    struct.pack("<IHBBHBBB3x", 40, 4, 0, 7, 0xFFFE, 0, 3, 1),
+                    struct.pack("<IHBBHBBB3x", 40, 4, 0, 7, 0x1100, 0, 3, 0),  # not active
+                ]
+            ),
+            min_size=1,
+            max_size=16,
+        ),
+        min_size=1,
+        max_size=4,
+    )
+)
+def test_fmmu_tables_decoded_in_parts_are_decoded_whole(tables: list[list[bytes]]) -> None:
+    """FMMU 0 and the others decoded apart, each once (decode_fmmus), give the FMMUs and the
+    span of the whole table decoded at once (decode_entries), tables after tables that share
+    their parts."""
+    mapping.forget()
+    for entries in tables:
+        table = b"".join(entries)
+        assert mapping.decode_fmmus(table) == mapping.decode_entries(table)
+
+
 def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
     """An LRD of 2 bytes: the last ESC reads byte 1; the one before reads byte 0 through FMMU 0
     and would read byte 1 through FMMU 1, which maps a buffer its PDI locked (a hole). Worked from
