@@ -594,6 +594,37 @@ def test_fmmu_tables_decoded_in_parts_are_decoded_whole(tables: list[list[bytes]
         assert mapping.decode_fmmus(table) == mapping.decode_entries(table)
 
 
+def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
+    """EscDevice.plain_access (and plain_plan) against what the chain does (row_access), frame
+    after frame of random FMMUs: an access the chain does over the rows without clearing an event
+    is plain, mapping the same bits; one that clears events, or that the chain leaves to the ESC,
+    is not."""
+    chain = line(EcatChain)
+    rng = random.Random(11)
+    seen = {"plain": 0, "events": 0, "neither": 0}  # events: reads of DL or AL status
+    for _ in range(300):
+        chain.process_frame(frame(rng))
+        lad, n = rng.randrange(100), rng.randrange(1, 100)
+        for cmd in (int(c) for c in LOGICAL):
+            for dev in chain.devices:
+                found = dev.row_access(cmd, lad, n)
+                plain = dev.plain_access(cmd, lad, n)
+                if found.cut is None or found.events:
+                    assert plain is None and dev.plain_plan(cmd, lad, n) is None
+                    seen["events" if found.cut is not None else "neither"] += 1
+                    continue
+                assert plain is not None and dev.plain_plan(cmd, lad, n) == plain[2]
+                assert bit_pairs(plain[2]) == bit_pairs(found.cut)
+                assert [bool(side) for side in plain[2]] == [bool(side) for side in found.cut]
+                seen["plain"] += 1
+    assert seen["plain"] > 50 and seen["neither"] > 50, seen
+    chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3 reads AL status
+    for dev in chain.devices:
+        found = dev.row_access(int(Command.LRD), 0x4000, 2)
+        assert found.cut is not None and found.events == 0x08
+        assert dev.plain_access(int(Command.LRD), 0x4000, 2) is None
+
+
 def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
     """An LRD of 2 bytes: the last ESC reads byte 1; the one before reads byte 0 through FMMU 0
     and would read byte 1 through FMMU 1, which maps a buffer its PDI locked (a hole). Worked from
