@@ -625,6 +625,42 @@ def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
         assert dev.plain_access(int(Command.LRD), 0x4000, 2) is None
 
 
+def test_the_plain_names_do_what_the_chain_does() -> None:
+    """The names kept for plain accesses do what the chain's own do, for LRDs (reads only, so
+    both can run on the same memory): EscDevice.plain_logical as logical_cut of the plan cut,
+    together.lrd_last_readers as last_readers, and logical_unless_plain returns the plain
+    access untouched."""
+    chain = line(EcatChain)
+    rng = random.Random(5)
+    lrd_ = int(Command.LRD)
+    compared = 0
+    for _ in range(200):
+        chain.process_frame(frame(rng))
+        lad, n = rng.randrange(100), rng.randrange(1, 100)
+        data = rng.randbytes(n)
+        plain = [(dev, dev.plain_access(lrd_, lad, n)) for dev in chain.devices]
+        found = [(dev, access) for dev, access in plain if access is not None]
+        if not found:
+            continue
+        devices, accesses = [d for d, _ in found], [a for _, a in found]
+        old, new = bytearray(data), bytearray(data)
+        assert together.lrd_last_readers(devices, accesses, old, 0, n) == together.last_readers(
+            devices, [a[2] for a in accesses], new, 0, n
+        )
+        assert old == new
+        for dev, access in found:
+            old, new = bytearray(data), bytearray(data)
+            assert dev.plain_logical(access, lrd_, old, 0, n) == dev.logical_cut(
+                access[2], lrd_, new, 0, n
+            )
+            assert old == new
+            untouched = bytearray(data)  # a plain access reads no buffer: left to the chain
+            assert dev.logical_unless_plain(lrd_, lad, untouched, 0, n) == access
+            assert untouched == data
+            compared += 1
+    assert compared > 100
+
+
 def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
     """An LRD of 2 bytes: the last ESC reads byte 1; the one before reads byte 0 through FMMU 0
     and would read byte 1 through FMMU 1, which maps a buffer its PDI locked (a hole). Worked from
