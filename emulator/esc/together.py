@@ -17,10 +17,11 @@ work thus grows with the bytes written and the ESCs whose state the write change
 Python pass per ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under
 hostile frames.
 
-A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan map onto plain memory
-(:meth:`EscDevice.plain_plan`) is done for all of them at once by :func:`logical_together`:
+A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan cut map onto plain memory
+(:meth:`EscDevice.row_access`) is done for all of them at once by :func:`logical_together`:
 hostile FMMUs, bit-wise ones among them, cost the ESCs one pass over rows instead of big-integer
-arithmetic ESC by ESC.
+arithmetic ESC by ESC. (Reads of DL or AL status among them are of the committed bytes; the
+events they clear are the caller's, :meth:`EscDevice.clear_read_events`.)
 """
 
 from __future__ import annotations
@@ -268,9 +269,10 @@ def logical_together(
     n: int,
 ) -> int:
     """A logical datagram (data ``buf[off:off+n]``, in place) through the ESCs of ``rows`` in
-    chain order, each of which maps it onto plain memory with ``plan``
-    (:meth:`EscDevice.plain_plan`), as :meth:`EscDevice._logical` at each in turn would do it:
-    the working counter's increment.
+    chain order, each of which maps it onto plain memory with ``plan``, a plan cut
+    (:attr:`emulator.esc.mapping.Access.cut`), as :meth:`EscDevice._logical` at each in turn
+    would do it but for the events its reads of DL or AL status clear (the caller's): the
+    working counter's increment.
 
     An ESC reads before it writes, and its write takes the data as it arrived (datasheet I
     Table 7). Its reads replace the same frame bits at every ESC, so the data arriving at an
