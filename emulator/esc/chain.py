@@ -393,8 +393,9 @@ class EcatChain:
         map part of it), in chain order: (the working counter's increment, whether an ESC's
         event request changed). An LRD of a whole input buffer is one call
         (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
-        memory with one plan cut (:meth:`EscDevice.row_access`) are done at once over their
-        rows (:func:`logical_together`), a few of them each straight in its memory
+        memory with one plan cut (:meth:`EscDevice.row_access`; idle mailboxes are holes in it,
+        :meth:`EscDevice.row_cut`) are done at once over their rows
+        (:func:`logical_together`), a few of them each straight in its memory
         (:meth:`EscDevice.logical_cut`); an LRD's consecutive plain ESCs, whatever their
         plans, from the last back (:func:`last_readers`); then those of them that
         read DL or AL status clear its event (:meth:`EscDevice.clear_read_events`); any other
@@ -424,7 +425,7 @@ class EcatChain:
             dev = line[p]
             if run:
                 found = dev.row_access(cmd, lad, n)
-                cut = found.cut
+                cut = dev.row_cut(found)
                 if cut == _UNTOUCHED:
                     continue  # it does nothing with the datagram's bytes
                 if cut == run_plan or (lrd and cut is not None):
@@ -443,7 +444,7 @@ class EcatChain:
                 wkc_inc += done
                 changed = changed or dev.irq != before
             else:  # a run starts, even one that does nothing: the next are asked row_access
-                assert done.cut is not None
+                assert done.cut is not None  # and it holds here (row_cut)
                 run, run_plan, cuts = [p], done.cut, [done.cut]
                 if done.events:
                     events.append((p, done.events))

@@ -61,6 +61,7 @@ from emulator.esc.mapping import (
     PLAN_CACHE_ENTRIES,
     Access,
     LogicalPlan,
+    Mailboxes,
     PlainAccess,
     SmChange,
     SmTable,
@@ -823,8 +824,30 @@ class EscDevice:
         """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the
         plan cut, of a plain access, :meth:`plain_access`, or of one that is plain but for
         reads of DL or AL status, whose events, :attr:`Access.events`, the ESC then clears,
-        :meth:`clear_read_events`; :func:`emulator.esc.mapping.row_access`)."""
+        :meth:`clear_read_events`, and but for mailboxes, :attr:`Access.mailboxes`, that must
+        be idle, :meth:`mailboxes_idle`; :func:`emulator.esc.mapping.mailbox_row_access`)."""
         return self._access(cmd, lad, n)
+
+    def row_cut(self, found: Access) -> LogicalPlan | None:
+        """``found.cut`` (:meth:`row_access`) when it holds at this ESC now: its mailboxes
+        idle (:meth:`mailboxes_idle`); else None."""
+        if found.mailboxes and not self.mailboxes_idle(found.mailboxes):
+            return None
+        return found.cut
+
+    def mailboxes_idle(self, mailboxes: Mailboxes) -> bool:
+        """Whether ECAT can access none of ``mailboxes`` ((SyncManager index, side 0 read /
+        1 write), :func:`emulator.esc.mapping.mailbox_row_access`) now: a read mailbox empty,
+        a write mailbox full (neither is then open: ECAT opens a mailbox only in the other
+        state, and only the buffer's end changes it back). Then a logical access there reads
+        or writes nothing and changes no state: what :meth:`_sm_read` and :meth:`_sm_write` do
+        with a failed access (datasheet I 8.2.1), wherever in the buffer it starts."""
+        sms = self._sms
+        for index, side in mailboxes:
+            sm = sms[index]
+            if sm is None or sm.full != (side == 1):
+                return False
+        return True
 
     def clear_read_events(self, events: int) -> bool:
         """ECAT read the registers that clear ``events`` (0x0210 bits: DL status, AL status;
@@ -842,7 +865,7 @@ class EscDevice:
         if cmd == LRD and self.read_buffered(lad, buf, off, n):
             return 1
         found = self._access(cmd, lad, n)
-        if found.cut is not None:
+        if self.row_cut(found) is not None:
             return found
         return self._through(found.plan, cmd, buf, off, n)
 

@@ -36,6 +36,7 @@ __all__ = [
     "Access",
     "Holes",
     "LogicalPlan",
+    "Mailboxes",
     "PlainAccess",
     "SmChange",
     "SmFound",
@@ -46,6 +47,7 @@ __all__ = [
     "decode_fmmus",
     "decode_sms",
     "forget",
+    "mailbox_row_access",
     "plain_access",
     "plan_logical",
     "remember",
@@ -71,6 +73,9 @@ FmmuTable = tuple[
     tuple[tuple[int, ...], ...], tuple[int, int], dict[tuple[int, int, int], "Access"]
 ]
 SmTable = tuple[tuple[int, int, int, int, int], ...]
+# mailboxes an access meets where ECAT accesses them: (SyncManager index, side 0 read / 1 write)
+# (mailbox_row_access)
+Mailboxes = tuple[tuple[int, int], ...]
 FMMU_CACHE: dict[bytes, FmmuTable] = {}
 # FMMU 0's registers and the others', decoded (decode_fmmus)
 FMMU_PARTS_CACHE: dict[bytes, tuple[tuple[tuple[int, ...], ...], tuple[int, int]]] = {}
@@ -291,8 +296,10 @@ class Access:
     FMMUs in register order): its plan (:attr:`plan`, worked out when first asked), and what the
     chain may do over the rows (:meth:`rows`) with the SyncManager areas, memory top and
     register write plans last asked: ``cut``, the plan without the bytes where it does nothing
-    (None: not plain, :func:`row_access`), ``events``, those its register reads clear, and
-    :attr:`plain`, the plain access with its plan and holes."""
+    (None: not plain, :func:`row_access`), ``events``, those its register reads clear,
+    ``mailboxes``, those that must be idle at an ESC for the cut to hold there
+    (:func:`mailbox_row_access`), and :attr:`plain`, the plain access with its plan and holes
+    (no mailbox among them)."""
 
     __slots__ = (
         "_first",
@@ -306,6 +313,7 @@ class Access:
         "events",
         "hit",
         "lad",
+        "mailboxes",
         "n",
         "top",
         "writes",
@@ -323,6 +331,7 @@ class Access:
         self._plain: object = _UNASKED
         self.cut: LogicalPlan | None = None
         self.events = 0
+        self.mailboxes: Mailboxes = ()
 
     @property
     def plan(self) -> LogicalPlan:
@@ -350,8 +359,9 @@ class Access:
         return self._plain  # type: ignore[return-value]
 
     def rows(self, areas: SmTable, top: int, writes: WritesInert) -> None:
-        """Work out :attr:`cut` and :attr:`events` for SyncManager ``areas``, memory ``top`` and
-        register write plans ``writes`` (:func:`row_access`), unless they were the last asked.
+        """Work out :attr:`cut`, :attr:`events` and :attr:`mailboxes` for SyncManager ``areas``,
+        memory ``top`` and register write plans ``writes`` (:func:`mailbox_row_access`), unless
+        they were the last asked.
 
         When the access meets several FMMUs, the first FMMU's part and the others' (accesses of
         their own, :data:`PARTS_CACHE`, shared by every access they are part of) are worked out
@@ -366,9 +376,12 @@ class Access:
         self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
         if len(self.hit) > 1 and self._apart(areas, top, writes):
             return
-        found = row_access(self.plan, areas, top, writes.inert)
-        self._plain = None if found is None else found[0]
-        self.cut, self.events = (None, 0) if found is None else (found[0][2], found[1])
+        found = mailbox_row_access(self.plan, areas, top, writes.inert)
+        if found is None:
+            self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
+            return
+        access, self.events, self.mailboxes = found
+        self._plain, self.cut = (None if self.mailboxes else access), access[2]
 
     def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
         """:meth:`rows` from the first FMMU's part and the others' cut, when another access met
@@ -415,6 +428,9 @@ class Access:
             writes_ = unclaimed(writes_, lo, hi, True)
         self.cut = (first.cut[0] + reads, first.cut[1] + writes_)
         self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
+        self.mailboxes = first.mailboxes + tuple(
+            m for m in others.mailboxes if m not in first.mailboxes
+        )  # (those of parts the claims took away as well: they need not be idle, but may)
         return True
 
 
@@ -486,7 +502,7 @@ def plain_access(
     :meth:`emulator.esc.write_plans.WritePlans.inert`): a hole that still counts. A part that
     meets another SyncManager's area makes the access not plain. (Below 0x0F80 the registers
     are accessed whatever SyncManager area lies there.)"""
-    found = _plain(plan, areas, top, inert, clearing=False)
+    found = _plain(plan, areas, top, inert, clearing=False, mailboxes=False)
     return None if found is None else found[0]
 
 
@@ -499,7 +515,21 @@ def row_access(
     (:func:`emulator.esc.registers.cleared_events`, datasheet I Table 3): so after the
     datagram's reads at that ESC, unless a later part of the plan reads the event request
     (0x0210) and would see it cleared, which is left to the ESC (None)."""
-    return _plain(plan, areas, top, inert, clearing=True)
+    found = _plain(plan, areas, top, inert, clearing=True, mailboxes=False)
+    return None if found is None else found[:2]
+
+
+def mailbox_row_access(
+    plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
+) -> tuple[PlainAccess, int, Mailboxes] | None:
+    """:func:`row_access`, and also when the plan meets mailboxes in the direction ECAT accesses
+    them (a read mailbox on the read side, a write mailbox on the write side): their areas
+    cut as holes, and the mailboxes listed, (SyncManager index, side 0 read / 1 write), in plan
+    order. The cut holds at an ESC only while each of them is one ECAT cannot access: a read
+    mailbox empty, a write mailbox full, neither open (:meth:`emulator.esc.device.EscDevice.
+    mailboxes_idle`), where the access reads or writes nothing at all and changes no state
+    ("read/write w. failure", datasheet I 8.2.1); else the access is the ESC's."""
+    return _plain(plan, areas, top, inert, clearing=True, mailboxes=True)
 
 
 def _plain(
@@ -508,9 +538,12 @@ def _plain(
     top: int,
     inert: Callable[[int, int], bool] | None,
     clearing: bool,
-) -> tuple[PlainAccess, int] | None:
-    """:func:`plain_access`, with the events cleared (allowed when ``clearing``)."""
+    mailboxes: bool,
+) -> tuple[PlainAccess, int, Mailboxes] | None:
+    """:func:`plain_access`, with the events cleared (allowed when ``clearing``) and the
+    mailboxes that must be idle (allowed when ``mailboxes``)."""
     events = 0
+    idle: list[tuple[int, int]] = []
     found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
     for side, ops in enumerate(plan):  # reads, writes
         for k, op in enumerate(ops):
@@ -535,7 +568,10 @@ def _plain(
                 start, end = area[1], area[1] + area[2]
                 if start < hi and end > lo:
                     if not area[4] and ((area[3] >> 2) & 0x03 == 0x01) == (side == 1):
-                        return None  # a buffer ECAT accesses (writes/reads): its own rules
+                        if not (mailboxes and area[3] & 0x03 == 0x02):
+                            return None  # a buffer ECAT accesses (writes/reads): its own rules
+                        if (area[0], side) not in idle:
+                            idle.append((area[0], side))  # nothing there while it is idle
                     start = max(start, REGISTER_END)
                     if start < end:
                         holes += ((start, end),)
@@ -544,7 +580,7 @@ def _plain(
             if holes:
                 found.append((side, k, holes))
     every: Holes = tuple(found)
-    return (plan, every, cut(plan, every)), events
+    return (plan, every, cut(plan, every)), events, tuple(idle)
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:

@@ -459,7 +459,7 @@ def an_fmmu(phys: st.SearchStrategy[int]) -> st.SearchStrategy[tuple[int, ...]]:
         st.tuples(
             st.sampled_from([0x1000, 0x1008, 0x1104, 0x1800]),
             st.integers(2, 12),
-            st.sampled_from([0x00, 0x04]),  # ECAT reads, ECAT writes
+            st.sampled_from([0x00, 0x04, 0x02, 0x06]),  # ECAT reads, writes; mailboxes
             st.booleans(),  # PDI-locked
         ),
         max_size=2,
@@ -480,8 +480,10 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
 ) -> None:
     """An access through several FMMUs, the first worked out apart from the others
     (:meth:`mapping.Access.rows`), against the whole plan (plan_logical with its claims, then
-    row_access): plain alike, the same frame and physical bits read and written, the same
-    events cleared, and parts on the same sides (the working counter)."""
+    mailbox_row_access): plain alike, the same frame and physical bits read and written, the
+    same events cleared, parts on the same sides (the working counter), and every mailbox the
+    whole plan meets among those that must be idle (the first's claims may leave the others
+    fewer mailboxes to meet than they list)."""
     table = b"".join(
         struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
         for log, length, bits, phys, kind in (first, *others)
@@ -492,7 +494,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
         (k, start, length, control, int(locked))
         for k, (start, length, control, locked) in enumerate(sms)
     )
-    whole = mapping.row_access(
+    whole = mapping.mailbox_row_access(
         mapping.plan_logical(hit, int(cmd), lad, n), areas, top, Inert().inert
     )
     mapping.forget()
@@ -506,7 +508,8 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     assert bit_pairs(access.cut) == bit_pairs(whole[0][2])
     assert access.events == whole[1]
     assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
-    assert access.plain == whole[0]
+    assert set(whole[2]) <= set(access.mailboxes)
+    assert access.plain == (None if whole[2] else whole[0])
 
 
 def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
@@ -715,3 +718,96 @@ def test_broadcasts_of_memory_keep_to_what_each_esc_opens() -> None:
     assert written == [b"\x00\x00" if p == CLOSED else b"\x55\x66" for p in range(NODES)]
     read = both(Command.BRD, 0x12FF, bytes(4))
     assert (read.wkc, read.data) == (NODES - 1, b"\x00\x55\x66\x00")
+
+
+# SyncManager 2 a read mailbox at 0x7000 + 16, SyncManager 3 a write mailbox at 0x7100 + 16
+# (datasheet II 2.14: control bits 0-1 = 10 mailbox, bits 2-3 = 00 ECAT reads, 01 ECAT writes)
+MAILBOXES = struct.pack("<HHBBBB", 0x7000, 16, 0x02, 0, 0x01, 0) + struct.pack(
+    "<HHBBBB", 0x7100, 16, 0x06, 0, 0x01, 0
+)
+MAILBOX_PHYS = (0x6FF8, 0x7000, 0x7004, 0x700F, 0x70F8, 0x7100, 0x7108, 0x0F80)
+
+
+def mailbox_fmmu(rng: random.Random) -> bytes:
+    """An FMMU as :func:`fmmu` gives, onto or beside the mailboxes of :data:`MAILBOXES`."""
+    table = bytearray(fmmu(rng))
+    struct.pack_into("<H", table, 8, rng.choice(MAILBOX_PHYS))
+    return bytes(table)
+
+
+def with_mailboxes(chain: EcatChain) -> EcatChain:
+    """``chain`` with the mailboxes of :data:`MAILBOXES` configured and released by each ESC's
+    PDI (which deactivates every SyncManager at power-on, datasheet I 8.7)."""
+    chain.process_frame(bwr(0x0810, MAILBOXES))
+    for dev in chain.devices:
+        dev.pdi_deactivate_sms((2, 3), False)
+    return chain
+
+
+def fill_mailboxes(chain: EcatChain, rng: random.Random) -> None:
+    """The PDI fills the read mailbox at some ESCs and empties the write mailbox at others
+    (datasheet I 8.2: a full read mailbox and an empty write mailbox are ECAT's to access)."""
+    for dev in chain.devices:
+        what = rng.random()
+        if what < 0.3:
+            dev.pdi_write(0x7000, rng.randbytes(16))
+        elif what < 0.6:
+            dev.pdi_read(0x7100, 16)
+
+
+def test_idle_mailboxes_are_holes_over_the_rows(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Logical datagrams through FMMUs onto a read and a write mailbox, which the PDI now and
+    then fills and empties at some ESCs: over the rows where a mailbox is idle (an empty read
+    mailbox, a full write mailbox: the access does nothing there, datasheet I 8.2.1), by the
+    ESC where it is not, and the same bytes, memory and event requests as ESC by ESC."""
+    taken = {"idle": 0, "busy": 0}
+    row_cut = EscDevice.row_cut
+
+    def counted(self: EscDevice, found: mapping.Access) -> mapping.LogicalPlan | None:
+        cut = row_cut(self, found)
+        if found.mailboxes and found.cut is not None:
+            taken["idle" if cut is not None else "busy"] += 1
+        return cut
+
+    monkeypatch.setattr(EscDevice, "row_cut", counted)
+    fast, reference = with_mailboxes(line(EcatChain)), with_mailboxes(line(OneByOne))
+    rng = random.Random(21)
+    for i in range(1_200):
+        if i % 10 == 0:
+            seed = rng.randrange(1 << 30)
+            fill_mailboxes(fast, random.Random(seed))
+            fill_mailboxes(reference, random.Random(seed))
+        if rng.random() < 0.2:
+            data = bwr(0x0600 + 16 * rng.randrange(4), mailbox_fmmu(rng))
+        else:
+            data = frame(rng)
+        assert_same(fast, reference, data, f"frame {i}")
+    assert taken["idle"] > 100 and taken["busy"] > 100, taken
+
+
+def test_an_lrd_reads_a_read_mailbox_only_when_it_is_full() -> None:
+    """Hand-worked: FMMU 1 of 12 ESCs reads logical 0x8000 + 4 from 0x6FFE, the last 2 bytes
+    of user RAM before the read mailbox and its first 2. With every mailbox empty, the LRD
+    reads the RAM bytes (00) and leaves the mailbox's frame bytes as sent (EE EE), the 11
+    ESCs whose process RAM is open counting for the RAM; once ESC 7's PDI writes its mailbox
+    (A0 + k), ESC 7 reads A0 A1 there, which the ESCs after it leave, and its status register
+    shows the buffer open (0x0815 bit 6, datasheet II 2.14.5, until the frame that reads the
+    end address)."""
+    chains = [with_mailboxes(line(kind)) for kind in (EcatChain, OneByOne)]
+    for chain in chains:
+        chain.process_frame(bwr(0x0610, read_fmmu(0x8000, 0x6FFE, 4)))
+    frame_ = ethercat.frame(
+        EcatFrame((Datagram.logical(Command.LRD, 0x8000, b"\xee" * 4),))
+    ).to_bytes()
+    for chain in chains:
+        back = chain.process_frame(frame_)
+        assert back is not None
+        (d,) = ethercat.decode(back[14:])[0].datagrams
+        assert (d.data, d.wkc) == (b"\x00\x00\xee\xee", NODES - 1)
+        chain.devices[7].pdi_write(0x7000, bytes(range(0xA0, 0xB0)))
+        back = chain.process_frame(frame_)
+        assert back is not None
+        (d,) = ethercat.decode(back[14:])[0].datagrams
+        assert (d.data, d.wkc) == (b"\x00\x00\xa0\xa1", NODES - 1)
+        assert chain.devices[7].registers(0x0815, 1)[0] & 0x40
+        assert not chain.devices[6].registers(0x0815, 1)[0] & 0x40
