@@ -42,6 +42,7 @@ __all__ = [
     "SmFound",
     "SmTable",
     "WritesInert",
+    "along",
     "cut",
     "decode_entries",
     "decode_fmmus",
@@ -299,10 +300,14 @@ class Access:
     (None: not plain, :func:`row_access`), ``events``, those its register reads clear,
     ``mailboxes``, those that must be idle at an ESC for the cut to hold there
     (:func:`mailbox_row_access`), and :attr:`plain`, the plain access with its plan and holes
-    (no mailbox among them)."""
+    (no mailbox among them).
+
+    An access whose one FMMU lies wholly inside the datagram is that FMMU's access moved along
+    the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
 
     __slots__ = (
         "_first",
+        "_moved",
         "_others",
         "_plain",
         "_plan",
@@ -325,6 +330,7 @@ class Access:
         self._registers: tuple[bool, bool] | None = None
         self._first: Access | None = None  # the first FMMU's access (PARTS_CACHE)
         self._others: Access | None = None  # the others' (PARTS_CACHE)
+        self._moved: object = _UNASKED  # (the FMMU's access at logical 0, frame offset) or None
         self.areas: SmTable | None = None
         self.top = 0
         self.writes: WritesInert | None = None  # the register write plans (inert writes)
@@ -337,8 +343,38 @@ class Access:
     def plan(self) -> LogicalPlan:
         """:func:`plan_logical` of the access."""
         if self._plan is None:
-            self._plan = plan_logical(self.hit, self.cmd, self.lad, self.n)
+            moved = self.moved()
+            if moved is None:
+                self._plan = plan_logical(self.hit, self.cmd, self.lad, self.n)
+            else:
+                self._plan = along(moved[0].plan, moved[1])
         return self._plan
+
+    def moved(self) -> tuple[Access, int] | None:
+        """When the access meets one FMMU and all its bytes: the access of that FMMU moved to
+        logical 0 through exactly its bytes (:data:`PARTS_CACHE`), and how many bytes further on
+        in the frame this access has them. Its plan is that one's with frame offsets that much
+        further on (:func:`along`), since :func:`plan_logical` places a part by its logical
+        offset from the datagram's start alone; its holes, events and mailboxes are the same,
+        being physical. The ESCs of a configured line each map their own bytes with FMMU 0
+        alike: they share one such access. None otherwise (or for that access itself)."""
+        if self._moved is _UNASKED:
+            found: tuple[Access, int] | None = None
+            if len(self.hit) == 1:
+                f = self.hit[0]
+                start, length = f[0], f[1] - f[0]
+                if (
+                    self.lad <= start
+                    and start + length <= self.lad + self.n
+                    and (start or self.lad)
+                ):
+                    key = (((0, length, *f[2:]),), self.cmd, 0, length)
+                    at = PARTS_CACHE.get(key)
+                    if at is None:
+                        at = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+                    found = (at, start - self.lad)
+            self._moved = found
+        return self._moved  # type: ignore[return-value]
 
     @property
     def registers(self) -> tuple[bool, bool]:
@@ -374,8 +410,17 @@ class Access:
         if self.areas is areas and self.top == top and self.writes is writes:
             return
         self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
-        if len(self.hit) > 1 and self._apart(areas, top, writes):
-            return
+        if len(self.hit) > 1:
+            if self._apart(areas, top, writes):
+                return
+        else:
+            moved = self.moved()
+            if moved is not None:
+                at, offset = moved
+                at.rows(areas, top, writes)
+                self.events, self.mailboxes = at.events, at.mailboxes
+                self.cut = None if at.cut is None else along(at.cut, offset)
+                return
         found = mailbox_row_access(self.plan, areas, top, writes.inert)
         if found is None:
             self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
@@ -432,6 +477,17 @@ class Access:
             m for m in others.mailboxes if m not in first.mailboxes
         )  # (those of parts the claims took away as well: they need not be idle, but may)
         return True
+
+
+def along(plan: LogicalPlan, offset: int) -> LogicalPlan:
+    """``plan`` (:func:`plan_logical`) with every part's frame bytes ``offset`` bytes further on."""
+    return tuple(
+        tuple(
+            (True, op[1], op[2] + offset, *op[3:]) if op[0] else (*op[:5], op[5] + offset, op[6])
+            for op in ops
+        )
+        for ops in plan
+    )  # type: ignore[return-value]
 
 
 def _frame_bytes(op: LogicalOp) -> tuple[int, int]:

@@ -16,7 +16,7 @@ import struct
 
 import numpy as np
 import pytest
-from hypothesis import given
+from hypothesis import assume, given
 from hypothesis import strategies as st
 
 from emulator.esc import mapping, together
@@ -509,6 +509,58 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     assert access.events == whole[1]
     assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
     assert set(whole[2]) <= set(access.mailboxes)
+    assert access.plain == (None if whole[2] else whole[0])
+
+
+@given(
+    an_fmmu(st.sampled_from(FIRST_PHYS + OTHER_PHYS)),
+    st.lists(
+        st.tuples(
+            st.sampled_from([0x1000, 0x1008, 0x1104, 0x1800]),
+            st.integers(2, 12),
+            st.sampled_from([0x00, 0x04, 0x02, 0x06]),
+            st.booleans(),
+        ),
+        max_size=2,
+    ),
+    st.sampled_from(LOGICAL),
+    st.integers(0, 40),
+    st.integers(0, 20),
+    st.sampled_from([0x1008, 0x10000]),
+)
+def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
+    fmmu_: tuple[int, ...],
+    sms: list[tuple[int, int, int, bool]],
+    cmd: Command,
+    before: int,
+    after: int,
+    top: int,
+) -> None:
+    """An access through one FMMU that lies wholly inside it, ``before`` bytes after the
+    datagram's start and ``after`` bytes before its end, worked out as that FMMU's access at
+    logical 0 moved along the frame (:meth:`mapping.Access.moved`): the plan is plan_logical's,
+    and the cut, events and mailboxes are those of mailbox_row_access of it."""
+    log, length, bits, phys, kind = fmmu_
+    table = struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
+    hit, _ = mapping.decode_fmmus(table)
+    assert len(hit) == 1  # (clipped at the end of the address space, perhaps)
+    lad, n = hit[0][0] - before, hit[0][1] - hit[0][0] + before + after
+    assume(lad >= 0)
+    areas = tuple(
+        (k, start, size, control, int(locked))
+        for k, (start, size, control, locked) in enumerate(sms)
+    )
+    plan = mapping.plan_logical(hit, int(cmd), lad, n)
+    whole = mapping.mailbox_row_access(plan, areas, top, Inert().inert)
+    mapping.forget()
+    access = mapping.Access(hit, int(cmd), lad, n)
+    access.rows(areas, top, Inert())
+    assert (access.moved() is not None) == bool(hit[0][0] or lad)
+    assert access.plan == plan
+    if whole is None:
+        assert access.cut is None
+        return
+    assert (access.cut, access.events, access.mailboxes) == (whole[0][2], whole[1], whole[2])
     assert access.plain == (None if whole[2] else whole[0])
 
 
