@@ -397,9 +397,11 @@ class EcatChain:
         :meth:`EscDevice.row_cut`) are done at once over their rows
         (:func:`logical_together`), a few of them each straight in its memory
         (:meth:`EscDevice.logical_cut`); an LRD's consecutive plain ESCs, whatever their
-        plans, from the last back (:func:`last_readers`); then those of them that
-        read DL or AL status clear its event (:meth:`EscDevice.clear_read_events`); any other
-        ESC on its own, as :meth:`EscDevice.process`.
+        plans, from the last back (:func:`last_readers`); those of them that read DC
+        registers bring them up to the frame's time first (:meth:`EscDevice.refresh_dc`), and
+        those that read DL or AL status clear its event afterwards
+        (:meth:`EscDevice.clear_read_events`); any other ESC on its own, as
+        :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
@@ -408,8 +410,11 @@ class EcatChain:
         run_plan: LogicalPlan = _UNTOUCHED
         cuts: list[LogicalPlan] = []  # an LRD's: those of the run
         events: list[tuple[int, int]] = []  # (target, the events its reads clear) of the run
+        clocks: list[tuple[int, tuple[tuple[int, int], ...]]] = []  # (target, DC registers read)
 
         def plain() -> tuple[int, bool]:  # the run: over its rows when long enough
+            for q, registers in clocks:  # DC registers at the frame's time, then the reads
+                line[q].refresh_dc(registers)
             if lrd:
                 inc = last_readers([line[q] for q in run], cuts, buf, at, n)
             elif len(run) >= LOGICAL_TOGETHER_MIN:
@@ -434,10 +439,12 @@ class EcatChain:
                         cuts.append(cut)
                     if found.events:
                         events.append((p, found.events))
+                    if found.dc:
+                        clocks.append((p, found.dc))
                     continue
                 inc, cleared = plain()
                 wkc_inc, changed = wkc_inc + inc, changed or cleared
-                run, cuts, events = [], [], []  # the ESCs before this one are done: now it
+                run, cuts, events, clocks = [], [], [], []  # the ESCs before this one are done
             before = dev.irq
             done = dev.logical_unless_rows(cmd, lad, buf, at, n)
             if isinstance(done, int):
@@ -448,6 +455,8 @@ class EcatChain:
                 run, run_plan, cuts = [p], done.cut, [done.cut]
                 if done.events:
                     events.append((p, done.events))
+                if done.dc:
+                    clocks.append((p, done.dc))
         if run:
             inc, cleared = plain()
             wkc_inc, changed = wkc_inc + inc, changed or cleared

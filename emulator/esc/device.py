@@ -824,9 +824,17 @@ class EscDevice:
         """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the
         plan cut, of a plain access, :meth:`plain_access`, or of one that is plain but for
         reads of DL or AL status, whose events, :attr:`Access.events`, the ESC then clears,
-        :meth:`clear_read_events`, and but for mailboxes, :attr:`Access.mailboxes`, that must
-        be idle, :meth:`mailboxes_idle`; :func:`emulator.esc.mapping.mailbox_row_access`)."""
+        :meth:`clear_read_events`, but for mailboxes, :attr:`Access.mailboxes`, that must be
+        idle, :meth:`mailboxes_idle`, and but for a read of DC registers, :attr:`Access.dc`,
+        which the ESC brings up to the frame's time first, :meth:`refresh_dc`;
+        :func:`emulator.esc.mapping.esc_row_access`)."""
         return self._access(cmd, lad, n)
+
+    def refresh_dc(self, registers: tuple[tuple[int, int], ...]) -> None:
+        """Bring the DC registers [lo, hi) of ``registers`` (:attr:`Access.dc`) up to the
+        frame's time, as before a read of them (:meth:`DcClock.refresh`)."""
+        for lo, hi in registers:
+            self.dc.refresh(self.mem, lo, hi)
 
     def row_cut(self, found: Access) -> LogicalPlan | None:
         """``found.cut`` (:meth:`row_access`) when it holds at this ESC now: its mailboxes
@@ -837,7 +845,7 @@ class EscDevice:
 
     def mailboxes_idle(self, mailboxes: Mailboxes) -> bool:
         """Whether ECAT can access none of ``mailboxes`` ((SyncManager index, side 0 read /
-        1 write), :func:`emulator.esc.mapping.mailbox_row_access`) now: a read mailbox empty,
+        1 write), :func:`emulator.esc.mapping.esc_row_access`) now: a read mailbox empty,
         a write mailbox full (neither is then open: ECAT opens a mailbox only in the other
         state, and only the buffer's end changes it back). Then a logical access there reads
         or writes nothing and changes no state: what :meth:`_sm_read` and :meth:`_sm_write` do

@@ -11,7 +11,7 @@ from __future__ import annotations
 import itertools
 import struct
 from collections.abc import Callable, Sequence
-from typing import Final, Protocol, TypeVar
+from typing import Final, NamedTuple, Protocol, TypeVar
 
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.registers import (
@@ -38,6 +38,7 @@ __all__ = [
     "LogicalPlan",
     "Mailboxes",
     "PlainAccess",
+    "RowAccess",
     "SmChange",
     "SmFound",
     "SmTable",
@@ -47,8 +48,8 @@ __all__ = [
     "decode_entries",
     "decode_fmmus",
     "decode_sms",
+    "esc_row_access",
     "forget",
-    "mailbox_row_access",
     "plain_access",
     "plan_logical",
     "remember",
@@ -75,7 +76,7 @@ FmmuTable = tuple[
 ]
 SmTable = tuple[tuple[int, int, int, int, int], ...]
 # mailboxes an access meets where ECAT accesses them: (SyncManager index, side 0 read / 1 write)
-# (mailbox_row_access)
+# (esc_row_access)
 Mailboxes = tuple[tuple[int, int], ...]
 FMMU_CACHE: dict[bytes, FmmuTable] = {}
 # FMMU 0's registers and the others', decoded (decode_fmmus)
@@ -298,9 +299,9 @@ class Access:
     chain may do over the rows (:meth:`rows`) with the SyncManager areas, memory top and
     register write plans last asked: ``cut``, the plan without the bytes where it does nothing
     (None: not plain, :func:`row_access`), ``events``, those its register reads clear,
-    ``mailboxes``, those that must be idle at an ESC for the cut to hold there
-    (:func:`mailbox_row_access`), and :attr:`plain`, the plain access with its plan and holes
-    (no mailbox among them).
+    ``mailboxes``, those that must be idle at an ESC for the cut to hold there, ``dc``, the
+    registers each ESC brings up to the frame's time first (:func:`esc_row_access`), and
+    :attr:`plain`, the plain access with its plan and holes (neither of those in it).
 
     An access whose one FMMU lies wholly inside the datagram is that FMMU's access moved along
     the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
@@ -315,6 +316,7 @@ class Access:
         "areas",
         "cmd",
         "cut",
+        "dc",
         "events",
         "hit",
         "lad",
@@ -338,6 +340,7 @@ class Access:
         self.cut: LogicalPlan | None = None
         self.events = 0
         self.mailboxes: Mailboxes = ()
+        self.dc: tuple[tuple[int, int], ...] = ()
 
     @property
     def plan(self) -> LogicalPlan:
@@ -355,7 +358,8 @@ class Access:
         logical 0 through exactly its bytes (:data:`PARTS_CACHE`), and how many bytes further on
         in the frame this access has them. Its plan is that one's with frame offsets that much
         further on (:func:`along`), since :func:`plan_logical` places a part by its logical
-        offset from the datagram's start alone; its holes, events and mailboxes are the same,
+        offset from the datagram's start alone; its holes, events, mailboxes and DC registers
+        are the same,
         being physical. The ESCs of a configured line each map their own bytes with FMMU 0
         alike: they share one such access. None otherwise (or for that access itself)."""
         if self._moved is _UNASKED:
@@ -395,9 +399,9 @@ class Access:
         return self._plain  # type: ignore[return-value]
 
     def rows(self, areas: SmTable, top: int, writes: WritesInert) -> None:
-        """Work out :attr:`cut`, :attr:`events` and :attr:`mailboxes` for SyncManager ``areas``,
-        memory ``top`` and register write plans ``writes`` (:func:`mailbox_row_access`), unless
-        they were the last asked.
+        """Work out :attr:`cut`, :attr:`events`, :attr:`mailboxes` and :attr:`dc` for
+        SyncManager ``areas``, memory ``top`` and register write plans ``writes``
+        (:func:`esc_row_access`), unless they were the last asked.
 
         When the access meets several FMMUs, the first FMMU's part and the others' (accesses of
         their own, :data:`PARTS_CACHE`, shared by every access they are part of) are worked out
@@ -418,20 +422,22 @@ class Access:
             if moved is not None:
                 at, offset = moved
                 at.rows(areas, top, writes)
-                self.events, self.mailboxes = at.events, at.mailboxes
+                self.events, self.mailboxes, self.dc = at.events, at.mailboxes, at.dc
                 self.cut = None if at.cut is None else along(at.cut, offset)
                 return
-        found = mailbox_row_access(self.plan, areas, top, writes.inert)
+        found = esc_row_access(self.plan, areas, top, writes.inert)
         if found is None:
-            self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
+            self._plain, self.cut, self.events, self.mailboxes, self.dc = None, None, 0, (), ()
             return
-        access, self.events, self.mailboxes = found
-        self._plain, self.cut = (None if self.mailboxes else access), access[2]
+        access, self.events, self.mailboxes, self.dc = found
+        self._plain = None if (self.mailboxes or self.dc) else access
+        self.cut = access[2]
 
     def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
         """:meth:`rows` from the first FMMU's part and the others' cut, when another access met
         the others before (:data:`PARTS_CACHE`; else each ESC would work out the others as
-        well as the whole plan), and the others are plain and clear no event, read no register
+        well as the whole plan), and the others are plain, clear no event and read no DC
+        register (the first's part is the whole plan's, theirs may be narrower), read no register
         after a read of the first that clears one, and write (inert) registers only in parts
         whose frame bytes the first does not claim (such a write counts in the working counter
         if the claims leave any of it, though it writes no byte); False leaves it to the whole
@@ -447,7 +453,7 @@ class Access:
             self._others = others
         reads_registers, writes_registers = others.registers
         others.rows(areas, top, writes)
-        if others.cut is None or others.events:
+        if others.cut is None or others.events or others.dc:
             return False
         first = self._first
         if first is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
@@ -473,6 +479,7 @@ class Access:
             writes_ = unclaimed(writes_, lo, hi, True)
         self.cut = (first.cut[0] + reads, first.cut[1] + writes_)
         self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
+        self.dc = first.dc
         self.mailboxes = first.mailboxes + tuple(
             m for m in others.mailboxes if m not in first.mailboxes
         )  # (those of parts the claims took away as well: they need not be idle, but may)
@@ -558,7 +565,7 @@ def plain_access(
     :meth:`emulator.esc.write_plans.WritePlans.inert`): a hole that still counts. A part that
     meets another SyncManager's area makes the access not plain. (Below 0x0F80 the registers
     are accessed whatever SyncManager area lies there.)"""
-    found = _plain(plan, areas, top, inert, clearing=False, mailboxes=False)
+    found = _plain(plan, areas, top, inert, clearing=False, stateful=False)
     return None if found is None else found[0]
 
 
@@ -571,21 +578,39 @@ def row_access(
     (:func:`emulator.esc.registers.cleared_events`, datasheet I Table 3): so after the
     datagram's reads at that ESC, unless a later part of the plan reads the event request
     (0x0210) and would see it cleared, which is left to the ESC (None)."""
-    found = _plain(plan, areas, top, inert, clearing=True, mailboxes=False)
+    found = _plain(plan, areas, top, inert, clearing=True, stateful=False)
     return None if found is None else found[:2]
 
 
-def mailbox_row_access(
+class RowAccess(NamedTuple):
+    """What the chain may do over the rows of ESCs with their own state in mind
+    (:func:`esc_row_access`)."""
+
+    plain: PlainAccess  # the plan, its holes and the plan cut (:func:`plain_access`)
+    events: int  # the ECAT events (0x0210 bits) its reads of DL or AL status clear
+    mailboxes: Mailboxes  # those that must be idle at an ESC for the cut to hold there
+    dc: tuple[tuple[int, int], ...]  # the registers [lo, hi) of its one read of DC registers
+
+
+def esc_row_access(
     plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
-) -> tuple[PlainAccess, int, Mailboxes] | None:
-    """:func:`row_access`, and also when the plan meets mailboxes in the direction ECAT accesses
-    them (a read mailbox on the read side, a write mailbox on the write side): their areas
-    cut as holes, and the mailboxes listed, (SyncManager index, side 0 read / 1 write), in plan
-    order. The cut holds at an ESC only while each of them is one ECAT cannot access: a read
-    mailbox empty, a write mailbox full, neither open (:meth:`emulator.esc.device.EscDevice.
-    mailboxes_idle`), where the access reads or writes nothing at all and changes no state
-    ("read/write w. failure", datasheet I 8.2.1); else the access is the ESC's."""
-    return _plain(plan, areas, top, inert, clearing=True, mailboxes=True)
+) -> RowAccess | None:
+    """:func:`row_access`, and also when the plan meets what each ESC's state decides:
+
+    - mailboxes in the direction ECAT accesses them (a read mailbox on the read side, a write
+      mailbox on the write side): their areas are cut as holes and the mailboxes listed,
+      (SyncManager index, side 0 read / 1 write), in plan order. The cut holds at an ESC only
+      while each of them is one ECAT cannot access: a read mailbox empty, a write mailbox full
+      (:meth:`emulator.esc.device.EscDevice.mailboxes_idle`), where the access reads or
+      writes nothing at all and changes no state ("read/write w. failure", datasheet I
+      8.2.1); else the access is the ESC's;
+    - one read part that reads DC registers, which run with the clock: each ESC brings them up
+      to the frame's time first (:meth:`emulator.esc.dc.DcClock.refresh` of its registers
+      [lo, hi), as the ESC does before such a read), then they are read as committed bytes.
+      A second such part is left to the ESC: a refresh for one part would change what the
+      other reads (a read of the SYNC status clears it, datasheet II 2.22)."""
+    found = _plain(plan, areas, top, inert, clearing=True, stateful=True)
+    return None if found is None else RowAccess(*found)
 
 
 def _plain(
@@ -594,12 +619,13 @@ def _plain(
     top: int,
     inert: Callable[[int, int], bool] | None,
     clearing: bool,
-    mailboxes: bool,
-) -> tuple[PlainAccess, int, Mailboxes] | None:
-    """:func:`plain_access`, with the events cleared (allowed when ``clearing``) and the
-    mailboxes that must be idle (allowed when ``mailboxes``)."""
+    stateful: bool,
+) -> tuple[PlainAccess, int, Mailboxes, tuple[tuple[int, int], ...]] | None:
+    """:func:`plain_access`, with the events cleared (allowed when ``clearing``), the
+    mailboxes that must be idle and the DC registers refreshed (allowed when ``stateful``)."""
     events = 0
     idle: list[tuple[int, int]] = []
+    dc: tuple[tuple[int, int], ...] = ()
     found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
     for side, ops in enumerate(plan):  # reads, writes
         for k, op in enumerate(ops):
@@ -609,7 +635,9 @@ def _plain(
             if lo < REGISTER_END:
                 if not side:
                     if reads_dc(lo, hi):
-                        return None
+                        if not stateful or dc:
+                            return None
+                        dc = ((lo, min(hi, REGISTER_END)),)
                     if events and lo <= REG_ECAT_EVENT < hi:
                         return None  # it sees what a read before it cleared: the ESC's order
                     cleared = cleared_events(lo, hi)
@@ -624,7 +652,7 @@ def _plain(
                 start, end = area[1], area[1] + area[2]
                 if start < hi and end > lo:
                     if not area[4] and ((area[3] >> 2) & 0x03 == 0x01) == (side == 1):
-                        if not (mailboxes and area[3] & 0x03 == 0x02):
+                        if not (stateful and area[3] & 0x03 == 0x02):
                             return None  # a buffer ECAT accesses (writes/reads): its own rules
                         if (area[0], side) not in idle:
                             idle.append((area[0], side))  # nothing there while it is idle
@@ -636,7 +664,7 @@ def _plain(
             if holes:
                 found.append((side, k, holes))
     every: Holes = tuple(found)
-    return (plan, every, cut(plan, every)), events, tuple(idle)
+    return (plan, every, cut(plan, every)), events, tuple(idle), dc
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:

@@ -437,8 +437,8 @@ class Inert:
 
 
 # physical starts: the first FMMU's anywhere, the others' mostly in RAM, near SyncManager areas
-FIRST_PHYS = (0x0000, 0x0130, 0x0E10, 0x0F7E, 0x1000, 0x1100, 0xFFF8)
-OTHER_PHYS = (0x1000, 0x1004, 0x1010, 0x1100, 0x1103, 0x17FC, 0xFFF8, 0x0F7E)
+FIRST_PHYS = (0x0000, 0x0130, 0x08FC, 0x0990, 0x0E10, 0x0F7E, 0x1000, 0x1100, 0xFFF8)
+OTHER_PHYS = (0x1000, 0x1004, 0x1010, 0x1100, 0x1103, 0x17FC, 0xFFF8, 0x0F7E, 0x0910)
 
 
 def an_fmmu(phys: st.SearchStrategy[int]) -> st.SearchStrategy[tuple[int, ...]]:
@@ -480,7 +480,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
 ) -> None:
     """An access through several FMMUs, the first worked out apart from the others
     (:meth:`mapping.Access.rows`), against the whole plan (plan_logical with its claims, then
-    mailbox_row_access): plain alike, the same frame and physical bits read and written, the
+    esc_row_access): plain alike, the same frame and physical bits read and written, the
     same events cleared, parts on the same sides (the working counter), and every mailbox the
     whole plan meets among those that must be idle (the first's claims may leave the others
     fewer mailboxes to meet than they list)."""
@@ -494,7 +494,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
         (k, start, length, control, int(locked))
         for k, (start, length, control, locked) in enumerate(sms)
     )
-    whole = mapping.mailbox_row_access(
+    whole = mapping.esc_row_access(
         mapping.plan_logical(hit, int(cmd), lad, n), areas, top, Inert().inert
     )
     mapping.forget()
@@ -509,7 +509,8 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     assert access.events == whole[1]
     assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
     assert set(whole[2]) <= set(access.mailboxes)
-    assert access.plain == (None if whole[2] else whole[0])
+    assert access.dc == whole.dc
+    assert access.plain == (None if whole[2] or whole.dc else whole[0])
 
 
 @given(
@@ -539,7 +540,7 @@ def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
     """An access through one FMMU that lies wholly inside it, ``before`` bytes after the
     datagram's start and ``after`` bytes before its end, worked out as that FMMU's access at
     logical 0 moved along the frame (:meth:`mapping.Access.moved`): the plan is plan_logical's,
-    and the cut, events and mailboxes are those of mailbox_row_access of it."""
+    and the cut, events and mailboxes are those of esc_row_access of it."""
     log, length, bits, phys, kind = fmmu_
     table = struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
     hit, _ = mapping.decode_fmmus(table)
@@ -551,7 +552,7 @@ def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
         for k, (start, size, control, locked) in enumerate(sms)
     )
     plan = mapping.plan_logical(hit, int(cmd), lad, n)
-    whole = mapping.mailbox_row_access(plan, areas, top, Inert().inert)
+    whole = mapping.esc_row_access(plan, areas, top, Inert().inert)
     mapping.forget()
     access = mapping.Access(hit, int(cmd), lad, n)
     access.rows(areas, top, Inert())
@@ -561,7 +562,8 @@ def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
         assert access.cut is None
         return
     assert (access.cut, access.events, access.mailboxes) == (whole[0][2], whole[1], whole[2])
-    assert access.plain == (None if whole[2] else whole[0])
+    assert access.dc == whole.dc
+    assert access.plain == (None if whole[2] or whole.dc else whole[0])
 
 
 def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
@@ -863,3 +865,55 @@ def test_an_lrd_reads_a_read_mailbox_only_when_it_is_full() -> None:
         assert (d.data, d.wkc) == (b"\x00\x00\xa0\xa1", NODES - 1)
         assert chain.devices[7].registers(0x0815, 1)[0] & 0x40
         assert not chain.devices[6].registers(0x0815, 1)[0] & 0x40
+
+
+def sync0_line(kind: type[EcatChain], now: list[int]) -> EcatChain:
+    """12 patches whose SYNC0 fired at 5 ms of system time (datasheet II 2.22: SOEM's order of
+    writes; clocks retuned to start at 0, host time ``now[0]``)."""
+    chain = kind.configured(NODES, SIZE)
+    chain.clock_ns = lambda: now[0]
+    for dev in chain.devices:
+        dev.dc.retune(0.0, 0)
+    for ado, data in (
+        (0x0981, b"\x00"),
+        (0x0990, struct.pack("<Q", 5_000_000)),
+        (0x09A0, struct.pack("<I", 1_000_000)),
+        (0x0981, b"\x03"),
+    ):
+        chain.process_frame(bwr(ado, data))
+    return chain
+
+
+@pytest.mark.parametrize("parts", [1, 2])
+def test_reads_of_dc_registers_see_them_at_the_frames_time(
+    parts: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Hand-worked: FMMU 1 of 12 ESCs reads the SYNC0 status (0x098E, 1 byte) into logical
+    0x9000 and, with ``parts`` = 2, FMMU 2 reads the activation status (0x0984) into 0x9001.
+    SYNC0 fired at 5 ms: an LRD at 5.3 ms reads status 1 (from the last ESC back), and the
+    read clears it, so the next LRD reads 0; the activation status is 0 (activated). With one
+    part the chain brings every ESC's DC registers up to the frame's time and reads them over
+    the rows (12 refreshes); with two, the refresh for the second part would clear the status
+    the first reads (it writes 0x098E again), so each ESC reads in its own order, as ESC by
+    ESC."""
+    refreshed: list[int] = []
+    refresh = EscDevice.refresh_dc
+
+    def counted(self: EscDevice, registers: tuple[tuple[int, int], ...]) -> None:
+        refreshed.append(self.position)
+        refresh(self, registers)
+
+    monkeypatch.setattr(EscDevice, "refresh_dc", counted)
+    now = [0]
+    chains = [sync0_line(kind, now) for kind in (EcatChain, OneByOne)]
+    fmmus = [(0x0610, read_fmmu(0x9000, 0x098E, 1)), (0x0620, read_fmmu(0x9001, 0x0984, 1))]
+    for chain in chains:
+        for at, table in fmmus[:parts]:
+            chain.process_frame(bwr(at, table))
+    now[0] = 5_300_000
+    expected = [b"\x01\x00"[:parts], b"\x00\x00"[:parts]]
+    for k, data in enumerate(expected):
+        backs = [lrd(chain, 0x9000, parts) for chain in chains]
+        assert backs[0] == backs[1], k
+        assert (backs[0].data, backs[0].wkc) == (data, NODES), k
+    assert len(refreshed) == (2 * NODES if parts == 1 else 0)
