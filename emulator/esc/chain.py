@@ -47,7 +47,7 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
-from emulator.esc.mapping import LogicalPlan
+from emulator.esc.mapping import LogicalOp, LogicalPlan
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     REG_ALIAS,
@@ -408,6 +408,7 @@ class EcatChain:
         lrd = cmd == LRD  # its plain ESCs need not share a plan (last_readers)
         run: list[int] = []  # consecutive targets whose plan cut is run_plan, not done yet
         run_plan: LogicalPlan = _UNTOUCHED
+        run_shadow: tuple[LogicalOp, ...] = ()  # and whose register writes (Access.shadow)
         cuts: list[LogicalPlan] = []  # an LRD's: those of the run
         events: list[tuple[int, int]] = []  # (target, the events its reads clear) of the run
         clocks: list[tuple[int, tuple[tuple[int, int], ...]]] = []  # (target, DC registers read)
@@ -418,9 +419,12 @@ class EcatChain:
             if lrd:
                 inc = last_readers([line[q] for q in run], cuts, buf, at, n)
             elif len(run) >= LOGICAL_TOGETHER_MIN:
-                inc = logical_together(self.memory, run, run_plan, cmd, buf, at, n)
+                devices = [line[q] for q in run] if run_shadow else []
+                inc = logical_together(
+                    self.memory, run, run_plan, cmd, buf, at, n, run_shadow, devices
+                )
             else:
-                inc = sum(line[q].logical_cut(run_plan, cmd, buf, at, n) for q in run)
+                inc = sum(line[q].logical_cut(run_plan, cmd, buf, at, n, run_shadow) for q in run)
             cleared = False  # then each ESC's reads of DL or AL status clear their events
             for q, bits in events:
                 cleared = line[q].clear_read_events(bits) or cleared
@@ -433,7 +437,7 @@ class EcatChain:
                 cut = dev.row_cut(found)
                 if cut == _UNTOUCHED:
                     continue  # it does nothing with the datagram's bytes
-                if cut == run_plan or (lrd and cut is not None):
+                if (cut == run_plan and found.shadow == run_shadow) or (lrd and cut is not None):
                     run.append(p)
                     if lrd:
                         cuts.append(cut)
@@ -452,7 +456,7 @@ class EcatChain:
                 changed = changed or dev.irq != before
             else:  # a run starts, even one that does nothing: the next are asked row_access
                 assert done.cut is not None  # and it holds here (row_cut)
-                run, run_plan, cuts = [p], done.cut, [done.cut]
+                run, run_plan, run_shadow, cuts = [p], done.cut, done.shadow, [done.cut]
                 if done.events:
                     events.append((p, done.events))
                 if done.dc:

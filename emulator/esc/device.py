@@ -60,6 +60,7 @@ from emulator.esc.mapping import (
     FMMU_CACHE,
     PLAN_CACHE_ENTRIES,
     Access,
+    LogicalOp,
     LogicalPlan,
     Mailboxes,
     PlainAccess,
@@ -898,11 +899,23 @@ class EscDevice:
         effects, since there are none, and skipping the holes, where it does nothing."""
         return self.logical_cut(access[2], cmd, buf, off, n)
 
-    def logical_cut(self, plan: LogicalPlan, cmd: int, buf: bytearray, off: int, n: int) -> int:
-        """:meth:`plain_logical` of an access's plan cut (:attr:`Access.cut`)."""
+    def logical_cut(
+        self,
+        plan: LogicalPlan,
+        cmd: int,
+        buf: bytearray,
+        off: int,
+        n: int,
+        shadow: tuple[LogicalOp, ...] = (),
+    ) -> int:
+        """:meth:`plain_logical` of an access's plan cut (:attr:`Access.cut`), and of the
+        write parts ``shadow`` (:attr:`Access.shadow`) the register bytes among the shadow
+        writes (:meth:`shadow_writes`)."""
         reads, writes = plan
         mem = self.mem
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
+        if shadow:
+            self.pending.extend(self.shadow_writes(shadow, data_in))
         for bytewise, a, b, c, d, e, f in reads:
             if bytewise:  # physical a, frame offset b, c bytes
                 buf[off + b : off + b + c] = mem[a : a + c]
@@ -919,6 +932,22 @@ class EscDevice:
                 mem[a : a + b] = _bits_written(mem[a : a + b], data_in, c, d, e, f)
         r, w = int(bool(reads)), int(bool(writes))
         return r if cmd == LRD else w if cmd == LWR else r + 2 * w
+
+    def shadow_writes(
+        self, parts: tuple[LogicalOp, ...], data_in: bytes
+    ) -> list[tuple[int, bytes]]:
+        """What the write parts ``parts`` (:func:`plan_logical`) of a datagram whose data
+        arrived as ``data_in`` put among the shadow writes (:attr:`pending`): the bytes each
+        writes below 0x0F80, a bit-wise part's merged with the registers as committed (what
+        :meth:`_write` takes of them, datasheet I 3.4)."""
+        mem, out = self.mem, []
+        for bytewise, a, b, c, d, e, f in parts:
+            if bytewise:  # physical a, frame offset b, c bytes
+                out.append((a, data_in[b : b + min(c, REGISTER_END - a)]))
+            else:
+                written = _bits_written(mem[a : a + b], data_in, c, d, e, f)
+                out.append((a, written[: REGISTER_END - a]))
+        return out
 
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
         if cmd == LRD and self.read_buffered(lad, buf, off, n):

@@ -17,6 +17,7 @@ from emulator.esc.commands import LRD, LWR
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     REG_ECAT_EVENT,
+    REG_RESET_ECAT,
     REG_SM,
     REGISTER_END,
     SM_BYTES,
@@ -300,8 +301,9 @@ class Access:
     register write plans last asked: ``cut``, the plan without the bytes where it does nothing
     (None: not plain, :func:`row_access`), ``events``, those its register reads clear,
     ``mailboxes``, those that must be idle at an ESC for the cut to hold there, ``dc``, the
-    registers each ESC brings up to the frame's time first (:func:`esc_row_access`), and
-    :attr:`plain`, the plain access with its plan and holes (neither of those in it).
+    registers each ESC brings up to the frame's time first, ``shadow``, the write parts whose
+    register bytes each ESC puts among its shadow writes (:func:`esc_row_access`), and
+    :attr:`plain`, the plain access with its plan and holes (none of those in it).
 
     An access whose one FMMU lies wholly inside the datagram is that FMMU's access moved along
     the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
@@ -322,6 +324,7 @@ class Access:
         "lad",
         "mailboxes",
         "n",
+        "shadow",
         "top",
         "writes",
     )
@@ -341,6 +344,7 @@ class Access:
         self.events = 0
         self.mailboxes: Mailboxes = ()
         self.dc: tuple[tuple[int, int], ...] = ()
+        self.shadow: tuple[LogicalOp, ...] = ()
 
     @property
     def plan(self) -> LogicalPlan:
@@ -399,9 +403,9 @@ class Access:
         return self._plain  # type: ignore[return-value]
 
     def rows(self, areas: SmTable, top: int, writes: WritesInert) -> None:
-        """Work out :attr:`cut`, :attr:`events`, :attr:`mailboxes` and :attr:`dc` for
-        SyncManager ``areas``, memory ``top`` and register write plans ``writes``
-        (:func:`esc_row_access`), unless they were the last asked.
+        """Work out :attr:`cut`, :attr:`events`, :attr:`mailboxes`, :attr:`dc` and
+        :attr:`shadow` for SyncManager ``areas``, memory ``top`` and register write plans
+        ``writes`` (:func:`esc_row_access`), unless they were the last asked.
 
         When the access meets several FMMUs, the first FMMU's part and the others' (accesses of
         their own, :data:`PARTS_CACHE`, shared by every access they are part of) are worked out
@@ -424,20 +428,23 @@ class Access:
                 at.rows(areas, top, writes)
                 self.events, self.mailboxes, self.dc = at.events, at.mailboxes, at.dc
                 self.cut = None if at.cut is None else along(at.cut, offset)
+                self.shadow = along(((), at.shadow), offset)[1]
                 return
         found = esc_row_access(self.plan, areas, top, writes.inert)
         if found is None:
-            self._plain, self.cut, self.events, self.mailboxes, self.dc = None, None, 0, (), ()
+            self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
+            self.dc, self.shadow = (), ()
             return
-        access, self.events, self.mailboxes, self.dc = found
-        self._plain = None if (self.mailboxes or self.dc) else access
+        access, self.events, self.mailboxes, self.dc, self.shadow = found
+        self._plain = None if (self.mailboxes or self.dc or self.shadow) else access
         self.cut = access[2]
 
     def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
         """:meth:`rows` from the first FMMU's part and the others' cut, when another access met
         the others before (:data:`PARTS_CACHE`; else each ESC would work out the others as
-        well as the whole plan), and the others are plain, clear no event and read no DC
-        register (the first's part is the whole plan's, theirs may be narrower), read no register
+        well as the whole plan), and the others are plain, clear no event, read no DC register
+        and write no register to the shadow (the first's part is the whole plan's, theirs may
+        be narrower, which would refresh or write other registers), read no register
         after a read of the first that clears one, and write (inert) registers only in parts
         whose frame bytes the first does not claim (such a write counts in the working counter
         if the claims leave any of it, though it writes no byte); False leaves it to the whole
@@ -453,7 +460,7 @@ class Access:
             self._others = others
         reads_registers, writes_registers = others.registers
         others.rows(areas, top, writes)
-        if others.cut is None or others.events or others.dc:
+        if others.cut is None or others.events or others.dc or others.shadow:
             return False
         first = self._first
         if first is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
@@ -479,7 +486,7 @@ class Access:
             writes_ = unclaimed(writes_, lo, hi, True)
         self.cut = (first.cut[0] + reads, first.cut[1] + writes_)
         self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
-        self.dc = first.dc
+        self.dc, self.shadow = first.dc, first.shadow
         self.mailboxes = first.mailboxes + tuple(
             m for m in others.mailboxes if m not in first.mailboxes
         )  # (those of parts the claims took away as well: they need not be idle, but may)
@@ -590,6 +597,7 @@ class RowAccess(NamedTuple):
     events: int  # the ECAT events (0x0210 bits) its reads of DL or AL status clear
     mailboxes: Mailboxes  # those that must be idle at an ESC for the cut to hold there
     dc: tuple[tuple[int, int], ...]  # the registers [lo, hi) of its one read of DC registers
+    shadow: tuple[LogicalOp, ...]  # its write parts that write registers (their shadow)
 
 
 def esc_row_access(
@@ -608,9 +616,18 @@ def esc_row_access(
       to the frame's time first (:meth:`emulator.esc.dc.DcClock.refresh` of its registers
       [lo, hi), as the ESC does before such a read), then they are read as committed bytes.
       A second such part is left to the ESC: a refresh for one part would change what the
-      other reads (a read of the SYNC status clears it, datasheet II 2.22)."""
-    found = _plain(plan, areas, top, inert, clearing=True, stateful=True)
-    return None if found is None else RowAccess(*found)
+      other reads (a read of the SYNC status clears it, datasheet II 2.22);
+    - write parts that write registers (below 0x0F80) where a write changes something: such a
+      write goes to the ESC's shadow registers, which take it at the end of the frame
+      (datasheet I 3.4), so its registers are cut as holes (a part left with nothing still
+      counts, :func:`cut`) and the parts are listed whole, in plan order, for each ESC to put
+      the bytes it writes there among its shadow writes (:attr:`EscDevice.pending`: the first
+      ``min(end, 0x0F80) - start`` bytes of what the part writes; a bit-wise part merges
+      with the registers as committed, which the datagram's reads leave alone but for the
+      events they clear, in the event request 0x0210, which ECAT cannot write). Left to the
+      ESC: a write of the reset register (0x0040, whose sequence the ESC follows as it is
+      written)."""
+    return _plain(plan, areas, top, inert, clearing=True, stateful=True)
 
 
 def _plain(
@@ -620,12 +637,14 @@ def _plain(
     inert: Callable[[int, int], bool] | None,
     clearing: bool,
     stateful: bool,
-) -> tuple[PlainAccess, int, Mailboxes, tuple[tuple[int, int], ...]] | None:
+) -> RowAccess | None:
     """:func:`plain_access`, with the events cleared (allowed when ``clearing``), the
-    mailboxes that must be idle and the DC registers refreshed (allowed when ``stateful``)."""
+    mailboxes that must be idle, the DC registers refreshed and the registers written to the
+    shadow (allowed when ``stateful``)."""
     events = 0
     idle: list[tuple[int, int]] = []
     dc: tuple[tuple[int, int], ...] = ()
+    shadow: list[LogicalOp] = []
     found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
     for side, ops in enumerate(plan):  # reads, writes
         for k, op in enumerate(ops):
@@ -646,6 +665,9 @@ def _plain(
                     events |= cleared  # once this part is read (its own bytes as they were)
                 elif inert is not None and inert(lo, min(hi, REGISTER_END) - lo):
                     holes = ((lo, min(hi, REGISTER_END)),)  # counts: ECAT wrote registers
+                elif stateful and not lo <= REG_RESET_ECAT < hi:
+                    holes = ((lo, min(hi, REGISTER_END)),)  # counts; written to the shadow
+                    shadow.append(op)
                 else:
                     return None
             for area in areas:  # (index, start, length, control, PDI-locked)
@@ -664,7 +686,7 @@ def _plain(
             if holes:
                 found.append((side, k, holes))
     every: Holes = tuple(found)
-    return (plan, every, cut(plan, every)), events, tuple(idle), dc
+    return RowAccess((plan, every, cut(plan, every)), events, tuple(idle), dc, tuple(shadow))
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:

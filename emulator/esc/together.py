@@ -54,6 +54,7 @@ from emulator.esc.registers import (
     REG_FMMU,
     REG_PU_ERRORS,
     REG_SM,
+    REGISTER_END,
     SM_BYTES,
     SM_NO_BUFFER,
 )
@@ -267,12 +268,17 @@ def logical_together(
     buf: bytearray,
     off: int,
     n: int,
+    shadow: Sequence[LogicalOp] = (),
+    devices: Sequence[EscDevice] = (),
 ) -> int:
     """A logical datagram (data ``buf[off:off+n]``, in place) through the ESCs of ``rows`` in
     chain order, each of which maps it onto plain memory with ``plan``, a plan cut
     (:attr:`emulator.esc.mapping.Access.cut`), as :meth:`EscDevice._logical` at each in turn
     would do it but for the events its reads of DL or AL status clear (the caller's): the
-    working counter's increment.
+    working counter's increment. The register bytes its write parts ``shadow``
+    (:attr:`emulator.esc.mapping.Access.shadow`) write go among the shadow writes of
+    ``devices`` (the ESCs of ``rows``; :meth:`EscDevice.shadow_writes`), alike at every ESC
+    where they are alike.
 
     An ESC reads before it writes, and its write takes the data as it arrived (datasheet I
     Table 7). Its reads replace the same frame bits at every ESC, so the data arriving at an
@@ -292,10 +298,11 @@ def logical_together(
         out = arrived.copy()
         _read_rows(memory, slice(rows[-1], rows[-1] + 1), reads, out)
     read = [(b, b + c) if bytewise else (e, e + f) for bytewise, _, b, c, _, e, f in reads]
-    met = [  # per write, whether a read replaces some of its frame bytes
+    met = [  # per write (and shadow write), whether a read replaces some of its frame bytes
         any(x < hi and y > lo for x, y in read)
         for lo, hi in (
-            (b, b + c) if bytewise else (e, e + f) for bytewise, _, b, c, _, e, f in writes
+            (b, b + c) if bytewise else (e, e + f)
+            for bytewise, _, b, c, _, e, f in (*writes, *shadow)
         )
     ]
     data_in = arrived  # the frame bytes no ESC reads arrive alike at every ESC: one row
@@ -303,7 +310,9 @@ def logical_together(
         left = np.repeat(arrived, m, axis=0)  # the data as each ESC leaves it
         _read_rows(memory, at, reads, left)
         data_in = np.concatenate((arrived, left[:-1]))
-    for (bytewise, a, b, c, d, e, f), varies in zip(writes, met, strict=True):
+    if shadow:  # the registers as committed: no write of the datagram reaches them
+        _shadow_rows(memory, at, shadow, met[len(writes) :], arrived, data_in, devices)
+    for (bytewise, a, b, c, d, e, f), varies in zip(writes, met[: len(writes)], strict=True):
         src = data_in if varies else arrived
         if bytewise:  # physical a, frame offset b, c bytes
             memory[at, a : a + c] = src[:, b : b + c]
@@ -313,6 +322,37 @@ def logical_together(
         buf[off : off + n] = out[0].tobytes()
     r, w = int(bool(reads)), int(bool(writes))
     return m * (r if cmd == LRD else w if cmd == LWR else r + 2 * w)
+
+
+def _shadow_rows(
+    memory: npt.NDArray[np.uint8],
+    at: _Rows | slice,
+    shadow: Sequence[LogicalOp],
+    varies: Sequence[bool],
+    arrived: npt.NDArray[np.uint8],
+    data_in: npt.NDArray[np.uint8],
+    devices: Sequence[EscDevice],
+) -> None:
+    """:meth:`EscDevice.shadow_writes` of the write parts ``shadow`` at each of ``devices``
+    (whose memory is ``memory[at]``): from the data as it arrived, ``arrived`` where no read
+    replaces their frame bytes (``varies``), else ``data_in`` (a row per ESC); one
+    (address, bytes) for all where the bytes are alike."""
+    for (bytewise, a, b, c, d, e, f), per_row in zip(shadow, varies, strict=True):
+        src = data_in if per_row else arrived
+        if bytewise:  # physical a, frame offset b, c bytes
+            written = src[:, b : b + min(c, REGISTER_END - a)]
+        else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
+            k = min(b, REGISTER_END - a)
+            mask = _mask(d, b)[:k]
+            new = _shifted(src[:, e : e + f], -c, b)[:, :k]
+            written = (memory[at, a : a + k] & ~mask) | (new & mask)
+        if len(written) == 1 or (written == written[0]).all():
+            entry = (a, written[0].tobytes())
+            for dev in devices:
+                dev.pending.append(entry)
+        else:
+            for dev, row in zip(devices, written, strict=True):
+                dev.pending.append((a, row.tobytes()))
 
 
 def _read_rows(

@@ -22,6 +22,7 @@ from hypothesis import strategies as st
 from emulator.esc import mapping, together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
+from emulator.esc.registers import EscConfig
 from emulator.esc.sii import SlaveInfo, build_sii
 from skinframes import ethercat
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -142,9 +143,9 @@ def test_logical_datagrams_leave_the_same_bytes(
     rows: list[int] = []
     shortcut = together.logical_together
 
-    def counted(memory, run, plan, cmd, buf, off, n):  # type: ignore[no-untyped-def]
+    def counted(memory, run, plan, cmd, buf, off, n, *shadow):  # type: ignore[no-untyped-def]
         rows.append(len(run))
-        return shortcut(memory, run, plan, cmd, buf, off, n)
+        return shortcut(memory, run, plan, cmd, buf, off, n, *shadow)
 
     monkeypatch.setattr("emulator.esc.chain.logical_together", counted)
     rng = random.Random(least)
@@ -170,7 +171,7 @@ def test_the_shortcut_is_what_decides(monkeypatch: pytest.MonkeyPatch) -> None:
     assert_same(fast, reference, lrw, "LRW")
     assert_same(fast, reference, lrw, "LRW again")
 
-    def reads_only(memory, run, plan, cmd, buf, off, n):  # type: ignore[no-untyped-def]
+    def reads_only(memory, run, plan, cmd, buf, off, n, *_):  # type: ignore[no-untyped-def]
         return together.logical_together(memory, run, (plan[0], ()), cmd, buf, off, n) * 3
 
     monkeypatch.setattr("emulator.esc.chain.logical_together", reads_only)
@@ -509,8 +510,8 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     assert access.events == whole[1]
     assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
     assert set(whole[2]) <= set(access.mailboxes)
-    assert access.dc == whole.dc
-    assert access.plain == (None if whole[2] or whole.dc else whole[0])
+    assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
+    assert access.plain == (None if whole[2] or whole.dc or whole.shadow else whole[0])
 
 
 @given(
@@ -562,8 +563,8 @@ def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
         assert access.cut is None
         return
     assert (access.cut, access.events, access.mailboxes) == (whole[0][2], whole[1], whole[2])
-    assert access.dc == whole.dc
-    assert access.plain == (None if whole[2] or whole.dc else whole[0])
+    assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
+    assert access.plain == (None if whole[2] or whole.dc or whole.shadow else whole[0])
 
 
 def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
@@ -653,12 +654,13 @@ def test_fmmu_tables_decoded_in_parts_are_decoded_whole(tables: list[list[bytes]
 
 def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
     """EscDevice.plain_access (and plain_plan) against what the chain does (row_access), frame
-    after frame of random FMMUs: an access the chain does over the rows without clearing an event
-    is plain, mapping the same bits; one that clears events, or that the chain leaves to the ESC,
-    is not."""
+    after frame of random FMMUs: an access the chain does over the rows without clearing an event,
+    reading DC registers or writing registers to the shadow is plain, mapping the same bits; one
+    that does any of those, or that the chain leaves to the ESC, is not."""
     chain = line(EcatChain)
     rng = random.Random(11)
-    seen = {"plain": 0, "events": 0, "neither": 0}  # events: reads of DL or AL status
+    # events: reads of DL or AL status, DC registers or writes of registers (stateful)
+    seen = {"plain": 0, "events": 0, "neither": 0}
     for _ in range(300):
         chain.process_frame(frame(rng))
         lad, n = rng.randrange(100), rng.randrange(1, 100)
@@ -666,7 +668,7 @@ def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
             for dev in chain.devices:
                 found = dev.row_access(cmd, lad, n)
                 plain = dev.plain_access(cmd, lad, n)
-                if found.cut is None or found.events:
+                if found.cut is None or found.events or found.dc or found.shadow:
                     assert plain is None and dev.plain_plan(cmd, lad, n) is None
                     seen["events" if found.cut is not None else "neither"] += 1
                     continue
@@ -917,3 +919,87 @@ def test_reads_of_dc_registers_see_them_at_the_frames_time(
         assert backs[0] == backs[1], k
         assert (backs[0].data, backs[0].wkc) == (data, NODES), k
     assert len(refreshed) == (2 * NODES if parts == 1 else 0)
+
+
+def test_shadow_writes_take_the_register_bytes_alone() -> None:
+    """Hand-worked: what write parts put among an ESC's shadow writes (datasheet I 3.4) is the
+    bytes they write below 0x0F80 (the RAM after it is written at once). A byte-wise part of
+    8 bytes at 0x0F7C from frame byte 1 (data 00 01 02 ...): 01 02 03 04 at 0x0F7C. A bit-wise
+    part of physical bytes 0x0F7E-0x0F81 (holding 11 22 33 44), frame bytes 2-4 (02 03 04,
+    0x040302) shifted 4 bits up (0x403020), under the physical mask 0x0FF00FF0 (0x00400020),
+    over the bits kept (0x44332211 & 0xF00FF00F = 0x40032001): 0x40432021, of which the
+    registers 0x0F7E-0x0F7F take 21 20."""
+    dev = EscDevice(SlaveInfo.skin_patch(SIZE))
+    dev.pdi_write(0x0F7E, b"\x11\x22\x33\x44")
+    parts = ((True, 0x0F7C, 1, 8, 0, 0, 0), (False, 0x0F7E, 4, 4, 0x0FF0_0FF0, 2, 3))
+    assert dev.shadow_writes(parts, bytes(range(16))) == [
+        (0x0F7C, b"\x01\x02\x03\x04"),
+        (0x0F7E, b"\x21\x20"),
+    ]
+
+
+def test_shadow_writes_over_the_rows_are_each_escs() -> None:
+    """The shadow writes of write parts over the rows (logical_together) are those each ESC
+    works out for itself (EscDevice.shadow_writes), whatever each ESC's registers hold, from
+    data that arrived alike or differently at each."""
+    chain = line(EcatChain)
+    rng = random.Random(3)
+    devices = chain.devices
+    for _ in range(200):
+        for dev in devices:
+            dev.pdi_write(0x0F70, rng.randbytes(16))
+        phys = rng.choice((0x0F70, 0x0F7C, 0x0F7F))
+        width, at = rng.randrange(1, 6), rng.randrange(4)
+        part = (False, phys, width, rng.randrange(-12, 12), rng.getrandbits(8 * width), at, 3)
+        if rng.random() < 0.3:
+            part = (True, phys, at, width, 0, 0, 0)
+        arrived = np.frombuffer(rng.randbytes(8), np.uint8)[None, :]
+        data_in = np.frombuffer(rng.randbytes(8 * NODES), np.uint8).reshape(NODES, 8)
+        varies = rng.random() < 0.5
+        together._shadow_rows(
+            chain.memory, slice(0, NODES), (part,), (varies,), arrived, data_in, devices
+        )
+        for p, dev in enumerate(devices):
+            data = (data_in[p] if varies else arrived[0]).tobytes()
+            assert dev.pending == dev.shadow_writes((part,), data), (p, part)
+            dev.pending.clear()
+
+
+@pytest.mark.parametrize("least", [1, together.LOGICAL_TOGETHER_MIN])
+def test_escs_with_one_cut_and_other_register_writes_are_apart(
+    least: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Hand-worked: 12 ESCs whose FMMU 1 maps logical 0xB000 + 16, byte-wise, for writing onto
+    FMMU 3's registers (0x0630). The last ESC has 8 FMMUs, so the write goes to its shadow
+    registers and takes effect; the others have 3, so those bytes are reserved and the write
+    changes nothing, though it counts (datasheet II 2.13). Every ESC's plan cut is the same (a
+    write of no byte at 0x0630, for the working counter), yet only the last ESC writes
+    registers: after an LWR of an FMMU entry there, it holds the entry and the others hold
+    zeros, as ESC by ESC, with the working counter 12. (With ``least`` = 1 every run of ESCs
+    goes over the rows.)"""
+    monkeypatch.setattr("emulator.esc.chain.LOGICAL_TOGETHER_MIN", least)
+    chains = []
+    for kind in (EcatChain, OneByOne):
+        devices = [
+            EscDevice(
+                SlaveInfo.skin_patch(SIZE, serial=p + 1),
+                config=EscConfig(fmmus=8 if p == NODES - 1 else 3),
+            )
+            for p in range(NODES)
+        ]
+        chain = kind(devices)
+        for frame_ in configure_frames(devices[0].info, NODES):
+            chain.process_frame(frame_)
+        chain.process_frame(
+            bwr(0x0610, struct.pack("<IHBBHBBB3x", 0xB000, 16, 0, 7, 0x0630, 0, 2, 1))
+        )
+        chains.append(chain)
+    entry = struct.pack("<IHBBHBBB3x", 0xC000, 4, 0, 7, 0x1800, 0, 1, 1)
+    lwr = ethercat.frame(EcatFrame((Datagram.logical(Command.LWR, 0xB000, entry),))).to_bytes()
+    back = chains[0].process_frame(lwr)
+    assert back == chains[1].process_frame(lwr)
+    assert back is not None and ethercat.decode(back[14:])[0].datagrams[0].wkc == NODES
+    assert np.array_equal(chains[0].memory, chains[1].memory)
+    memory = chains[0].memory
+    assert memory[-1, 0x0630:0x0640].tobytes() == entry
+    assert not memory[:-1, 0x0630:0x0640].any()
