@@ -428,7 +428,7 @@ class Access:
                 at.rows(areas, top, writes)
                 self.events, self.mailboxes, self.dc = at.events, at.mailboxes, at.dc
                 self.cut = None if at.cut is None else along(at.cut, offset)
-                self.shadow = along(((), at.shadow), offset)[1]
+                self.shadow = _along(at.shadow, offset)
                 return
         found = esc_row_access(self.plan, areas, top, writes.inert)
         if found is None:
@@ -495,13 +495,16 @@ class Access:
 
 def along(plan: LogicalPlan, offset: int) -> LogicalPlan:
     """``plan`` (:func:`plan_logical`) with every part's frame bytes ``offset`` bytes further on."""
+    return _along(plan[0], offset), _along(plan[1], offset)
+
+
+def _along(ops: tuple[LogicalOp, ...], offset: int) -> tuple[LogicalOp, ...]:
     return tuple(
-        tuple(
-            (True, op[1], op[2] + offset, *op[3:]) if op[0] else (*op[:5], op[5] + offset, op[6])
-            for op in ops
-        )
-        for ops in plan
-    )  # type: ignore[return-value]
+        [
+            (True, a, b + offset, c, d, e, f) if bytewise else (False, a, b, c, d, e + offset, f)
+            for bytewise, a, b, c, d, e, f in ops
+        ]
+    )
 
 
 def _frame_bytes(op: LogicalOp) -> tuple[int, int]:
