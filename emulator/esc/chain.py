@@ -434,7 +434,9 @@ class EcatChain:
             dev = line[p]
             if run:
                 found = dev.row_access(cmd, lad, n)
-                cut = dev.row_cut(found)
+                cut = found.cut  # where it holds at this ESC now (EscDevice.row_cut)
+                if found.mailboxes and cut is not None and not dev.mailboxes_idle(found.mailboxes):
+                    cut = None
                 if cut == _UNTOUCHED:
                     continue  # it does nothing with the datagram's bytes
                 if (cut == run_plan and found.shadow == run_shadow) or (lrd and cut is not None):

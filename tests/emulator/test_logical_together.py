@@ -817,15 +817,14 @@ def test_idle_mailboxes_are_holes_over_the_rows(monkeypatch: pytest.MonkeyPatch)
     mailbox, a full write mailbox: the access does nothing there, datasheet I 8.2.1), by the
     ESC where it is not, and the same bytes, memory and event requests as ESC by ESC."""
     taken = {"idle": 0, "busy": 0}
-    row_cut = EscDevice.row_cut
+    mailboxes_idle = EscDevice.mailboxes_idle
 
-    def counted(self: EscDevice, found: mapping.Access) -> mapping.LogicalPlan | None:
-        cut = row_cut(self, found)
-        if found.mailboxes and found.cut is not None:
-            taken["idle" if cut is not None else "busy"] += 1
-        return cut
+    def counted(self: EscDevice, mailboxes: mapping.Mailboxes) -> bool:
+        idle = mailboxes_idle(self, mailboxes)
+        taken["idle" if idle else "busy"] += 1
+        return idle
 
-    monkeypatch.setattr(EscDevice, "row_cut", counted)
+    monkeypatch.setattr(EscDevice, "mailboxes_idle", counted)
     fast, reference = with_mailboxes(line(EcatChain)), with_mailboxes(line(OneByOne))
     rng = random.Random(21)
     for i in range(1_200):
