@@ -50,6 +50,7 @@ from emulator.esc.device import EscConfig, EscDevice, TraceCopy
 from emulator.esc.mapping import LogicalOp, LogicalPlan
 from emulator.esc.registers import (
     ADDRESS_SPACE,
+    PROCESS_RAM,
     REG_ALIAS,
     REG_DL_CONTROL,
     REG_ECAT_EVENT,
@@ -478,8 +479,10 @@ class EcatChain:
         clears the DL and AL status events, datasheet I Table 3), a BRW of registers without
         read side effects too; a write that only waits for the end of the frame (not the reset
         register) is one (address, data) in each ESC's shadow writes (datasheet I 3.4, Table 7),
-        and the ESCs an ARMW/FRMW addresses read in turn. Elsewhere (DC times, SyncManagers,
-        process memory) each ESC in turn.
+        and the ESCs an ARMW/FRMW addresses read in turn. A BWR or BRD of user or process RAM
+        is done over the rows of the ESCs whose SyncManager areas it misses
+        (:meth:`_memory_broadcast`). Elsewhere (DC times, SyncManagers, the rest on memory)
+        each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
         if cmd == BWR:
@@ -505,11 +508,55 @@ class EcatChain:
                         return 3 * reach, False
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
+        if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
+            return self._memory_broadcast(line, cmd, adp, ado, buf, at, n)
         total, changed = 0, False
         step = 1 if cmd in INCREMENTS else 0
         for p, dev in enumerate(line):
             before = dev.irq
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
+            changed = changed or dev.irq != before
+        return total, changed
+
+    def _memory_broadcast(
+        self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
+    ) -> tuple[int, bool]:
+        """A BWR or BRD of user or process RAM (from 0x0F80) at every ESC of ``line``: (the
+        working counter's increment, whether an ESC's event request changed). At the ESCs
+        whose SyncManager areas it misses it is plain memory, done over their rows at once: a
+        BWR writes the bytes, a BRD ORs them into the frame (datasheet I Table 7), process RAM
+        (from 0x1000) only at an ESC whose EEPROM loaded (I 11.2.1), each ESC that accepts a
+        byte counting once; at the others ESC by ESC (:meth:`EscDevice.process`). Neither
+        depends on the order: a BWR leaves the frame alone, and ORs commute."""
+        end = min(ado + n, ADDRESS_SPACE)
+        meets: dict[int, bool] = {}  # per SyncManager table: whether an area meets the bytes
+        plain: tuple[list[int], list[int]] = ([], [])  # positions, by whether PDI operational
+        alone: list[int] = []
+        for p, dev in enumerate(line):
+            areas = dev.sm_areas
+            hit = meets.get(id(areas))
+            if hit is None:
+                hit = meets[id(areas)] = any(a[1] < end and a[1] + a[2] > ado for a in areas)
+            if hit:
+                alone.append(p)
+            else:
+                plain[dev.pdi_operational].append(p)
+        total, changed = 0, False
+        memory, data = self.memory, np.frombuffer(buf, np.uint8, n, at)
+        for operational, rows in enumerate(plain):
+            hi = min(end, ADDRESS_SPACE if operational else PROCESS_RAM)
+            if not rows or hi <= ado:
+                continue
+            total += len(rows)
+            if cmd == BWR:
+                memory[rows, ado:hi] = data[: hi - ado]
+            else:
+                ored = np.bitwise_or.reduce(memory[rows, ado:hi], axis=0)
+                buf[at : at + hi - ado] = (ored | data[: hi - ado]).tobytes()
+        for p in alone:
+            dev = line[p]
+            before = dev.irq
+            total += dev.process(cmd, (adp + p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
 
