@@ -481,7 +481,8 @@ class EcatChain:
         register) is one (address, data) in each ESC's shadow writes (datasheet I 3.4, Table 7),
         and the ESCs an ARMW/FRMW addresses read in turn. A BWR or BRD of user or process RAM
         is done over the rows of the ESCs whose SyncManager areas it misses
-        (:meth:`_memory_broadcast`). Elsewhere (DC times, SyncManagers, the rest on memory)
+        (:meth:`_memory_broadcast`), a BRW of them when it misses them at every ESC
+        (:meth:`_memory_read_write`). Elsewhere (DC times, SyncManagers, the rest on memory)
         each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
@@ -510,6 +511,14 @@ class EcatChain:
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
         if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
             return self._memory_broadcast(line, cmd, adp, ado, buf, at, n)
+        if cmd == BRW and ado >= REGISTER_END and n:
+            offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
+            if (offsets == offsets[0]).all():
+                to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
+                if to >= REGISTER_END:
+                    done = self._memory_read_write(line, ado, to, buf, at, n)
+                    if done is not None:
+                        return done, False
         total, changed = 0, False
         step = 1 if cmd in INCREMENTS else 0
         for p, dev in enumerate(line):
@@ -559,6 +568,48 @@ class EcatChain:
             total += dev.process(cmd, (adp + p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
+
+    def _memory_read_write(
+        self, line: list[EscDevice], ado: int, to: int, buf: bytearray, at: int, n: int
+    ) -> int | None:
+        """A BRW of user or process RAM at ``ado`` whose write goes to user or process RAM at
+        ``to`` (the read/write offset alike at every ESC), when it misses every ESC's
+        SyncManager areas: each ESC ORs the bytes it reads into the frame, then writes the
+        data as it arrived there at ``to`` (read before write, datasheet I Table 7), the ESCs
+        whose EEPROM did not load neither reading nor writing process RAM (I 11.2.1): all
+        reads from the memory before any write, then every ESC's write, over the rows. The
+        working counter's increment (1 per ESC that read a byte, 2 per ESC that wrote one);
+        None, doing nothing, when an ESC's SyncManager areas meet either range."""
+        end, to_end = min(ado + n, ADDRESS_SPACE), min(to + n, ADDRESS_SPACE)
+        meets: dict[int, bool] = {}
+        for dev in line:
+            areas = dev.sm_areas
+            hit = meets.get(id(areas))
+            if hit is None:
+                hit = meets[id(areas)] = any(
+                    a[1] < e and a[1] + a[2] > s
+                    for a in areas
+                    for s, e in ((ado, end), (to, to_end))
+                )
+            if hit:
+                return None
+        closed = np.array([not dev.pdi_operational for dev in line], np.bool_)
+        reach, k = len(line), end - ado
+        reads = self.memory[:reach, ado:end].copy()
+        reads[closed, max(0, PROCESS_RAM - ado) :] = 0  # closed process RAM reads nothing
+        frame = np.frombuffer(buf, np.uint8, k, at).copy()
+        ored = np.bitwise_or.accumulate(reads, axis=0) | frame  # ored[p]: as ESC p leaves it
+        arrived = np.frombuffer(buf, np.uint8, n, at)[None, :].repeat(reach, axis=0)
+        arrived[1:, :k] = ored[:-1]
+        for shut, hi, top in ((False, to_end, ADDRESS_SPACE), (True, to_end, PROCESS_RAM)):
+            rows = np.flatnonzero(closed == shut)
+            hi = min(hi, top)
+            if len(rows) and hi > to:
+                self.memory[rows, to:hi] = arrived[rows, : hi - to]
+        buf[at : at + k] = ored[-1].tobytes()
+        read = ado < np.where(closed, min(end, PROCESS_RAM), end)
+        wrote = to < np.where(closed, min(to_end, PROCESS_RAM), to_end)
+        return int(read.sum() + 2 * wrote.sum())
 
     def _clear_events(self, line: list[EscDevice], events: int) -> bool:
         """The ESCs of ``line`` read the registers that clear ``events`` (0x0210 bits); whether

@@ -1005,21 +1005,30 @@ def test_escs_with_one_cut_and_other_register_writes_are_apart(
 
 
 def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes() -> None:
-    """BWRs and BRDs of user and process RAM, over the rows at the ESCs whose SyncManager
-    areas they miss and ESC by ESC at the others (the input buffer at 0x1000 + 8, the write
-    buffer at 0x1200 + 16, locked at some ESCs), at one ESC whose EEPROM did not load (no
-    process RAM), up to the end of the address space: the same returned frame, memory and
-    event requests as every ESC in turn, frame after frame."""
+    """BWRs, BRDs and BRWs of user and process RAM, over the rows at the ESCs whose
+    SyncManager areas they miss (a BRW only when it misses them at every ESC, with the
+    read/write offset 0x0108 alike at every ESC) and ESC by ESC at the others (the input
+    buffer at 0x1000 + 8, the write buffer at 0x1200 + 16, locked at some ESCs), at one ESC
+    whose EEPROM did not load (no process RAM), up to the end of the address space: the same
+    returned frame, memory and event requests as every ESC in turn, frame after frame."""
     fast, reference = line(EcatChain), line(OneByOne)
     rng = random.Random(8)
     starts = (0x0F80, 0x0FF8, 0x0FFE, 0x1004, 0x11F8, 0x1210, 0x1300, 0x8000, 0xFFF0, 0xFFFE)
-    for i in range(600):
+    for chain in (fast, reference):  # what ECAT must not see where the EEPROM did not load
+        for at in (0x0FF0, 0x1300, 0x8000, 0xFFE0):
+            chain.devices[CLOSED].pdi_write(at, bytes(range(0xA0, 0xC0)))
+    for i in range(1_000):
         dgs = []
+        if rng.random() < 0.1:  # the read/write offset (datasheet II 2.4), at one ESC or all
+            offset = struct.pack("<H", rng.choice((0, 0x10, 0x400, 0x7000, 0xF100)))
+            one = rng.random() < 0.3
+            cmd, adp = (Command.APWR, -rng.randrange(NODES) & 0xFFFF) if one else (Command.BWR, 0)
+            dgs.append(Datagram(cmd, adp, 0x0108, offset))
         for _ in range(rng.randint(1, 3)):
             ado = rng.choice(starts) + rng.randrange(-1, 2) if rng.random() < 0.8 else 0
             ado = ado or rng.randrange(0x0F80, 0x10000)  # user and process RAM
             data = rng.randbytes(rng.randrange(1, 64))
-            cmd = rng.choice((Command.BWR, Command.BRD, Command.APWR))
+            cmd = rng.choice((Command.BWR, Command.BRD, Command.BRW, Command.APWR))
             adp = -rng.randrange(NODES) & 0xFFFF if cmd == Command.APWR else 0
             dgs.append(Datagram(cmd, adp, ado, data))
         assert_same(fast, reference, ethercat.frame(EcatFrame(tuple(dgs))).to_bytes(), str(i))
