@@ -104,6 +104,12 @@ def _register_read(lo: int, hi: int) -> bool:
     )
 
 
+def _registers(lo: int, hi: int) -> bool:
+    """An access of registers [lo, hi), all below 0x0F80 (an empty one at 0x0F80 or beyond
+    touches no register: no count)."""
+    return lo < REGISTER_END and hi <= REGISTER_END
+
+
 def _plain_read(lo: int, hi: int) -> bool:
     """A read of registers [lo, hi) that changes nothing: a register read that clears no event."""
     return _register_read(lo, hi) and not cleared_events(lo, hi)
@@ -476,14 +482,15 @@ class EcatChain:
         increment, whether an ESC's event request changed).
 
         On registers below 0x0F80 it is done for all ESCs at once: a BRD ORs their rows (and
-        clears the DL and AL status events, datasheet I Table 3), a BRW of registers without
-        read side effects too; a write that only waits for the end of the frame (not the reset
+        clears the DL and AL status events, datasheet I Table 3), a BRW of registers that
+        clears no event too, each ESC bringing DC registers it reads up to the frame's time
+        first (:meth:`_refresh_dc`); a write that only waits for the end of the frame (not the reset
         register) is one (address, data) in each ESC's shadow writes (datasheet I 3.4, Table 7),
         and the ESCs an ARMW/FRMW addresses read in turn. A BWR or BRD of user or process RAM
         is done over the rows of the ESCs whose SyncManager areas it misses
         (:meth:`_memory_broadcast`), a BRW of them when it misses them at every ESC
-        (:meth:`_memory_read_write`). Elsewhere (DC times, SyncManagers, the rest on memory)
-        each ESC in turn.
+        (:meth:`_memory_read_write`). Elsewhere (SyncManager areas, the rest of memory, the
+        reset register) each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
         if cmd == BWR:
@@ -493,18 +500,22 @@ class EcatChain:
                     dev.pending.append(entry)
                 return reach, False
         elif cmd == BRD:
-            if _register_read(ado, end):
+            if _registers(ado, end):
+                if reads_dc(ado, end):  # each ESC's DC registers at the frame's time first
+                    self._refresh_dc(line, ado, end)
                 ored = np.bitwise_or.reduce(memory[:reach, ado:end])
                 buf[at : at + n] = (ored | np.frombuffer(buf, np.uint8, n, at)).tobytes()
                 events = cleared_events(ado, end)
                 return reach, bool(events) and self._clear_events(line, events)
         elif cmd == BRW:
-            if _plain_read(ado, end):
+            if _registers(ado, end) and not cleared_events(ado, end):
                 frame = np.frombuffer(buf, np.uint8, n, at).copy()
                 offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
                 if (offsets == offsets[0]).all():
                     to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
                     if _plain_write(to, to + n):
+                        if reads_dc(ado, end):
+                            self._refresh_dc(line, ado, end)
                         self._read_write(line, to, buf, at, frame, ado)
                         return 3 * reach, False
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
@@ -526,6 +537,14 @@ class EcatChain:
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
+
+    @staticmethod
+    def _refresh_dc(line: list[EscDevice], lo: int, hi: int) -> None:
+        """Every ESC of ``line`` brings its DC registers among [lo, hi) up to the frame's time,
+        as before a read of them (:meth:`EscDevice.refresh_dc`)."""
+        registers = ((lo, hi),)
+        for dev in line:
+            dev.refresh_dc(registers)
 
     def _memory_broadcast(
         self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int

@@ -1032,3 +1032,27 @@ def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes() -> None:
             adp = -rng.randrange(NODES) & 0xFFFF if cmd == Command.APWR else 0
             dgs.append(Datagram(cmd, adp, ado, data))
         assert_same(fast, reference, ethercat.frame(EcatFrame(tuple(dgs))).to_bytes(), str(i))
+
+
+def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
+    """BRDs and BRWs of DC registers (0x0900 on: receive times, system time, SYNC status
+    and times) at 12 ESCs whose SYNC0 fires every ms from 5 ms, over the rows after each ESC
+    brought them up to the frame's time, frame after frame as time goes on: the same bytes,
+    memory and event requests as every ESC in turn (whose reads of the SYNC0 status clear
+    it). Hand-worked at 5.3 ms: a BRD of the SYNC0 status (0x098E) reads 1, the next 0."""
+    now = [0]
+    fast, reference = (sync0_line(kind, now) for kind in (EcatChain, OneByOne))
+    now[0] = 5_300_000  # the first pulse (5 ms) fired
+    brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x098E, b"\x00"),))).to_bytes()
+    for want in (b"\x01", b"\x00"):
+        back = fast.process_frame(brd)
+        assert back == reference.process_frame(brd) and back is not None
+        assert ethercat.decode(back[14:])[0].datagrams[0].data == want
+    rng = random.Random(4)
+    for i in range(300):  # (BRWs write DC registers too: SYNC0 may stop, or start again)
+        now[0] = 5_400_000 + 37_000 * i
+        ado = rng.choice((0x0900, 0x0910, 0x0980, 0x0984, 0x098E, 0x0990, 0x09A0))
+        cmd = rng.choice((Command.BRD, Command.BRD, Command.BRW))
+        data = rng.randbytes(rng.randrange(1, 0x20)) if cmd == Command.BRW else bytes(8)
+        dg = Datagram(cmd, 0, ado, data)
+        assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(i))
