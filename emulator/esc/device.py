@@ -915,7 +915,7 @@ class EscDevice:
         mem = self.mem
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
         if shadow:
-            self.pending.extend(self.shadow_writes(shadow, data_in))
+            self.write_shadow(self.shadow_writes(shadow, data_in))
         for bytewise, a, b, c, d, e, f in reads:
             if bytewise:  # physical a, frame offset b, c bytes
                 buf[off + b : off + b + c] = mem[a : a + c]
@@ -932,6 +932,15 @@ class EscDevice:
                 mem[a : a + b] = _bits_written(mem[a : a + b], data_in, c, d, e, f)
         r, w = int(bool(reads)), int(bool(writes))
         return r if cmd == LRD else w if cmd == LWR else r + 2 * w
+
+    def write_shadow(self, entries: Iterable[tuple[int, bytes]]) -> None:
+        """ECAT writes registers: each (address, bytes), below 0x0F80, into the shadow writes
+        (:attr:`pending`), as :meth:`_write` puts them there; a byte written into the reset
+        register 0x0040 counts towards a reset (datasheet II 2.3), the last one of the frame."""
+        for addr, data in entries:
+            self.pending.append((addr, data))
+            if addr <= REG_RESET_ECAT < addr + len(data):
+                self._reset_written = data[REG_RESET_ECAT - addr]
 
     def shadow_writes(
         self, parts: tuple[LogicalOp, ...], data_in: bytes

@@ -17,7 +17,6 @@ from emulator.esc.commands import LRD, LWR
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     REG_ECAT_EVENT,
-    REG_RESET_ECAT,
     REG_SM,
     REGISTER_END,
     SM_BYTES,
@@ -627,9 +626,9 @@ def esc_row_access(
       the bytes it writes there among its shadow writes (:attr:`EscDevice.pending`: the first
       ``min(end, 0x0F80) - start`` bytes of what the part writes; a bit-wise part merges
       with the registers as committed, which the datagram's reads leave alone but for the
-      events they clear, in the event request 0x0210, which ECAT cannot write). Left to the
-      ESC: a write of the reset register (0x0040, whose sequence the ESC follows as it is
-      written)."""
+      events they clear, in the event request 0x0210, which ECAT cannot write; a byte
+      written into the reset register 0x0040 counts towards a reset,
+      :meth:`emulator.esc.device.EscDevice.write_shadow`)."""
     return _plain(plan, areas, top, inert, clearing=True, stateful=True)
 
 
@@ -668,7 +667,7 @@ def _plain(
                     events |= cleared  # once this part is read (its own bytes as they were)
                 elif inert is not None and inert(lo, min(hi, REGISTER_END) - lo):
                     holes = ((lo, min(hi, REGISTER_END)),)  # counts: ECAT wrote registers
-                elif stateful and not lo <= REG_RESET_ECAT < hi:
+                elif stateful:
                     holes = ((lo, min(hi, REGISTER_END)),)  # counts; written to the shadow
                     shadow.append(op)
                 else:

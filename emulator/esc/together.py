@@ -347,12 +347,12 @@ def _shadow_rows(
             new = _shifted(src[:, e : e + f], -c, b)[:, :k]
             written = (memory[at, a : a + k] & ~mask) | (new & mask)
         if len(written) == 1 or (written == written[0]).all():
-            entry = (a, written[0].tobytes())
+            entry = ((a, written[0].tobytes()),)
             for dev in devices:
-                dev.pending.append(entry)
+                dev.write_shadow(entry)
         else:
             for dev, row in zip(devices, written, strict=True):
-                dev.pending.append((a, row.tobytes()))
+                dev.write_shadow(((a, row.tobytes()),))
 
 
 def _read_rows(
