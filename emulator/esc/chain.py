@@ -701,11 +701,19 @@ class EcatChain:
         """Every ESC of ``line`` ends the frame (:meth:`EscDevice.end_frame`); those with equal
         register writes (a broadcast's, one configuration) commit them together."""
         groups: dict[tuple[object, ...], list[int]] = {}
+        last: list[tuple[int, bytes]] = []  # the pending writes of the ESC before, its group
+        plans: object = None
+        group: list[int] = []
         for p, dev in enumerate(line):
-            if dev.pending:
-                groups.setdefault((id(dev.write_plans), *dev.pending), []).append(p)
-            else:
+            pending = dev.pending
+            if not pending:
                 dev.end_frame()
+            elif pending == last and dev.write_plans is plans:  # mostly the same entries
+                group.append(p)
+            else:
+                last, plans = pending, dev.write_plans
+                group = groups.setdefault((id(plans), *pending), [])
+                group.append(p)
         for positions in groups.values():
             if len(positions) < TOGETHER_MIN:
                 for p in positions:
