@@ -488,7 +488,7 @@ class EcatChain:
         register) is one (address, data) in each ESC's shadow writes (datasheet I 3.4, Table 7),
         and the ESCs an ARMW/FRMW addresses read in turn. A BWR or BRD of user or process RAM
         is done over the rows of the ESCs whose SyncManager areas it misses
-        (:meth:`_memory_broadcast`), a BRW of them when it misses them at every ESC
+        (:meth:`_memory_broadcast`), a BRW of them at runs of such ESCs
         (:meth:`_memory_read_write`). Elsewhere (SyncManager areas, the rest of memory, the
         reset register) each ESC in turn.
         """
@@ -523,13 +523,7 @@ class EcatChain:
         if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
             return self._memory_broadcast(line, cmd, adp, ado, buf, at, n)
         if cmd == BRW and ado >= REGISTER_END and n:
-            offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
-            if (offsets == offsets[0]).all():
-                to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
-                if to >= REGISTER_END:
-                    done = self._memory_read_write(line, ado, to, buf, at, n)
-                    if done is not None:
-                        return done, False
+            return self._memory_read_write(line, adp, ado, buf, at, n)
         total, changed = 0, False
         step = 1 if cmd in INCREMENTS else 0
         for p, dev in enumerate(line):
@@ -589,42 +583,83 @@ class EcatChain:
         return total, changed
 
     def _memory_read_write(
-        self, line: list[EscDevice], ado: int, to: int, buf: bytearray, at: int, n: int
-    ) -> int | None:
-        """A BRW of user or process RAM at ``ado`` whose write goes to user or process RAM at
-        ``to`` (the read/write offset alike at every ESC), when it misses every ESC's
-        SyncManager areas: each ESC ORs the bytes it reads into the frame, then writes the
-        data as it arrived there at ``to`` (read before write, datasheet I Table 7), the ESCs
-        whose EEPROM did not load neither reading nor writing process RAM (I 11.2.1): all
-        reads from the memory before any write, then every ESC's write, over the rows. The
-        working counter's increment (1 per ESC that read a byte, 2 per ESC that wrote one);
-        None, doing nothing, when an ESC's SyncManager areas meet either range."""
-        end, to_end = min(ado + n, ADDRESS_SPACE), min(to + n, ADDRESS_SPACE)
-        meets: dict[int, bool] = {}
-        for dev in line:
-            areas = dev.sm_areas
-            hit = meets.get(id(areas))
-            if hit is None:
-                hit = meets[id(areas)] = any(
+        self, line: list[EscDevice], adp: int, ado: int, buf: bytearray, at: int, n: int
+    ) -> tuple[int, bool]:
+        """A BRW of user or process RAM at every ESC of ``line``: (the working counter's
+        increment, whether an ESC's event request changed). Each ESC ORs the bytes it reads
+        into the frame, then writes the data as it arrived there at its read/write offset
+        (0x0108) further on (read before write, datasheet I Table 7). Consecutive ESCs with
+        one offset whose write lands in user or process RAM and whose SyncManager areas miss
+        both ranges do it over their rows at once (:meth:`_read_write_rows`); any other ESC
+        in turn (:meth:`EscDevice.process`), on the frame as the ESCs before it left it."""
+        end = min(ado + n, ADDRESS_SPACE)
+        reach = len(line)
+        offsets = self.memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2].astype(np.int64)
+        targets = ((ado + (offsets[:, 0] | offsets[:, 1] << 8)) & 0xFFFF).tolist()
+        meets: dict[tuple[int, int], bool] = {}
+        total, changed = 0, False
+        run: list[int] = []  # consecutive plain ESCs with the same target, not done yet
+
+        def flush() -> None:
+            nonlocal total, run
+            if run:
+                total += self._read_write_rows(
+                    line, run[0], run[-1] + 1, ado, targets[run[0]], buf, at, n
+                )
+                run = []
+
+        for p, dev in enumerate(line):
+            to = targets[p]
+            key = (id(dev.sm_areas), to)
+            plain = meets.get(key)
+            if plain is None:
+                to_end = min(to + n, ADDRESS_SPACE)
+                plain = meets[key] = to >= REGISTER_END and not any(
                     a[1] < e and a[1] + a[2] > s
-                    for a in areas
+                    for a in dev.sm_areas
                     for s, e in ((ado, end), (to, to_end))
                 )
-            if hit:
-                return None
-        closed = np.array([not dev.pdi_operational for dev in line], np.bool_)
-        reach, k = len(line), end - ado
-        reads = self.memory[:reach, ado:end].copy()
+            if plain:
+                if run and targets[run[0]] != to:
+                    flush()
+                run.append(p)
+                continue
+            flush()
+            before = dev.irq
+            total += dev.process(BRW, (adp + p) & 0xFFFF, ado, buf, at, n)[1]
+            changed = changed or dev.irq != before
+        flush()
+        return total, changed
+
+    def _read_write_rows(
+        self,
+        line: list[EscDevice],
+        first: int,
+        last: int,
+        ado: int,
+        to: int,
+        buf: bytearray,
+        at: int,
+        n: int,
+    ) -> int:
+        """The BRW of :meth:`_memory_read_write` at the consecutive ESCs ``line[first:last]``,
+        which write at ``to``, over their rows: all reads from the memory before any write, the
+        ESCs whose EEPROM did not load neither reading nor writing process RAM (I 11.2.1); the
+        working counter's increment (1 per ESC that read a byte, 2 per ESC that wrote one)."""
+        end, to_end = min(ado + n, ADDRESS_SPACE), min(to + n, ADDRESS_SPACE)
+        closed = np.array([not dev.pdi_operational for dev in line[first:last]], np.bool_)
+        count, k = last - first, end - ado
+        reads = self.memory[first:last, ado:end].copy()
         reads[closed, max(0, PROCESS_RAM - ado) :] = 0  # closed process RAM reads nothing
         frame = np.frombuffer(buf, np.uint8, k, at).copy()
-        ored = np.bitwise_or.accumulate(reads, axis=0) | frame  # ored[p]: as ESC p leaves it
-        arrived = np.frombuffer(buf, np.uint8, n, at)[None, :].repeat(reach, axis=0)
+        ored = np.bitwise_or.accumulate(reads, axis=0) | frame  # ored[i]: as ESC i leaves it
+        arrived = np.frombuffer(buf, np.uint8, n, at)[None, :].repeat(count, axis=0)
         arrived[1:, :k] = ored[:-1]
-        for shut, hi, top in ((False, to_end, ADDRESS_SPACE), (True, to_end, PROCESS_RAM)):
+        for shut, top in ((False, ADDRESS_SPACE), (True, PROCESS_RAM)):
             rows = np.flatnonzero(closed == shut)
-            hi = min(hi, top)
+            hi = min(to_end, top)
             if len(rows) and hi > to:
-                self.memory[rows, to:hi] = arrived[rows, : hi - to]
+                self.memory[first + rows, to:hi] = arrived[rows, : hi - to]
         buf[at : at + k] = ored[-1].tobytes()
         read = ado < np.where(closed, min(end, PROCESS_RAM), end)
         wrote = to < np.where(closed, min(to_end, PROCESS_RAM), to_end)

@@ -1006,8 +1006,8 @@ def test_escs_with_one_cut_and_other_register_writes_are_apart(
 
 def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes() -> None:
     """BWRs, BRDs and BRWs of user and process RAM, over the rows at the ESCs whose
-    SyncManager areas they miss (a BRW only when it misses them at every ESC, with the
-    read/write offset 0x0108 alike at every ESC) and ESC by ESC at the others (the input
+    SyncManager areas they miss (a BRW at runs of such ESCs with one read/write offset 0x0108,
+    set at one ESC or all) and ESC by ESC at the others (the input
     buffer at 0x1000 + 8, the write buffer at 0x1200 + 16, locked at some ESCs), at one ESC
     whose EEPROM did not load (no process RAM), up to the end of the address space: the same
     returned frame, memory and event requests as every ESC in turn, frame after frame."""
