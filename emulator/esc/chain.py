@@ -482,9 +482,9 @@ class EcatChain:
         increment, whether an ESC's event request changed).
 
         On registers below 0x0F80 it is done for all ESCs at once: a BRD ORs their rows (and
-        clears the DL and AL status events, datasheet I Table 3), a BRW of registers that
-        clears no event too, each ESC bringing DC registers it reads up to the frame's time
-        first (:meth:`_refresh_dc`); a write that only waits for the end of the frame (not the reset
+        clears the DL and AL status events, datasheet I Table 3), a BRW of registers too, each
+        ESC bringing DC registers it reads up to the frame's time first
+        (:meth:`_refresh_dc`); a write that only waits for the end of the frame (not the reset
         register) is one (address, data) in each ESC's shadow writes (datasheet I 3.4, Table 7),
         and the ESCs an ARMW/FRMW addresses read in turn. A BWR or BRD of user or process RAM
         is done over the rows of the ESCs whose SyncManager areas it misses
@@ -508,7 +508,7 @@ class EcatChain:
                 events = cleared_events(ado, end)
                 return reach, bool(events) and self._clear_events(line, events)
         elif cmd == BRW:
-            if _registers(ado, end) and not cleared_events(ado, end):
+            if _registers(ado, end):
                 frame = np.frombuffer(buf, np.uint8, n, at).copy()
                 offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
                 if (offsets == offsets[0]).all():
@@ -517,7 +517,8 @@ class EcatChain:
                         if reads_dc(ado, end):
                             self._refresh_dc(line, ado, end)
                         self._read_write(line, to, buf, at, frame, ado)
-                        return 3 * reach, False
+                        events = cleared_events(ado, end)  # once each ESC read them
+                        return 3 * reach, bool(events) and self._clear_events(line, events)
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
         if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
