@@ -47,7 +47,7 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
-from emulator.esc.mapping import LogicalOp, LogicalPlan
+from emulator.esc.mapping import LogicalOp, LogicalPlan, SmTable
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     PROCESS_RAM,
@@ -119,6 +119,41 @@ def _plain_write(lo: int, hi: int) -> bool:
     """A write of registers [lo, hi) that only waits for the end of the frame: below 0x0F80 and
     not the reset register (whose sequence each ESC follows, datasheet II 2.3)."""
     return lo < REGISTER_END and hi <= REGISTER_END and not lo <= REG_RESET_ECAT < hi
+
+
+_Holes = tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int], ...]]  # a BRW's read, write
+
+
+def _inert_areas(
+    areas: SmTable, lo: int, hi: int, write: bool
+) -> tuple[tuple[int, int], ...] | None:
+    """The parts [start, end) of the user or process RAM [lo, hi) in SyncManager ``areas``
+    where a broadcast's read (a write when ``write``) does nothing: areas the PDI locked, and
+    areas of the other direction (ECAT neither reads a buffer it writes nor writes a buffer it
+    reads, datasheet I 8); None when an area ECAT accesses in this direction meets it (its
+    buffer's rules: the ESC's)."""
+    holes = []
+    for _, start, length, control, locked in areas:
+        x, y = max(start, lo), min(start + length, hi)
+        if x < y:
+            if not locked and ((control >> 2) & 0x03 == 0x01) == write:
+                return None
+            holes.append((x, y))
+    return tuple(holes)
+
+
+def _outside(lo: int, hi: int, holes: tuple[tuple[int, int], ...]) -> list[tuple[int, int]]:
+    """The runs of [lo, hi) outside ``holes`` (in any order, may overlap), in order."""
+    runs, at = [], lo
+    for start, end in sorted(holes):
+        if start > at:
+            runs.append((at, min(start, hi)))
+        at = max(at, end)
+        if at >= hi:
+            break
+    if at < hi:
+        runs.append((at, hi))
+    return [(x, y) for x, y in runs if x < y]
 
 
 def _frozen_clock() -> int:
@@ -546,36 +581,41 @@ class EcatChain:
     ) -> tuple[int, bool]:
         """A BWR or BRD of user or process RAM (from 0x0F80) at every ESC of ``line``: (the
         working counter's increment, whether an ESC's event request changed). At the ESCs
-        whose SyncManager areas it misses it is plain memory, done over their rows at once: a
-        BWR writes the bytes, a BRD ORs them into the frame (datasheet I Table 7), process RAM
-        (from 0x1000) only at an ESC whose EEPROM loaded (I 11.2.1), each ESC that accepts a
-        byte counting once; at the others ESC by ESC (:meth:`EscDevice.process`). Neither
-        depends on the order: a BWR leaves the frame alone, and ORs commute."""
+        where it is plain memory but for SyncManager areas where it does nothing
+        (:func:`_inert_areas`), it is done over their rows at once, ESCs with one SyncManager
+        table alike: a BWR writes the bytes, a BRD ORs them into the frame (datasheet I Table
+        7), process RAM (from 0x1000) only at an ESC whose EEPROM loaded (I 11.2.1), each ESC
+        that reads or writes a byte counting once; at the others ESC by ESC
+        (:meth:`EscDevice.process`). Neither depends on the order: a BWR leaves the frame
+        alone, and ORs commute."""
         end = min(ado + n, ADDRESS_SPACE)
-        meets: dict[int, bool] = {}  # per SyncManager table: whether an area meets the bytes
-        plain: tuple[list[int], list[int]] = ([], [])  # positions, by whether PDI operational
+        write = cmd == BWR
+        holes: dict[int, tuple[tuple[int, int], ...] | None] = {}  # per SyncManager table
+        groups: dict[tuple[int, bool], list[int]] = {}
         alone: list[int] = []
         for p, dev in enumerate(line):
             areas = dev.sm_areas
-            hit = meets.get(id(areas))
-            if hit is None:
-                hit = meets[id(areas)] = any(a[1] < end and a[1] + a[2] > ado for a in areas)
-            if hit:
+            key = id(areas)
+            if key not in holes:
+                holes[key] = _inert_areas(areas, ado, end, write)
+            if holes[key] is None:
                 alone.append(p)
             else:
-                plain[dev.pdi_operational].append(p)
+                groups.setdefault((key, dev.pdi_operational), []).append(p)
         total, changed = 0, False
         memory, data = self.memory, np.frombuffer(buf, np.uint8, n, at)
-        for operational, rows in enumerate(plain):
+        for (key, operational), rows in groups.items():
             hi = min(end, ADDRESS_SPACE if operational else PROCESS_RAM)
-            if not rows or hi <= ado:
+            runs = _outside(ado, hi, holes[key] or ())
+            if not runs:
                 continue
             total += len(rows)
-            if cmd == BWR:
-                memory[rows, ado:hi] = data[: hi - ado]
-            else:
-                ored = np.bitwise_or.reduce(memory[rows, ado:hi], axis=0)
-                buf[at : at + hi - ado] = (ored | data[: hi - ado]).tobytes()
+            for x, y in runs:
+                if write:
+                    memory[rows, x:y] = data[x - ado : y - ado]
+                else:
+                    ored = np.bitwise_or.reduce(memory[rows, x:y], axis=0)
+                    buf[at + x - ado : at + y - ado] = (ored | data[x - ado : y - ado]).tobytes()
         for p in alone:
             dev = line[p]
             before = dev.irq
@@ -590,40 +630,41 @@ class EcatChain:
         increment, whether an ESC's event request changed). Each ESC ORs the bytes it reads
         into the frame, then writes the data as it arrived there at its read/write offset
         (0x0108) further on (read before write, datasheet I Table 7). Consecutive ESCs with
-        one offset whose write lands in user or process RAM and whose SyncManager areas miss
-        both ranges do it over their rows at once (:meth:`_read_write_rows`); any other ESC
-        in turn (:meth:`EscDevice.process`), on the frame as the ESCs before it left it."""
+        one offset whose write lands in user or process RAM, and with one SyncManager table
+        whose areas the read and the write meet only where they do nothing
+        (:func:`_inert_areas`), do it over their rows at once (:meth:`_read_write_rows`); any
+        other ESC in turn (:meth:`EscDevice.process`), on the frame as the ESCs before it left
+        it."""
         end = min(ado + n, ADDRESS_SPACE)
         reach = len(line)
         offsets = self.memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2].astype(np.int64)
         targets = ((ado + (offsets[:, 0] | offsets[:, 1] << 8)) & 0xFFFF).tolist()
-        meets: dict[tuple[int, int], bool] = {}
+        found: dict[tuple[int, int], _Holes | None] = {}  # per SyncManager table and target
         total, changed = 0, False
-        run: list[int] = []  # consecutive plain ESCs with the same target, not done yet
+        run: list[int] = []  # consecutive plain ESCs with one table and target, not done yet
+        run_key: tuple[int, int] = (0, -1)
 
         def flush() -> None:
             nonlocal total, run
             if run:
-                total += self._read_write_rows(
-                    line, run[0], run[-1] + 1, ado, targets[run[0]], buf, at, n
-                )
+                holes = found[run_key]
+                assert holes is not None
+                total += self._read_write_rows(line, run, ado, run_key[1], holes, buf, at, n)
                 run = []
 
         for p, dev in enumerate(line):
-            to = targets[p]
-            key = (id(dev.sm_areas), to)
-            plain = meets.get(key)
-            if plain is None:
-                to_end = min(to + n, ADDRESS_SPACE)
-                plain = meets[key] = to >= REGISTER_END and not any(
-                    a[1] < e and a[1] + a[2] > s
-                    for a in dev.sm_areas
-                    for s, e in ((ado, end), (to, to_end))
-                )
-            if plain:
-                if run and targets[run[0]] != to:
+            areas, to = dev.sm_areas, targets[p]
+            key = (id(areas), to)
+            if key not in found:
+                read = _inert_areas(areas, ado, end, False)
+                written = _inert_areas(areas, to, min(to + n, ADDRESS_SPACE), True)
+                ok = to >= REGISTER_END and read is not None and written is not None
+                found[key] = (read or (), written or ()) if ok else None
+            if found[key] is not None:
+                if run and key != run_key:
                     flush()
                 run.append(p)
+                run_key = key
                 continue
             flush()
             before = dev.irq
@@ -635,36 +676,46 @@ class EcatChain:
     def _read_write_rows(
         self,
         line: list[EscDevice],
-        first: int,
-        last: int,
+        run: list[int],
         ado: int,
         to: int,
+        holes: _Holes,
         buf: bytearray,
         at: int,
         n: int,
     ) -> int:
-        """The BRW of :meth:`_memory_read_write` at the consecutive ESCs ``line[first:last]``,
-        which write at ``to``, over their rows: all reads from the memory before any write, the
-        ESCs whose EEPROM did not load neither reading nor writing process RAM (I 11.2.1); the
-        working counter's increment (1 per ESC that read a byte, 2 per ESC that wrote one)."""
+        """The BRW of :meth:`_memory_read_write` at the consecutive ESCs ``run``, which write at
+        ``to`` and do nothing in the SyncManager areas ``holes`` (of the read, of the write),
+        over their rows: all reads from the memory before any write, the ESCs whose EEPROM did
+        not load neither reading nor writing process RAM (I 11.2.1); the working counter's
+        increment (1 per ESC that read a byte, 2 per ESC that wrote one)."""
+        first, last = run[0], run[-1] + 1
         end, to_end = min(ado + n, ADDRESS_SPACE), min(to + n, ADDRESS_SPACE)
-        closed = np.array([not dev.pdi_operational for dev in line[first:last]], np.bool_)
+        closed = np.array([not line[p].pdi_operational for p in run], np.bool_)
         count, k = last - first, end - ado
-        reads = self.memory[first:last, ado:end].copy()
-        reads[closed, max(0, PROCESS_RAM - ado) :] = 0  # closed process RAM reads nothing
+        reads = np.zeros((count, k), np.uint8)
+        for shut, top in ((False, ADDRESS_SPACE), (True, PROCESS_RAM)):
+            rows = np.flatnonzero(closed == shut)
+            for x, y in _outside(ado, min(end, top), holes[0]) if len(rows) else ():
+                reads[rows, x - ado : y - ado] = self.memory[first + rows, x:y]
         frame = np.frombuffer(buf, np.uint8, k, at).copy()
         ored = np.bitwise_or.accumulate(reads, axis=0) | frame  # ored[i]: as ESC i leaves it
         arrived = np.frombuffer(buf, np.uint8, n, at)[None, :].repeat(count, axis=0)
         arrived[1:, :k] = ored[:-1]
+        wkc = 0
         for shut, top in ((False, ADDRESS_SPACE), (True, PROCESS_RAM)):
             rows = np.flatnonzero(closed == shut)
-            hi = min(to_end, top)
-            if len(rows) and hi > to:
-                self.memory[first + rows, to:hi] = arrived[rows, : hi - to]
+            if not len(rows):
+                continue
+            if _outside(ado, min(end, top), holes[0]):
+                wkc += len(rows)  # read a byte
+            written = _outside(to, min(to_end, top), holes[1])
+            if written:
+                wkc += 2 * len(rows)
+            for x, y in written:
+                self.memory[first + rows, x:y] = arrived[rows, x - to : y - to]
         buf[at : at + k] = ored[-1].tobytes()
-        read = ado < np.where(closed, min(end, PROCESS_RAM), end)
-        wrote = to < np.where(closed, min(to_end, PROCESS_RAM), to_end)
-        return int(read.sum() + 2 * wrote.sum())
+        return wkc
 
     def _clear_events(self, line: list[EscDevice], events: int) -> bool:
         """The ESCs of ``line`` read the registers that clear ``events`` (0x0210 bits); whether

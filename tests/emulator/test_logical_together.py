@@ -1004,23 +1004,36 @@ def test_escs_with_one_cut_and_other_register_writes_are_apart(
     assert not memory[:-1, 0x0630:0x0640].any()
 
 
-def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes() -> None:
+def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """BWRs, BRDs and BRWs of user and process RAM, over the rows at the ESCs whose
-    SyncManager areas they miss (a BRW at runs of such ESCs with one read/write offset 0x0108,
-    set at one ESC or all) and ESC by ESC at the others (the input
-    buffer at 0x1000 + 8, the write buffer at 0x1200 + 16, locked at some ESCs), at one ESC
+    SyncManager areas they miss or meet where they do nothing (a BRW at runs of such ESCs with
+    one read/write offset 0x0108, set at one ESC or all) and ESC by ESC at the others (the input
+    buffer at 0x1000 + 8, the write buffer at 0x1200 + 16, locked at some ESCs, and a write
+    buffer at 0x8000 + 16 at every fifth ESC), at one ESC
     whose EEPROM did not load (no process RAM), up to the end of the address space: the same
     returned frame, memory and event requests as every ESC in turn, frame after frame."""
     fast, reference = line(EcatChain), line(OneByOne)
     rng = random.Random(8)
     starts = (0x0F80, 0x0FF8, 0x0FFE, 0x1004, 0x11F8, 0x1210, 0x1300, 0x8000, 0xFFF0, 0xFFFE)
-    for chain in (fast, reference):  # what ECAT must not see where the EEPROM did not load
-        for at in (0x0FF0, 0x1300, 0x8000, 0xFFE0):
+    for chain in (fast, reference):
+        for at in (0x0FF0, 0x1300, 0x8000, 0xFFE0):  # what ECAT must not see at CLOSED
             chain.devices[CLOSED].pdi_write(at, bytes(range(0xA0, 0xC0)))
+        for p in range(0, NODES, 5):  # SyncManager 2 a buffer ECAT writes at 0x8000 + 16 here
+            sm2 = struct.pack("<HHBBBB", 0x8000, 16, 0x04, 0, 0x01, 0)
+            chain.process_frame(
+                ethercat.frame(
+                    EcatFrame((Datagram(Command.APWR, -p & 0xFFFF, 0x0810, sm2),))
+                ).to_bytes()
+            )
+            chain.devices[p].pdi_deactivate_sm(2, False)
     for i in range(1_000):
         dgs = []
         if rng.random() < 0.1:  # the read/write offset (datasheet II 2.4), at one ESC or all
-            offset = struct.pack("<H", rng.choice((0, 0x10, 0x400, 0x7000, 0xF100)))
+            # (0xF300 takes a BRW's write back into registers from 0x0280 on: not DL control,
+            # whose loops would close)
+            offset = struct.pack("<H", rng.choice((0, 0x10, 0x400, 0x7000, 0xF300)))
             one = rng.random() < 0.3
             cmd, adp = (Command.APWR, -rng.randrange(NODES) & 0xFFFF) if one else (Command.BWR, 0)
             dgs.append(Datagram(cmd, adp, 0x0108, offset))
@@ -1032,6 +1045,25 @@ def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes() -> None:
             adp = -rng.randrange(NODES) & 0xFFFF if cmd == Command.APWR else 0
             dgs.append(Datagram(cmd, adp, ado, data))
         assert_same(fast, reference, ethercat.frame(EcatFrame(tuple(dgs))).to_bytes(), str(i))
+    assert all(dev.onward for dev in fast.devices[:-1])  # every frame went down the line
+    # a buffer the PDI locked is a place where a broadcast does nothing: no ESC on its own
+    processed: list[int] = []
+    process = EscDevice.process
+
+    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
+        if self in fast.devices:
+            processed.append(self.position)
+        return process(self, *args)  # type: ignore[arg-type]
+
+    fast, reference = line(EcatChain), line(OneByOne)
+    for chain in (fast, reference):
+        for dev in chain.devices:
+            dev.pdi_deactivate_sm(0, True)
+    monkeypatch.setattr(EscDevice, "process", counted)
+    for cmd in (Command.BRD, Command.BWR, Command.BRW):
+        dg = Datagram(cmd, 0, 0x0FFC, bytes(range(1, 13)))  # over the input buffer 0x1000 + 8
+        assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(cmd))
+    assert not processed
 
 
 def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
