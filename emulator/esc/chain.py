@@ -156,6 +156,15 @@ def _outside(lo: int, hi: int, holes: tuple[tuple[int, int], ...]) -> list[tuple
     return [(x, y) for x, y in runs if x < y]
 
 
+def _or_accumulate(rows: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
+    """Row i: the OR of ``rows[0..i]`` (``np.bitwise_or.accumulate(rows, axis=0)``), 8 bytes
+    at a time (measured here: 160 rows of 1,386 bytes in 40 us, bytewise 580 us)."""
+    count, width = rows.shape
+    words = np.zeros((count, -(-width // 8)), np.uint64)
+    words.view(np.uint8)[:, :width] = rows
+    return np.bitwise_or.accumulate(words, axis=0).view(np.uint8)[:, :width]
+
+
 def _frozen_clock() -> int:
     return 0
 
@@ -693,27 +702,35 @@ class EcatChain:
         end, to_end = min(ado + n, ADDRESS_SPACE), min(to + n, ADDRESS_SPACE)
         closed = np.array([not line[p].pdi_operational for p in run], np.bool_)
         count, k = last - first, end - ado
+        # the rows of the ESCs whose EEPROM loaded and of the others (slices when all one)
+        kinds: list[tuple[slice | npt.NDArray[np.intp], int, int]] = [
+            (slice(None), count, ADDRESS_SPACE if not closed[0] else PROCESS_RAM)
+        ]
+        if closed.any() and not closed.all():
+            kinds = [
+                (np.flatnonzero(closed == shut), int((closed == shut).sum()), top)
+                for shut, top in ((False, ADDRESS_SPACE), (True, PROCESS_RAM))
+            ]
+        memory = self.memory[first:last]
         reads = np.zeros((count, k), np.uint8)
-        for shut, top in ((False, ADDRESS_SPACE), (True, PROCESS_RAM)):
-            rows = np.flatnonzero(closed == shut)
-            for x, y in _outside(ado, min(end, top), holes[0]) if len(rows) else ():
-                reads[rows, x - ado : y - ado] = self.memory[first + rows, x:y]
+        for rows, _, top in kinds:
+            for x, y in _outside(ado, min(end, top), holes[0]):
+                reads[rows, x - ado : y - ado] = memory[rows, x:y]
         frame = np.frombuffer(buf, np.uint8, k, at).copy()
-        ored = np.bitwise_or.accumulate(reads, axis=0) | frame  # ored[i]: as ESC i leaves it
-        arrived = np.frombuffer(buf, np.uint8, n, at)[None, :].repeat(count, axis=0)
+        ored = _or_accumulate(reads) | frame  # ored[i]: as ESC i leaves it
+        arrived = np.empty((count, n), np.uint8)
+        arrived[0] = np.frombuffer(buf, np.uint8, n, at)
         arrived[1:, :k] = ored[:-1]
+        arrived[1:, k:] = arrived[0, k:]
         wkc = 0
-        for shut, top in ((False, ADDRESS_SPACE), (True, PROCESS_RAM)):
-            rows = np.flatnonzero(closed == shut)
-            if not len(rows):
-                continue
+        for rows, size, top in kinds:
             if _outside(ado, min(end, top), holes[0]):
-                wkc += len(rows)  # read a byte
+                wkc += size  # read a byte
             written = _outside(to, min(to_end, top), holes[1])
             if written:
-                wkc += 2 * len(rows)
+                wkc += 2 * size
             for x, y in written:
-                self.memory[first + rows, x:y] = arrived[rows, x - to : y - to]
+                memory[rows, x:y] = arrived[rows, x - to : y - to]
         buf[at : at + k] = ored[-1].tobytes()
         return wkc
 
@@ -776,7 +793,7 @@ class EcatChain:
         """A BRW of plain registers: each ESC writes at ``to`` the data as it arrives (read
         before write, datasheet I Table 7), then ORs its registers into it."""
         n = len(frame)
-        ored = np.bitwise_or.accumulate(self.memory[: len(line), ado : ado + n], axis=0)
+        ored = _or_accumulate(self.memory[: len(line), ado : ado + n])
         ored |= frame  # ored[p]: the data as ESC p leaves it
         dev = line[0]
         dev.pending.append((to, frame.tobytes()))

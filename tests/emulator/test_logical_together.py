@@ -1064,6 +1064,13 @@ def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes(
         dg = Datagram(cmd, 0, 0x0FFC, bytes(range(1, 13)))  # over the input buffer 0x1000 + 8
         assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(cmd))
     assert not processed
+    # every SyncManager disabled: one run of all the ESCs, among them one without process RAM
+    fast, reference = line(EcatChain), line(OneByOne)
+    assert_same(fast, reference, bwr(0x0800, bytes(64)), "SyncManagers off")
+    for cmd in (Command.BRD, Command.BWR, Command.BRW):
+        dg = Datagram(cmd, 0, 0x0FF0, bytes(range(1, 33)))  # user RAM, then process RAM
+        assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(cmd))
+    assert not processed
 
 
 def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
