@@ -826,9 +826,10 @@ class EscDevice:
         plan cut, of a plain access, :meth:`plain_access`, or of one that is plain but for
         reads of DL or AL status, whose events, :attr:`Access.events`, the ESC then clears,
         :meth:`clear_read_events`, but for mailboxes, :attr:`Access.mailboxes`, that must be
-        idle, :meth:`mailboxes_idle`, and but for a read of DC registers, :attr:`Access.dc`,
-        which the ESC brings up to the frame's time first, :meth:`refresh_dc`;
-        :func:`emulator.esc.mapping.esc_row_access`)."""
+        idle, :meth:`mailboxes_idle`, but for a read of DC registers, :attr:`Access.dc`,
+        which the ESC brings up to the frame's time first, :meth:`refresh_dc`, and but for
+        writes of registers, :attr:`Access.shadow`, whose bytes go among its shadow writes,
+        :meth:`write_shadow`; :func:`emulator.esc.mapping.esc_row_access`)."""
         return self._access(cmd, lad, n)
 
     def refresh_dc(self, registers: tuple[tuple[int, int], ...]) -> None:

@@ -50,6 +50,7 @@ __all__ = [
     "decode_sms",
     "esc_row_access",
     "forget",
+    "outside",
     "plain_access",
     "plan_logical",
     "remember",
@@ -362,9 +363,9 @@ class Access:
         in the frame this access has them. Its plan is that one's with frame offsets that much
         further on (:func:`along`), since :func:`plan_logical` places a part by its logical
         offset from the datagram's start alone; its holes, events, mailboxes and DC registers
-        are the same,
-        being physical. The ESCs of a configured line each map their own bytes with FMMU 0
-        alike: they share one such access. None otherwise (or for that access itself)."""
+        are the same, being physical. The ESCs of a configured line each map their own bytes
+        with FMMU 0 alike: they share one such access. None otherwise (or for that access
+        itself)."""
         if self._moved is _UNASKED:
             found: tuple[Access, int] | None = None
             if len(self.hit) == 1:
@@ -738,10 +739,14 @@ def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> lis
 
 
 def _outside(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:
-    """The runs [x, y) of ``op``'s physical bytes outside ``holes`` (in any order, may
-    overlap), in order."""
+    """The runs [x, y) of ``op``'s physical bytes outside ``holes`` (:func:`outside`)."""
     lo = op[1]
-    hi = lo + (op[3] if op[0] else op[2])
+    return outside(lo, lo + (op[3] if op[0] else op[2]), holes)
+
+
+def outside(lo: int, hi: int, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:
+    """The runs [x, y) of bytes [lo, hi) outside ``holes`` (in any order, may overlap), in
+    order."""
     runs, at = [], lo
     for start, end in sorted(holes):
         if start >= hi:

@@ -21,7 +21,9 @@ A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan cut map ont
 (:meth:`EscDevice.row_access`) is done for all of them at once by :func:`logical_together`:
 hostile FMMUs, bit-wise ones among them, cost the ESCs one pass over rows instead of big-integer
 arithmetic ESC by ESC. (Reads of DL or AL status among them are of the committed bytes; the
-events they clear are the caller's, :meth:`EscDevice.clear_read_events`.)
+events they clear are the caller's, :meth:`EscDevice.clear_read_events`, and so is bringing DC
+registers up to the frame's time before, :meth:`EscDevice.refresh_dc`; writes of registers go
+among each ESC's shadow writes.)
 """
 
 from __future__ import annotations
@@ -334,7 +336,8 @@ def _shadow_rows(
     devices: Sequence[EscDevice],
 ) -> None:
     """:meth:`EscDevice.shadow_writes` of the write parts ``shadow`` at each of ``devices``
-    (whose memory is ``memory[at]``): from the data as it arrived, ``arrived`` where no read
+    (whose memory is ``memory[at]``), put among its shadow writes
+    (:meth:`EscDevice.write_shadow`): from the data as it arrived, ``arrived`` where no read
     replaces their frame bytes (``varies``), else ``data_in`` (a row per ESC); one
     (address, bytes) for all where the bytes are alike."""
     for (bytewise, a, b, c, d, e, f), per_row in zip(shadow, varies, strict=True):
