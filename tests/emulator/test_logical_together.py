@@ -16,7 +16,7 @@ import struct
 
 import numpy as np
 import pytest
-from hypothesis import assume, given
+from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
 from emulator.esc import mapping, together
@@ -453,27 +453,45 @@ def an_fmmu(phys: st.SearchStrategy[int]) -> st.SearchStrategy[tuple[int, ...]]:
     )
 
 
+def sm_areas() -> st.SearchStrategy[mapping.SmTable]:
+    """Up to 2 SyncManager areas as decode_sms gives them (index, start, length, control,
+    PDI-locked) near the FMMUs' physical starts: buffers ECAT reads or writes, mailboxes."""
+    entry = st.tuples(
+        st.sampled_from([0x1000, 0x1008, 0x1104, 0x1800]),
+        st.integers(2, 12),
+        st.sampled_from([0x00, 0x04, 0x02, 0x06]),  # ECAT reads, writes; mailboxes
+        st.booleans(),  # PDI-locked
+    )
+    return st.lists(entry, max_size=2).map(
+        lambda sms: tuple(
+            (k, start, length, control, int(locked))
+            for k, (start, length, control, locked) in enumerate(sms)
+        )
+    )
+
+
 @given(
     an_fmmu(st.sampled_from(FIRST_PHYS)),
     st.lists(an_fmmu(st.sampled_from(OTHER_PHYS)), min_size=1, max_size=3),
-    st.lists(
-        st.tuples(
-            st.sampled_from([0x1000, 0x1008, 0x1104, 0x1800]),
-            st.integers(2, 12),
-            st.sampled_from([0x00, 0x04, 0x02, 0x06]),  # ECAT reads, writes; mailboxes
-            st.booleans(),  # PDI-locked
-        ),
-        max_size=2,
-    ),
+    sm_areas(),
     st.sampled_from(LOGICAL),
     st.integers(0, 20),
     st.integers(1, 40),
     st.sampled_from([0x1008, 0x10000]),
 )
+@example(  # hand-worked: FMMU 1 alone meets a read mailbox at 0x1000, which must be idle
+    (0, 2, (0, 7, 0), 0x1800, 1),
+    [(2, 2, (0, 7, 0), 0x1000, 1)],
+    ((0, 0x1000, 8, 0x02, 0),),
+    Command.LRD,
+    0,
+    4,
+    0x10000,
+)
 def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     first: tuple[int, ...],
     others: list[tuple[int, ...]],
-    sms: list[tuple[int, int, int, bool]],
+    areas: mapping.SmTable,
     cmd: Command,
     lad: int,
     n: int,
@@ -491,10 +509,6 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     )
     decoded, _ = mapping.decode_fmmus(table)
     hit = tuple(f for f in decoded if not (f[1] <= lad or f[0] >= lad + n))
-    areas = tuple(
-        (k, start, length, control, int(locked))
-        for k, (start, length, control, locked) in enumerate(sms)
-    )
     whole = mapping.esc_row_access(
         mapping.plan_logical(hit, int(cmd), lad, n), areas, top, Inert().inert
     )
@@ -516,15 +530,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
 
 @given(
     an_fmmu(st.sampled_from(FIRST_PHYS + OTHER_PHYS)),
-    st.lists(
-        st.tuples(
-            st.sampled_from([0x1000, 0x1008, 0x1104, 0x1800]),
-            st.integers(2, 12),
-            st.sampled_from([0x00, 0x04, 0x02, 0x06]),
-            st.booleans(),
-        ),
-        max_size=2,
-    ),
+    sm_areas(),
     st.sampled_from(LOGICAL),
     st.integers(0, 40),
     st.integers(0, 20),
@@ -532,7 +538,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
 )
 def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
     fmmu_: tuple[int, ...],
-    sms: list[tuple[int, int, int, bool]],
+    areas: mapping.SmTable,
     cmd: Command,
     before: int,
     after: int,
@@ -548,10 +554,6 @@ def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
     assert len(hit) == 1  # (clipped at the end of the address space, perhaps)
     lad, n = hit[0][0] - before, hit[0][1] - hit[0][0] + before + after
     assume(lad >= 0)
-    areas = tuple(
-        (k, start, size, control, int(locked))
-        for k, (start, size, control, locked) in enumerate(sms)
-    )
     plan = mapping.plan_logical(hit, int(cmd), lad, n)
     whole = mapping.esc_row_access(plan, areas, top, Inert().inert)
     mapping.forget()
