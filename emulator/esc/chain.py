@@ -67,6 +67,7 @@ from emulator.esc.together import (
     LOGICAL_TOGETHER_MIN,
     TOGETHER_MIN,
     commit_together,
+    finish_together,
     last_readers,
     logical_together,
 )
@@ -789,30 +790,35 @@ class EcatChain:
 
     def _end_frames(self, line: list[EscDevice]) -> None:
         """Every ESC of ``line`` ends the frame (:meth:`EscDevice.end_frame`); those with equal
-        register writes (a broadcast's, one configuration) commit them together."""
+        register writes (a broadcast's, one configuration) commit them together, and finish the
+        frame together (:func:`finish_together`); of those without writes only the ones with
+        something to finish are asked (:meth:`EscDevice.unfinished`)."""
         groups: dict[tuple[object, ...], list[int]] = {}
         last: list[tuple[int, bytes]] = []  # the pending writes of the ESC before, its group
         plans: object = None
         group: list[int] = []
+        idle: list[EscDevice] = []
         for p, dev in enumerate(line):
             pending = dev.pending
             if not pending:
-                dev.end_frame()
+                idle.append(dev)
             elif pending == last and dev.write_plans is plans:  # mostly the same entries
                 group.append(p)
             else:
                 last, plans = pending, dev.write_plans
                 group = groups.setdefault((id(plans), *pending), [])
                 group.append(p)
+        for dev in EscDevice.unfinished(idle):
+            dev.end_frame()
         for positions in groups.values():
             if len(positions) < TOGETHER_MIN:
                 for p in positions:
                     line[p].end_frame()
                 continue
             together = [line[p] for p in positions]
-            commit_together(together, self.memory, np.array(positions, dtype=np.intp))
-            for dev in together:
-                dev.finish_frame()
+            rows = np.array(positions, dtype=np.intp)
+            commit_together(together, self.memory, rows)
+            finish_together(together, self.memory, rows)
 
     def _addresses(self, reach: int) -> tuple[npt.NDArray[np.int64], ...]:
         """Station address, alias, and whether DL control enables the alias, of the ESCs the

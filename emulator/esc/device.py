@@ -57,16 +57,16 @@ from emulator.errors import TopologyError
 from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, DcClock
 from emulator.esc.mapping import (
-    FMMU_CACHE,
     PLAN_CACHE_ENTRIES,
     Access,
+    FmmuTable,
     LogicalOp,
     LogicalPlan,
     Mailboxes,
     PlainAccess,
     SmChange,
     SmTable,
-    decode_fmmus,
+    fmmu_table,
     remember,
     shared_access,
     sm_change,
@@ -250,6 +250,7 @@ class EscDevice:
         "_sii_image",
         "_sm_areas",
         "_sms",
+        "_unmade",
         "app",
         "config",
         "dc",
@@ -309,6 +310,10 @@ class EscDevice:
         # the general path decides; worked out per FMMU and SyncManager configuration
         self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm] | None] = {}
         self._sm_areas: SmTable = ()  # the SyncManager table _active follows
+        # SyncManagers the ESC has as new, made when first needed (_make_sms): the indices of
+        # those without a buffer, the decoded table, the order by start; until then _sms and
+        # _active are those before
+        self._unmade: tuple[tuple[int, ...], SmTable, tuple[int, ...]] | None = None
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
@@ -354,6 +359,7 @@ class EscDevice:
         for y in range(cfg.syncmanagers):
             mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
         self._sms = [None] * cfg.syncmanagers
+        self._unmade = None
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self._logical_plans = {}
         self._lrd_plans.clear()
@@ -468,6 +474,8 @@ class EscDevice:
 
     def pdi_deactivate_sms(self, indices: Iterable[int], deactivate: bool) -> None:
         """:meth:`pdi_deactivate_sm` for several SyncManagers, the table rebuilt once."""
+        if self._unmade is not None:
+            self._make_sms()
         mem, bit, changed = self.mem, 0x01 if deactivate else 0, False
         for index in indices:
             addr = REG_SM + SM_BYTES * index + 7
@@ -486,6 +494,8 @@ class EscDevice:
     def pdi_write(self, addr: int, data: bytes) -> None:
         """The application writes memory; a whole read-SM buffer is a buffer exchange."""
         self.mem[addr : addr + len(data)] = data
+        if self._unmade is not None:
+            self._make_sms()
         for sm in self._active:
             if sm.start == addr and sm.length == len(data) and not sm.ecat_writes:
                 sm.latest = data if isinstance(data, bytes) else bytes(data)
@@ -500,6 +510,8 @@ class EscDevice:
 
     def pdi_read(self, addr: int, length: int) -> bytes:
         """The application reads memory (outputs a master committed to a write SyncManager)."""
+        if self._unmade is not None:
+            self._make_sms()
         for sm in self._active:
             if sm.start == addr and sm.ecat_writes:
                 st = REG_SM + SM_BYTES * sm.index + 5
@@ -546,6 +558,20 @@ class EscDevice:
                 self.react_now()  # what the application was to do before the reset
                 self._power_on()
         self.mem[REG_RESET_ECAT] = self._reset_progress
+
+    @staticmethod
+    def unfinished(devices: Iterable[EscDevice]) -> list[EscDevice]:
+        """Those of ``devices`` whose :meth:`finish_frame` does more than show no reset under
+        way (0x0040 = 0): a buffer completed, the mailbox handler due, the reset register
+        written or a reset sequence under way (the chain sets 0x0040 of the others at once)."""
+        return [
+            dev
+            for dev in devices
+            if dev._completed
+            or dev._mailbox_due
+            or dev._reset_written is not None
+            or dev._reset_progress
+        ]
 
     def process(
         self, cmd: int, adp: int, ado: int, buf: bytearray, off: int, n: int
@@ -635,6 +661,8 @@ class EscDevice:
             pos = hi
         if pos >= end:
             return out
+        if self._unmade is not None:
+            self._make_sms()
         for sm in self._active:
             if sm.end <= pos:
                 continue
@@ -702,6 +730,8 @@ class EscDevice:
             pos = hi
         if pos >= end:
             return ok
+        if self._unmade is not None:
+            self._make_sms()
         for sm in self._active:
             if sm.end <= pos:
                 continue
@@ -747,8 +777,8 @@ class EscDevice:
     def _finish_buffer(self, sm: _Sm) -> None:
         """Buffer exchange after the frame that accessed the end address (datasheet I 8.1)."""
         sm.complete = False
-        if self._sms[sm.index] is not sm:
-            return  # the SyncManager was reset in the meantime
+        if self._unmade is not None or self._sms[sm.index] is not sm:
+            return  # the SyncManager was reset in the meantime (or starts anew: _unmade)
         st = REG_SM + SM_BYTES * sm.index + 5
         sm.open = False
         self._mailbox_due = self._mailbox_due or sm.mailbox
@@ -852,6 +882,8 @@ class EscDevice:
         state, and only the buffer's end changes it back). Then a logical access there reads
         or writes nothing and changes no state: what :meth:`_sm_read` and :meth:`_sm_write` do
         with a failed access (datasheet I 8.2.1), wherever in the buffer it starts."""
+        if self._unmade is not None:  # each starts anew, its mailbox empty: a read one is idle
+            return all(side == 0 for _, side in mailboxes)
         sms = self._sms
         for index, side in mailboxes:
             sm = sms[index]
@@ -1021,6 +1053,8 @@ class EscDevice:
             log_start, log_end, phys = reads[0][:3]
             lo, hi = max(lad, log_start), min(lad + n, log_end)
             at, end = phys + (lo - log_start), phys + (hi - log_start)
+            if self._unmade is not None:
+                self._make_sms()
             hit = [sm for sm in self._active if sm.start < end and sm.end > at]
             if (
                 at >= REGISTER_END
@@ -1119,13 +1153,22 @@ class EscDevice:
             self.dc.configured(mem, *dc)
         self.update_irq()
         if eeprom:
-            self._eeprom_command()
-        if al and self.pdi_operational:
-            value = mem[REG_AL_CONTROL] | mem[REG_AL_CONTROL + 1] << 8
-            if mem[REG_PDI_CONTROL + 1] & 0x01:  # device emulation: AL control -> AL status
-                self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
-            else:
-                self._react(value)
+            self.eeprom_command()
+        if al:
+            self.al_control_written()
+
+    def al_control_written(self) -> None:
+        """After a frame wrote AL control (0x0120): with the PDI operational, the AL status
+        follows it in device emulation (0x0141 bit 0), else the application reacts
+        (datasheet I 10.1; the last step of :meth:`take_effect`)."""
+        if not self.pdi_operational:
+            return
+        mem = self.mem
+        value = mem[REG_AL_CONTROL] | mem[REG_AL_CONTROL + 1] << 8
+        if mem[REG_PDI_CONTROL + 1] & 0x01:  # device emulation: AL control -> AL status
+            self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
+        else:
+            self._react(value)
 
     def _react(self, what: int) -> None:
         """The application reacts to the frame (:meth:`react`), once the frame has passed when
@@ -1210,7 +1253,7 @@ class EscDevice:
     def _ecat_owns_eeprom(self) -> bool:
         return not (self.mem[REG_EEPROM_CONFIG] & 0x01 or self.mem[REG_EEPROM_PDI] & 0x01)
 
-    def _eeprom_command(self) -> None:
+    def eeprom_command(self) -> None:
         """Execute the command written to 0x0502 bits 8-10 (datasheet I 11.2.3)."""
         mem = self.mem
         (control,) = struct.unpack_from("<H", mem, REG_EEPROM_CONTROL)
@@ -1248,10 +1291,14 @@ class EscDevice:
         """Cache the active FMMUs (datasheet II 2.13): decoded once per distinct register
         bytes (:func:`decode_fmmus`), so that a broadcast configuring every ESC alike costs
         each ESC one lookup."""
-        table = bytes(self.mem[REG_FMMU : REG_FMMU + FMMU_BYTES * self.config.fmmus])
-        decoded = FMMU_CACHE.get(table)
-        if decoded is None:
-            decoded = remember(FMMU_CACHE, table, (*decode_fmmus(table), {}))
+        self.use_fmmus(
+            fmmu_table(bytes(self.mem[REG_FMMU : REG_FMMU + FMMU_BYTES * self.config.fmmus]))
+        )
+
+    def use_fmmus(self, decoded: FmmuTable) -> None:
+        """The FMMUs follow ``decoded``, their register bytes decoded (:func:`fmmu_table`; the
+        chain decodes the tables of many ESCs at once, :func:`emulator.esc.together.
+        commit_together`)."""
         self._fmmus, self.fmmu_span, self._logical_plans = decoded
         self._lrd_plans.clear()
 
@@ -1283,7 +1330,35 @@ class EscDevice:
         """The SyncManagers after their table changed to ``decoded`` (:func:`sm_change`): the ones
         that start anew lose their state, the others keep it (their status registers are the
         caller's: :meth:`_rebuild_sms`, or the rows of many ESCs in
-        :func:`emulator.esc.together.commit_together`)."""
+        :func:`emulator.esc.together.commit_together`).
+
+        When all start anew, or the ESC has not needed its SyncManagers since all last did
+        (each kept one is then as new: no frame or PDI touched it), they are made once first
+        needed (:meth:`_make_sms`): hostile frames change the tables of every ESC often, and
+        making them at each of 160 ESCs took up to 1.5 ms a frame."""
+        self._lrd_plans.clear()
+        self._sm_areas = decoded
+        if not change[3] or self._unmade is not None:  # none kept, or all as new
+            self._unmade = (change[1], decoded, change[4])
+            return
+        self._apply_change(change)
+
+    def _make_sms(self) -> None:
+        """Make the SyncManagers the ESC has as new (:attr:`_unmade`: those without a buffer,
+        the decoded table, the order by start; :meth:`change_syncmanagers`), before anything
+        reads or changes them."""
+        assert self._unmade is not None
+        gone, decoded, by_start = self._unmade
+        self._unmade = None
+        sms = self._sms
+        for y in gone:
+            sms[y] = None
+        for y, start, length, control, locked in decoded:
+            sm = sms[y] = _Sm(y, start, length, control)
+            sm.locked = locked != 0
+        self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
+
+    def _apply_change(self, change: SmChange) -> None:
         _, gone, fresh, kept, by_start = change
         sms = self._sms
         for y in gone:  # disabled or too short: no buffer
@@ -1298,8 +1373,6 @@ class EscDevice:
                 self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
             held.locked = locked
         self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
-        self._lrd_plans.clear()
-        self._sm_areas = decoded
 
     def sm_registers_written(self) -> None:
         """After a frame changed SyncManager registers: the mailbox handler runs at its end

@@ -49,6 +49,7 @@ __all__ = [
     "decode_fmmus",
     "decode_sms",
     "esc_row_access",
+    "fmmu_table",
     "forget",
     "outside",
     "plain_access",
@@ -189,6 +190,16 @@ def decode_sms(table: bytes) -> SmTable:
         if activate & 0x01 and length >= 2:
             out.append((y, start, length, control, pdi & 0x01))
     return tuple(out)
+
+
+def fmmu_table(table: bytes) -> FmmuTable:
+    """The FMMU register bytes ``table`` (0x0600 on, 16 bytes an FMMU) decoded
+    (:func:`decode_fmmus`), with an empty dict for the plans of accesses through them: once per
+    distinct bytes (:data:`FMMU_CACHE`), so that ESCs whose FMMUs hold the same bytes share it."""
+    found = FMMU_CACHE.get(table)
+    if found is None:
+        found = remember(FMMU_CACHE, table, (*decode_fmmus(table), {}))
+    return found
 
 
 def sm_table(table: bytes) -> SmFound:

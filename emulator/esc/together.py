@@ -11,10 +11,13 @@ SyncManager table changed) is a mask of rows. DL status after a write of DL cont
 request and the DC system time compare (:func:`emulator.esc.dc.compare_together`) are worked out
 over the rows too, and so are changed SyncManager tables: decoded, and what they change worked
 out, once per distinct table before and after (:func:`emulator.esc.mapping.sm_change`), each
-ESC then only changing its SyncManager objects. What else follows a commit in each ESC (rebuilt
-FMMU tables, EEPROM command, AL control) is :meth:`EscDevice.take_effect`, as for one ESC. The
-work thus grows with the bytes written and the ESCs whose state the write changes, not with one
-Python pass per ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under
+ESC then only changing its SyncManager objects. What else follows a commit
+(:meth:`EscDevice.take_effect`) goes step by step over all the ESCs: changed FMMU tables decoded
+once per distinct bytes, DC configuration, the event request over the rows, an EEPROM command
+where ECAT owns the interface, AL control; and the end of the frame
+(:func:`finish_together`) asks only the ESCs with a buffer or reset to finish. The work thus
+grows with the bytes written and the ESCs whose state the write changes, not with one Python
+pass per ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under
 hostile frames.
 
 A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan cut map onto plain memory
@@ -37,7 +40,14 @@ import numpy.typing as npt
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together
 from emulator.esc.device import EscDevice, port1_forwarding
-from emulator.esc.mapping import LogicalOp, LogicalPlan, PlainAccess, sm_change, sm_table
+from emulator.esc.mapping import (
+    LogicalOp,
+    LogicalPlan,
+    PlainAccess,
+    fmmu_table,
+    sm_change,
+    sm_table,
+)
 from emulator.esc.registers import (
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -55,6 +65,7 @@ from emulator.esc.registers import (
     REG_ERROR_COUNTERS,
     REG_FMMU,
     REG_PU_ERRORS,
+    REG_RESET_ECAT,
     REG_SM,
     REGISTER_END,
     SM_BYTES,
@@ -66,6 +77,7 @@ __all__ = [
     "LOGICAL_TOGETHER_MIN",
     "TOGETHER_MIN",
     "commit_together",
+    "finish_together",
     "last_readers",
     "logical_together",
     "lrd_last_readers",
@@ -106,34 +118,57 @@ def commit_together(
                 if marks:
                     dc = mark(lo, hi, flags, plans.fmmu_end, dc)
     al, _, dl, fmmu, sm = flags
-    if dl:
-        _dl_status(devices, memory, rows)
-    fmmu_rows = None
-    if fmmu and fmmu_before is not None:
-        fmmu_rows = (memory[rows, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1).tolist()
-    commands = eeprom.tolist()
+    # what EscDevice.take_effect then does, in its order, step by step over all the ESCs
+    if fmmu and fmmu_before is not None:  # changed FMMU tables
+        changed = (memory[rows, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1)
+        _fmmus(devices, memory, rows, np.flatnonzero(changed).tolist(), plans.fmmu_end)
     if sm and sm_before is not None and enabled is not None:  # changed SyncManager tables
         changed = (memory[rows, REG_SM : plans.sm_end] != sm_before).any(axis=1)
         _syncmanagers(devices, memory, rows, np.flatnonzero(changed).tolist(), enabled)
-    irqs = None
-    if not (dc is not None or al):  # mostly only the event request is left to update
-        events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
-        enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
-        irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
-    for i, dev in enumerate(devices):  # the rest of take_effect (SyncManagers: done above)
-        fmmu_i = fmmu_rows is not None and fmmu_rows[i]
-        if irqs is not None and not (fmmu_i or commands[i]):
-            dev.irq = irqs[i]  # what EscDevice.update_irq would set
-            continue
-        dev.take_effect(
-            fmmu=fmmu_i,
-            sm=False,
-            sm_enabled=b"",
-            dl=False,
-            dc=dc,
-            eeprom=commands[i],
-            al=al,
-        )
+    if dl:
+        _dl_status(devices, memory, rows)
+    if dc is not None:
+        for dev in devices:
+            dev.dc.configured(dev.mem, *dc)
+    events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
+    enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
+    irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
+    for dev, irq in zip(devices, irqs, strict=True):
+        dev.irq = irq  # what EscDevice.update_irq sets
+    for i in np.flatnonzero(eeprom).tolist():
+        devices[i].eeprom_command()
+    if al:
+        for dev in devices:
+            dev.al_control_written()
+
+
+def finish_together(
+    devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows
+) -> None:
+    """:meth:`EscDevice.finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
+    :func:`commit_together`: 0x0040 shows no reset under way at every row, and the ESCs with
+    more to finish (:meth:`EscDevice.unfinished`) finish the frame each."""
+    memory[rows, REG_RESET_ECAT] = 0
+    for dev in EscDevice.unfinished(devices):
+        dev.finish_frame()
+
+
+def _fmmus(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: Sequence[int],
+    end: int,
+) -> None:
+    """The FMMUs of ``devices[i]`` for ``i`` in ``which`` after a frame changed their registers
+    [0x0600, ``end``): each table decoded once per distinct bytes (:func:`fmmu_table`), as
+    :meth:`EscDevice.take_effect` does ESC by ESC."""
+    if not which:
+        return
+    width = end - REG_FMMU
+    tables = memory[rows[list(which)], REG_FMMU:end].tobytes()
+    for k, i in enumerate(which):
+        devices[i].use_fmmus(fmmu_table(tables[k * width : (k + 1) * width]))
 
 
 def _syncmanagers(

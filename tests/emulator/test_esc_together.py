@@ -176,7 +176,11 @@ def test_an_esc_belongs_to_one_chain() -> None:
 
 
 def sm_state(chain: EcatChain) -> list[list[tuple[object, ...]]]:
-    """Every ESC's SyncManagers as it runs them: area, lock, buffer state."""
+    """Every ESC's SyncManagers as it runs them: area, lock, buffer state (made first where
+    all started anew and the ESC has not needed them yet)."""
+    for dev in chain.devices:
+        if dev._unmade is not None:
+            dev._make_sms()
     return [
         [
             (sm.index, sm.start, sm.length, sm.locked, sm.open, sm.complete, sm.full, sm.buf)

@@ -22,7 +22,7 @@ from hypothesis import strategies as st
 from emulator.esc import mapping, together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
-from emulator.esc.registers import EscConfig
+from emulator.esc.registers import SM_BYTES, EscConfig
 from emulator.esc.sii import SlaveInfo, build_sii
 from skinframes import ethercat
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -868,6 +868,40 @@ def test_an_lrd_reads_a_read_mailbox_only_when_it_is_full() -> None:
         assert (d.data, d.wkc) == (b"\x00\x00\xa0\xa1", NODES - 1)
         assert chain.devices[7].registers(0x0815, 1)[0] & 0x40
         assert not chain.devices[6].registers(0x0815, 1)[0] & 0x40
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_syncmanagers_that_all_start_anew_are_new_when_first_used(kind: type[EcatChain]) -> None:
+    """Hand-worked: one frame disables every SyncManager of 12 ESCs, the next enables the two
+    mailboxes of :data:`MAILBOXES` again, the write mailbox moved to 0x7200. Each SyncManager
+    starts anew (the ESCs make them when first used: nothing may see the ones before), with no
+    buffer: status 0x30 (datasheet II 2.14.5). ESC 0's PDI reads the moved write mailbox while
+    it is empty: the read interrupt (bit 1) is set, 0x32. An LWR of 16 bytes through FMMU 2
+    onto 0x7200 then writes the empty write mailbox of every ESC (it is not idle: only a full
+    one is), opening it (write open 0x80 set, read interrupt cleared: 0x30 or 0x32 -> 0xB0)
+    and, with its last byte, filling it at the frame's end (open cleared, write interrupt 0x01
+    and mailbox full 0x08 set: 0x39); the PDI of ESC 3 reads the message back (0x39 -> 0x32)."""
+    chain = with_mailboxes(line(kind))
+    count = chain.devices[0].config.syncmanagers
+    chain.process_frame(bwr(0x0800, bytes(SM_BYTES * count)))
+    moved = MAILBOXES[:8] + struct.pack("<HHBBBB", 0x7200, 16, 0x06, 0, 0x01, 0)
+    chain.process_frame(bwr(0x0810, moved))
+    status = 0x0805 + SM_BYTES * 3
+    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x30] * NODES
+    assert chain.devices[0].pdi_read(0x7200, 16) == bytes(16)
+    assert chain.devices[0].registers(status, 1)[0] == 0x32
+    write_fmmu = struct.pack("<IHBBHBBB3x", 0x9000, 16, 0, 7, 0x7200, 0, 2, 1)
+    chain.process_frame(bwr(0x0620, write_fmmu))
+    message = bytes(range(0x50, 0x60))
+    back = chain.process_frame(
+        ethercat.frame(EcatFrame((Datagram.logical(Command.LWR, 0x9000, message),))).to_bytes()
+    )
+    assert back is not None
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    assert d.wkc == NODES
+    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x39] * NODES
+    assert chain.devices[3].pdi_read(0x7200, 16) == message
+    assert chain.devices[3].registers(status, 1)[0] == 0x32
 
 
 def sync0_line(kind: type[EcatChain], now: list[int]) -> EcatChain:
