@@ -185,22 +185,30 @@ def _syncmanagers(
     per distinct table before, table after and activate bytes before the frame (``enabled``, a
     row each), each change's status registers set over the rows at once, and each ESC's
     SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers`); the
-    mailbox handler runs once the frame has passed."""
+    mailbox handler runs once the frame has passed. An ESC whose table and activate bytes equal
+    those of the ESC before it (compared over the rows), with the same table before, joins its
+    group without a key of its own."""
     if not which:
         return
     count = enabled.shape[1]
     width = SM_BYTES * count
-    tables = memory[rows[list(which)], REG_SM : REG_SM + width].tobytes()
-    activate = enabled[list(which)].tobytes()
-    groups: dict[tuple[int, bytes, bytes], list[int]] = {}
-    for k, i in enumerate(which):
-        key = (
-            id(devices[i].sm_areas),
-            tables[k * width : (k + 1) * width],
-            activate[k * count : (k + 1) * count],
-        )
-        groups.setdefault(key, []).append(i)
-    for (_, table, before), members in groups.items():
+    at = list(which)
+    block = np.concatenate((memory[rows[at], REG_SM : REG_SM + width], enabled[at]), axis=1)
+    differs = np.ones(len(at), np.bool_)
+    differs[1:] = (block[1:] != block[:-1]).any(axis=1)
+    stride = width + count
+    data = block.tobytes()
+    groups: dict[tuple[int, bytes], list[int]] = {}
+    group: list[int] = []
+    last = -1  # id of the table before of the ESC before
+    for k, (i, new) in enumerate(zip(at, differs.tolist(), strict=True)):
+        held = id(devices[i].sm_areas)
+        if new or held != last:
+            group = groups.setdefault((held, data[k * stride : (k + 1) * stride]), [])
+            last = held
+        group.append(i)
+    for (_, key), members in groups.items():
+        table, before = key[:width], key[width:]
         areas = devices[members[0]].sm_areas  # the same object at each of them
         found = sm_table(table)
         if found[0] != areas:

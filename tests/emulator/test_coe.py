@@ -297,6 +297,16 @@ def test_repeat_request_puts_the_last_answer_back() -> None:
     assert m.receive() == answer  # the same message, the same counter
 
 
+def test_a_repeat_request_broadcast_to_a_line_is_acknowledged_by_every_slave() -> None:
+    """A BWR of SM1's activate byte with the repeat bit set (0x080E bit 1) reaches 6 slaves,
+    whose ESCs commit it together: after the frame each slave's mailbox handler sees the
+    request and acknowledges it in its PDI control byte (0x080F bit 1, datasheet II 2.14.7)."""
+    m = preop(nodes=6)
+    assert m.one(Datagram(C.BWR, 0, 0x080E, b"\x03")).wkc == 6
+    for p in range(6):
+        assert m.rd(0x080F, 1, STATION + p).data[0] & 0x02 == 0x02, p
+
+
 def test_other_protocols_get_a_mailbox_error() -> None:
     m = preop()
     assert m.send(h("0600 0000 00 14  01 00 0000 0000")) == 1  # type 4 (FoE), counter 1

@@ -875,13 +875,16 @@ def test_syncmanagers_that_all_start_anew_are_new_when_first_used(kind: type[Eca
     """Hand-worked: one frame disables every SyncManager of 12 ESCs, the next enables the two
     mailboxes of :data:`MAILBOXES` again, the write mailbox moved to 0x7200. Each SyncManager
     starts anew (the ESCs make them when first used: nothing may see the ones before), with no
-    buffer: status 0x30 (datasheet II 2.14.5). ESC 0's PDI reads the moved write mailbox while
-    it is empty: the read interrupt (bit 1) is set, 0x32. An LWR of 16 bytes through FMMU 2
-    onto 0x7200 then writes the empty write mailbox of every ESC (it is not idle: only a full
-    one is), opening it (write open 0x80 set, read interrupt cleared: 0x30 or 0x32 -> 0xB0)
-    and, with its last byte, filling it at the frame's end (open cleared, write interrupt 0x01
-    and mailbox full 0x08 set: 0x39); the PDI of ESC 3 reads the message back (0x39 -> 0x32)."""
+    buffer: status 0x30 (datasheet II 2.14.5), and ESC 2's PDI had locked the write mailbox
+    before (0x081F bit 0, which ECAT does not write): it stays locked. ESC 0's PDI reads the
+    moved write mailbox while it is empty: the read interrupt (bit 1) is set, 0x32. An LWR of
+    16 bytes through FMMU 2 onto 0x7200 then writes the empty write mailbox of every ESC but
+    ESC 2 (it is not idle: only a full one is), opening it (write open 0x80 set, read interrupt
+    cleared: 0x30 or 0x32 -> 0xB0) and, with its last byte, filling it at the frame's end (open
+    cleared, write interrupt 0x01 and mailbox full 0x08 set: 0x39); the PDI of ESC 3 reads the
+    message back (0x39 -> 0x32)."""
     chain = with_mailboxes(line(kind))
+    chain.devices[2].pdi_deactivate_sm(3, True)
     count = chain.devices[0].config.syncmanagers
     chain.process_frame(bwr(0x0800, bytes(SM_BYTES * count)))
     moved = MAILBOXES[:8] + struct.pack("<HHBBBB", 0x7200, 16, 0x06, 0, 0x01, 0)
@@ -898,8 +901,10 @@ def test_syncmanagers_that_all_start_anew_are_new_when_first_used(kind: type[Eca
     )
     assert back is not None
     (d,) = ethercat.decode(back[14:])[0].datagrams
-    assert d.wkc == NODES
-    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x39] * NODES
+    assert d.wkc == NODES - 1
+    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x39] * 2 + [0x30] + [
+        0x39
+    ] * (NODES - 3)
     assert chain.devices[3].pdi_read(0x7200, 16) == message
     assert chain.devices[3].registers(status, 1)[0] == 0x32
 
