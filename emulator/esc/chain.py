@@ -47,7 +47,7 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, TraceCopy
-from emulator.esc.mapping import LogicalOp, LogicalPlan, SmTable, outside
+from emulator.esc.mapping import Access, LogicalOp, LogicalPlan, SmTable, outside
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     PROCESS_RAM,
@@ -468,10 +468,27 @@ class EcatChain:
                 cleared = line[q].clear_read_events(bits) or cleared
             return inc, cleared
 
+        # what row_access gave the last ESC asked (None: ask), and what it follows from: the
+        # next ESC with the same decoded FMMU and SyncManager tables, PDI state and register
+        # write plans gets it (an Access holds what it worked out for the tables last asked:
+        # an ESC on its own may ask it for others, so then it is asked again)
+        found: Access | None = None
+        fmmus: object = None
+        areas: object = None
+        pdi = False
+        writes: object = None
         for p in targets:
             dev = line[p]
             if run:
-                found = dev.row_access(cmd, lad, n)
+                if found is None or not (
+                    dev.fmmu_decoded is fmmus
+                    and dev.sm_areas is areas
+                    and dev.pdi_operational == pdi
+                    and dev.write_plans is writes
+                ):
+                    found = dev.row_access(cmd, lad, n)
+                    fmmus, areas = dev.fmmu_decoded, dev.sm_areas
+                    pdi, writes = dev.pdi_operational, dev.write_plans
                 cut = found.cut  # where it holds at this ESC now (EscDevice.row_cut)
                 if found.mailboxes and cut is not None and not dev.mailboxes_idle(found.mailboxes):
                     cut = None
@@ -491,6 +508,7 @@ class EcatChain:
                 run, cuts, events, clocks = [], [], [], []  # the ESCs before this one are done
             before = dev.irq
             done = dev.logical_unless_rows(cmd, lad, buf, at, n)
+            found = None
             if isinstance(done, int):
                 wkc_inc += done
                 changed = changed or dev.irq != before

@@ -255,6 +255,7 @@ class EscDevice:
         "config",
         "dc",
         "firmware_queue",
+        "fmmu_decoded",
         "fmmu_span",
         "info",
         "irq",
@@ -305,6 +306,9 @@ class EscDevice:
         self._fmmus: tuple[tuple[int, ...], ...] = ()
         self._logical_plans: dict[tuple[int, int, int], Access] = {}
         self.fmmu_span = (0, 0)
+        # the decoded FMMU table the ESC follows (fmmu_table): one object for every ESC whose
+        # FMMU registers hold the same bytes, so that what follows from it is asked once
+        self.fmmu_decoded: FmmuTable = ((), (0, 0), self._logical_plans)
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
         # the general path decides; worked out per FMMU and SyncManager configuration
@@ -365,6 +369,7 @@ class EscDevice:
         self._lrd_plans.clear()
         self._sm_areas = ()
         self.fmmu_span = (0, 0)
+        self.fmmu_decoded = ((), (0, 0), self._logical_plans)
         self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
         mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS  # the links came up
@@ -1300,6 +1305,7 @@ class EscDevice:
         chain decodes the tables of many ESCs at once, :func:`emulator.esc.together.
         commit_together`)."""
         self._fmmus, self.fmmu_span, self._logical_plans = decoded
+        self.fmmu_decoded = decoded
         self._lrd_plans.clear()
 
     def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:

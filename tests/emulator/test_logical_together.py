@@ -909,6 +909,32 @@ def test_syncmanagers_that_all_start_anew_are_new_when_first_used(kind: type[Eca
     assert chain.devices[3].registers(status, 1)[0] == 0x32
 
 
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_an_esc_whose_process_ram_is_closed_does_not_share_its_neighbours_access(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: 12 ESCs with one FMMU table (FMMU 0 writes logical 0x9000 + 16 to 0x3000,
+    the others off) and no SyncManager, so that an access is worked out alike at each; but ESC
+    5's EEPROM checksum is wrong, so its PDI never starts and ECAT has no process RAM there
+    (datasheet I 11.2.1). An LWR of 16 bytes writes 0x3000 at the other 11 (working counter
+    11) and leaves ESC 5's zeros."""
+    chain = line(kind)
+    config = chain.devices[0].config
+    chain.process_frame(bwr(0x0800, bytes(SM_BYTES * config.syncmanagers)))
+    table = struct.pack("<IHBBHBBB3x", 0x9000, 16, 0, 7, 0x3000, 0, 2, 1)
+    chain.process_frame(bwr(0x0600, table + bytes(16 * (config.fmmus - 1))))
+    data = bytes(range(0x60, 0x70))
+    back = chain.process_frame(
+        ethercat.frame(EcatFrame((Datagram.logical(Command.LWR, 0x9000, data),))).to_bytes()
+    )
+    assert back is not None
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    assert d.wkc == NODES - 1
+    assert [bytes(chain.memory[p, 0x3000:0x3010]) for p in range(NODES)] == [data] * CLOSED + [
+        bytes(16)
+    ] + [data] * (NODES - CLOSED - 1)
+
+
 def sync0_line(kind: type[EcatChain], now: list[int]) -> EcatChain:
     """12 patches whose SYNC0 fired at 5 ms of system time (datasheet II 2.22: SOEM's order of
     writes; clocks retuned to start at 0, host time ``now[0]``)."""
