@@ -809,8 +809,11 @@ class EcatChain:
     def _end_frames(self, line: list[EscDevice]) -> None:
         """Every ESC of ``line`` ends the frame (:meth:`EscDevice.end_frame`); those with equal
         register writes (a broadcast's, one configuration) commit them together, and finish the
-        frame together (:func:`finish_together`); of those without writes only the ones with
-        something to finish are asked (:meth:`EscDevice.unfinished`)."""
+        frame together (:func:`finish_together`), and so do those whose writes differ only in
+        their bytes (a logical datagram's through FMMUs onto registers); of those without
+        writes only the ones with something to finish are asked (:meth:`EscDevice.unfinished`).
+        ESCs commit independently of each other, so the groups may go in any order, and so may
+        the reactions they queue for the slaves' firmware, each to its own ESC."""
         groups: dict[tuple[object, ...], list[int]] = {}
         last: list[tuple[int, bytes]] = []  # the pending writes of the ESC before, its group
         plans: object = None
@@ -828,15 +831,29 @@ class EcatChain:
                 group.append(p)
         for dev in EscDevice.unfinished(idle):
             dev.end_frame()
+        apart: dict[tuple[object, ...], list[int]] = {}  # the rest, by addresses and lengths
         for positions in groups.values():
             if len(positions) < TOGETHER_MIN:
                 for p in positions:
-                    line[p].end_frame()
+                    dev = line[p]
+                    shape = (id(dev.write_plans), *((a, len(d)) for a, d in dev.pending))
+                    apart.setdefault(shape, []).append(p)
                 continue
-            together = [line[p] for p in positions]
-            rows = np.array(positions, dtype=np.intp)
-            commit_together(together, self.memory, rows)
-            finish_together(together, self.memory, rows)
+            self._commit(line, positions, alike=True)
+        for positions in apart.values():
+            if len(positions) < TOGETHER_MIN:
+                for p in positions:
+                    line[p].end_frame()
+            else:
+                self._commit(line, sorted(positions), alike=False)
+
+    def _commit(self, line: list[EscDevice], positions: list[int], *, alike: bool) -> None:
+        """The ESCs of ``line`` at ``positions`` commit their register writes together and end
+        the frame (:func:`commit_together`, :func:`finish_together`)."""
+        together = [line[p] for p in positions]
+        rows = np.array(positions, dtype=np.intp)
+        commit_together(together, self.memory, rows, alike=alike)
+        finish_together(together, self.memory, rows)
 
     def _addresses(self, reach: int) -> tuple[npt.NDArray[np.int64], ...]:
         """Station address, alias, and whether DL control enables the alias, of the ESCs the

@@ -466,10 +466,11 @@ def compare_together(
     memory: npt.NDArray[np.uint8],
     rows: npt.NDArray[np.intp],
     lo: int,
-    data: bytes,
+    data: bytes | npt.NDArray[np.uint8],
 ) -> None:
-    """:meth:`DcClock.write` of the same ``data`` at ``lo`` in every clock, whose ESC's memory is
-    ``memory[rows]`` (a broadcast's, or an ARMW/FRMW's, write at the end of the frame).
+    """:meth:`DcClock.write` of ``data`` at ``lo`` in every clock, whose ESC's memory is
+    ``memory[rows]`` (a broadcast's, or an ARMW/FRMW's, write at the end of the frame): the same
+    bytes, or a row of bytes per clock (a logical datagram's, each ESC's own frame bytes).
 
     The system time compare (0x0910, what a master's ARMW/FRMW of the reference clock's time
     sets off) runs over arrays, with float64 operations in the order :meth:`DcClock.compare`
@@ -481,15 +482,16 @@ def compare_together(
     over arrays too (:meth:`DcClock._latch`). Where the clocks do not share one timebase, they
     write one by one.
     """
-    hi = lo + len(data)
+    hi = lo + (len(data) if isinstance(data, bytes) else data.shape[1])
     state = [_STATE(c) for c in clocks]
     timebases, position, anchor_host, anchor_local, rate, integral, diff_ns, drift, last = (
         zip(*state, strict=True) if state else ((),) * 9
     )
     timebase = clocks[0].timebase if clocks else None
     if timebase is None or timebases.count(timebase) != len(clocks):
-        for clock, row in zip(clocks, rows.tolist(), strict=True):
-            clock.write(memoryview(memory[row]), lo, data)
+        for k, (clock, row) in enumerate(zip(clocks, rows.tolist(), strict=True)):
+            mine = data if isinstance(data, bytes) else data[k].tobytes()
+            clock.write(memoryview(memory[row]), lo, mine)
         return
     latch = lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE
     compare = lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME
@@ -513,8 +515,10 @@ def compare_together(
     system = local + _u64(memory, rows, REG_DC_OFFSET)
     a, b = max(lo, REG_DC_SYSTEM_TIME), min(hi, REG_DC_RECEIVE_PU)
     received = system.astype("<u8").view(np.uint8).reshape(len(clocks), 8)
-    received[:, a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = np.frombuffer(
-        data, np.uint8, b - a, a - lo
+    received[:, a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = (
+        np.frombuffer(data, np.uint8, b - a, a - lo)
+        if isinstance(data, bytes)
+        else data[:, a - lo : b - lo]
     )
     raw = system - received.view("<u8").ravel() - _u32(memory, rows, REG_DC_DELAY)
     if b - REG_DC_SYSTEM_TIME > 4:  # DcClock.compare: the difference modulo 2^64 or 2^32

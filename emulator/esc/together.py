@@ -89,18 +89,33 @@ _Rows = npt.NDArray[np.intp]
 
 
 def commit_together(
-    devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    *,
+    alike: bool = True,
 ) -> None:
-    """Commit the pending register writes of ``devices`` (equal lists, one configuration), whose
-    memory is ``memory[rows]``, as each one's :meth:`EscDevice.end_frame` would (before
-    :meth:`EscDevice.finish_frame`)."""
+    """Commit the pending register writes of ``devices`` (one configuration), whose memory is
+    ``memory[rows]``, as each one's :meth:`EscDevice.end_frame` would (before
+    :meth:`EscDevice.finish_frame`): equal lists, or with ``alike`` False lists of writes at the
+    same addresses and lengths whose bytes differ from ESC to ESC (a logical datagram's through
+    FMMUs that map each ESC's own frame bytes onto registers), each write then a row of bytes
+    per ESC."""
     plans = devices[0].write_plans
     masks = plans.mask_array
-    pending = [(addr, data, plans.plan(addr, len(data))) for addr, data in devices[0].pending]
+    first = devices[0].pending
+    datas: list[npt.NDArray[np.uint8]] = []
+    for j, (_, written) in enumerate(first):
+        if alike:
+            datas.append(np.frombuffer(written, np.uint8))
+        else:
+            blob = b"".join([dev.pending[j][1] for dev in devices])
+            datas.append(np.frombuffer(blob, np.uint8).reshape(len(devices), len(written)))
+    pending = [(addr, plans.plan(addr, len(written))) for addr, written in first]
     for dev in devices:
         dev.pending.clear()
     touched = 0
-    for _, _, (_, touches) in pending:
+    for _, (_, touches) in pending:
         touched |= touches
     sm_before = memory[rows, REG_SM : plans.sm_end] if touched & TOUCHES_SM else None
     fmmu_before = memory[rows, REG_FMMU : plans.fmmu_end] if touched & TOUCHES_FMMU else None
@@ -108,9 +123,9 @@ def commit_together(
     flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
     eeprom = np.zeros(len(rows), np.bool_)
     dc: tuple[int, int] | None = None
-    for addr, data, (segments, _) in pending:
+    for (addr, (segments, _)), values in zip(pending, datas, strict=True):
         for lo, hi, mask, marks in segments:
-            part = np.frombuffer(data, np.uint8, hi - lo, lo - addr)
+            part = values[..., lo - addr : hi - addr]  # one row, or one per ESC
             if mask < 0:  # a register with side effects
                 _special(devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom)
             elif mask:
@@ -269,9 +284,10 @@ def _special(
     flags: list[bool],
     eeprom: npt.NDArray[np.bool_],
 ) -> None:
-    """:meth:`EscDevice._special_write` at every row: error counters cleared (II 2.6), the
-    EEPROM interface where ECAT owns it (I 11.2.2), SyncManager bytes 0-4 kept where the
-    SyncManager was enabled (II 2.14.1), DC receive times ESC by ESC."""
+    """:meth:`EscDevice._special_write` at every row, of ``data`` (one row, or one per row):
+    error counters cleared (II 2.6), the EEPROM interface where ECAT owns it (I 11.2.2),
+    SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
+    and system time compare (:func:`compare_together`)."""
     if lo < REG_PU_ERRORS:  # one write clears all RX error counters
         memory[rows, REG_ERROR_COUNTERS:REG_PU_ERRORS] = 0
         return
@@ -279,22 +295,26 @@ def _special(
         memory[rows, lo:hi] = 0
         return
     if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
-        if lo == REG_EEPROM_CONFIG and data[0] & 0x02:
-            memory[rows, REG_EEPROM_PDI] &= 0xFE  # force ECAT access
+        if lo == REG_EEPROM_CONFIG:
+            force = np.broadcast_to((data[..., 0] & 0x02) != 0, rows.shape)
+            memory[rows[force], REG_EEPROM_PDI] &= 0xFE  # force ECAT access
         _masked(memory, rows, lo, hi, data, masks[lo:hi])
         return
     if lo < 0x0510:
         owner = ((memory[rows, REG_EEPROM_CONFIG] | memory[rows, REG_EEPROM_PDI]) & 0x01) == 0
         if owner.any():
-            _masked(memory, rows[owner], lo, hi, data, masks[lo:hi])
+            mine = data[owner] if data.ndim > 1 else data
+            _masked(memory, rows[owner], lo, hi, mine, masks[lo:hi])
             if lo < REG_EEPROM_CONTROL + 2:
                 eeprom |= owner
         return
     if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
-        compare_together([dev.dc for dev in devices], memory, rows, lo, data.tobytes())
+        compare_together(
+            [dev.dc for dev in devices], memory, rows, lo, data if data.ndim > 1 else data.tobytes()
+        )
         return
     assert enabled is not None
-    new = np.repeat(data[None, :], len(rows), axis=0)
+    new = np.array(np.broadcast_to(data, (len(rows), hi - lo)))
     for y in range(enabled.shape[1]):
         a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
         if a < b:

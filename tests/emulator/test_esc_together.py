@@ -126,15 +126,15 @@ def test_equal_writes_are_committed_together(monkeypatch: pytest.MonkeyPatch) ->
     calls: list[int] = []
     commit = together.commit_together
 
-    def counted(devices, memory, rows):  # type: ignore[no-untyped-def]
+    def counted(devices, memory, rows, **kwargs):  # type: ignore[no-untyped-def]
         calls.append(len(devices))
-        commit(devices, memory, rows)
+        commit(devices, memory, rows, **kwargs)
 
     monkeypatch.setattr("emulator.esc.chain.commit_together", counted)
     assert_same(fast, reference, bwr(0x0200, b"\x04\x00"), "event mask")
     assert calls == [NODES]
 
-    def skipped(devices, memory, rows):  # type: ignore[no-untyped-def]
+    def skipped(devices, memory, rows, **kwargs):  # type: ignore[no-untyped-def]
         for dev in devices:
             dev.pending.clear()
 
