@@ -284,19 +284,29 @@ def test_logical_writes_of_res_reset_every_esc() -> None:
     assert {dev.station for dev in chain.devices} == {0}  # reset values
 
 
-def lrd(chain: EcatChain, lad: int, n: int) -> Datagram:
+def logical(chain: EcatChain, cmd: Command, lad: int, data: bytes) -> Datagram:
+    """One logical datagram through ``chain``, as it comes back."""
     back = chain.process_frame(
-        ethercat.frame(EcatFrame((Datagram.logical(Command.LRD, lad, bytes(n)),))).to_bytes()
+        ethercat.frame(EcatFrame((Datagram.logical(cmd, lad, data),))).to_bytes()
     )
     assert back is not None
     (d,) = ethercat.decode(back[14:])[0].datagrams
     return d
 
 
+def lrd(chain: EcatChain, lad: int, n: int) -> Datagram:
+    return logical(chain, Command.LRD, lad, bytes(n))
+
+
 def read_fmmu(lad: int, phys: int, n: int) -> bytes:
     """An FMMU's registers (datasheet II 2.13): logical ``lad``, ``n`` bytes, byte-wise onto
     ``phys``, read, active."""
     return struct.pack("<IHBBHBBB3x", lad, n, 0, 7, phys, 0, 1, 1)
+
+
+def write_fmmu(lad: int, phys: int, n: int) -> bytes:
+    """As :func:`read_fmmu`, but writing."""
+    return struct.pack("<IHBBHBBB3x", lad, n, 0, 7, phys, 0, 2, 1)
 
 
 def test_reads_of_al_status_clear_its_event_over_the_rows(
@@ -893,15 +903,9 @@ def test_syncmanagers_that_all_start_anew_are_new_when_first_used(kind: type[Eca
     assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x30] * NODES
     assert chain.devices[0].pdi_read(0x7200, 16) == bytes(16)
     assert chain.devices[0].registers(status, 1)[0] == 0x32
-    write_fmmu = struct.pack("<IHBBHBBB3x", 0x9000, 16, 0, 7, 0x7200, 0, 2, 1)
-    chain.process_frame(bwr(0x0620, write_fmmu))
+    chain.process_frame(bwr(0x0620, write_fmmu(0x9000, 0x7200, 16)))
     message = bytes(range(0x50, 0x60))
-    back = chain.process_frame(
-        ethercat.frame(EcatFrame((Datagram.logical(Command.LWR, 0x9000, message),))).to_bytes()
-    )
-    assert back is not None
-    (d,) = ethercat.decode(back[14:])[0].datagrams
-    assert d.wkc == NODES - 1
+    assert logical(chain, Command.LWR, 0x9000, message).wkc == NODES - 1
     assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x39] * 2 + [0x30] + [
         0x39
     ] * (NODES - 3)
@@ -921,15 +925,10 @@ def test_an_esc_whose_process_ram_is_closed_does_not_share_its_neighbours_access
     chain = line(kind)
     config = chain.devices[0].config
     chain.process_frame(bwr(0x0800, bytes(SM_BYTES * config.syncmanagers)))
-    table = struct.pack("<IHBBHBBB3x", 0x9000, 16, 0, 7, 0x3000, 0, 2, 1)
-    chain.process_frame(bwr(0x0600, table + bytes(16 * (config.fmmus - 1))))
+    table = write_fmmu(0x9000, 0x3000, 16) + bytes(16 * (config.fmmus - 1))
+    chain.process_frame(bwr(0x0600, table))
     data = bytes(range(0x60, 0x70))
-    back = chain.process_frame(
-        ethercat.frame(EcatFrame((Datagram.logical(Command.LWR, 0x9000, data),))).to_bytes()
-    )
-    assert back is not None
-    (d,) = ethercat.decode(back[14:])[0].datagrams
-    assert d.wkc == NODES - 1
+    assert logical(chain, Command.LWR, 0x9000, data).wkc == NODES - 1
     assert [bytes(chain.memory[p, 0x3000:0x3010]) for p in range(NODES)] == [data] * CLOSED + [
         bytes(16)
     ] + [data] * (NODES - CLOSED - 1)
