@@ -314,10 +314,10 @@ class EscDevice:
         # the general path decides; worked out per FMMU and SyncManager configuration
         self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm] | None] = {}
         self._sm_areas: SmTable = ()  # the SyncManager table _active follows
-        # SyncManagers the ESC has as new, made when first needed (_make_sms): the indices of
-        # those without a buffer, the decoded table, the order by start; until then _sms and
-        # _active are those before
-        self._unmade: tuple[tuple[int, ...], SmTable, tuple[int, ...]] | None = None
+        # SyncManagers changed but not made yet, made when first needed (_make_sms): the
+        # indices of those that start anew (None: all of them), the decoded table, the order
+        # by start; until then _sms and _active are those before
+        self._unmade: tuple[frozenset[int] | None, SmTable, tuple[int, ...]] | None = None
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         self._reset_progress = 0
         self._reset_written: int | None = None
@@ -490,6 +490,8 @@ class EscDevice:
                 changed = True
         if changed:
             self._rebuild_sms()
+            if self._unmade is not None:  # now: the reset ones, kept, get their status here
+                self._make_sms()
 
     def pdi_set_repeat_ack(self, index: int, value: bool) -> None:
         """PDI control 0x0807 bit 1: the repeat acknowledge of a mailbox (datasheet II 2.14.7)."""
@@ -782,8 +784,12 @@ class EscDevice:
     def _finish_buffer(self, sm: _Sm) -> None:
         """Buffer exchange after the frame that accessed the end address (datasheet I 8.1)."""
         sm.complete = False
-        if self._unmade is not None or self._sms[sm.index] is not sm:
-            return  # the SyncManager was reset in the meantime (or starts anew: _unmade)
+        if self._unmade is not None:
+            if self._unmade[0] is None:
+                return  # every SyncManager starts anew
+            self._make_sms()
+        if self._sms[sm.index] is not sm:
+            return  # the SyncManager was reset in the meantime
         st = REG_SM + SM_BYTES * sm.index + 5
         sm.open = False
         self._mailbox_due = self._mailbox_due or sm.mailbox
@@ -887,10 +893,17 @@ class EscDevice:
         state, and only the buffer's end changes it back). Then a logical access there reads
         or writes nothing and changes no state: what :meth:`_sm_read` and :meth:`_sm_write` do
         with a failed access (datasheet I 8.2.1), wherever in the buffer it starts."""
-        if self._unmade is not None:  # each starts anew, its mailbox empty: a read one is idle
-            return all(side == 0 for _, side in mailboxes)
+        fresh: frozenset[int] | tuple[()] = ()
+        if self._unmade is not None:  # one that starts anew has an empty mailbox
+            if self._unmade[0] is None:
+                return all(side == 0 for _, side in mailboxes)
+            fresh = self._unmade[0]
         sms = self._sms
         for index, side in mailboxes:
+            if index in fresh:
+                if side != 0:
+                    return False
+                continue
             sm = sms[index]
             if sm is None or sm.full != (side == 1):
                 return False
@@ -1338,46 +1351,40 @@ class EscDevice:
         caller's: :meth:`_rebuild_sms`, or the rows of many ESCs in
         :func:`emulator.esc.together.commit_together`).
 
-        When all start anew, or the ESC has not needed its SyncManagers since all last did
-        (each kept one is then as new: no frame or PDI touched it), they are made once first
-        needed (:meth:`_make_sms`): hostile frames change the tables of every ESC often, and
-        making them at each of 160 ESCs took up to 1.5 ms a frame."""
+        The SyncManagers are changed once first needed (:meth:`_make_sms`), after all the
+        changes since they last were: one that started anew in any of them is new, one kept
+        in all of them keeps its state. Hostile frames change the tables of every ESC often,
+        and changing them at each of 160 ESCs took up to 1.5 ms a frame."""
         self._lrd_plans.clear()
         self._sm_areas = decoded
-        if not change[3] or self._unmade is not None:  # none kept, or all as new
-            self._unmade = (change[1], decoded, change[4])
+        unmade = self._unmade
+        if not change[3] or (unmade is not None and unmade[0] is None):  # all start anew
+            self._unmade = (None, decoded, change[4])
             return
-        self._apply_change(change)
+        fresh = frozenset([entry[0] for entry in change[2]])
+        if unmade is not None and unmade[0] is not None:  # those of the changes before too
+            fresh |= unmade[0]
+        self._unmade = (fresh, decoded, change[4])
 
     def _make_sms(self) -> None:
-        """Make the SyncManagers the ESC has as new (:attr:`_unmade`: those without a buffer,
-        the decoded table, the order by start; :meth:`change_syncmanagers`), before anything
-        reads or changes them."""
+        """Change the SyncManagers as :attr:`_unmade` says (:meth:`change_syncmanagers`),
+        before anything reads or changes them: those of the decoded table that start anew are
+        new, the others keep their state and take their PDI lock from it, and those it leaves
+        out have no buffer."""
         assert self._unmade is not None
-        gone, decoded, by_start = self._unmade
+        fresh, decoded, by_start = self._unmade
         self._unmade = None
         sms = self._sms
-        for y in gone:
-            sms[y] = None
+        made: list[_Sm | None] = [None] * len(sms)
         for y, start, length, control, locked in decoded:
-            sm = sms[y] = _Sm(y, start, length, control)
+            sm = sms[y] if fresh is not None and y not in fresh else None
+            if sm is None:  # starts anew, or reset by the PDI just before (pdi_deactivate_sms)
+                if fresh is not None and y not in fresh:
+                    self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+                sm = _Sm(y, start, length, control)
             sm.locked = locked != 0
-        self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
-
-    def _apply_change(self, change: SmChange) -> None:
-        _, gone, fresh, kept, by_start = change
-        sms = self._sms
-        for y in gone:  # disabled or too short: no buffer
-            sms[y] = None
-        for y, start, length, control, locked in fresh:
-            sm = sms[y] = _Sm(y, start, length, control)
-            sm.locked = locked
-        for y, start, length, control, locked in kept:
-            held = sms[y]
-            if held is None:  # reset by the PDI just before (pdi_deactivate_sms)
-                held = sms[y] = _Sm(y, start, length, control)
-                self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
-            held.locked = locked
+            made[y] = sm
+        sms[:] = made
         self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
 
     def sm_registers_written(self) -> None:

@@ -211,17 +211,19 @@ def _syncmanagers(
     block = np.concatenate((memory[rows[at], REG_SM : REG_SM + width], enabled[at]), axis=1)
     differs = np.ones(len(at), np.bool_)
     differs[1:] = (block[1:] != block[:-1]).any(axis=1)
+    held = [devices[i].sm_areas for i in at]
+    starts = [  # where a run of ESCs with equal bytes and the same table before starts
+        k
+        for k, (new, mine, last) in enumerate(
+            zip(differs.tolist(), held, [None, *held[:-1]], strict=True)
+        )
+        if new or mine is not last
+    ]
     stride = width + count
     data = block.tobytes()
     groups: dict[tuple[int, bytes], list[int]] = {}
-    group: list[int] = []
-    last = -1  # id of the table before of the ESC before
-    for k, (i, new) in enumerate(zip(at, differs.tolist(), strict=True)):
-        held = id(devices[i].sm_areas)
-        if new or held != last:
-            group = groups.setdefault((held, data[k * stride : (k + 1) * stride]), [])
-            last = held
-        group.append(i)
+    for k, end in zip(starts, [*starts[1:], len(at)], strict=True):
+        groups.setdefault((id(held[k]), data[k * stride : (k + 1) * stride]), []).extend(at[k:end])
     for (_, key), members in groups.items():
         table, before = key[:width], key[width:]
         areas = devices[members[0]].sm_areas  # the same object at each of them
@@ -314,14 +316,13 @@ def _special(
         )
         return
     assert enabled is not None
-    new = np.array(np.broadcast_to(data, (len(rows), hi - lo)))
-    for y in range(enabled.shape[1]):
-        a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
-        if a < b:
-            on = (enabled[:, y] & 0x01).astype(np.bool_)
-            if on.any():  # configuration bytes 0-4 of an enabled SyncManager keep their value
-                new[on, a - lo : b - lo] = memory[rows[on], a:b]
-    _masked(memory, rows, lo, hi, new, masks[lo:hi])
+    # configuration bytes 0-4 of a SyncManager enabled before the frame keep their value
+    at = np.arange(lo - REG_SM, hi - REG_SM)
+    keep = (enabled[:, at // SM_BYTES] & 0x01).astype(np.bool_) & (at % SM_BYTES < 5)
+    old = memory[rows, lo:hi]
+    new = np.where(keep, old, data)
+    mask = masks[lo:hi]
+    memory[rows, lo:hi] = (old & ~mask) | (new & mask)  # _masked, the bytes before at hand
     flags[4] = True
 
 

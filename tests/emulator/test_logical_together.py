@@ -914,6 +914,36 @@ def test_syncmanagers_that_all_start_anew_are_new_when_first_used(kind: type[Eca
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_syncmanager_kept_through_changes_keeps_its_mail_and_one_enabled_again_is_empty(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: FMMU 2 maps logical 0x9000 + 16 onto the write mailbox (0x7100, of
+    :data:`MAILBOXES`), and an LWR fills it at all 12 ESCs (working counter 12). Three frames
+    then change the SyncManager table while no frame touches the mailboxes: the write mailbox
+    is disabled (0x081E = 0), enabled again (it starts anew, empty: datasheet I 8.1, II 2.14.1)
+    and SyncManager 4 is enabled (0x0826 = 1; the write mailbox is kept: same area, enabled
+    before the frame). The read mailbox (0x7000) is kept by all three. The same LWR then fills
+    the empty write mailbox again (12), its status 0x39 (no buffer written 0x30, write
+    interrupt, full; II 2.14.5); had an ESC taken its old, full one back, the LWR would find it
+    full and write nothing there. The PDI of ESC 0 put a message in the read mailbox before the
+    changes; an LRD through FMMU 3 (0xA000 + 16) still reads it there (working counter 1)."""
+    chain = with_mailboxes(line(kind))
+    chain.process_frame(bwr(0x0620, write_fmmu(0x9000, 0x7100, 16) + read_fmmu(0xA000, 0x7000, 16)))
+    message = bytes(range(0x40, 0x50))
+    assert logical(chain, Command.LWR, 0x9000, bytes(16)).wkc == NODES
+    chain.devices[0].pdi_write(0x7000, message)
+    for ado, data in ((0x081E, b"\x00"), (0x081E, b"\x01")):
+        chain.process_frame(bwr(ado, data))
+    chain.process_frame(bwr(0x0820, struct.pack("<HHBBBB", 0x7800, 8, 0x00, 0, 0x01, 0)))
+    assert logical(chain, Command.LWR, 0x9000, message).wkc == NODES
+    status = 0x0805 + SM_BYTES * 3
+    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x39] * NODES
+    assert chain.devices[1].pdi_read(0x7100, 16) == message
+    read = lrd(chain, 0xA000, 16)
+    assert (read.data, read.wkc) == (message, 1)
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_an_esc_whose_process_ram_is_closed_does_not_share_its_neighbours_access(
     kind: type[EcatChain],
 ) -> None:
