@@ -178,17 +178,19 @@ class _Sm:
         "start",
     )
 
-    def __init__(self, index: int, start: int, length: int, control: int) -> None:
+    def __init__(
+        self, index: int, start: int, length: int, control: int, locked: bool = False
+    ) -> None:
         self.index = index
         self.start = start
         self.length = length
         self.end = start + length
-        self.mailbox = control & 0x03 == 0x02
-        self.ecat_writes = (control >> 2) & 0x03 == 0x01
-        self.locked = False  # deactivated by the PDI: the whole area is protected
-        self.open = False  # ECAT side opened the buffer (accessed the start address)
-        self.complete = False  # ECAT side accessed the end address in this frame
-        self.full = False  # mailbox mode
+        self.mailbox = control & 0x03 == 0x02  # control bits 0-1: mode
+        self.ecat_writes = control & 0x0C == 0x04  # bits 2-3: direction
+        self.locked = locked  # deactivated by the PDI: the whole area is protected
+        # ECAT side opened the buffer (accessed the start address); accessed the end address
+        # in this frame; the mailbox is full (mailbox mode)
+        self.open = self.complete = self.full = False
         self.latest: bytes | None = None  # read SM: last buffer the PDI wrote completely
         self.buf: bytes | bytearray | None = None  # ECAT's buffer while open
 
@@ -1381,8 +1383,9 @@ class EscDevice:
             if sm is None:  # starts anew, or reset by the PDI just before (pdi_deactivate_sms)
                 if fresh is not None and y not in fresh:
                     self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
-                sm = _Sm(y, start, length, control)
-            sm.locked = locked != 0
+                sm = _Sm(y, start, length, control, locked != 0)
+            else:
+                sm.locked = locked != 0
             made[y] = sm
         sms[:] = made
         self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
