@@ -670,9 +670,7 @@ class EscDevice:
             pos = hi
         if pos >= end:
             return out
-        if self._unmade is not None:
-            self._make_sms()
-        for sm in self._active:
+        for sm in self._meeting(pos, end):
             if sm.end <= pos:
                 continue
             if sm.start >= end:
@@ -739,9 +737,7 @@ class EscDevice:
             pos = hi
         if pos >= end:
             return ok
-        if self._unmade is not None:
-            self._make_sms()
-        for sm in self._active:
+        for sm in self._meeting(pos, end):
             if sm.end <= pos:
                 continue
             if sm.start >= end:
@@ -1073,9 +1069,7 @@ class EscDevice:
             log_start, log_end, phys = reads[0][:3]
             lo, hi = max(lad, log_start), min(lad + n, log_end)
             at, end = phys + (lo - log_start), phys + (hi - log_start)
-            if self._unmade is not None:
-                self._make_sms()
-            hit = [sm for sm in self._active if sm.start < end and sm.end > at]
+            hit = [sm for sm in self._meeting(at, end) if sm.start < end and sm.end > at]
             if (
                 at >= REGISTER_END
                 and len(hit) == 1
@@ -1367,6 +1361,18 @@ class EscDevice:
         if unmade is not None and unmade[0] is not None:  # those of the changes before too
             fresh |= unmade[0]
         self._unmade = (fresh, decoded, change[4])
+
+    def _meeting(self, lo: int, hi: int) -> list[_Sm]:
+        """The SyncManagers with a buffer by start (:attr:`_active`) for an access of [lo, hi):
+        made first where they wait for that (:meth:`_make_sms`), unless none of their table
+        meets [lo, hi): then none (a hostile frame's write of RAM beside them leaves them
+        waiting)."""
+        unmade = self._unmade
+        if unmade is not None:
+            if not any(start < hi and start + length > lo for _, start, length, _, _ in unmade[1]):
+                return []
+            self._make_sms()
+        return self._active
 
     def _make_sms(self) -> None:
         """Change the SyncManagers as :attr:`_unmade` says (:meth:`change_syncmanagers`),

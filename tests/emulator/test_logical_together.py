@@ -944,6 +944,25 @@ def test_a_syncmanager_kept_through_changes_keeps_its_mail_and_one_enabled_again
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_write_that_starts_inside_a_syncmanager_waiting_to_be_made_meets_it(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: SyncManager 4 enabled (0x0826 = 1) leaves the mailboxes of
+    :data:`MAILBOXES` kept, and the ESC makes its SyncManagers only once it needs them. An
+    FPWR of 4 bytes at 0x710E to ESC 0 (station address 0x1001) starts inside the write
+    mailbox (0x7100 + 16), not at its start: those 2 bytes are refused (datasheet I 8.2.1, "a
+    buffer has to be accessed beginning with the start address"), and the 2 beyond its end,
+    plain process RAM, are written (working counter 1)."""
+    chain = with_mailboxes(line(kind))
+    chain.process_frame(bwr(0x0820, struct.pack("<HHBBBB", 0x7800, 8, 0x00, 0, 0x01, 0)))
+    datagram = Datagram(Command.FPWR, 0x1001, 0x710E, bytes.fromhex("aabbccdd"))
+    back = chain.process_frame(ethercat.frame(EcatFrame((datagram,))).to_bytes())
+    assert back is not None
+    assert ethercat.decode(back[14:])[0].datagrams[0].wkc == 1
+    assert bytes(chain.memory[0, 0x710C:0x7114]).hex() == "00000000ccdd0000"
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_an_esc_whose_process_ram_is_closed_does_not_share_its_neighbours_access(
     kind: type[EcatChain],
 ) -> None:
