@@ -57,6 +57,7 @@ from emulator.errors import TopologyError
 from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, DcClock
 from emulator.esc.mapping import (
+    AS_NEW_CACHE,
     PLAN_CACHE_ENTRIES,
     Access,
     FmmuTable,
@@ -166,6 +167,7 @@ class _Sm:
     __slots__ = (
         "buf",
         "complete",
+        "control",
         "ecat_writes",
         "end",
         "full",
@@ -175,16 +177,26 @@ class _Sm:
         "locked",
         "mailbox",
         "open",
+        "shared",
         "start",
     )
 
     def __init__(
-        self, index: int, start: int, length: int, control: int, locked: bool = False
+        self,
+        index: int,
+        start: int,
+        length: int,
+        control: int,
+        locked: bool = False,
+        shared: bool = False,
     ) -> None:
         self.index = index
         self.start = start
         self.length = length
         self.end = start + length
+        self.control = control
+        # as new, shared by the ESCs with its table entry until one changes it (EscDevice._own)
+        self.shared = shared
         self.mailbox = control & 0x03 == 0x02  # control bits 0-1: mode
         self.ecat_writes = control & 0x0C == 0x04  # bits 2-3: direction
         self.locked = locked  # deactivated by the PDI: the whole area is protected
@@ -507,6 +519,7 @@ class EscDevice:
             self._make_sms()
         for sm in self._active:
             if sm.start == addr and sm.length == len(data) and not sm.ecat_writes:
+                sm = self._own(sm)  # the ESC's own, in the list's place
                 sm.latest = data if isinstance(data, bytes) else bytes(data)
                 st = REG_SM + SM_BYTES * sm.index + 5
                 if sm.mailbox:
@@ -526,7 +539,8 @@ class EscDevice:
                 st = REG_SM + SM_BYTES * sm.index + 5
                 self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_IRQ_READ
                 if sm.mailbox:
-                    sm.full = False
+                    if sm.full:  # (a shared one is as new, empty: nothing to change)
+                        sm.full = False
                     self.mem[st] &= ~SM_MAILBOX_FULL
         return bytes(self.mem[addr : addr + length])
 
@@ -670,7 +684,9 @@ class EscDevice:
             pos = hi
         if pos >= end:
             return out
-        for sm in self._meeting(pos, end):
+        if self._unmade is not None:
+            self._make_sms()
+        for sm in self._active:
             if sm.end <= pos:
                 continue
             if sm.start >= end:
@@ -706,6 +722,7 @@ class EscDevice:
                 pulse = self.dc.sample_due(self.mem)
                 if pulse is not None:  # a SYNC0 pulse since the last sample (dc.py)
                     self.app.sync0(self, pulse)  # type: ignore[attr-defined]
+            sm = self._own(sm)
             sm.open = True
             sm.buf = (
                 sm.latest
@@ -737,7 +754,9 @@ class EscDevice:
             pos = hi
         if pos >= end:
             return ok
-        for sm in self._meeting(pos, end):
+        if self._unmade is not None:
+            self._make_sms()
+        for sm in self._active:
             if sm.end <= pos:
                 continue
             if sm.start >= end:
@@ -767,6 +786,7 @@ class EscDevice:
         if lo == sm.start:
             if sm.mailbox and sm.full:
                 return 0  # "write w. failure (mailbox full)"
+            sm = self._own(sm)
             sm.open = True
             sm.buf = bytearray(self.mem[sm.start : sm.end])
             self.mem[st] = (self.mem[st] & ~SM_IRQ_READ) | SM_WRITE_OPEN
@@ -1069,14 +1089,16 @@ class EscDevice:
             log_start, log_end, phys = reads[0][:3]
             lo, hi = max(lad, log_start), min(lad + n, log_end)
             at, end = phys + (lo - log_start), phys + (hi - log_start)
-            hit = [sm for sm in self._meeting(at, end) if sm.start < end and sm.end > at]
+            if self._unmade is not None:
+                self._make_sms()
+            hit = [sm for sm in self._active if sm.start < end and sm.end > at]
             if (
                 at >= REGISTER_END
                 and len(hit) == 1
                 and (hit[0].start, hit[0].end) == (at, end)
                 and not (hit[0].mailbox or hit[0].ecat_writes)
             ):
-                plan = (lo - lad, hit[0])
+                plan = (lo - lad, self._own(hit[0]))  # whose state the plan's reads change
         return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
     def _read_buffer(self, sm: _Sm, buf: bytearray, at: int) -> None:
@@ -1362,18 +1384,6 @@ class EscDevice:
             fresh |= unmade[0]
         self._unmade = (fresh, decoded, change[4])
 
-    def _meeting(self, lo: int, hi: int) -> list[_Sm]:
-        """The SyncManagers with a buffer by start (:attr:`_active`) for an access of [lo, hi):
-        made first where they wait for that (:meth:`_make_sms`), unless none of their table
-        meets [lo, hi): then none (a hostile frame's write of RAM beside them leaves them
-        waiting)."""
-        unmade = self._unmade
-        if unmade is not None:
-            if not any(start < hi and start + length > lo for _, start, length, _, _ in unmade[1]):
-                return []
-            self._make_sms()
-        return self._active
-
     def _make_sms(self) -> None:
         """Change the SyncManagers as :attr:`_unmade` says (:meth:`change_syncmanagers`),
         before anything reads or changes them: those of the decoded table that start anew are
@@ -1383,18 +1393,44 @@ class EscDevice:
         fresh, decoded, by_start = self._unmade
         self._unmade = None
         sms = self._sms
-        made: list[_Sm | None] = [None] * len(sms)
-        for y, start, length, control, locked in decoded:
-            sm = sms[y] if fresh is not None and y not in fresh else None
-            if sm is None:  # starts anew, or reset by the PDI just before (pdi_deactivate_sms)
-                if fresh is not None and y not in fresh:
+        made = self._as_new(decoded)
+        if fresh is not None:  # the others keep their state
+            for y, _, _, _, locked in decoded:
+                if y in fresh:
+                    continue
+                held = sms[y]
+                if held is None:  # reset by the PDI just before (pdi_deactivate_sms)
                     self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
-                sm = _Sm(y, start, length, control, locked != 0)
-            else:
-                sm.locked = locked != 0
-            made[y] = sm
+                elif not held.shared:  # (a shared one is as new: the entry's own now)
+                    held.locked = locked != 0
+                    made[y] = held
         sms[:] = made
         self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
+
+    def _as_new(self, decoded: SmTable) -> list[_Sm | None]:
+        """The SyncManagers of the decoded table ``decoded`` as new, by index (None where
+        none), in a list of the ESC's own: objects shared by every ESC that makes them
+        (:data:`emulator.esc.mapping.AS_NEW_CACHE`), each until the ESC changes its state
+        (:meth:`_own`); making them at 160 ESCs had taken up to 600 us in a frame."""
+        key = (decoded, len(self._sms))
+        found: list[_Sm | None] | None = AS_NEW_CACHE.get(key)
+        if found is None:
+            found = [None] * len(self._sms)
+            for y, start, length, control, locked in decoded:
+                found[y] = _Sm(y, start, length, control, locked != 0, shared=True)
+            remember(AS_NEW_CACHE, key, found)
+        return list(found)
+
+    def _own(self, sm: _Sm) -> _Sm:
+        """``sm``, or where it is shared (:meth:`_as_new`) a copy of the ESC's own in its
+        place: what every change of a SyncManager's state goes through."""
+        if not sm.shared:
+            return sm
+        mine = _Sm(sm.index, sm.start, sm.length, sm.control, sm.locked)
+        self._sms[sm.index] = mine
+        active = self._active
+        active[active.index(sm)] = mine
+        return mine
 
     def sm_registers_written(self) -> None:
         """After a frame changed SyncManager registers: the mailbox handler runs at its end

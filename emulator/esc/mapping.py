@@ -11,7 +11,7 @@ from __future__ import annotations
 import itertools
 import struct
 from collections.abc import Callable, Sequence
-from typing import Final, NamedTuple, Protocol, TypeVar
+from typing import Any, Final, NamedTuple, Protocol, TypeVar
 
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.registers import (
@@ -26,6 +26,7 @@ from emulator.esc.registers import (
 
 __all__ = [
     "ACCESS_CACHE",
+    "AS_NEW_CACHE",
     "FMMU_CACHE",
     "FMMU_ENTRY",
     "FMMU_PARTS_CACHE",
@@ -106,6 +107,10 @@ SmChange = tuple[
     tuple[int, ...],
 ]
 SM_CHANGE_CACHE: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
+# per decoded SyncManager table and SyncManager count, its SyncManagers as new, by index (None
+# where none): shared by the ESCs that make them until one changes one
+# (emulator.esc.device.EscDevice; the objects are its own)
+AS_NEW_CACHE: dict[tuple[SmTable, int], list[Any]] = {}
 
 
 def forget() -> None:
@@ -117,6 +122,7 @@ def forget() -> None:
     PARTS_CACHE.clear()
     SM_CACHE.clear()
     SM_CHANGE_CACHE.clear()
+    AS_NEW_CACHE.clear()
 
 
 def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_ENTRIES) -> _V:

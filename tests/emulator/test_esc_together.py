@@ -19,7 +19,7 @@ from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice, _Sm
 from emulator.esc.hostile import hostile_frames, master_reset_frames
-from emulator.esc.mapping import decode_sms
+from emulator.esc.mapping import AS_NEW_CACHE, decode_sms
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_NO_BUFFER
 from emulator.esc.sii import SyncManagerType
 from skinframes import ethercat, taxel
@@ -230,7 +230,8 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     and register bytes that set no SyncManager (a disabled one's configuration, repeat and
     latch bits) change nothing: the ESC keeps its SyncManagers. Under hostile frames, which
     write SyncManager registers at every ESC, the chain leaves the bytes and SyncManager states
-    of a chain whose ESCs rebuild them every time, one by one."""
+    of a chain whose ESCs rebuild them every time, one by one, and the SyncManagers the ESCs
+    share while they are as new (``mapping.AS_NEW_CACHE``) stay as new."""
     fast, reference = EcatChain.configured(NODES, SIZE), OneByOne.configured(NODES, SIZE)
     references = {id(dev) for dev in reference.devices}
     rebuild, change = EscDevice._rebuild_sms, EscDevice.change_syncmanagers
@@ -270,6 +271,40 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     assert calls["changed"] > 1_000  # changes happened
     assert calls["by rows"] > 1_000  # many of them over the rows of several ESCs
     assert calls["written"] - calls["changed"] > 500  # and bytes that set none, often
+    shared = [sm for made in AS_NEW_CACHE.values() for sm in made if sm is not None]
+    assert len(shared) > 100  # ESCs shared SyncManagers as new, and none of them changed
+    assert {(sm.open, sm.complete, sm.full, sm.latest, sm.buf) for sm in shared} == {
+        (False, False, False, None, None)
+    }
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_an_input_buffer_started_anew_is_read_and_exchanged_at_every_esc(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: two BWRs disable the input SyncManager and enable it again, so that it
+    starts anew at every ESC: no buffer (status 0x30), the same as-new SyncManager for all of
+    them until one changes it. An LRD of the image then reads each ESC's whole buffer, which
+    holds what its memory holds there (no buffer written since), and exchanges it at every ESC
+    at the end of the frame: the read interrupt (bit 1) set and the buffer no longer open,
+    0x32 (datasheet I 8.1, II 2.14.5); an ESC that took another's open buffer for its own
+    would not exchange it (0x70, still open)."""
+    chain = kind.configured(NODES, SIZE)
+    y = chain.devices[0].info.sm_of_type(SyncManagerType.INPUTS)
+    assert y is not None
+    status, activate = REG_SM + SM_BYTES * y + 5, REG_SM + SM_BYTES * y + 6
+    start = struct.unpack("<H", chain.devices[0].registers(REG_SM + SM_BYTES * y, 2))[0]
+    for value in (b"\x00", b"\x01"):
+        frame = EcatFrame((Datagram(Command.BWR, 0, activate, value),))
+        chain.process_frame(ethercat.frame(frame).to_bytes())
+    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x30] * NODES
+    chain.memory[:NODES, start : start + SIZE] = ROWS[1]
+    lrd = Datagram.logical(Command.LRD, 0, bytes(NODES * SIZE))
+    back = chain.process_frame(ethercat.frame(EcatFrame((lrd,))).to_bytes())
+    assert back is not None
+    read = ethercat.decode(back[14:])[0].datagrams[0]
+    assert (read.wkc, read.data) == (NODES, ROWS[1].tobytes())
+    assert [dev.registers(status, 1)[0] for dev in chain.devices] == [0x32] * NODES
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
