@@ -89,6 +89,7 @@ __all__ = [
     "DcClock",
     "DcTimebase",
     "compare_together",
+    "configure_together",
     "dc_write_masks",
     "seed_clocks",
 ]
@@ -564,6 +565,54 @@ def compare_together(
     ):  # DcClock._set_rate and the loop's state
         clock._anchor_local, clock._anchor_host, clock._rate = at_local, at_host, new
         clock._integral, clock._diff_ns, clock._last_compare = held_i, mean_i, at_host
+
+
+def configure_together(
+    clocks: Sequence[DcClock],
+    memory: npt.NDArray[np.uint8],
+    rows: npt.NDArray[np.intp],
+    lo: int,
+    hi: int,
+) -> None:
+    """:meth:`DcClock.configured` of every clock, whose ESC's memory is ``memory[rows]``, after
+    writes of [lo, hi) took effect at the end of a frame (a broadcast's, or a logical
+    datagram's through FMMUs): a write of the speed counter start resets each loop and sets
+    its rate anew at the frame's arrival (over arrays, as :func:`compare_together` does), a
+    write of the activation register (de)activates SYNC0 from each one's start time. Where the
+    clocks do not share one timebase, they go one by one."""
+    speed = lo < REG_DC_SPEED_START + 2 and hi > REG_DC_SPEED_START
+    activation = lo <= REG_DC_ACTIVATION < hi
+    if not (speed or activation) or not clocks:
+        return
+    timebase = clocks[0].timebase
+    if any(clock.timebase is not timebase for clock in clocks):
+        for clock, row in zip(clocks, rows.tolist(), strict=True):
+            clock.configured(memoryview(memory[row]), lo, hi)
+        return
+    if speed:  # DcClock._set_rate(arrival, 0.0) with the loop's integral reset
+        memory[rows, REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = 0
+        state = [(c.position, c._anchor_host, c._anchor_local, c._rate) for c in clocks]
+        position, anchor_host, anchor_local, rate = zip(*state, strict=True)
+        host = timebase.frame_ns + timebase.port0_times_ps(np.array(position, np.int64)) / 1000
+        local = _local_at(
+            host,
+            np.array(anchor_host, np.int64),
+            np.array(anchor_local, np.uint64),
+            np.array(rate),
+        )
+        for clock, at_local, at_host in zip(
+            clocks, local.tolist(), np.rint(host).astype(np.int64).tolist(), strict=True
+        ):
+            clock._integral = 0.0
+            clock._anchor_local, clock._anchor_host = at_local, at_host
+            clock._rate = 1.0 + clock.drift_ppm * 1e-6  # (times 1 + a correction of 0)
+    if activation:  # DcClock._activate
+        active = ((memory[rows, REG_DC_ACTIVATION] & 0x03) == 0x03).tolist()
+        starts = _u64(memory, rows, REG_DC_START_TIME).tolist()
+        for clock, on, start in zip(clocks, active, starts, strict=True):
+            clock._sync0_status = clock._sync1_status = 0
+            clock._last_pulse = clock._sampled_pulse = clock._next_sync1 = None
+            clock._next_sync0 = start if on else None
 
 
 def _local_at(

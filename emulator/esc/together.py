@@ -38,7 +38,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.esc.commands import LRD, LWR
-from emulator.esc.dc import REG_DC_RECEIVE, compare_together
+from emulator.esc.dc import REG_DC_RECEIVE, compare_together, configure_together
 from emulator.esc.device import EscDevice, port1_forwarding
 from emulator.esc.mapping import (
     LogicalOp,
@@ -143,8 +143,7 @@ def commit_together(
     if dl:
         _dl_status(devices, memory, rows)
     if dc is not None:
-        for dev in devices:
-            dev.dc.configured(dev.mem, *dc)
+        configure_together([dev.dc for dev in devices], memory, rows, *dc)
     events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
     enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
     irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()

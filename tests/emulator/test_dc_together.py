@@ -15,7 +15,7 @@ import numpy as np
 import pytest
 
 from emulator.esc import dc
-from emulator.esc.dc import DcClock, DcTimebase, compare_together
+from emulator.esc.dc import DcClock, DcTimebase, compare_together, configure_together
 
 CLOCKS = 12
 EXACT = 1 << 53  # integers up to this magnitude are exact as float64
@@ -95,3 +95,46 @@ def test_compare_together_equals_clock_by_clock(seed: int) -> None:
         tau_ns = speed * dc.PHASE_NS_PER_SPEED_COUNT
         advance = rng.choice((0, 1_000_000, tau_ns, rng.randrange(1 << 30), 1 << 40))
         clocks[0].timebase.frame_ns += advance
+
+
+CONFIGURED = (  # [lo, hi) of register writes that took effect: speed start, activation, both
+    (0x0930, 0x0932), (0x0931, 0x0932), (0x092F, 0x0930), (0x0981, 0x0982), (0x0980, 0x0990),
+    (0x0990, 0x09A8), (0x0920, 0x09A8), (0x0930, 0x0982),
+)  # fmt: skip
+
+
+@pytest.mark.parametrize("seed", range(4))
+def test_configure_together_equals_clock_by_clock(seed: int) -> None:
+    """:func:`configure_together` leaves every clock and its registers as
+    :meth:`DcClock.configured` does clock by clock: after writes of the speed counter start, of
+    the activation register (SYNC0 on or off, from random start times) or of both, at random
+    groups of the line, with compares and time passing in between; and clocks on different
+    timebases go one by one."""
+    rng = random.Random(seed)
+    clocks, memory = line(rng)
+    rows = np.arange(CLOCKS, dtype=np.intp)
+    for step in range(200):
+        for p, clock in enumerate(clocks):  # SYNC0 as a master may have left it
+            memory[p, dc.REG_DC_ACTIVATION] = rng.choice((0, 3, 7, rng.randrange(256)))
+            memory[p, dc.REG_DC_START_TIME : dc.REG_DC_START_TIME + 8] = list(rng.randbytes(8))
+            clock._last_pulse, clock._sampled_pulse = rng.randrange(1 << 40), rng.randrange(1 << 40)
+            clock._sync0_status = clock._sync1_status = 1
+        ones, mem_ones = copy.deepcopy((clocks, memory))
+        lo, hi = rng.choice(CONFIGURED)
+        together = rng.sample(range(CLOCKS), rng.randint(1, CLOCKS))
+        for p in together:
+            ones[p].configured(memoryview(mem_ones[p]), lo, hi)
+        configure_together([clocks[p] for p in together], memory, rows[together], lo, hi)
+        assert state(clocks, memory) == state(ones, mem_ones), (seed, step, hex(lo), hex(hi))
+        compare_together(clocks, memory, rows, 0x0910, written(rng, clocks, memory))
+        clocks[0].timebase.frame_ns += rng.choice((0, 1_000_000, rng.randrange(1 << 30)))
+    apart = [DcClock(timebase=DcTimebase(frame_ns=5_000 * p), position=p) for p in range(3)]
+    ones = copy.deepcopy(apart)
+    for clock, mine in zip(apart, ones, strict=True):
+        clock.retune(10.0, 1 << 30)
+        mine.retune(10.0, 1 << 30)
+    mem_ones = memory[:3].copy()
+    for p, mine in enumerate(ones):
+        mine.configured(memoryview(mem_ones[p]), 0x0930, 0x0982)
+    configure_together(apart, memory, rows[:3], 0x0930, 0x0982)
+    assert state(apart, memory[:3]) == state(ones, mem_ones)
