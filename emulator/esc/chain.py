@@ -568,6 +568,10 @@ class EcatChain:
                         self._read_write(line, to, buf, at, frame, ado)
                         events = cleared_events(ado, end)  # once each ESC read them
                         return 3 * reach, bool(events) and self._clear_events(line, events)
+                    if to >= REGISTER_END and n:
+                        done = self._registers_into_memory(line, ado, to, buf, at, frame)
+                        if done is not None:
+                            return done
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
         if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
@@ -581,6 +585,55 @@ class EcatChain:
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
+
+    def _registers_into_memory(
+        self,
+        line: list[EscDevice],
+        ado: int,
+        to: int,
+        buf: bytearray,
+        at: int,
+        frame: npt.NDArray[np.uint8],
+    ) -> tuple[int, bool] | None:
+        """A BRW of registers whose read/write offset (0x0108, one at every ESC) puts its write
+        in user or process RAM: (the working counter's increment, whether an ESC's event
+        request changed), or None, having done nothing, where the write meets a SyncManager
+        area ECAT writes at some ESC (its buffer's rules: the ESC's). Each ESC reads its
+        registers (DC registers at the frame's time, events cleared once all read them) and
+        ORs them into the data; it writes the data as it arrived there at ``to`` (read before
+        write, datasheet I Table 7), over the rows of the ESCs with one SyncManager table,
+        nothing where an area does nothing with it (:func:`_inert_areas`), nor in process RAM
+        before the EEPROM loaded (I 11.2.1): 1 per ESC for the read, 2 per ESC that wrote a
+        byte."""
+        n, reach = len(frame), len(line)
+        end, to_end = ado + n, min(to + n, ADDRESS_SPACE)
+        holes: dict[int, tuple[tuple[int, int], ...] | None] = {}  # per SyncManager table
+        groups: dict[tuple[int, bool], list[int]] = {}
+        for p, dev in enumerate(line):
+            areas = dev.sm_areas
+            key = id(areas)
+            if key not in holes:
+                holes[key] = _inert_areas(areas, to, to_end, True)
+            if holes[key] is None:
+                return None
+            groups.setdefault((key, dev.pdi_operational), []).append(p)
+        if reads_dc(ado, end):
+            self._refresh_dc(line, ado, end)
+        memory = self.memory
+        ored = _or_accumulate(memory[:reach, ado:end])
+        ored |= frame  # ored[p]: the data as ESC p leaves it
+        arrived = np.concatenate((frame[None, :], ored[:-1]))
+        wkc = reach
+        for (key, operational), rows in groups.items():
+            top = ADDRESS_SPACE if operational else PROCESS_RAM
+            written = outside(to, min(to_end, top), holes[key] or ())
+            if written:
+                wkc += 2 * len(rows)
+            for x, y in written:
+                memory[rows, x:y] = arrived[rows, x - to : y - to]
+        buf[at : at + n] = ored[-1].tobytes()
+        events = cleared_events(ado, end)  # once each ESC read them
+        return wkc, bool(events) and self._clear_events(line, events)
 
     @staticmethod
     def _refresh_dc(line: list[EscDevice], lo: int, hi: int) -> None:

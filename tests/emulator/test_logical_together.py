@@ -963,6 +963,28 @@ def test_a_write_that_starts_inside_a_syncmanager_waiting_to_be_made_meets_it(
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_read_write_of_al_status_writes_it_into_process_ram_where_it_is_open(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: the read/write offset (0x0108) is 0x2ED0 at every ESC, so a BRW of AL status
+    (0x0130, 2 bytes, data 0x0040) reads it and writes 0x3000, process RAM (datasheet I Table
+    7: read before write, the write takes the data as it arrived). ESC 0 writes 0x0040 and
+    leaves 0x0048 (its state OP, 8); ESCs 1-4 write 0x0048; ESC 5, whose EEPROM did not load,
+    reads INIT (1) but has no process RAM to write (I 11.2.1); ESCs 6-11 write 0x0049, which
+    the frame brings back. Working counter: 12 reads + 2 x 11 writes = 34."""
+    chain = line(kind)
+    chain.process_frame(bwr(0x0108, struct.pack("<H", 0x3000 - 0x0130)))
+    datagram = Datagram(Command.BRW, 0, 0x0130, b"\x40\x00")
+    back = chain.process_frame(ethercat.frame(EcatFrame((datagram,))).to_bytes())
+    assert back is not None
+    got = ethercat.decode(back[14:])[0].datagrams[0]
+    assert (got.data, got.wkc) == (b"\x49\x00", 34)
+    assert [bytes(chain.memory[p, 0x3000:0x3002]) for p in range(NODES)] == [b"\x40\x00"] + [
+        b"\x48\x00"
+    ] * 4 + [bytes(2)] + [b"\x49\x00"] * 6
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_an_esc_whose_process_ram_is_closed_does_not_share_its_neighbours_access(
     kind: type[EcatChain],
 ) -> None:
