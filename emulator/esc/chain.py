@@ -574,6 +574,10 @@ class EcatChain:
                             return done
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
+        elif ado >= REGISTER_END and n:  # ARMW, FRMW of user or process RAM
+            done = self._read_multiple_write_memory(line, cmd, adp, ado, buf, at, n)
+            if done is not None:
+                return done
         if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
             return self._memory_broadcast(line, cmd, adp, ado, buf, at, n)
         if cmd == BRW and ado >= REGISTER_END and n:
@@ -634,6 +638,49 @@ class EcatChain:
         buf[at : at + n] = ored[-1].tobytes()
         events = cleared_events(ado, end)  # once each ESC read them
         return wkc, bool(events) and self._clear_events(line, events)
+
+    def _read_multiple_write_memory(
+        self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
+    ) -> tuple[int, bool] | None:
+        """An ARMW or FRMW of user or process RAM: (the working counter's increment, whether an
+        ESC's event request changed), or None, having done nothing, where the write meets a
+        SyncManager area ECAT writes at some ESC (its buffer's rules: the ESC's). The addressed
+        ESCs read, each in turn (:meth:`EscDevice.process`); the others write the data as it
+        arrives (datasheet I Table 7) over the rows of the ESCs between them with one
+        SyncManager table, nothing where an area does nothing with it (:func:`_inert_areas`),
+        nor in process RAM before the EEPROM loaded (I 11.2.1), each that wrote a byte
+        counting 1."""
+        reach, end = len(line), min(ado + n, ADDRESS_SPACE)
+        holes: dict[int, tuple[tuple[int, int], ...] | None] = {}  # per SyncManager table
+        keys: list[tuple[int, bool]] = []
+        for dev in line:
+            areas = dev.sm_areas
+            key = id(areas)
+            if key not in holes:
+                holes[key] = _inert_areas(areas, ado, end, True)
+            if holes[key] is None:
+                return None
+            keys.append((key, dev.pdi_operational))
+        readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(self._addresses(reach), adp)
+        memory, total, changed, first = self.memory, 0, False, 0
+        for p in [*(q for q in readers if q < reach), reach]:
+            data = np.frombuffer(buf, np.uint8, end - ado, at)  # as it arrives at first..p
+            groups: dict[tuple[int, bool], list[int]] = {}
+            for q in range(first, p):
+                groups.setdefault(keys[q], []).append(q)
+            for (key, operational), rows in groups.items():
+                top = ADDRESS_SPACE if operational else PROCESS_RAM
+                written = outside(ado, min(end, top), holes[key] or ())
+                total += len(rows) if written else 0
+                for x, y in written:
+                    memory[rows, x:y] = data[x - ado : y - ado]
+            if p < reach:  # the addressed ESC reads
+                dev = line[p]
+                before = dev.irq
+                total += dev.process(cmd, 0 if cmd == ARMW else adp, ado, buf, at, n)[1]
+                changed = changed or dev.irq != before
+                first = p + 1
+        return total, changed
 
     @staticmethod
     def _refresh_dc(line: list[EscDevice], lo: int, hi: int) -> None:

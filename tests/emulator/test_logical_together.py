@@ -985,6 +985,27 @@ def test_a_read_write_of_al_status_writes_it_into_process_ram_where_it_is_open(
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_read_multiple_write_of_process_ram_writes_what_the_addressed_esc_read(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: ESC 3's PDI put 0x3412 at 0x3000 (process RAM). An FRMW of 2 bytes there,
+    data 0xBBAA, addressed to ESC 3 (station address 0x1004): ESCs 0-2 write 0xBBAA, ESC 3
+    reads 0x3412 into the frame, the ESCs after it write 0x3412 (datasheet I Table 7) but ESC
+    5, whose EEPROM did not load (no process RAM, I 11.2.1); the frame brings 0x3412 back.
+    Working counter: 10 writes and the read, 11."""
+    chain = line(kind)
+    chain.devices[3].pdi_write(0x3000, b"\x12\x34")
+    datagram = Datagram(Command.FRMW, 0x1004, 0x3000, b"\xaa\xbb")
+    back = chain.process_frame(ethercat.frame(EcatFrame((datagram,))).to_bytes())
+    assert back is not None
+    got = ethercat.decode(back[14:])[0].datagrams[0]
+    assert (got.data, got.wkc) == (b"\x12\x34", 11)
+    assert [bytes(chain.memory[p, 0x3000:0x3002]) for p in range(NODES)] == [b"\xaa\xbb"] * 3 + [
+        b"\x12\x34"
+    ] * 2 + [bytes(2)] + [b"\x12\x34"] * 6
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_an_esc_whose_process_ram_is_closed_does_not_share_its_neighbours_access(
     kind: type[EcatChain],
 ) -> None:
