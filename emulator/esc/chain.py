@@ -538,8 +538,11 @@ class EcatChain:
         and the ESCs an ARMW/FRMW addresses read in turn. A BWR or BRD of user or process RAM
         is done over the rows of the ESCs whose SyncManager areas it misses
         (:meth:`_memory_broadcast`), a BRW of them at runs of such ESCs
-        (:meth:`_memory_read_write`). Elsewhere (SyncManager areas, the rest of memory, the
-        reset register) each ESC in turn.
+        (:meth:`_memory_read_write`); a BRW of registers whose write the read/write offset puts
+        in that RAM (:meth:`_registers_into_memory`), and an ARMW or FRMW of it
+        (:meth:`_read_multiple_write_memory`), over the rows unless the write meets a buffer
+        ECAT writes. Elsewhere (SyncManager areas, the rest of memory, the reset register)
+        each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
         if cmd == BWR:
