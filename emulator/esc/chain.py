@@ -123,6 +123,8 @@ def _plain_write(lo: int, hi: int) -> bool:
 
 
 _Holes = tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int], ...]]  # a BRW's read, write
+# ESCs that access RAM alike: their positions per (id of the SyncManager table, PDI operational)
+_Groups = dict[tuple[int, bool], list[int]]
 
 
 def _inert_areas(
@@ -141,6 +143,28 @@ def _inert_areas(
                 return None
             holes.append((x, y))
     return tuple(holes)
+
+
+def _by_table(
+    line: list[EscDevice], lo: int, hi: int, write: bool
+) -> tuple[_Groups, dict[int, tuple[tuple[int, int], ...] | None], list[int]]:
+    """The ESCs of ``line`` for an access of user or process RAM [lo, hi) (a write when
+    ``write``): the positions of those whose SyncManager areas do nothing with it where they
+    meet it, grouped by table and PDI state; per table, the holes (:func:`_inert_areas`); and
+    the positions of the others (an area there whose buffer's rules are the ESC's)."""
+    holes: dict[int, tuple[tuple[int, int], ...] | None] = {}
+    groups: _Groups = {}
+    alone: list[int] = []
+    for p, dev in enumerate(line):
+        areas = dev.sm_areas
+        key = id(areas)
+        if key not in holes:
+            holes[key] = _inert_areas(areas, lo, hi, write)
+        if holes[key] is None:
+            alone.append(p)
+        else:
+            groups.setdefault((key, dev.pdi_operational), []).append(p)
+    return groups, holes, alone
 
 
 def _or_accumulate(rows: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
@@ -614,30 +638,15 @@ class EcatChain:
         byte."""
         n, reach = len(frame), len(line)
         end, to_end = ado + n, min(to + n, ADDRESS_SPACE)
-        holes: dict[int, tuple[tuple[int, int], ...] | None] = {}  # per SyncManager table
-        groups: dict[tuple[int, bool], list[int]] = {}
-        for p, dev in enumerate(line):
-            areas = dev.sm_areas
-            key = id(areas)
-            if key not in holes:
-                holes[key] = _inert_areas(areas, to, to_end, True)
-            if holes[key] is None:
-                return None
-            groups.setdefault((key, dev.pdi_operational), []).append(p)
+        groups, holes, alone = _by_table(line, to, to_end, True)
+        if alone:
+            return None
         if reads_dc(ado, end):
             self._refresh_dc(line, ado, end)
-        memory = self.memory
-        ored = _or_accumulate(memory[:reach, ado:end])
+        ored = _or_accumulate(self.memory[:reach, ado:end])
         ored |= frame  # ored[p]: the data as ESC p leaves it
         arrived = np.concatenate((frame[None, :], ored[:-1]))
-        wkc = reach
-        for (key, operational), rows in groups.items():
-            top = ADDRESS_SPACE if operational else PROCESS_RAM
-            written = outside(to, min(to_end, top), holes[key] or ())
-            if written:
-                wkc += 2 * len(rows)
-            for x, y in written:
-                memory[rows, x:y] = arrived[rows, x - to : y - to]
+        wkc = reach + 2 * self._write_rows(groups, holes, to, to_end, arrived)
         buf[at : at + n] = ored[-1].tobytes()
         events = cleared_events(ado, end)  # once each ESC read them
         return wkc, bool(events) and self._clear_events(line, events)
@@ -654,29 +663,17 @@ class EcatChain:
         nor in process RAM before the EEPROM loaded (I 11.2.1), each that wrote a byte
         counting 1."""
         reach, end = len(line), min(ado + n, ADDRESS_SPACE)
-        holes: dict[int, tuple[tuple[int, int], ...] | None] = {}  # per SyncManager table
-        keys: list[tuple[int, bool]] = []
-        for dev in line:
-            areas = dev.sm_areas
-            key = id(areas)
-            if key not in holes:
-                holes[key] = _inert_areas(areas, ado, end, True)
-            if holes[key] is None:
-                return None
-            keys.append((key, dev.pdi_operational))
+        groups, holes, alone = _by_table(line, ado, end, True)
+        if alone:
+            return None
         readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(self._addresses(reach), adp)
-        memory, total, changed, first = self.memory, 0, False, 0
+        total, changed, first = 0, False, 0
         for p in [*(q for q in readers if q < reach), reach]:
-            data = np.frombuffer(buf, np.uint8, end - ado, at)  # as it arrives at first..p
-            groups: dict[tuple[int, bool], list[int]] = {}
-            for q in range(first, p):
-                groups.setdefault(keys[q], []).append(q)
-            for (key, operational), rows in groups.items():
-                top = ADDRESS_SPACE if operational else PROCESS_RAM
-                written = outside(ado, min(end, top), holes[key] or ())
-                total += len(rows) if written else 0
-                for x, y in written:
-                    memory[rows, x:y] = data[x - ado : y - ado]
+            between = {  # the writers before the next reader
+                key: [q for q in rows if first <= q < p] for key, rows in groups.items()
+            }
+            data = np.frombuffer(buf, np.uint8, end - ado, at)  # as it arrives there
+            total += self._write_rows(between, holes, ado, end, data)
             if p < reach:  # the addressed ESC reads
                 dev = line[p]
                 before = dev.irq
@@ -684,6 +681,31 @@ class EcatChain:
                 changed = changed or dev.irq != before
                 first = p + 1
         return total, changed
+
+    def _write_rows(
+        self,
+        groups: _Groups,
+        holes: dict[int, tuple[tuple[int, int], ...] | None],
+        lo: int,
+        hi: int,
+        data: npt.NDArray[np.uint8],
+    ) -> int:
+        """Bytes [lo, hi) of ``data`` (one row, or a row per position of the line) written at
+        the rows of ``groups`` (:func:`_by_table`) but in their SyncManager tables' ``holes``
+        and, before the EEPROM loaded, in process RAM (datasheet I 11.2.1): how many ESCs
+        wrote a byte."""
+        wrote = 0
+        for (key, operational), rows in groups.items():
+            runs = outside(
+                lo, min(hi, ADDRESS_SPACE if operational else PROCESS_RAM), holes[key] or ()
+            )
+            if runs and rows:
+                wrote += len(rows)
+            for x, y in runs:
+                self.memory[rows, x:y] = (
+                    data[x - lo : y - lo] if data.ndim == 1 else data[rows, x - lo : y - lo]
+                )
+        return wrote
 
     @staticmethod
     def _refresh_dc(line: list[EscDevice], lo: int, hi: int) -> None:
@@ -707,30 +729,18 @@ class EcatChain:
         alone, and ORs commute."""
         end = min(ado + n, ADDRESS_SPACE)
         write = cmd == BWR
-        holes: dict[int, tuple[tuple[int, int], ...] | None] = {}  # per SyncManager table
-        groups: dict[tuple[int, bool], list[int]] = {}
-        alone: list[int] = []
-        for p, dev in enumerate(line):
-            areas = dev.sm_areas
-            key = id(areas)
-            if key not in holes:
-                holes[key] = _inert_areas(areas, ado, end, write)
-            if holes[key] is None:
-                alone.append(p)
-            else:
-                groups.setdefault((key, dev.pdi_operational), []).append(p)
+        groups, holes, alone = _by_table(line, ado, end, write)
         total, changed = 0, False
         memory, data = self.memory, np.frombuffer(buf, np.uint8, n, at)
-        for (key, operational), rows in groups.items():
-            hi = min(end, ADDRESS_SPACE if operational else PROCESS_RAM)
-            runs = outside(ado, hi, holes[key] or ())
-            if not runs:
-                continue
-            total += len(rows)
-            for x, y in runs:
-                if write:
-                    memory[rows, x:y] = data[x - ado : y - ado]
-                else:
+        if write:
+            total = self._write_rows(groups, holes, ado, end, data)
+        else:  # each read ORs into the frame
+            for (key, operational), rows in groups.items():
+                hi = min(end, ADDRESS_SPACE if operational else PROCESS_RAM)
+                runs = outside(ado, hi, holes[key] or ())
+                if runs:
+                    total += len(rows)
+                for x, y in runs:
                     ored = np.bitwise_or.reduce(memory[rows, x:y], axis=0)
                     buf[at + x - ado : at + y - ado] = (ored | data[x - ado : y - ado]).tobytes()
         for p in alone:

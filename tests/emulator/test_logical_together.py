@@ -284,14 +284,17 @@ def test_logical_writes_of_res_reset_every_esc() -> None:
     assert {dev.station for dev in chain.devices} == {0}  # reset values
 
 
-def logical(chain: EcatChain, cmd: Command, lad: int, data: bytes) -> Datagram:
-    """One logical datagram through ``chain``, as it comes back."""
-    back = chain.process_frame(
-        ethercat.frame(EcatFrame((Datagram.logical(cmd, lad, data),))).to_bytes()
-    )
+def sent(chain: EcatChain, datagram: Datagram) -> Datagram:
+    """``datagram`` alone in a frame through ``chain``, as it comes back."""
+    back = chain.process_frame(ethercat.frame(EcatFrame((datagram,))).to_bytes())
     assert back is not None
     (d,) = ethercat.decode(back[14:])[0].datagrams
     return d
+
+
+def logical(chain: EcatChain, cmd: Command, lad: int, data: bytes) -> Datagram:
+    """One logical datagram through ``chain``, as it comes back."""
+    return sent(chain, Datagram.logical(cmd, lad, data))
 
 
 def lrd(chain: EcatChain, lad: int, n: int) -> Datagram:
@@ -955,10 +958,7 @@ def test_a_write_that_starts_inside_a_syncmanager_waiting_to_be_made_meets_it(
     plain process RAM, are written (working counter 1)."""
     chain = with_mailboxes(line(kind))
     chain.process_frame(bwr(0x0820, struct.pack("<HHBBBB", 0x7800, 8, 0x00, 0, 0x01, 0)))
-    datagram = Datagram(Command.FPWR, 0x1001, 0x710E, bytes.fromhex("aabbccdd"))
-    back = chain.process_frame(ethercat.frame(EcatFrame((datagram,))).to_bytes())
-    assert back is not None
-    assert ethercat.decode(back[14:])[0].datagrams[0].wkc == 1
+    assert sent(chain, Datagram(Command.FPWR, 0x1001, 0x710E, bytes.fromhex("aabbccdd"))).wkc == 1
     assert bytes(chain.memory[0, 0x710C:0x7114]).hex() == "00000000ccdd0000"
 
 
@@ -974,10 +974,7 @@ def test_a_read_write_of_al_status_writes_it_into_process_ram_where_it_is_open(
     the frame brings back. Working counter: 12 reads + 2 x 11 writes = 34."""
     chain = line(kind)
     chain.process_frame(bwr(0x0108, struct.pack("<H", 0x3000 - 0x0130)))
-    datagram = Datagram(Command.BRW, 0, 0x0130, b"\x40\x00")
-    back = chain.process_frame(ethercat.frame(EcatFrame((datagram,))).to_bytes())
-    assert back is not None
-    got = ethercat.decode(back[14:])[0].datagrams[0]
+    got = sent(chain, Datagram(Command.BRW, 0, 0x0130, b"\x40\x00"))
     assert (got.data, got.wkc) == (b"\x49\x00", 34)
     assert [bytes(chain.memory[p, 0x3000:0x3002]) for p in range(NODES)] == [b"\x40\x00"] + [
         b"\x48\x00"
@@ -995,10 +992,7 @@ def test_a_read_multiple_write_of_process_ram_writes_what_the_addressed_esc_read
     Working counter: 10 writes and the read, 11."""
     chain = line(kind)
     chain.devices[3].pdi_write(0x3000, b"\x12\x34")
-    datagram = Datagram(Command.FRMW, 0x1004, 0x3000, b"\xaa\xbb")
-    back = chain.process_frame(ethercat.frame(EcatFrame((datagram,))).to_bytes())
-    assert back is not None
-    got = ethercat.decode(back[14:])[0].datagrams[0]
+    got = sent(chain, Datagram(Command.FRMW, 0x1004, 0x3000, b"\xaa\xbb"))
     assert (got.data, got.wkc) == (b"\x12\x34", 11)
     assert [bytes(chain.memory[p, 0x3000:0x3002]) for p in range(NODES)] == [b"\xaa\xbb"] * 3 + [
         b"\x12\x34"
