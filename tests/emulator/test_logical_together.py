@@ -197,6 +197,30 @@ def test_rows_shift_as_integers_do(shift: int) -> None:
             assert out.tobytes() == (value & ((1 << 8 * width) - 1)).to_bytes(width, "little")
 
 
+@pytest.mark.parametrize(
+    "mask",
+    [0xFF_FF_FF_FF, 0xF8_FF_FF_1F, 0x00_FF_FF_00, 0x01_FF_FF_80, 0xFF_F7_FF_FF, 0x00_00_00_00],
+)
+@pytest.mark.parametrize("rows", [1, 3])
+def test_masked_bytes_take_the_data_under_the_mask_alone(mask: int, rows: int) -> None:
+    """Bytes 2..5 of each of 4 memory rows (rows 1..3, or row 2 alone) from ``data`` where the
+    4-byte little-endian ``mask`` has bits, the others kept: as integers would do it, whether
+    the mask is whole bytes between partial ends or not, and from one row of data or one per
+    row."""
+    rng = np.random.default_rng(mask % 1000 + rows)
+    memory = rng.integers(0, 256, (4, 8), np.uint8)
+    data = rng.integers(0, 256, (rows, 4), np.uint8)
+    at = slice(1, 4) if rows == 3 else slice(2, 3)
+    expected = memory.copy()
+    for i, row in enumerate(range(4)[at]):
+        old = int.from_bytes(expected[row, 2:6].tobytes(), "little")
+        new = int.from_bytes(data[i % rows].tobytes(), "little")
+        value = (old & ~mask) | (new & mask)
+        expected[row, 2:6] = np.frombuffer(value.to_bytes(4, "little"), np.uint8)
+    together._masked(memory, at, 2, 6, data, together._mask(mask, 4))
+    assert memory.tobytes() == expected.tobytes()
+
+
 # SyncManager areas (index, start, length, control, PDI-locked) as decode_sms gives them:
 # control 0x00 a buffer ECAT reads, 0x04 one ECAT writes (datasheet II 2.14)
 LOCKED_READ_BUFFER = (0, 0x0F00, 0x90, 0x00, 1)  # [0x0F00, 0x0F90), partly over registers
