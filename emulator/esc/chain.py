@@ -923,7 +923,8 @@ class EcatChain:
         """Every ESC of ``line`` ends the frame (:meth:`EscDevice.end_frame`); those with equal
         register writes (a broadcast's, one configuration) commit them together, and finish the
         frame together (:func:`finish_together`), and so do those whose writes differ only in
-        their bytes (a logical datagram's through FMMUs onto registers); of those without
+        their bytes (a logical datagram's through FMMUs onto registers, a BRW's, or broadcasts
+        that met different bytes: groups of equal writes commit as one); of those without
         writes only the ones with something to finish are asked (:meth:`EscDevice.unfinished`).
         ESCs commit independently of each other, so the groups may go in any order, and so may
         the reactions they queue for the slaves' firmware, each to its own ESC."""
@@ -944,21 +945,20 @@ class EcatChain:
                 group.append(p)
         for dev in EscDevice.unfinished(idle):
             dev.end_frame()
-        apart: dict[tuple[object, ...], list[int]] = {}  # the rest, by addresses and lengths
-        for positions in groups.values():
-            if len(positions) < TOGETHER_MIN:
-                for p in positions:
-                    dev = line[p]
-                    shape = (id(dev.write_plans), *((a, len(d)) for a, d in dev.pending))
-                    apart.setdefault(shape, []).append(p)
+        shapes: dict[tuple[object, ...], list[list[int]]] = {}  # groups by addresses, lengths
+        for key, positions in groups.items():
+            shape = (key[0], *((a, len(d)) for a, d in key[1:]))
+            shapes.setdefault(shape, []).append(positions)
+        for members in shapes.values():
+            if len(members) == 1 and len(members[0]) >= TOGETHER_MIN:
+                self._commit(line, members[0], alike=True)
                 continue
-            self._commit(line, positions, alike=True)
-        for positions in apart.values():
+            positions = sorted(p for positions in members for p in positions)
             if len(positions) < TOGETHER_MIN:
                 for p in positions:
                     line[p].end_frame()
-            else:
-                self._commit(line, sorted(positions), alike=False)
+            else:  # one commit, not one a group: each costs a pass over rows and a DC compare
+                self._commit(line, positions, alike=False)
 
     def _commit(self, line: list[EscDevice], positions: list[int], *, alike: bool) -> None:
         """The ESCs of ``line`` at ``positions`` commit their register writes together and end
