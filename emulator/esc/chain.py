@@ -947,7 +947,7 @@ class EcatChain:
             dev.end_frame()
         shapes: dict[tuple[object, ...], list[list[int]]] = {}  # groups by addresses, lengths
         for key, positions in groups.items():
-            shape = (key[0], *((a, len(d)) for a, d in key[1:]))
+            shape = (key[0], *((a, len(d)) for a, d in line[positions[0]].pending))
             shapes.setdefault(shape, []).append(positions)
         for members in shapes.values():
             if len(members) == 1 and len(members[0]) >= TOGETHER_MIN:

@@ -49,7 +49,7 @@ circulating bit, UDP encapsulation and a second PDI. The slave application behin
 from __future__ import annotations
 
 import struct
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Final
 
@@ -855,7 +855,7 @@ class EscDevice:
         access = (cmd, lad, n)
         found = plans.get(access)
         if found is None:
-            found = shared_access(self._fmmus, cmd, lad, n)
+            found = shared_access(self._fmmus, cmd, lad, n, self.fmmu_span)
             remember(plans, access, found, PLAN_CACHE_ENTRIES)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         found.rows(self._sm_areas, top, self.write_plans)
@@ -1200,11 +1200,27 @@ class EscDevice:
         if not self.pdi_operational:
             return
         mem = self.mem
-        value = mem[REG_AL_CONTROL] | mem[REG_AL_CONTROL + 1] << 8
-        if mem[REG_PDI_CONTROL + 1] & 0x01:  # device emulation: AL control -> AL status
+        self._al_control(
+            mem[REG_AL_CONTROL] | mem[REG_AL_CONTROL + 1] << 8, mem[REG_PDI_CONTROL + 1]
+        )
+
+    @staticmethod
+    def al_control_together(
+        devices: Sequence[EscDevice], values: Sequence[int], pdi_control: Sequence[int]
+    ) -> None:
+        """:meth:`al_control_written` at each of ``devices``, with its AL control value and
+        PDI control byte 0x0141 (which the chain reads over the rows)."""
+        for dev, value, control in zip(devices, values, pdi_control, strict=True):
+            if dev.pdi_operational:
+                dev._al_control(value, control)
+
+    def _al_control(self, value: int, pdi_control: int) -> None:
+        if pdi_control & 0x01:  # device emulation: AL control -> AL status
             self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
+        elif self.firmware_queue is None:  # (_react)
+            self.react(value)
         else:
-            self._react(value)
+            self.firmware_queue.append((self, value))
 
     def _react(self, what: int) -> None:
         """The application reacts to the frame (:meth:`react`), once the frame has passed when

@@ -504,8 +504,10 @@ class Access:
         self.cut = (first.cut[0] + reads, first.cut[1] + writes_)
         self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
         self.dc, self.shadow = first.dc, first.shadow
-        self.mailboxes = first.mailboxes + tuple(
-            m for m in others.mailboxes if m not in first.mailboxes
+        self.mailboxes = (
+            first.mailboxes + tuple(m for m in others.mailboxes if m not in first.mailboxes)
+            if others.mailboxes
+            else first.mailboxes
         )  # (those of parts the claims took away as well: they need not be idle, but may)
         return True
 
@@ -516,6 +518,8 @@ def along(plan: LogicalPlan, offset: int) -> LogicalPlan:
 
 
 def _along(ops: tuple[LogicalOp, ...], offset: int) -> tuple[LogicalOp, ...]:
+    if not ops:
+        return ops
     return tuple(
         [
             (True, a, b + offset, c, d, e, f) if bytewise else (False, a, b, c, d, e + offset, f)
@@ -568,11 +572,21 @@ def _access(hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Acc
     return found
 
 
-def shared_access(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
+def shared_access(
+    fmmus: tuple[tuple[int, ...], ...],
+    cmd: int,
+    lad: int,
+    n: int,
+    span: tuple[int, int] | None = None,
+) -> Access:
     """The :class:`Access` of a logical access through ``fmmus`` (active FMMUs in register
     order): one per FMMUs the access meets, in order, and access (:data:`ACCESS_CACHE`), since
-    the others do not change its plan; FMMU tables that differ only elsewhere share it."""
+    the others do not change its plan; FMMU tables that differ only elsewhere share it.
+    ``span``, the logical bytes the FMMUs map (:func:`decode_fmmus`), spares looking at each
+    when the access holds it all: then it meets them all."""
     lo, hi = lad, lad + n
+    if span is not None and lo <= span[0] and span[1] <= hi:
+        return _access(fmmus, cmd, lad, n)
     return _access(tuple(f for f in fmmus if not (f[1] <= lo or f[0] >= hi)), cmd, lad, n)
 
 

@@ -55,6 +55,7 @@ from emulator.esc.registers import (
     DL_PORT1_LINK,
     DL_PORTS_2_3_CLOSED,
     EVENT_DL_STATUS,
+    REG_AL_CONTROL,
     REG_DL_CONTROL,
     REG_DL_STATUS,
     REG_ECAT_EVENT,
@@ -64,6 +65,7 @@ from emulator.esc.registers import (
     REG_EEPROM_PDI,
     REG_ERROR_COUNTERS,
     REG_FMMU,
+    REG_PDI_CONTROL,
     REG_PU_ERRORS,
     REG_RESET_ECAT,
     REG_SM,
@@ -152,8 +154,10 @@ def commit_together(
     for i in np.flatnonzero(eeprom).tolist():
         devices[i].eeprom_command()
     if al:
-        for dev in devices:
-            dev.al_control_written()
+        value = memory[rows, REG_AL_CONTROL].astype(np.int64)
+        value |= memory[rows, REG_AL_CONTROL + 1].astype(np.int64) << 8
+        control = memory[rows, REG_PDI_CONTROL + 1].tolist()
+        EscDevice.al_control_together(devices, value.tolist(), control)
 
 
 def finish_together(
