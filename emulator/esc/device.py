@@ -1389,13 +1389,27 @@ class EscDevice:
         changes since they last were: one that started anew in any of them is new, one kept
         in all of them keeps its state. Hostile frames change the tables of every ESC often,
         and changing them at each of 160 ESCs took up to 1.5 ms a frame."""
+        self._change_sms(change, decoded, frozenset([entry[0] for entry in change[2]]))
+
+    @staticmethod
+    def change_syncmanagers_together(
+        devices: Iterable[EscDevice], change: SmChange, decoded: SmTable
+    ) -> None:
+        """:meth:`change_syncmanagers` and :meth:`sm_registers_written` at each of ``devices``
+        (one change, as the chain's commit over the rows finds it)."""
+        fresh = frozenset([entry[0] for entry in change[2]])
+        for dev in devices:
+            dev._change_sms(change, decoded, fresh)
+            dev._mailbox_due = True
+
+    def _change_sms(self, change: SmChange, decoded: SmTable, fresh: frozenset[int]) -> None:
+        """:meth:`change_syncmanagers`, ``fresh`` the indices of those the change starts anew."""
         self._lrd_plans.clear()
         self._sm_areas = decoded
         unmade = self._unmade
         if not change[3] or (unmade is not None and unmade[0] is None):  # all start anew
             self._unmade = (None, decoded, change[4])
             return
-        fresh = frozenset([entry[0] for entry in change[2]])
         if unmade is not None and unmade[0] is not None:  # those of the changes before too
             fresh |= unmade[0]
         self._unmade = (fresh, decoded, change[4])

@@ -202,7 +202,7 @@ def _syncmanagers(
     their tables decoded and the changes worked out (:func:`sm_table`, :func:`sm_change`) once
     per distinct table before, table after and activate bytes before the frame (``enabled``, a
     row each), each change's status registers set over the rows at once, and each ESC's
-    SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers`); the
+    SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers_together`); the
     mailbox handler runs once the frame has passed. An ESC whose table and activate bytes equal
     those of the ESC before it (compared over the rows), with the same table before, joins its
     group without a key of its own."""
@@ -235,10 +235,10 @@ def _syncmanagers(
             change = sm_change(areas, before, found)
             if change[0]:
                 memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
+            EscDevice.change_syncmanagers_together([devices[i] for i in members], change, found[0])
+        else:
             for i in members:
-                devices[i].change_syncmanagers(change, found[0])
-        for i in members:
-            devices[i].sm_registers_written()
+                devices[i].sm_registers_written()
 
 
 def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:

@@ -307,6 +307,19 @@ def test_a_repeat_request_broadcast_to_a_line_is_acknowledged_by_every_slave() -
         assert m.rd(0x080F, 1, STATION + p).data[0] & 0x02 == 0x02, p
 
 
+def test_a_repeat_request_in_a_write_that_enables_a_syncmanager_is_acknowledged() -> None:
+    """The same request in a BWR that also enables SM2 (0x0810-0x0817: 8 bytes at 0x1100), so
+    that each ESC's SyncManager table changes and the 6 ESCs change their SyncManagers
+    together: after the frame each slave's mailbox handler still sees the request and
+    acknowledges it."""
+    m = preop(nodes=6)
+    sm2 = struct.pack("<HHBBBB", 0x1100, 8, 0x64, 0, 0x01, 0)
+    assert m.one(Datagram(C.BWR, 0, 0x080E, b"\x03\x00" + sm2)).wkc == 6
+    for p in range(6):
+        assert m.rd(0x0816, 1, STATION + p).data[0] & 0x01 == 0x01, p  # SM2 enabled
+        assert m.rd(0x080F, 1, STATION + p).data[0] & 0x02 == 0x02, p
+
+
 def test_other_protocols_get_a_mailbox_error() -> None:
     m = preop()
     assert m.send(h("0600 0000 00 14  01 00 0000 0000")) == 1  # type 4 (FoE), counter 1

@@ -234,8 +234,9 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     share while they are as new (``mapping.AS_NEW_CACHE``) stay as new."""
     fast, reference = EcatChain.configured(NODES, SIZE), OneByOne.configured(NODES, SIZE)
     references = {id(dev) for dev in reference.devices}
-    rebuild, change = EscDevice._rebuild_sms, EscDevice.change_syncmanagers
+    rebuild, change = EscDevice._rebuild_sms, EscDevice._change_sms
     written, by_rows = EscDevice.sm_registers_written, together._syncmanagers
+    change_all = EscDevice.change_syncmanagers_together
     calls = {"written": 0, "changed": 0, "by rows": 0}
 
     def either(self: EscDevice, enabled_before: bytes | None = None) -> None:
@@ -252,13 +253,19 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
         calls["written"] += id(self) not in references
         written(self)
 
+    def counted_all(devices: Any, *args: Any) -> None:  # changed, and written
+        devices = list(devices)
+        calls["written"] += sum(id(dev) not in references for dev in devices)
+        change_all(devices, *args)
+
     def rows(devices: Any, memory: Any, at: Any, which: Any, *args: Any) -> None:
         calls["by rows"] += len(which)
         by_rows(devices, memory, at, which, *args)
 
     monkeypatch.setattr(together, "_syncmanagers", rows)
     monkeypatch.setattr(EscDevice, "_rebuild_sms", either)
-    monkeypatch.setattr(EscDevice, "change_syncmanagers", changed)
+    monkeypatch.setattr(EscDevice, "_change_sms", changed)
+    monkeypatch.setattr(EscDevice, "change_syncmanagers_together", staticmethod(counted_all))
     monkeypatch.setattr(EscDevice, "sm_registers_written", counted)
     setup = master_reset_frames(NODES) + configure_frames(fast.devices[0].info, NODES)
     for i, f in enumerate(hostile_frames(3_000, nodes=NODES, input_bytes=SIZE, seed=9)):
