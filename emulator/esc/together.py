@@ -54,6 +54,12 @@ from emulator.esc.registers import (
     DL_PORT1_CLOSED,
     DL_PORT1_LINK,
     DL_PORTS_2_3_CLOSED,
+    EE_ACK_ERROR,
+    EE_CMD_READ,
+    EE_CMD_RELOAD,
+    EE_CMD_WRITE,
+    EE_WRITE_ENABLE,
+    EE_WRITE_ENABLE_ERROR,
     EVENT_DL_STATUS,
     REG_AL_CONTROL,
     REG_DL_CONTROL,
@@ -151,13 +157,39 @@ def commit_together(
     irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
     for dev, irq in zip(devices, irqs, strict=True):
         dev.irq = irq  # what EscDevice.update_irq sets
-    for i in np.flatnonzero(eeprom).tolist():
-        devices[i].eeprom_command()
+    if eeprom.any():
+        _eeprom_commands(devices, memory, rows, np.flatnonzero(eeprom))
     if al:
         value = memory[rows, REG_AL_CONTROL].astype(np.int64)
         value |= memory[rows, REG_AL_CONTROL + 1].astype(np.int64) << 8
         control = memory[rows, REG_PDI_CONTROL + 1].tolist()
         EscDevice.al_control_together(devices, value.tolist(), control)
+
+
+def _eeprom_commands(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: npt.NDArray[np.intp],
+) -> None:
+    """:meth:`EscDevice.eeprom_command` at ``devices[i]`` for ``i`` in ``which`` (ECAT owns
+    the interface there and wrote 0x0502): the command bits and write enable self-clear, no
+    command clears the error bits, an invalid one sets the acknowledge error (datasheet I
+    11.2.3), over the rows; a read, write or reload at each ESC, which has its EEPROM."""
+    at = rows[which]
+    control = memory[at, REG_EEPROM_CONTROL].astype(np.int64)
+    control |= memory[at, REG_EEPROM_CONTROL + 1].astype(np.int64) << 8
+    command = (control >> 8) & 0x07
+    status = control & ~(0x0700 | EE_WRITE_ENABLE)
+    nothing = command == 0
+    each = (command == EE_CMD_READ) | (command == EE_CMD_WRITE) | (command == EE_CMD_RELOAD)
+    status = np.where(nothing, status & ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR), status)
+    status = np.where(nothing | each, status, status | EE_ACK_ERROR)
+    here = ~each
+    memory[at[here], REG_EEPROM_CONTROL] = status[here] & 0xFF
+    memory[at[here], REG_EEPROM_CONTROL + 1] = status[here] >> 8
+    for i in which[each].tolist():
+        devices[i].eeprom_command()
 
 
 def finish_together(

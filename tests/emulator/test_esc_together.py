@@ -143,6 +143,30 @@ def test_equal_writes_are_committed_together(monkeypatch: pytest.MonkeyPatch) ->
         assert_same(fast, reference, bwr(0x0200, b"\x00\x00"), "event mask cleared")
 
 
+def test_eeprom_commands_written_at_every_esc_clear_and_set_their_status_bits() -> None:
+    """Broadcasts of EEPROM control 0x0502 (ECAT owns the interface at every ESC): the write
+    enable (bit 0) and the command (bits 8-10) self-clear; no command clears the error bits, an
+    invalid one (7) sets the acknowledge error (bit 13, datasheet I 11.2.3), a write (2)
+    without write enable the write enable error (bit 14); a read (1) of word 0 brings the
+    EEPROM's first 8 bytes to 0x0508. Bit 6, read-only, says the ESC reads 8
+    bytes at a time. Alike at each of 8 ESCs and as each ESC on its own does it."""
+    fast, reference = pair()
+    first = fast.devices[0].sii[:8]
+    for data, status, what in (
+        (b"\x01\x07", b"\x40\x20", "invalid command: acknowledge error"),
+        (b"\x01\x00", b"\x40\x00", "no command: errors cleared, write enable too"),
+        (b"\x00\x07", b"\x40\x20", "invalid command again"),
+        (b"\x00\x01", b"\x40\x20", "a read: the error bits stay"),
+        (b"\x00\x02", b"\x40\x60", "a write without write enable: its error as well"),
+        (b"\x00\x00", b"\x40\x00", "no command clears both"),
+    ):
+        assert_same(fast, reference, bwr(0x0502, data), what)
+        for dev in fast.devices:
+            assert dev.registers(0x0502, 2) == status, what
+    for dev in fast.devices:
+        assert dev.registers(0x0508, 8) == first
+
+
 def test_a_loop_closed_early_keeps_the_rest_out() -> None:
     """ESC 2 closes port 1: a broadcast read or write reaches ESCs 0-2 only, and an ARMW whose
     reader lies beyond writes at all three."""
