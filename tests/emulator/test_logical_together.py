@@ -197,28 +197,39 @@ def test_rows_shift_as_integers_do(shift: int) -> None:
             assert out.tobytes() == (value & ((1 << 8 * width) - 1)).to_bytes(width, "little")
 
 
-@pytest.mark.parametrize(
-    "mask",
-    [0xFF_FF_FF_FF, 0xF8_FF_FF_1F, 0x00_FF_FF_00, 0x01_FF_FF_80, 0xFF_F7_FF_FF, 0x00_00_00_00],
-)
+@pytest.mark.parametrize("ends", [(0xFF, 0xFF), (0x1F, 0xF8), (0x00, 0x00), (0x80, 0x01)])
+@pytest.mark.parametrize("hole", [False, True])
+@pytest.mark.parametrize("width", [4, together._WIDE + 3])
 @pytest.mark.parametrize("rows", [1, 3])
-def test_masked_bytes_take_the_data_under_the_mask_alone(mask: int, rows: int) -> None:
-    """Bytes 2..5 of each of 4 memory rows (rows 1..3, or row 2 alone) from ``data`` where the
-    4-byte little-endian ``mask`` has bits, the others kept: as integers would do it, whether
-    the mask is whole bytes between partial ends or not, and from one row of data or one per
-    row."""
-    rng = np.random.default_rng(mask % 1000 + rows)
-    memory = rng.integers(0, 256, (4, 8), np.uint8)
-    data = rng.integers(0, 256, (rows, 4), np.uint8)
-    at = slice(1, 4) if rows == 3 else slice(2, 3)
-    expected = memory.copy()
-    for i, row in enumerate(range(4)[at]):
-        old = int.from_bytes(expected[row, 2:6].tobytes(), "little")
-        new = int.from_bytes(data[i % rows].tobytes(), "little")
-        value = (old & ~mask) | (new & mask)
-        expected[row, 2:6] = np.frombuffer(value.to_bytes(4, "little"), np.uint8)
-    together._masked(memory, at, 2, 6, data, together._mask(mask, 4))
-    assert memory.tobytes() == expected.tobytes()
+def test_masked_bytes_take_the_data_under_the_mask_alone(
+    ends: tuple[int, int], hole: bool, width: int, rows: int
+) -> None:
+    """``width`` bytes from byte 2 on of each of 4 memory rows (rows 1..3 as a slice, or rows
+    0 and 3 by index, or row 2 alone) from ``data`` where the little-endian mask has bits, the
+    others kept: as integers would do it. The mask is whole bytes between ``ends``, but for
+    one byte in the middle (0xF7) with a ``hole``; narrow and wide, from one row of data or
+    one per row."""
+    mask_bytes = bytearray([ends[0], *[0xFF] * (width - 2), ends[1]])
+    if hole:
+        mask_bytes[width // 2] = 0xF7
+    mask = int.from_bytes(mask_bytes, "little")
+    rng = np.random.default_rng(width + rows + ends[0] + hole)
+    memory = rng.integers(0, 256, (4, width + 4), np.uint8)
+    data = rng.integers(0, 256, (rows, width), np.uint8)
+    picked = [1, 2, 3] if rows == 3 else [2]
+    for at in (slice(picked[0], picked[-1] + 1), np.array(picked[::2], np.intp)):
+        chosen = range(4)[at] if isinstance(at, slice) else at.tolist()
+        before = memory.copy()
+        expected = memory.copy()
+        for row in chosen:
+            old = int.from_bytes(expected[row, 2 : 2 + width].tobytes(), "little")
+            new = int.from_bytes(data[picked.index(row) % rows].tobytes(), "little")
+            value = (old & ~mask) | (new & mask)
+            expected[row, 2 : 2 + width] = np.frombuffer(value.to_bytes(width, "little"), np.uint8)
+        mine = data if isinstance(at, slice) or rows == 1 else data[::2]
+        together._masked(memory, at, 2, 2 + width, mine, together._mask(mask, width))
+        assert memory.tobytes() == expected.tobytes()
+        memory = before
 
 
 # SyncManager areas (index, start, length, control, PDI-locked) as decode_sms gives them:
