@@ -505,7 +505,7 @@ class Access:
         self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
         self.dc, self.shadow = first.dc, first.shadow
         self.mailboxes = (
-            first.mailboxes + tuple(m for m in others.mailboxes if m not in first.mailboxes)
+            first.mailboxes + tuple([m for m in others.mailboxes if m not in first.mailboxes])
             if others.mailboxes
             else first.mailboxes
         )  # (those of parts the claims took away as well: they need not be idle, but may)
@@ -587,7 +587,7 @@ def shared_access(
     lo, hi = lad, lad + n
     if span is not None and lo <= span[0] and span[1] <= hi:
         return _access(fmmus, cmd, lad, n)
-    return _access(tuple(f for f in fmmus if not (f[1] <= lo or f[0] >= hi)), cmd, lad, n)
+    return _access(tuple([f for f in fmmus if f[1] > lo and f[0] < hi]), cmd, lad, n)
 
 
 def plain_access(
