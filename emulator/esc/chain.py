@@ -953,7 +953,7 @@ class EcatChain:
             if len(members) == 1 and len(members[0]) >= TOGETHER_MIN:
                 self._commit(line, members[0], alike=True)
                 continue
-            positions = sorted(p for positions in members for p in positions)
+            positions = sorted(p for group in members for p in group)
             if len(positions) < TOGETHER_MIN:
                 for p in positions:
                     line[p].end_frame()

@@ -1217,10 +1217,8 @@ class EscDevice:
     def _al_control(self, value: int, pdi_control: int) -> None:
         if pdi_control & 0x01:  # device emulation: AL control -> AL status
             self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
-        elif self.firmware_queue is None:  # (_react)
-            self.react(value)
         else:
-            self.firmware_queue.append((self, value))
+            self._react(value)
 
     def _react(self, what: int) -> None:
         """The application reacts to the frame (:meth:`react`), once the frame has passed when
