@@ -65,13 +65,14 @@ from emulator.esc.mapping import (
     LogicalPlan,
     Mailboxes,
     PlainAccess,
+    Plans,
     SmChange,
     SmTable,
     fmmu_table,
     remember,
-    shared_access,
     sm_change,
     sm_table,
+    table_access,
 )
 from emulator.esc.registers import (
     ADDRESS_SPACE,
@@ -318,7 +319,7 @@ class EscDevice:
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[tuple[int, ...], ...] = ()
-        self._logical_plans: dict[tuple[int, int, int], Access] = {}
+        self._logical_plans = Plans()
         self.fmmu_span = (0, 0)
         # the decoded FMMU table the ESC follows (fmmu_table): one object for every ESC whose
         # FMMU registers hold the same bytes, so that what follows from it is asked once
@@ -379,7 +380,7 @@ class EscDevice:
         self._sms = [None] * cfg.syncmanagers
         self._unmade = None
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
-        self._logical_plans = {}
+        self._logical_plans = Plans()
         self._lrd_plans.clear()
         self._sm_areas = ()
         self.fmmu_span = (0, 0)
@@ -847,16 +848,12 @@ class EscDevice:
 
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
-        FMMUs it meets and access (:func:`shared_access`), looked up once per FMMU table;
-        what the chain may do over the rows (:meth:`Access.rows`) is remembered for the
-        SyncManager table, memory top and register write plans last asked about (ESCs
-        configured alike ask alike)."""
-        plans = self._logical_plans
-        access = (cmd, lad, n)
-        found = plans.get(access)
+        FMMU table and access (:func:`table_access`); what the chain may do over the rows
+        (:meth:`Access.rows`) is remembered for the SyncManager table, memory top and register
+        write plans last asked about (ESCs configured alike ask alike)."""
+        found = self._logical_plans.get((cmd, lad, n))
         if found is None:
-            found = shared_access(self._fmmus, cmd, lad, n, self.fmmu_span)
-            remember(plans, access, found, PLAN_CACHE_ENTRIES)
+            found = table_access(self.fmmu_decoded, cmd, lad, n)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         found.rows(self._sm_areas, top, self.write_plans)
         return found

@@ -39,6 +39,7 @@ __all__ = [
     "LogicalPlan",
     "Mailboxes",
     "PlainAccess",
+    "Plans",
     "RowAccess",
     "SmChange",
     "SmFound",
@@ -60,6 +61,7 @@ __all__ = [
     "shared_access",
     "sm_change",
     "sm_table",
+    "table_access",
     "unclaimed",
     "without",
 ]
@@ -72,18 +74,31 @@ DECODE_CACHE_ENTRIES: Final = 4096  # distinct FMMU/SM tables remembered (memory
 PLAN_CACHE_ENTRIES: Final = 1 << 12  # distinct accesses remembered (memory bound)
 LogicalOp = tuple[bool, int, int, int, int, int, int]  # see plan_logical
 LogicalPlan = tuple[tuple[LogicalOp, ...], tuple[LogicalOp, ...]]  # reads, writes
+
+
+class Plans(dict[tuple[int, int, int], "Access"]):
+    """The accesses through an FMMU table by (command, logical address, length)
+    (:func:`table_access`), and, for a table decoded as FMMU 0 and the others
+    (:func:`decode_fmmus`), those two parts (each an :data:`FmmuTable` of its own)."""
+
+    __slots__ = ("parts",)
+
+    def __init__(self, parts: tuple[FmmuTable, FmmuTable] | None = None) -> None:
+        super().__init__()
+        self.parts = parts
+
+
 # active FMMUs, the logical span they map, and the plans of logical accesses through them
 # (shared by every ESC whose FMMU registers hold the same bytes)
-FmmuTable = tuple[
-    tuple[tuple[int, ...], ...], tuple[int, int], dict[tuple[int, int, int], "Access"]
-]
+FmmuTable = tuple[tuple[tuple[int, ...], ...], tuple[int, int], Plans]
 SmTable = tuple[tuple[int, int, int, int, int], ...]
 # mailboxes an access meets where ECAT accesses them: (SyncManager index, side 0 read / 1 write)
 # (esc_row_access)
 Mailboxes = tuple[tuple[int, int], ...]
 FMMU_CACHE: dict[bytes, FmmuTable] = {}
-# FMMU 0's registers and the others', decoded (decode_fmmus)
-FMMU_PARTS_CACHE: dict[bytes, tuple[tuple[tuple[int, ...], ...], tuple[int, int]]] = {}
+# FMMU 0's registers and the others', decoded, with the plans of accesses through them
+# (decode_fmmus, table_access)
+FMMU_PARTS_CACHE: dict[bytes, FmmuTable] = {}
 _K = TypeVar("_K")
 _V = TypeVar("_V")
 # logical accesses by the FMMUs they meet (shared_access)
@@ -141,21 +156,35 @@ def decode_fmmus(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, 
     apart, each once per distinct bytes (:data:`FMMU_PARTS_CACHE`), since a broadcast to the
     FMMUs of a configured line leaves every ESC's FMMUs differing in FMMU 0 alone (its own
     logical bytes)."""
+    parts = _fmmu_parts(table)
+    return decode_entries(table) if parts is None else _joined(*parts)
+
+
+def _fmmu_parts(table: bytes) -> tuple[FmmuTable, FmmuTable] | None:
+    """FMMU 0 and the others of the registers ``table`` decoded, each once per distinct bytes
+    (:data:`FMMU_PARTS_CACHE`); None for a table of one FMMU."""
     size = FMMU_ENTRY.size
     if len(table) <= size:
-        return decode_entries(table)
+        return None
     parts = FMMU_PARTS_CACHE
     head, rest = table[:size], table[size:]
     first = parts.get(head)
     if first is None:
-        first = remember(parts, head, decode_entries(head))
+        first = remember(parts, head, (*decode_entries(head), Plans()))
     others = parts.get(rest)
     if others is None:
-        others = remember(parts, rest, decode_entries(rest))
+        others = remember(parts, rest, (*decode_entries(rest), Plans()))
+    return first, others
+
+
+def _joined(
+    first: FmmuTable, others: FmmuTable
+) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
+    """The FMMUs and span of a table from those of its two parts (:func:`_fmmu_parts`)."""
     if not first[0]:
-        return others
+        return others[0], others[1]
     if not others[0]:
-        return first
+        return first[0], first[1]
     span = (min(first[1][0], others[1][0]), max(first[1][1], others[1][1]))
     return first[0] + others[0], span
 
@@ -200,11 +229,17 @@ def decode_sms(table: bytes) -> SmTable:
 
 def fmmu_table(table: bytes) -> FmmuTable:
     """The FMMU register bytes ``table`` (0x0600 on, 16 bytes an FMMU) decoded
-    (:func:`decode_fmmus`), with an empty dict for the plans of accesses through them: once per
-    distinct bytes (:data:`FMMU_CACHE`), so that ESCs whose FMMUs hold the same bytes share it."""
+    (:func:`decode_fmmus`), with empty :class:`Plans` for the accesses through them, which
+    keep the table's two parts: once per distinct bytes (:data:`FMMU_CACHE`), so that ESCs
+    whose FMMUs hold the same bytes share it."""
     found = FMMU_CACHE.get(table)
     if found is None:
-        found = remember(FMMU_CACHE, table, (*decode_fmmus(table), {}))
+        parts = _fmmu_parts(table)
+        if parts is None:
+            found = (*decode_entries(table), Plans())
+        else:
+            found = (*_joined(*parts), Plans(parts))
+        found = remember(FMMU_CACHE, table, found)
     return found
 
 
@@ -362,6 +397,14 @@ class Access:
         self.mailboxes: Mailboxes = ()
         self.dc: tuple[tuple[int, int], ...] = ()
         self.shadow: tuple[LogicalOp, ...] = ()
+
+    @classmethod
+    def joined(cls, first: Access, others: Access) -> Access:
+        """The access through FMMU 0 and others that ``first`` and ``others`` (accesses alike
+        through each, meeting some) are: its :meth:`rows` work from theirs (:meth:`_apart`)."""
+        found = cls(first.hit + others.hit, first.cmd, first.lad, first.n)
+        found._first, found._others = first, others
+        return found
 
     @property
     def plan(self) -> LogicalPlan:
@@ -588,6 +631,41 @@ def shared_access(
     if span is not None and lo <= span[0] and span[1] <= hi:
         return _access(fmmus, cmd, lad, n)
     return _access(tuple([f for f in fmmus if f[1] > lo and f[0] < hi]), cmd, lad, n)
+
+
+def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
+    """The :class:`Access` of a logical access through the FMMU ``table`` (:func:`fmmu_table`),
+    worked out once per table and access (its :class:`Plans`). A table decoded in two parts
+    joins the accesses through each (:meth:`Access.joined`; each part's worked out once per
+    part, and the others' part is shared by the ESCs of a configured line, whose tables differ
+    in FMMU 0 alone): an access FMMU 0 does not meet is the others' part's. Otherwise
+    :func:`shared_access`."""
+    plans = table[2]
+    key = (cmd, lad, n)
+    found = plans.get(key)
+    if found is not None:
+        return found
+    parts = plans.parts
+    if parts is None:
+        found = shared_access(table[0], cmd, lad, n, table[1])
+    else:
+        head, rest = parts
+        others = _part_access(rest, key)
+        f = head[0]
+        if f and f[0][1] > lad and f[0][0] < lad + n:  # FMMU 0 meets it
+            first = _part_access(head, key)
+            found = Access.joined(first, others) if others.hit else first
+        else:
+            found = others
+    return remember(plans, key, found, PLAN_CACHE_ENTRIES)
+
+
+def _part_access(part: FmmuTable, key: tuple[int, int, int]) -> Access:
+    found = part[2].get(key)
+    if found is None:
+        found = shared_access(part[0], *key, part[1])
+        remember(part[2], key, found, PLAN_CACHE_ENTRIES)
+    return found
 
 
 def plain_access(

@@ -702,6 +702,71 @@ def test_fmmu_tables_decoded_in_parts_are_decoded_whole(tables: list[list[bytes]
         assert mapping.decode_fmmus(table) == mapping.decode_entries(table)
 
 
+@given(
+    st.one_of(st.none(), an_fmmu(st.sampled_from(FIRST_PHYS))),
+    st.lists(st.one_of(st.none(), an_fmmu(st.sampled_from(OTHER_PHYS))), max_size=3),
+    sm_areas(),
+    st.sampled_from(LOGICAL),
+    st.integers(0, 20),
+    st.integers(1, 40),
+)
+def test_an_access_through_a_table_in_parts_is_the_access_of_the_fmmus_it_meets(
+    first: tuple[int, ...] | None,
+    others: list[tuple[int, ...] | None],
+    areas: mapping.SmTable,
+    cmd: Command,
+    lad: int,
+    n: int,
+) -> None:
+    """table_access of an FMMU table decoded as FMMU 0 and the others (None: an inactive
+    FMMU) meets the FMMUs the whole table meets, in register order, plans what plan_logical
+    plans through them, and works out over the rows what an access through them alone works
+    out; twice asked, it is one object."""
+
+    def entry(f: tuple[int, ...] | None) -> bytes:
+        if f is None:
+            return bytes(16)
+        log, length, bits, phys, kind = f
+        return struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
+
+    raw = b"".join(entry(f) for f in (first, *others, None))  # two parts, at least
+    mapping.forget()
+    table = mapping.fmmu_table(raw)
+    decoded, _ = mapping.decode_entries(raw)
+    hit = tuple(f for f in decoded if f[1] > lad and f[0] < lad + n)
+    found = mapping.table_access(table, int(cmd), lad, n)
+    assert found.hit == hit
+    assert found.plan == mapping.plan_logical(hit, int(cmd), lad, n)
+    alone = mapping.Access(hit, int(cmd), lad, n)
+    for access in (alone, found):
+        access.rows(areas, 0x10000, Inert())
+    assert (found.cut is None) == (alone.cut is None)
+    if found.cut is not None and alone.cut is not None:
+        assert bit_pairs(found.cut) == bit_pairs(alone.cut)
+        assert (found.events, found.dc, found.shadow) == (alone.events, alone.dc, alone.shadow)
+        assert set(alone.mailboxes) <= set(found.mailboxes)
+    assert mapping.table_access(table, int(cmd), lad, n) is found
+
+
+def test_tables_that_differ_in_fmmu_0_share_the_access_fmmu_0_does_not_meet() -> None:
+    """Hand-worked: two ESCs of a configured line, each mapping its own 8 logical bytes with
+    FMMU 0 (at 0 and at 8, onto 0x1100) and logical 0x100-0x103 alike with FMMU 1 (onto
+    0x1000). An LWR of 0x100-0x103 meets FMMU 1 alone at both: one access. An LRD of 0-15
+    meets each ESC's FMMU 0: an access of each, their reads 8 bytes apart in the frame."""
+    fmmu1 = struct.pack("<IHBBHBBB3x", 0x100, 4, 0, 7, 0x1000, 0, 2, 1)
+    tables = [
+        mapping.fmmu_table(struct.pack("<IHBBHBBB3x", log, 8, 0, 7, 0x1100, 0, 1, 1) + fmmu1)
+        for log in (0, 8)
+    ]
+    lwr, lrd = int(Command.LWR), int(Command.LRD)
+    a, b = (mapping.table_access(t, lwr, 0x100, 4) for t in tables)
+    assert a is b
+    assert a.plan == ((), ((True, 0x1000, 0, 4, 0, 0, 0),))
+    a, b = (mapping.table_access(t, lrd, 0, 16) for t in tables)
+    assert a.plan == (((True, 0x1100, 0, 8, 0, 0, 0),), ())
+    assert b.plan == (((True, 0x1100, 8, 8, 0, 0, 0),), ())
+
+
 def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
     """EscDevice.plain_access (and plain_plan) against what the chain does (row_access), frame
     after frame of random FMMUs: an access the chain does over the rows without clearing an event,
