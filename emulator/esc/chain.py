@@ -587,18 +587,25 @@ class EcatChain:
             if _registers(ado, end):
                 frame = np.frombuffer(buf, np.uint8, n, at).copy()
                 offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
+                to: int | list[int] | None = None  # where each ESC writes
                 if (offsets == offsets[0]).all():
                     to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
-                    if _plain_write(to, to + n):
-                        if reads_dc(ado, end):
-                            self._refresh_dc(line, ado, end)
-                        self._read_write(line, to, buf, at, frame, ado)
-                        events = cleared_events(ado, end)  # once each ESC read them
-                        return 3 * reach, bool(events) and self._clear_events(line, events)
-                    if to >= REGISTER_END and n:
-                        done = self._registers_into_memory(line, ado, to, buf, at, frame)
-                        if done is not None:
-                            return done
+                    if not _plain_write(to, to + n):
+                        if to >= REGISTER_END and n:
+                            done = self._registers_into_memory(line, ado, to, buf, at, frame)
+                            if done is not None:
+                                return done
+                        to = None
+                else:  # read/write offsets that differ (hostile writes): plain writes each
+                    tos = (ado + (offsets[:, 0] | offsets[:, 1].astype(np.int64) << 8)) & 0xFFFF
+                    if all(_plain_write(t, t + n) for t in set(tos.tolist())):
+                        to = tos.tolist()
+                if to is not None:
+                    if reads_dc(ado, end):
+                        self._refresh_dc(line, ado, end)
+                    self._read_write(line, to, buf, at, frame, ado)
+                    events = cleared_events(ado, end)  # once each ESC read them
+                    return 3 * reach, bool(events) and self._clear_events(line, events)
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
         elif ado >= REGISTER_END and n:  # ARMW, FRMW of user or process RAM
@@ -902,21 +909,22 @@ class EcatChain:
     def _read_write(
         self,
         line: list[EscDevice],
-        to: int,
+        to: int | list[int],
         buf: bytearray,
         at: int,
         frame: npt.NDArray[np.uint8],
         ado: int,
     ) -> None:
-        """A BRW of plain registers: each ESC writes at ``to`` the data as it arrives (read
-        before write, datasheet I Table 7), then ORs its registers into it."""
+        """A BRW of plain registers: each ESC writes at ``to`` (one address for all, or each
+        ESC's own, its read/write offset after ``ado``) the data as it arrives (read before
+        write, datasheet I Table 7), then ORs its registers into it."""
         n = len(frame)
         ored = _or_accumulate(self.memory[: len(line), ado : ado + n])
         ored |= frame  # ored[p]: the data as ESC p leaves it
-        dev = line[0]
-        dev.pending.append((to, frame.tobytes()))
+        tos = [to] * len(line) if isinstance(to, int) else to
+        line[0].pending.append((tos[0], frame.tobytes()))
         for p in range(1, len(line)):
-            line[p].pending.append((to, ored[p - 1].tobytes()))
+            line[p].pending.append((tos[p], ored[p - 1].tobytes()))
         buf[at : at + n] = ored[-1].tobytes()
 
     def _end_frames(self, line: list[EscDevice]) -> None:

@@ -1082,6 +1082,37 @@ def test_a_read_write_of_al_status_writes_it_into_process_ram_where_it_is_open(
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_read_write_of_registers_writes_at_each_escs_own_offset(
+    kind: type[EcatChain], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Hand-worked: the read/write offset (0x0108) is 0x0010 at ESC 3 and 0 elsewhere; the
+    watchdog divider (0x0400) is 0 but at ESC 1, 0x4000. A BRW of 0x0400, data 0x1234: each ESC
+    writes the data as it arrives (datasheet I Table 7) at 0x0400 plus its offset, then ORs its
+    divider in. ESCs 0 and 1 write 0x1234, ESC 1 leaves 0x5234, ESC 3 writes it into its PDI
+    watchdog (0x0410) and keeps its divider 0, the others write 0x5234; the frame brings
+    0x5234 back. Working counter: 12 reads + 2 x 12 writes = 36. The chain does it over the
+    rows: no ESC on its own."""
+    chain = line(kind)
+    chain.process_frame(bwr(0x0400, bytes(2)))
+    sent(chain, Datagram(Command.APWR, -1 & 0xFFFF, 0x0400, b"\x00\x40"))
+    sent(chain, Datagram(Command.APWR, -3 & 0xFFFF, 0x0108, b"\x10\x00"))
+    alone: list[int] = []
+    process = EscDevice.process
+
+    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
+        alone.append(self.position)
+        return process(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EscDevice, "process", counted)
+    got = sent(chain, Datagram(Command.BRW, 0, 0x0400, b"\x34\x12"))
+    assert (got.data, got.wkc) == (b"\x34\x52", 36)
+    dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
+    assert dividers == [b"\x34\x12"] * 2 + [b"\x34\x52", bytes(2)] + [b"\x34\x52"] * 8
+    assert bytes(chain.memory[3, 0x0410:0x0412]) == b"\x34\x52"
+    assert (alone == []) == (kind is EcatChain)
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_multiple_write_of_process_ram_writes_what_the_addressed_esc_read(
     kind: type[EcatChain],
 ) -> None:
