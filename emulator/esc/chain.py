@@ -565,10 +565,13 @@ class EcatChain:
         (:meth:`_memory_read_write`); a BRW of registers whose write the read/write offset puts
         in that RAM (:meth:`_registers_into_memory`), and an ARMW or FRMW of it
         (:meth:`_read_multiple_write_memory`), over the rows unless the write meets a buffer
-        ECAT writes. Elsewhere (SyncManager areas, the rest of memory, the reset register)
-        each ESC in turn.
+        ECAT writes. One of no bytes beyond the registers (a BRW's write too, at the read/write
+        offset) does nothing at any ESC. Elsewhere
+        (SyncManager areas, the rest of memory, the reset register) each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
+        if not n and ado >= REGISTER_END and (cmd != BRW or self._writes_beyond(line, ado)):
+            return 0, False  # no byte, no register: no ESC reads or writes
         if cmd == BWR:
             if _plain_write(ado, end):
                 entry = (ado, bytes(buf[at : at + n]))
@@ -623,6 +626,12 @@ class EcatChain:
             total += dev.process(cmd, (adp + step * p) & 0xFFFF, ado, buf, at, n)[1]
             changed = changed or dev.irq != before
         return total, changed
+
+    def _writes_beyond(self, line: list[EscDevice], ado: int) -> bool:
+        """Whether every ESC of ``line`` writes a BRW at ``ado`` beyond the registers: at
+        ``ado`` plus its read/write offset (0x0108), from 0x0F80 on."""
+        offsets = self.memory[: len(line), REG_RW_OFFSET : REG_RW_OFFSET + 2].astype(np.int64)
+        return bool(((ado + (offsets[:, 0] | offsets[:, 1] << 8)) & 0xFFFF >= REGISTER_END).all())
 
     def _registers_into_memory(
         self,

@@ -1082,6 +1082,44 @@ def test_a_read_write_of_al_status_writes_it_into_process_ram_where_it_is_open(
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+@pytest.mark.parametrize("cmd", [Command.BRD, Command.BWR, Command.BRW, Command.ARMW, Command.FRMW])
+@pytest.mark.parametrize("ado", [0x0F80, 0x1000, 0x1200, 0xFFFF])
+def test_a_broadcast_of_no_bytes_beyond_the_registers_does_nothing(
+    kind: type[EcatChain], cmd: Command, ado: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A broadcast, ARMW or FRMW of no bytes at user RAM, the input buffer (0x1000), the write
+    buffer (0x1200) or the last byte reads and writes no byte: working counter 0 and memory
+    as it was, at every ESC; the chain asks none of them on its own."""
+    chain = line(kind)
+    if cmd == Command.BRW:  # its write at the read/write offset: 0x0F80 on at every ESC
+        chain.process_frame(bwr(0x0108, struct.pack("<H", (0x1000 - ado) & 0xFFFF)))
+    before = chain.memory.copy()
+    alone: list[int] = []
+    process = EscDevice.process
+
+    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
+        alone.append(self.position)
+        return process(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EscDevice, "process", counted)
+    adp = 0x1001 if cmd == Command.FRMW else 0
+    got = sent(chain, Datagram(cmd, adp, ado, b""))
+    assert got.wkc == 0
+    assert np.array_equal(chain.memory, before)
+    assert (alone == []) == (kind is EcatChain)
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_read_write_of_no_bytes_writes_registers_at_its_offset(kind: type[EcatChain]) -> None:
+    """Hand-worked: the read/write offset is 0xF000 at ESC 2 and 0 elsewhere. A BRW of no bytes
+    at 0x1000 reads nothing, but ESC 2 writes at 0x0000, a register: a write that counts 2
+    (datasheet I Table 7: the write's count is 2), though it writes no byte."""
+    chain = line(kind)
+    sent(chain, Datagram(Command.APWR, -2 & 0xFFFF, 0x0108, struct.pack("<H", 0xF000)))
+    assert sent(chain, Datagram(Command.BRW, 0, 0x1000, b"")).wkc == 2
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_write_of_registers_writes_at_each_escs_own_offset(
     kind: type[EcatChain], monkeypatch: pytest.MonkeyPatch
 ) -> None:
