@@ -263,7 +263,6 @@ class EscDevice:
         "_reset_progress",
         "_reset_written",
         "_sii_image",
-        "_sm_areas",
         "_sms",
         "_unmade",
         "app",
@@ -282,6 +281,7 @@ class EscDevice:
         "position",
         "sets_mac",
         "sii",
+        "sm_areas",
         "trace",
         "write_plans",
     )
@@ -328,7 +328,8 @@ class EscDevice:
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
         # the general path decides; worked out per FMMU and SyncManager configuration
         self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm] | None] = {}
-        self._sm_areas: SmTable = ()  # the SyncManager table _active follows
+        # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
+        self.sm_areas: SmTable = ()
         # SyncManagers changed but not made yet, made when first needed (_make_sms): the
         # indices of those that start anew (None: all of them), the decoded table, the order
         # by start; until then _sms and _active are those before
@@ -382,7 +383,7 @@ class EscDevice:
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self._logical_plans = Plans()
         self._lrd_plans.clear()
-        self._sm_areas = ()
+        self.sm_areas = ()
         self.fmmu_span = (0, 0)
         self.fmmu_decoded = ((), (0, 0), self._logical_plans)
         self.dc.power_on(mem)
@@ -582,6 +583,20 @@ class EscDevice:
                 self.react_now()  # what the application was to do before the reset
                 self._power_on()
         self.mem[REG_RESET_ECAT] = self._reset_progress
+
+    @staticmethod
+    def finish_frames(devices: Iterable[EscDevice]) -> None:
+        """:meth:`finish_frame` at each of ``devices``, whose reset register 0x0040 the chain
+        set to 0 (over the rows): one that is only to run its mailbox handler (no buffer
+        completed, no reset written or under way) just has it run (or queued), as
+        :meth:`finish_frame` would."""
+        for dev in devices:
+            if dev._completed or dev._reset_written is not None or dev._reset_progress:
+                dev.finish_frame()
+            elif dev._mailbox_due:
+                dev._mailbox_due = False
+                if dev._mailbox_hook is not None:
+                    dev._react(_MAILBOX_EVENT)
 
     @staticmethod
     def unfinished(devices: Iterable[EscDevice]) -> list[EscDevice]:
@@ -855,7 +870,7 @@ class EscDevice:
         if found is None:
             found = table_access(self.fmmu_decoded, cmd, lad, n)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
-        found.rows(self._sm_areas, top, self.write_plans)
+        found.rows(self.sm_areas, top, self.write_plans)
         return found
 
     def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:
@@ -1361,18 +1376,13 @@ class EscDevice:
         the frame too, and keep their buffers.
         """
         found = sm_table(bytes(self.mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers]))
-        if found[0] == self._sm_areas:
+        if found[0] == self.sm_areas:
             return  # the same SyncManagers (bytes that set none of them changed): as they are
-        change = sm_change(self._sm_areas, enabled_before, found)
+        change = sm_change(self.sm_areas, enabled_before, found)
         mem = self.mem
         for st in change[0]:
             mem[st] = SM_NO_BUFFER
         self.change_syncmanagers(change, found[0])
-
-    @property
-    def sm_areas(self) -> SmTable:
-        """The decoded SyncManager table the ESC's SyncManagers follow (:func:`sm_table`)."""
-        return self._sm_areas
 
     def change_syncmanagers(self, change: SmChange, decoded: SmTable) -> None:
         """The SyncManagers after their table changed to ``decoded`` (:func:`sm_change`): the ones
@@ -1400,7 +1410,7 @@ class EscDevice:
     def _change_sms(self, change: SmChange, decoded: SmTable, fresh: frozenset[int]) -> None:
         """:meth:`change_syncmanagers`, ``fresh`` the indices of those the change starts anew."""
         self._lrd_plans.clear()
-        self._sm_areas = decoded
+        self.sm_areas = decoded
         unmade = self._unmade
         if not change[3] or (unmade is not None and unmade[0] is None):  # all start anew
             self._unmade = (None, decoded, change[4])
@@ -1461,6 +1471,12 @@ class EscDevice:
         """After a frame changed SyncManager registers: the mailbox handler runs at its end
         (:meth:`finish_frame`; a repeat request, datasheet II 2.14.7)."""
         self._mailbox_due = True
+
+    @staticmethod
+    def sm_registers_written_together(devices: Iterable[EscDevice]) -> None:
+        """:meth:`sm_registers_written` at each of ``devices``."""
+        for dev in devices:
+            dev._mailbox_due = True
 
     def _update_dl_status(self) -> None:
         """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).

@@ -200,10 +200,9 @@ def finish_together(
 ) -> None:
     """:meth:`EscDevice.finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
     :func:`commit_together`: 0x0040 shows no reset under way at every row, and the ESCs with
-    more to finish (:meth:`EscDevice.unfinished`) finish the frame each."""
+    more to finish (:meth:`EscDevice.unfinished`) finish the frame (:meth:`EscDevice.finish_frames`)."""
     memory[rows, REG_RESET_ECAT] = 0
-    for dev in EscDevice.unfinished(devices):
-        dev.finish_frame()
+    EscDevice.finish_frames(EscDevice.unfinished(devices))
 
 
 def _fmmus(
@@ -272,8 +271,7 @@ def _syncmanagers(
                 memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
             EscDevice.change_syncmanagers_together([devices[i] for i in members], change, found[0])
         else:
-            for i in members:
-                devices[i].sm_registers_written()
+            EscDevice.sm_registers_written_together([devices[i] for i in members])
 
 
 def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:

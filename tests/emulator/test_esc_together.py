@@ -242,7 +242,7 @@ def rebuild_one_by_one(dev: EscDevice, enabled_before: bytes | None = None) -> N
         controlling.append(old)
     dev._active = [controlling[i] for i in order]
     dev._lrd_plans.clear()
-    dev._sm_areas = decoded
+    dev.sm_areas = decoded
 
 
 def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
@@ -291,6 +291,14 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     monkeypatch.setattr(EscDevice, "_change_sms", changed)
     monkeypatch.setattr(EscDevice, "change_syncmanagers_together", staticmethod(counted_all))
     monkeypatch.setattr(EscDevice, "sm_registers_written", counted)
+    written_all = EscDevice.sm_registers_written_together
+
+    def counted_written(devices: Any) -> None:  # written alone, over the rows
+        devices = list(devices)
+        calls["written"] += sum(id(dev) not in references for dev in devices)
+        written_all(devices)
+
+    monkeypatch.setattr(EscDevice, "sm_registers_written_together", staticmethod(counted_written))
     setup = master_reset_frames(NODES) + configure_frames(fast.devices[0].info, NODES)
     for i, f in enumerate(hostile_frames(3_000, nodes=NODES, input_bytes=SIZE, seed=9)):
         assert fast.process_frame(f) == reference.process_frame(f), f"frame {i}"
