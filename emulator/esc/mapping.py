@@ -30,6 +30,7 @@ __all__ = [
     "FMMU_CACHE",
     "FMMU_ENTRY",
     "FMMU_PARTS_CACHE",
+    "JOINED_CACHE",
     "PARTS_CACHE",
     "SM_CACHE",
     "SM_CHANGE_CACHE",
@@ -106,6 +107,8 @@ ACCESS_CACHE: dict[tuple[object, ...], Access] = {}
 # the accesses of an access's first FMMU and of the FMMUs after it, by the FMMUs they meet
 # (Access.rows)
 PARTS_CACHE: dict[tuple[object, ...], Access] = {}
+# accesses through FMMU 0 and other FMMUs, by the accesses through each part (table_access)
+JOINED_CACHE: dict[tuple[Access, Access], Access] = {}
 # a decoded SyncManager table, the order of its entries by start (PDI-locked last), and the
 # status registers (0x0805 + 8 y) of the SyncManagers without a buffer (sm_table)
 SmFound = tuple[SmTable, tuple[int, ...], tuple[int, ...]]
@@ -135,6 +138,7 @@ def forget() -> None:
     FMMU_PARTS_CACHE.clear()
     ACCESS_CACHE.clear()
     PARTS_CACHE.clear()
+    JOINED_CACHE.clear()
     SM_CACHE.clear()
     SM_CHANGE_CACHE.clear()
     AS_NEW_CACHE.clear()
@@ -636,10 +640,11 @@ def shared_access(
 def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
     """The :class:`Access` of a logical access through the FMMU ``table`` (:func:`fmmu_table`),
     worked out once per table and access (its :class:`Plans`). A table decoded in two parts
-    joins the accesses through each (:meth:`Access.joined`; each part's worked out once per
-    part, and the others' part is shared by the ESCs of a configured line, whose tables differ
-    in FMMU 0 alone): an access FMMU 0 does not meet is the others' part's. Otherwise
-    :func:`shared_access`."""
+    joins the accesses through each (:meth:`Access.joined`, once per pair of them,
+    :data:`JOINED_CACHE`, so that tables whose FMMUs the access does not meet differ share it;
+    each part's worked out once per part, and the others' part is shared by the ESCs of a
+    configured line, whose tables differ in FMMU 0 alone): an access FMMU 0 does not meet is
+    the others' part's. Otherwise :func:`shared_access`."""
     plans = table[2]
     key = (cmd, lad, n)
     found = plans.get(key)
@@ -654,7 +659,13 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
         f = head[0]
         if f and f[0][1] > lad and f[0][0] < lad + n:  # FMMU 0 meets it
             first = _part_access(head, key)
-            found = Access.joined(first, others) if others.hit else first
+            if others.hit:  # joined once per pair of parts' accesses, whatever else differs
+                pair = (first, others)
+                found = JOINED_CACHE.get(pair)
+                if found is None:
+                    found = remember(JOINED_CACHE, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
+            else:
+                found = first
         else:
             found = others
     return remember(plans, key, found, PLAN_CACHE_ENTRIES)

@@ -767,6 +767,23 @@ def test_tables_that_differ_in_fmmu_0_share_the_access_fmmu_0_does_not_meet() ->
     assert b.plan == (((True, 0x1100, 8, 8, 0, 0, 0),), ())
 
 
+def test_tables_that_differ_in_an_fmmu_an_access_does_not_meet_share_it() -> None:
+    """Hand-worked: two tables with FMMU 0 mapping logical 0-7 onto 0x1100 and FMMU 1 logical
+    8-11 onto 0x1000, FMMU 2 mapping logical 0x100-0x103 onto 0x1200 in one and onto 0x1300 in
+    the other. An LRD of 0-11 meets FMMUs 0 and 1 alone: one access (joined once), which reads
+    0x1100 into frame bytes 0-7 and 0x1000 into 8-11."""
+    head = struct.pack("<IHBBHBBB3x", 0, 8, 0, 7, 0x1100, 0, 1, 1)
+    fmmu1 = struct.pack("<IHBBHBBB3x", 8, 4, 0, 7, 0x1000, 0, 1, 1)
+    tables = [
+        mapping.fmmu_table(head + fmmu1 + struct.pack("<IHBBHBBB3x", 0x100, 4, 0, 7, phys, 0, 1, 1))
+        for phys in (0x1200, 0x1300)
+    ]
+    lrd = int(Command.LRD)
+    a, b = (mapping.table_access(t, lrd, 0, 12) for t in tables)
+    assert a is b
+    assert a.plan == (((True, 0x1100, 0, 8, 0, 0, 0), (True, 0x1000, 8, 4, 0, 0, 0)), ())
+
+
 def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
     """EscDevice.plain_access (and plain_plan) against what the chain does (row_access), frame
     after frame of random FMMUs: an access the chain does over the rows without clearing an event,
