@@ -642,9 +642,10 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
     worked out once per table and access (its :class:`Plans`). A table decoded in two parts
     joins the accesses through each (:meth:`Access.joined`, once per pair of them,
     :data:`JOINED_CACHE`, so that tables whose FMMUs the access does not meet differ share it;
-    each part's worked out once per part, and the others' part is shared by the ESCs of a
-    configured line, whose tables differ in FMMU 0 alone): an access FMMU 0 does not meet is
-    the others' part's. Otherwise :func:`shared_access`."""
+    the others' part's worked out once per part and shared by the ESCs of a configured line,
+    whose tables differ in FMMU 0 alone; FMMU 0's by :func:`shared_access`): an access FMMU 0
+    does not meet is the others' part's, one the others' span does not meet FMMU 0's.
+    Otherwise :func:`shared_access`."""
     plans = table[2]
     key = (cmd, lad, n)
     found = plans.get(key)
@@ -655,19 +656,19 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
         found = shared_access(table[0], cmd, lad, n, table[1])
     else:
         head, rest = parts
-        others = _part_access(rest, key)
-        f = head[0]
-        if f and f[0][1] > lad and f[0][0] < lad + n:  # FMMU 0 meets it
-            first = _part_access(head, key)
-            if others.hit:  # joined once per pair of parts' accesses, whatever else differs
-                pair = (first, others)
+        f, span = head[0], rest[1]
+        if not (f and f[0][1] > lad and f[0][0] < lad + n):  # FMMU 0 does not meet it
+            found = _part_access(rest, key)
+        elif not (rest[0] and span[0] < lad + n and span[1] > lad):  # FMMU 0 alone does
+            found = shared_access(f, cmd, lad, n, head[1])
+        else:  # joined once per pair of parts' accesses, whatever else differs
+            pair = (shared_access(f, cmd, lad, n, head[1]), _part_access(rest, key))
+            if not pair[1].hit:  # the others' span meets it, but none of them does
+                found = pair[0]
+            else:
                 found = JOINED_CACHE.get(pair)
                 if found is None:
                     found = remember(JOINED_CACHE, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
-            else:
-                found = first
-        else:
-            found = others
     return remember(plans, key, found, PLAN_CACHE_ENTRIES)
 
 
