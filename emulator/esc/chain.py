@@ -34,6 +34,7 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.commands import (
+    APWR,
     ARMW,
     AUTO_INCREMENT,
     BRD,
@@ -599,16 +600,17 @@ class EcatChain:
                             if done is not None:
                                 return done
                         to = None
-                else:  # read/write offsets that differ (hostile writes): plain writes each
+                else:  # read/write offsets that differ (hostile writes): each ESC's own
                     tos = (ado + (offsets[:, 0] | offsets[:, 1].astype(np.int64) << 8)) & 0xFFFF
-                    if all(_plain_write(t, t + n) for t in set(tos.tolist())):
+                    if all(_plain_write(t, t + n) or t >= REGISTER_END for t in set(tos.tolist())):
                         to = tos.tolist()
                 if to is not None:
                     if reads_dc(ado, end):
                         self._refresh_dc(line, ado, end)
-                    self._read_write(line, to, buf, at, frame, ado)
+                    writes, changed = self._read_write(line, to, buf, at, frame, ado)
                     events = cleared_events(ado, end)  # once each ESC read them
-                    return 3 * reach, bool(events) and self._clear_events(line, events)
+                    changed = (bool(events) and self._clear_events(line, events)) or changed
+                    return reach + 2 * writes, changed
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
         elif ado >= REGISTER_END and n:  # ARMW, FRMW of user or process RAM
@@ -923,18 +925,28 @@ class EcatChain:
         at: int,
         frame: npt.NDArray[np.uint8],
         ado: int,
-    ) -> None:
+    ) -> tuple[int, bool]:
         """A BRW of plain registers: each ESC writes at ``to`` (one address for all, or each
         ESC's own, its read/write offset after ``ado``) the data as it arrives (read before
-        write, datasheet I Table 7), then ORs its registers into it."""
+        write, datasheet I Table 7), then ORs its registers into it: (how many ESCs wrote,
+        whether an ESC's event request changed). A write of plain registers waits for the end
+        of the frame; one in user or process RAM (an ESC's own offset puts it there) is done
+        at that ESC as an APWR of the data there would do it."""
         n = len(frame)
         ored = _or_accumulate(self.memory[: len(line), ado : ado + n])
         ored |= frame  # ored[p]: the data as ESC p leaves it
         tos = [to] * len(line) if isinstance(to, int) else to
-        line[0].pending.append((tos[0], frame.tobytes()))
-        for p in range(1, len(line)):
-            line[p].pending.append((tos[p], ored[p - 1].tobytes()))
+        writes, changed = len(line), False
+        for p, dev in enumerate(line):
+            data = (frame if p == 0 else ored[p - 1]).tobytes()
+            if tos[p] < REGISTER_END:
+                dev.pending.append((tos[p], data))
+                continue
+            before = dev.irq
+            writes -= 1 - dev.process(APWR, 0, tos[p], bytearray(data), 0, n)[1]
+            changed = changed or dev.irq != before
         buf[at : at + n] = ored[-1].tobytes()
+        return writes, changed
 
     def _end_frames(self, line: list[EscDevice]) -> None:
         """Every ESC of ``line`` ends the frame (:meth:`EscDevice.end_frame`); those with equal

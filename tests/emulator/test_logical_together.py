@@ -1168,6 +1168,40 @@ def test_a_read_write_of_registers_writes_at_each_escs_own_offset(
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_read_write_of_registers_writes_into_ram_where_an_escs_offset_puts_it(
+    kind: type[EcatChain], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Hand-worked: as above (the watchdog divider 0 but 0x4000 at ESC 1; BRW of 0x0400, data
+    0x1234), with the read/write offsets 0x1400 at ESCs 3 and 5 (a write at 0x1800, process
+    RAM), 0 elsewhere. ESC 3 writes 0x5234 into its process RAM at once; ESC 5, whose EEPROM
+    did not load, has no process RAM (datasheet I 11.2.1): its write counts nothing. The
+    others write their divider as before. Working counter: 12 reads + 2 x 11 writes = 34. Only
+    ESCs 3 and 5 write on their own."""
+    chain = line(kind)
+    chain.process_frame(bwr(0x0400, bytes(2)))
+    sent(chain, Datagram(Command.APWR, -1 & 0xFFFF, 0x0400, b"\x00\x40"))
+    for p in (3, 5):
+        sent(chain, Datagram(Command.APWR, -p & 0xFFFF, 0x0108, struct.pack("<H", 0x1400)))
+    alone: list[int] = []
+    process = EscDevice.process
+
+    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
+        alone.append(self.position)
+        return process(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EscDevice, "process", counted)
+    got = sent(chain, Datagram(Command.BRW, 0, 0x0400, b"\x34\x12"))
+    assert (got.data, got.wkc) == (b"\x34\x52", 34)
+    dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
+    assert (
+        dividers
+        == [b"\x34\x12"] * 2 + [b"\x34\x52", bytes(2), b"\x34\x52", bytes(2)] + [b"\x34\x52"] * 6
+    )
+    assert [bytes(chain.memory[p, 0x1800:0x1802]) for p in (3, 5)] == [b"\x34\x52", bytes(2)]
+    assert sorted(alone) == ([3, 5] if kind is EcatChain else list(range(NODES)))
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_multiple_write_of_process_ram_writes_what_the_addressed_esc_read(
     kind: type[EcatChain],
 ) -> None:
