@@ -82,11 +82,9 @@ class Plans(dict[tuple[int, int, int], "Access"]):
     (:func:`table_access`), and, for a table decoded as FMMU 0 and the others
     (:func:`decode_fmmus`), those two parts (each an :data:`FmmuTable` of its own)."""
 
-    __slots__ = ("parts",)
-
-    def __init__(self, parts: tuple[FmmuTable, FmmuTable] | None = None) -> None:
-        super().__init__()
-        self.parts = parts
+    # (a class default: made without an __init__ of its own, a table's Plans costs what a
+    # dict does, about 0.2 us against 0.7 us with one, at every ESC whose FMMU table changed)
+    parts: tuple[FmmuTable, FmmuTable] | None = None
 
 
 # active FMMUs, the logical span they map, and the plans of logical accesses through them
@@ -242,7 +240,9 @@ def fmmu_table(table: bytes) -> FmmuTable:
         if parts is None:
             found = (*decode_entries(table), Plans())
         else:
-            found = (*_joined(*parts), Plans(parts))
+            plans = Plans()
+            plans.parts = parts
+            found = (*_joined(*parts), plans)
         found = remember(FMMU_CACHE, table, found)
     return found
 
