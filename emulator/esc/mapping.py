@@ -235,16 +235,20 @@ def fmmu_table(table: bytes) -> FmmuTable:
     keep the table's two parts: once per distinct bytes (:data:`FMMU_CACHE`), so that ESCs
     whose FMMUs hold the same bytes share it."""
     found = FMMU_CACHE.get(table)
-    if found is None:
-        parts = _fmmu_parts(table)
-        if parts is None:
-            found = (*decode_entries(table), Plans())
-        else:
-            plans = Plans()
-            plans.parts = parts
-            found = (*_joined(*parts), plans)
-        found = remember(FMMU_CACHE, table, found)
-    return found
+    if found is not None:
+        return found
+    plans = Plans()
+    parts = _fmmu_parts(table)
+    if parts is None:
+        return remember(FMMU_CACHE, table, (*decode_entries(table), plans))
+    plans.parts = parts
+    first, others = parts
+    if not first[0]:
+        return remember(FMMU_CACHE, table, (others[0], others[1], plans))
+    if not others[0]:
+        return remember(FMMU_CACHE, table, (first[0], first[1], plans))
+    span = (min(first[1][0], others[1][0]), max(first[1][1], others[1][1]))
+    return remember(FMMU_CACHE, table, (first[0] + others[0], span, plans))
 
 
 def sm_table(table: bytes) -> SmFound:
