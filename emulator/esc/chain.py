@@ -566,8 +566,9 @@ class EcatChain:
         (:meth:`_memory_read_write`); a BRW of registers whose write the read/write offset puts
         in that RAM (:meth:`_registers_into_memory`), and an ARMW or FRMW of it
         (:meth:`_read_multiple_write_memory`), over the rows unless the write meets a buffer
-        ECAT writes. One of no bytes beyond the registers (a BRW's write too, at the read/write
-        offset) does nothing at any ESC. Elsewhere
+        ECAT writes. A BWR or BRD from registers into RAM is both of these, its registers (not
+        the reset register) and its RAM apart. One of no bytes beyond the registers (a BRW's
+        write too, at the read/write offset) does nothing at any ESC. Elsewhere
         (SyncManager areas, the rest of memory, the reset register) each ESC in turn.
         """
         end, reach, memory = ado + n, len(line), self.memory
@@ -619,6 +620,12 @@ class EcatChain:
                 return done
         if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
             return self._memory_broadcast(line, cmd, adp, ado, buf, at, n)
+        if cmd in (BWR, BRD) and ado < REGISTER_END < end and _plain_write(ado, REGISTER_END):
+            # registers, then RAM: apart, each counting once at every ESC (the registers do)
+            cut = REGISTER_END - ado
+            _, changed = self._everyone(line, cmd, adp, ado, buf, at, cut)
+            more = self._memory_broadcast(line, cmd, adp, REGISTER_END, buf, at + cut, n - cut)[1]
+            return reach, changed or more
         if cmd == BRW and ado >= REGISTER_END and n:
             return self._memory_read_write(line, adp, ado, buf, at, n)
         total, changed = 0, False

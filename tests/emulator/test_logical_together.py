@@ -1126,6 +1126,49 @@ def test_a_broadcast_of_no_bytes_beyond_the_registers_does_nothing(
     assert (alone == []) == (kind is EcatChain)
 
 
+@pytest.mark.parametrize("cmd", [Command.BWR, Command.BRD])
+@pytest.mark.parametrize(
+    ("ado", "n", "apart"),
+    [
+        (0x0F70, 0x20, ()),  # registers, then user RAM
+        (0x0E00, 0x190, ()),  # into user RAM, up to the input buffer
+        (0x0F7F, 0x90, (Command.BRD,)),  # into the input buffer, which a BWR does not write
+        (0x0EF0, 0x400, (Command.BRD, Command.BWR)),  # and the write buffer at 0x1200
+        (0x09F0, 0x5A0, ()),  # from DC registers, which a BRD reads at the frame's time
+    ],
+)
+def test_a_broadcast_from_registers_into_ram_leaves_the_same_bytes(
+    cmd: Command,
+    ado: int,
+    n: int,
+    apart: tuple[Command, ...],
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """A BWR or BRD from registers into user and process RAM: the same returned frame, memory
+    and event requests as every ESC in turn, the DL and AL status events raised first; its
+    registers and its RAM are done apart, over the rows, and only the ESCs whose SyncManager
+    areas in that RAM have rules of their own (the input buffer where it is not locked, the
+    write buffer) do the datagram on their own. (One frame cannot hold such a datagram from the
+    reset register, 0x0040, on: 3,904 bytes.)"""
+    fast, reference = line(EcatChain), line(OneByOne)
+    for chain in (fast, reference):
+        raise_events(chain)
+    processed: list[int] = []
+    process = EscDevice.process
+
+    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
+        if self in fast.devices:
+            processed.append(self.position)
+        return process(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EscDevice, "process", counted)
+    data = bytes(range(1, 256)) * (n // 255 + 1)
+    dg = Datagram(cmd, 0, ado, data[:n])
+    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), f"{cmd} {ado:#x}")
+    assert bool(processed) == (cmd in apart)
+    assert len(processed) < NODES
+
+
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_write_of_no_bytes_writes_registers_at_its_offset(kind: type[EcatChain]) -> None:
     """Hand-worked: the read/write offset is 0xF000 at ESC 2 and 0 elsewhere. A BRW of no bytes
