@@ -242,13 +242,8 @@ def fmmu_table(table: bytes) -> FmmuTable:
     if parts is None:
         return remember(FMMU_CACHE, table, (*decode_entries(table), plans))
     plans.parts = parts
-    first, others = parts
-    if not first[0]:
-        return remember(FMMU_CACHE, table, (others[0], others[1], plans))
-    if not others[0]:
-        return remember(FMMU_CACHE, table, (first[0], first[1], plans))
-    span = (min(first[1][0], others[1][0]), max(first[1][1], others[1][1]))
-    return remember(FMMU_CACHE, table, (first[0] + others[0], span, plans))
+    fmmus, span = _joined(*parts)
+    return remember(FMMU_CACHE, table, (fmmus, span, plans))
 
 
 def sm_table(table: bytes) -> SmFound:
