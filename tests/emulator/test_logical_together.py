@@ -13,6 +13,7 @@ from __future__ import annotations
 import itertools
 import random
 import struct
+from collections.abc import Sequence
 
 import numpy as np
 import pytest
@@ -317,6 +318,23 @@ def test_logical_writes_of_res_reset_every_esc() -> None:
         assert [dev.station for dev in chain.devices][:1] == [0x1001]
         assert lwr(0x4000, bytes([ch])) == nodes, i
     assert {dev.station for dev in chain.devices} == {0}  # reset values
+
+
+def on_their_own(
+    monkeypatch: pytest.MonkeyPatch, devices: Sequence[EscDevice] | None = None
+) -> list[int]:
+    """From now on, the positions of the ESCs (of ``devices``, else any) that do a datagram on
+    their own (:meth:`EscDevice.process`), in the order they do."""
+    alone: list[int] = []
+    process = EscDevice.process
+
+    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
+        if devices is None or self in devices:
+            alone.append(self.position)
+        return process(self, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EscDevice, "process", counted)
+    return alone
 
 
 def sent(chain: EcatChain, datagram: Datagram) -> Datagram:
@@ -1111,14 +1129,7 @@ def test_a_broadcast_of_no_bytes_beyond_the_registers_does_nothing(
     if cmd == Command.BRW:  # its write at the read/write offset: 0x0F80 on at every ESC
         chain.process_frame(bwr(0x0108, struct.pack("<H", (0x1000 - ado) & 0xFFFF)))
     before = chain.memory.copy()
-    alone: list[int] = []
-    process = EscDevice.process
-
-    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
-        alone.append(self.position)
-        return process(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(EscDevice, "process", counted)
+    alone = on_their_own(monkeypatch)
     adp = 0x1001 if cmd == Command.FRMW else 0
     got = sent(chain, Datagram(cmd, adp, ado, b""))
     assert got.wkc == 0
@@ -1153,15 +1164,7 @@ def test_a_broadcast_from_registers_into_ram_leaves_the_same_bytes(
     fast, reference = line(EcatChain), line(OneByOne)
     for chain in (fast, reference):
         raise_events(chain)
-    processed: list[int] = []
-    process = EscDevice.process
-
-    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
-        if self in fast.devices:
-            processed.append(self.position)
-        return process(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(EscDevice, "process", counted)
+    processed = on_their_own(monkeypatch, fast.devices)
     data = bytes(range(1, 256)) * (n // 255 + 1)
     dg = Datagram(cmd, 0, ado, data[:n])
     assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), f"{cmd} {ado:#x}")
@@ -1179,6 +1182,14 @@ def test_a_read_write_of_no_bytes_writes_registers_at_its_offset(kind: type[Ecat
     assert sent(chain, Datagram(Command.BRW, 0, 0x1000, b"")).wkc == 2
 
 
+def dividers_line(kind: type[EcatChain]) -> EcatChain:
+    """:func:`line` with the watchdog divider (0x0400) 0 at every ESC but ESC 1, 0x4000."""
+    chain = line(kind)
+    chain.process_frame(bwr(0x0400, bytes(2)))
+    sent(chain, Datagram(Command.APWR, -1 & 0xFFFF, 0x0400, b"\x00\x40"))
+    return chain
+
+
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_write_of_registers_writes_at_each_escs_own_offset(
     kind: type[EcatChain], monkeypatch: pytest.MonkeyPatch
@@ -1190,18 +1201,9 @@ def test_a_read_write_of_registers_writes_at_each_escs_own_offset(
     watchdog (0x0410) and keeps its divider 0, the others write 0x5234; the frame brings
     0x5234 back. Working counter: 12 reads + 2 x 12 writes = 36. The chain does it over the
     rows: no ESC on its own."""
-    chain = line(kind)
-    chain.process_frame(bwr(0x0400, bytes(2)))
-    sent(chain, Datagram(Command.APWR, -1 & 0xFFFF, 0x0400, b"\x00\x40"))
+    chain = dividers_line(kind)
     sent(chain, Datagram(Command.APWR, -3 & 0xFFFF, 0x0108, b"\x10\x00"))
-    alone: list[int] = []
-    process = EscDevice.process
-
-    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
-        alone.append(self.position)
-        return process(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(EscDevice, "process", counted)
+    alone = on_their_own(monkeypatch)
     got = sent(chain, Datagram(Command.BRW, 0, 0x0400, b"\x34\x12"))
     assert (got.data, got.wkc) == (b"\x34\x52", 36)
     dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
@@ -1220,19 +1222,10 @@ def test_a_read_write_of_registers_writes_into_ram_where_an_escs_offset_puts_it(
     did not load, has no process RAM (datasheet I 11.2.1): its write counts nothing. The
     others write their divider as before. Working counter: 12 reads + 2 x 11 writes = 34. Only
     ESCs 3 and 5 write on their own."""
-    chain = line(kind)
-    chain.process_frame(bwr(0x0400, bytes(2)))
-    sent(chain, Datagram(Command.APWR, -1 & 0xFFFF, 0x0400, b"\x00\x40"))
+    chain = dividers_line(kind)
     for p in (3, 5):
         sent(chain, Datagram(Command.APWR, -p & 0xFFFF, 0x0108, struct.pack("<H", 0x1400)))
-    alone: list[int] = []
-    process = EscDevice.process
-
-    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
-        alone.append(self.position)
-        return process(self, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(EscDevice, "process", counted)
+    alone = on_their_own(monkeypatch)
     got = sent(chain, Datagram(Command.BRW, 0, 0x0400, b"\x34\x12"))
     assert (got.data, got.wkc) == (b"\x34\x52", 34)
     dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
