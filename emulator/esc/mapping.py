@@ -54,6 +54,7 @@ __all__ = [
     "esc_row_access",
     "fmmu_table",
     "forget",
+    "moved_along",
     "outside",
     "plain_access",
     "plan_logical",
@@ -105,8 +106,9 @@ ACCESS_CACHE: dict[tuple[object, ...], Access] = {}
 # the accesses of an access's first FMMU and of the FMMUs after it, by the FMMUs they meet
 # (Access.rows)
 PARTS_CACHE: dict[tuple[object, ...], Access] = {}
-# accesses through FMMU 0 and other FMMUs, by the accesses through each part (table_access)
-JOINED_CACHE: dict[tuple[Access, Access], Access] = {}
+# accesses through FMMU 0 and other FMMUs, by the accesses through each part, or by FMMU 0's
+# access moved along (moved_along: access, frame offset) and the others' (table_access)
+JOINED_CACHE: dict[tuple[object, ...], Access] = {}
 # a decoded SyncManager table, the order of its entries by start (PDI-locked last), and the
 # status registers (0x0805 + 8 y) of the SyncManagers without a buffer (sm_table)
 SmFound = tuple[SmTable, tuple[int, ...], tuple[int, ...]]
@@ -364,6 +366,7 @@ class Access:
     the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
 
     __slots__ = (
+        "_at",
         "_first",
         "_moved",
         "_others",
@@ -389,6 +392,7 @@ class Access:
         self._plan: LogicalPlan | None = None
         self._registers: tuple[bool, bool] | None = None
         self._first: Access | None = None  # the first FMMU's access (PARTS_CACHE)
+        self._at: tuple[Access, int] | None = None  # or that access moved along (moved)
         self._others: Access | None = None  # the others' (PARTS_CACHE)
         self._moved: object = _UNASKED  # (the FMMU's access at logical 0, frame offset) or None
         self.areas: SmTable | None = None
@@ -407,6 +411,16 @@ class Access:
         through each, meeting some) are: its :meth:`rows` work from theirs (:meth:`_apart`)."""
         found = cls(first.hit + others.hit, first.cmd, first.lad, first.n)
         found._first, found._others = first, others
+        return found
+
+    @classmethod
+    def joined_along(cls, fmmu: tuple[int, ...], at: tuple[Access, int], others: Access) -> Access:
+        """:meth:`joined` for a first FMMU ``fmmu`` that lies wholly inside the access, whose
+        access is ``at`` (:func:`moved_along`): worked out from that one moved along, without
+        an access of its own (after hostile writes to the others, each ESC of a configured
+        line, mapping its own logical bytes with FMMU 0, joins anew)."""
+        found = cls((fmmu, *others.hit), others.cmd, others.lad, others.n)
+        found._at, found._others = at, others
         return found
 
     @property
@@ -430,21 +444,8 @@ class Access:
         with FMMU 0 alike: they share one such access. None otherwise (or for that access
         itself)."""
         if self._moved is _UNASKED:
-            found: tuple[Access, int] | None = None
-            if len(self.hit) == 1:
-                f = self.hit[0]
-                start, length = f[0], f[1] - f[0]
-                if (
-                    self.lad <= start
-                    and start + length <= self.lad + self.n
-                    and (start or self.lad)
-                ):
-                    key = (((0, length, *f[2:]),), self.cmd, 0, length)
-                    at = PARTS_CACHE.get(key)
-                    if at is None:
-                        at = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
-                    found = (at, start - self.lad)
-            self._moved = found
+            hit = self.hit
+            self._moved = moved_along(hit[0], self.cmd, self.lad, self.n) if len(hit) == 1 else None
         return self._moved  # type: ignore[return-value]
 
     @property
@@ -525,16 +526,27 @@ class Access:
         others.rows(areas, top, writes)
         if others.cut is None or others.events or others.dc or others.shadow:
             return False
-        first = self._first
-        if first is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
-            key = (self.hit[:1], cmd, lad, n)
-            first = PARTS_CACHE.get(key)
-            if first is None:
-                first = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
-            self._first = first
-        first.rows(areas, top, writes)
-        if first.cut is None or (first.events and reads_registers):
-            return False  # (a read of the event request after the first cleared an event)
+        at = self._at
+        if at is not None:  # the first FMMU's access is one moved along (joined_along)
+            moved, offset = at
+            moved.rows(areas, top, writes)
+            if moved.cut is None or (moved.events and reads_registers):
+                return False
+            first_cut, shadow = along(moved.cut, offset), _along(moved.shadow, offset)
+            first: Access = moved
+        else:
+            found = self._first
+            if found is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
+                key = (self.hit[:1], cmd, lad, n)
+                found = PARTS_CACHE.get(key)
+                if found is None:
+                    found = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+                self._first = found
+            first = found
+            first.rows(areas, top, writes)
+            if first.cut is None or (first.events and reads_registers):
+                return False  # (a read of the event request after the first cleared an event)
+            first_cut, shadow = first.cut, first.shadow
         f = self.hit[0]
         lo, hi = max(lad, f[0]) - lad, min(lad + n, f[1]) - lad  # the frame bytes it claims
         reads, writes_ = others.cut
@@ -547,15 +559,30 @@ class Access:
             ):
                 return False  # a write of (inert) registers counts if the claims leave any of it
             writes_ = unclaimed(writes_, lo, hi, True)
-        self.cut = (first.cut[0] + reads, first.cut[1] + writes_)
+        self.cut = (first_cut[0] + reads, first_cut[1] + writes_)
         self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
-        self.dc, self.shadow = first.dc, first.shadow
+        self.dc, self.shadow = first.dc, shadow
         self.mailboxes = (
             first.mailboxes + tuple([m for m in others.mailboxes if m not in first.mailboxes])
             if others.mailboxes
             else first.mailboxes
         )  # (those of parts the claims took away as well: they need not be idle, but may)
         return True
+
+
+def moved_along(f: tuple[int, ...], cmd: int, lad: int, n: int) -> tuple[Access, int] | None:
+    """When the FMMU ``f`` lies wholly inside a logical access (``cmd``, ``n`` bytes at
+    ``lad``) and not at logical 0 with it: the access of ``f`` alone moved to logical 0
+    through exactly its bytes (:data:`PARTS_CACHE`), and how many bytes into the frame the
+    access has them (:meth:`Access.moved`); else None."""
+    start, end = f[0], f[1]
+    if not (lad <= start and end <= lad + n and (start or lad)):
+        return None
+    key = (((0, end - start, *f[2:]),), cmd, 0, end - start)
+    at = PARTS_CACHE.get(key)
+    if at is None:
+        at = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+    return at, start - lad
 
 
 def along(plan: LogicalPlan, offset: int) -> LogicalPlan:
@@ -661,10 +688,18 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
         elif not (rest[0] and span[0] < lad + n and span[1] > lad):  # FMMU 0 alone does
             found = shared_access(f, cmd, lad, n, head[1])
         else:  # joined once per pair of parts' accesses, whatever else differs
-            pair = (shared_access(f, cmd, lad, n, head[1]), _part_access(rest, key))
-            if not pair[1].hit:  # the others' span meets it, but none of them does
-                found = pair[0]
+            others = _part_access(rest, key)
+            at = moved_along(f[0], cmd, lad, n) if len(f) == 1 else None
+            if not others.hit:  # the others' span meets it, but none of them does
+                found = shared_access(f, cmd, lad, n, head[1])
+            elif at is not None:  # FMMU 0 inside the access: moved along, no access of its own
+                joint = (at[0], at[1], others)
+                found = JOINED_CACHE.get(joint)
+                if found is None:
+                    found = Access.joined_along(f[0], at, others)
+                    remember(JOINED_CACHE, joint, found, PLAN_CACHE_ENTRIES)
             else:
+                pair = (shared_access(f, cmd, lad, n, head[1]), others)
                 found = JOINED_CACHE.get(pair)
                 if found is None:
                     found = remember(JOINED_CACHE, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
