@@ -534,31 +534,31 @@ def last_readers(
     devices: Sequence[EscDevice], plans: Sequence[LogicalPlan], buf: bytearray, off: int, n: int
 ) -> int:
     """:func:`lrd_last_readers` of the ESCs' plans cut (:attr:`emulator.esc.mapping.Access.cut`)."""
-    unread = bytearray(b"\xff") * n  # per frame byte, the bits no later ESC reads
-    left = 8 * n  # how many
+    unread = (1 << 8 * n) - 1  # the frame bits no later ESC reads (bit 8 i + k: byte i, bit k)
     wkc = 0
     for dev, plan in zip(reversed(devices), reversed(plans), strict=True):
         reads = plan[0]  # the plan with the holes cut: each part reads a byte
         if not reads:
             continue
         wkc += 1
-        if not left:  # nothing left to read: it only counts
+        if not unread:  # nothing left to read: it only counts
             continue
         mem = dev.mem
         for bytewise, a, b, c, d, e, f in reads:
             if bytewise:  # physical a, frame offset b, c bytes
                 at, width, mask = b, c, (1 << 8 * c) - 1
-                value = int.from_bytes(mem[a : a + c], "little")
             else:  # physical bytes [a, a + b), shift c, mask d of frame bytes [e, e + f)
                 at, width, mask = e, f, d
+            new = unread >> 8 * at & mask  # what this part reads that no later ESC does
+            if not new:
+                continue
+            if bytewise:
+                value = int.from_bytes(mem[a : a + c], "little")
+            else:
                 value = int.from_bytes(mem[a : a + b], "little")
                 value = value >> c if c >= 0 else value << -c
-            still = int.from_bytes(unread[at : at + width], "little")
-            new = mask & still
-            if new:
-                frame = int.from_bytes(buf[off + at : off + at + width], "little")
-                frame = (frame & ~new) | (value & new)
-                buf[off + at : off + at + width] = frame.to_bytes(width, "little")
-                unread[at : at + width] = (still ^ new).to_bytes(width, "little")
-                left -= new.bit_count()
+            frame = int.from_bytes(buf[off + at : off + at + width], "little")
+            frame = (frame & ~new) | (value & new)
+            buf[off + at : off + at + width] = frame.to_bytes(width, "little")
+            unread ^= new << 8 * at
     return wkc
