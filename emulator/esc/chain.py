@@ -454,8 +454,8 @@ class EcatChain:
     ) -> tuple[int, bool]:
         """A logical datagram through the ESCs of ``line`` at ``targets`` (those whose FMMUs
         map part of it), in chain order: (the working counter's increment, whether an ESC's
-        event request changed). An LRD of a whole input buffer is one call
-        (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
+        event request changed). An LRD of a whole input buffer, or an LRW there that the ESC
+        does not write, is one call (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
         memory with one plan cut (:meth:`EscDevice.row_access`; idle mailboxes are holes in it,
         :meth:`EscDevice.row_cut`) are done at once over their rows
         (:func:`logical_together`), a few of them each straight in its memory

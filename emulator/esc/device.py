@@ -149,6 +149,7 @@ __all__ = [
 
 _RESET_SEQUENCE: Final = b"RES"
 _MAILBOX_EVENT: Final = -1  # EscDevice.react: a mailbox or SyncManager event, not AL control
+LRD_OR_LRW: Final = frozenset((LRD, LRW))  # the logical commands that read (read_buffered)
 
 
 @dataclass(frozen=True, slots=True)
@@ -327,7 +328,7 @@ class EscDevice:
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
         # the general path decides; worked out per FMMU and SyncManager configuration
-        self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm] | None] = {}
+        self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm, bool] | None] = {}
         # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
         self.sm_areas: SmTable = ()
         # SyncManagers changed but not made yet, made when first needed (_make_sms): the
@@ -847,16 +848,18 @@ class EscDevice:
         sm.buf = None
 
     # --- logical access through the FMMUs ------------------------------------------------------
-    def read_buffered(self, lad: int, buf: bytearray, off: int, n: int) -> bool:
+    def read_buffered(self, lad: int, buf: bytearray, off: int, n: int, cmd: int = LRD) -> bool:
         """An LRD of ``n`` bytes at ``lad`` (data at ``buf[off:]``) in its common case, the
         whole buffer of one read SyncManager (:meth:`_plan_lrd`): done, with the working counter
         to count 1, when True; False leaves the LRD to :meth:`process` (the chain asks this
-        first, for every ESC an LRD of the process image reaches)."""
+        first, for every ESC an LRD or LRW of the process image reaches). An LRW (``cmd``) that
+        no FMMU of this ESC writes is that LRD: it reads alike and counts 1 (ETG.1000.4 Table 14,
+        +1 for a read, +2 for a write)."""
         if self.trace is not None:
             return False
         key = (lad, n)
         plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
-        if plan is None or plan[1].locked or self.dc_sampling:
+        if plan is None or plan[1].locked or self.dc_sampling or (cmd != LRD and plan[2]):
             return False
         self._read_buffer(plan[1], buf, off + plan[0])
         return True
@@ -952,7 +955,7 @@ class EscDevice:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
         counter's increment; but when the chain may do it over the rows (:meth:`row_access`),
         that access, untouched, for the chain to do it together with the ESCs after this one."""
-        if cmd == LRD and self.read_buffered(lad, buf, off, n):
+        if cmd in LRD_OR_LRW and self.read_buffered(lad, buf, off, n, cmd):
             return 1
         found = self._access(cmd, lad, n)
         if self.row_cut(found) is not None:
@@ -1040,7 +1043,7 @@ class EscDevice:
         return out
 
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
-        if cmd == LRD and self.read_buffered(lad, buf, off, n):
+        if cmd in LRD_OR_LRW and self.read_buffered(lad, buf, off, n, cmd):
             return 1
         return self._through(self._access(cmd, lad, n).plan, cmd, buf, off, n)
 
@@ -1089,13 +1092,15 @@ class EscDevice:
         buf[off : off + n] = frame.to_bytes(n, "little")
         return 1
 
-    def _plan_lrd(self, key: tuple[int, int]) -> tuple[int, _Sm] | None:
+    def _plan_lrd(self, key: tuple[int, int]) -> tuple[int, _Sm, bool] | None:
         """How an LRD of ``key`` = (address, length) reads, when it is the common case the
         general path (:func:`plan_logical`, :meth:`_read_phys`, :meth:`_sm_read`) would take
         one way: one read FMMU, byte-wise, maps part of it onto exactly the whole buffer of a
-        buffered read SyncManager in process memory, which no other SyncManager overlaps."""
+        buffered read SyncManager in process memory, which no other SyncManager overlaps: the
+        frame offset, the SyncManager, and whether a write FMMU meets it too (an LRW there is
+        not that LRD)."""
         lad, n = key
-        plan: tuple[int, _Sm] | None = None
+        plan: tuple[int, _Sm, bool] | None = None
         reads = [f for f in self._fmmus if f[6] and f[0] < lad + n and f[1] > lad]
         if len(reads) == 1 and reads[0][8]:
             log_start, log_end, phys = reads[0][:3]
@@ -1110,7 +1115,8 @@ class EscDevice:
                 and (hit[0].start, hit[0].end) == (at, end)
                 and not (hit[0].mailbox or hit[0].ecat_writes)
             ):
-                plan = (lo - lad, self._own(hit[0]))  # whose state the plan's reads change
+                writes = any(f[7] and f[0] < lad + n and f[1] > lad for f in self._fmmus)
+                plan = (lo - lad, self._own(hit[0]), writes)  # whose state the reads change
         return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
     def _read_buffer(self, sm: _Sm, buf: bytearray, at: int) -> None:

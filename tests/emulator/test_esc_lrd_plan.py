@@ -1,10 +1,12 @@
 """The ESC's planned LRD (one whole input buffer through one byte-wise FMMU, the process data of
-every cycle) answers as the general path (FMMU, physical read, SyncManager) does, frame by frame
-and SyncManager register by register: in the cases the plan must leave to the general path
-(a buffer the PDI locked, a SyncManager turned around to ECAT writes) and under hostile frames."""
+every cycle), and an LRW that no FMMU of the ESC writes, answer as the general path (FMMU,
+physical read, SyncManager) does, frame by frame and SyncManager register by register: in the
+cases the plan must leave to the general path (a buffer the PDI locked, a SyncManager turned
+around to ECAT writes, an FMMU that writes where the LRW reaches) and under hostile frames."""
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Callable
 
 import numpy as np
@@ -36,6 +38,10 @@ def lrd(lad: int, n: int) -> bytes:
     return frame(Datagram.logical(Command.LRD, lad, bytes(n)))
 
 
+def lrw(lad: int, n: int) -> bytes:
+    return frame(Datagram.logical(Command.LRW, lad, bytes(range(n))))
+
+
 def bwr(ado: int, data: bytes) -> bytes:
     return frame(Datagram(Command.BWR, 0, ado, data))
 
@@ -57,17 +63,25 @@ def sm0_to_ecat_writes(chain: EcatChain) -> None:
         chain.process_frame(f)
 
 
+def fmmu1_writes_after_the_image(chain: EcatChain) -> None:
+    """FMMU 1 of every ESC writes logical IMAGE..IMAGE+3 into user RAM at 0x0F80."""
+    chain.process_frame(bwr(0x0610, struct.pack("<IHBBHBBB3x", IMAGE, 4, 0, 7, 0x0F80, 0, 2, 1)))
+
+
 def nothing(chain: EcatChain) -> None:
     pass
 
 
-@pytest.mark.parametrize("change", [nothing, lock_sm0, sm0_to_ecat_writes])
+@pytest.mark.parametrize(
+    "change", [nothing, lock_sm0, sm0_to_ecat_writes, fmmu1_writes_after_the_image]
+)
 def test_planned_lrds_answer_as_the_general_path(change: Callable[[EcatChain], None]) -> None:
     planned = EcatChain.configured(NODES, SIZE)
     reference = general(EcatChain.configured(NODES, SIZE))
     for chain in (planned, reference):
         change(chain)
     ordinary = [lrd(0, IMAGE), lrd(SIZE, SIZE), lrd(3, 2 * SIZE), lrd(0, IMAGE + 5)]
+    ordinary += [lrw(0, IMAGE), lrw(SIZE, SIZE), lrw(0, IMAGE + 5)]
     for k in range(len(ROWS)):
         for chain in (planned, reference):
             chain.publish(np.ascontiguousarray(ROWS[k]))  # a new buffer: the SM's write event
@@ -78,12 +92,18 @@ def test_planned_lrds_answer_as_the_general_path(change: Callable[[EcatChain], N
     if change is nothing:
         back = ethercat.decode(planned.process_frame(lrd(0, IMAGE))[14:])[0].datagrams[0]  # type: ignore[index]
         assert (back.data, back.wkc) == (ROWS[-1].tobytes(), NODES)
+        back = ethercat.decode(planned.process_frame(lrw(0, IMAGE))[14:])[0].datagrams[0]  # type: ignore[index]
+        assert (back.data, back.wkc) == (ROWS[-1].tobytes(), NODES)  # read only: 1 an ESC
+    if change is fmmu1_writes_after_the_image:  # each ESC reads its inputs and writes 4 bytes
+        back = ethercat.decode(planned.process_frame(lrw(0, IMAGE + 5))[14:])[0].datagrams[0]  # type: ignore[index]
+        assert back.wkc == 3 * NODES  # ETG.1000.4 Table 14: +1 read, +2 write
+        assert planned.devices[0].registers(0x0F80, 4) == bytes(range(IMAGE, IMAGE + 4))
 
 
 def test_planned_lrds_answer_as_the_general_path_under_hostile_frames() -> None:
     planned = EcatChain.configured(NODES, SIZE)
     reference = general(EcatChain.configured(NODES, SIZE))
-    ordinary = [lrd(0, IMAGE), lrd(SIZE, SIZE), lrd(0, IMAGE + 5)]
+    ordinary = [lrd(0, IMAGE), lrd(SIZE, SIZE), lrd(0, IMAGE + 5), lrw(0, IMAGE), lrw(0, IMAGE + 5)]
     setup = master_reset_frames(NODES) + configure_frames(planned.devices[0].info, NODES)
     for i, f in enumerate(hostile_frames(1_500, nodes=NODES, input_bytes=SIZE, seed=9)):
         if i % 50 == 0:
