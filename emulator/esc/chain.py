@@ -42,6 +42,8 @@ from emulator.esc.commands import (
     BWR,
     CONFIGURED,
     EVERYONE,
+    FPRD,
+    FPWR,
     INCREMENTS,
     LOGICAL,
     LRD,
@@ -147,16 +149,18 @@ def _inert_areas(
 
 
 def _by_table(
-    line: list[EscDevice], lo: int, hi: int, write: bool
+    line: list[EscDevice], lo: int, hi: int, write: bool, positions: Iterable[int] | None = None
 ) -> tuple[_Groups, dict[int, tuple[tuple[int, int], ...] | None], list[int]]:
-    """The ESCs of ``line`` for an access of user or process RAM [lo, hi) (a write when
-    ``write``): the positions of those whose SyncManager areas do nothing with it where they
-    meet it, grouped by table and PDI state; per table, the holes (:func:`_inert_areas`); and
-    the positions of the others (an area there whose buffer's rules are the ESC's)."""
+    """The ESCs of ``line`` (those at ``positions``) for an access of user or process RAM
+    [lo, hi) (a write when ``write``): the positions of those whose SyncManager areas do
+    nothing with it where they meet it, grouped by table and PDI state; per table, the holes
+    (:func:`_inert_areas`); and the positions of the others (an area there whose buffer's rules
+    are the ESC's)."""
     holes: dict[int, tuple[tuple[int, int], ...] | None] = {}
     groups: _Groups = {}
     alone: list[int] = []
-    for p, dev in enumerate(line):
+    for p in range(len(line)) if positions is None else positions:
+        dev = line[p]
         areas = dev.sm_areas
         key = id(areas)
         if key not in holes:
@@ -411,6 +415,12 @@ class EcatChain:
                     lad = adp | ado << 16
                     hit = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
                     wkc_inc, changed = self._logical(line, hit, cmd, adp, ado, buf, data_at, n)
+                done = None
+                if len(targets) >= TOGETHER_MIN and cmd in CONFIGURED:
+                    done = self._configured(line, targets, cmd, ado, buf, data_at, n)
+                if done is not None:
+                    wkc_inc, changed = done
+                    targets = []
                 for p in targets:
                     dev = line[p]
                     before = dev.irq
@@ -877,14 +887,84 @@ class EcatChain:
         buf[at : at + k] = ored[-1].tobytes()
         return wkc
 
-    def _clear_events(self, line: list[EscDevice], events: int) -> bool:
-        """The ESCs of ``line`` read the registers that clear ``events`` (0x0210 bits); whether
-        an ESC's event request changed."""
-        column = self.memory[: len(line), REG_ECAT_EVENT]
-        hit = np.flatnonzero(column & events).tolist()
+    def _configured(
+        self,
+        line: list[EscDevice],
+        targets: list[int],
+        cmd: int,
+        ado: int,
+        buf: bytearray,
+        at: int,
+        n: int,
+    ) -> tuple[int, bool] | None:
+        """A configured-address datagram of registers at many ESCs of ``line`` (``targets``,
+        in chain order: hostile writes gave them one station address): (the working counter's
+        increment, whether an ESC's event request changed), or None, having done nothing, to
+        leave it to each ESC. Each ESC does what :meth:`EscDevice.process` does there, over the
+        rows: an FPWR whose write only waits for the end of the frame (:func:`_plain_write`)
+        is one (address, data) in each ESC's shadow writes; an FPRD of registers (not DC times,
+        which run with the clock) leaves the frame with the last ESC's registers as committed
+        (each ESC replaces the data, datasheet I Table 7), each ESC's read clearing the DL or
+        AL status event it reads; an FPRW also writes, at each ESC's read/write offset (0x0108,
+        one for all of them), the data as it arrived there, the ESC before it's registers: into
+        its shadow writes, or into user or process RAM where no ESC's SyncManager area there
+        has rules of its own (:func:`_by_table`, as :meth:`_registers_into_memory`). 1 per ESC
+        for the read, 2 per ESC that wrote a byte."""
+        end = ado + n
+        if cmd == FPWR:
+            if not _plain_write(ado, end):
+                return None
+            entry = (ado, bytes(buf[at : at + n]))
+            for p in targets:
+                line[p].pending.append(entry)
+            return len(targets), False
+        if not _register_read(ado, end):
+            return None
+        memory = self.memory
+        read = memory[targets, ado:end]
+        wrote = 0
+        if cmd != FPRD:  # FPRW: each writes the data as it arrived at its read/write offset
+            offsets = memory[targets, REG_RW_OFFSET : REG_RW_OFFSET + 2]
+            if not (offsets == offsets[0]).all():
+                return None
+            to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
+            if to >= REGISTER_END and n:  # into user or process RAM, over the rows
+                to_end = min(to + n, ADDRESS_SPACE)
+                groups, holes, alone = _by_table(line, to, to_end, True, targets)
+                if alone:
+                    return None
+                arrived = np.empty((len(line), n), np.uint8)  # at the rows of the targets
+                arrived[targets[0]] = np.frombuffer(buf, np.uint8, n, at)
+                arrived[targets[1:]] = read[:-1]
+                wrote = self._write_rows(groups, holes, to, to_end, arrived)
+            elif _plain_write(to, to + n):
+                row_bytes = [bytes(buf[at : at + n]), *(row.tobytes() for row in read[:-1])]
+                for p, data in zip(targets, row_bytes, strict=True):
+                    line[p].pending.append((to, data))
+                wrote = len(targets)
+            else:
+                return None
+        buf[at : at + n] = read[-1].tobytes()
+        events = cleared_events(ado, end)
+        changed = bool(events) and self._clear_events(line, events, targets)
+        return len(targets) + (0 if cmd == FPRD else 2 * wrote), changed
+
+    def _clear_events(
+        self, line: list[EscDevice], events: int, positions: list[int] | None = None
+    ) -> bool:
+        """The ESCs of ``line`` (those at ``positions``) read the registers that clear ``events``
+        (0x0210 bits); whether an ESC's event request changed."""
+        if positions is None:
+            column = self.memory[: len(line), REG_ECAT_EVENT]
+            hit = np.flatnonzero(column & events).tolist()
+            if hit:
+                column &= ~events & 0xFF
+        else:
+            hit = [p for p in positions if self.memory[p, REG_ECAT_EVENT] & events]
+            for p in hit:
+                self.memory[p, REG_ECAT_EVENT] &= ~events & 0xFF
         if not hit:
             return False
-        column &= ~events & 0xFF
         changed = False
         for p in hit:
             dev = line[p]

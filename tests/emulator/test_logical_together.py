@@ -1503,3 +1503,75 @@ def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
         data = rng.randbytes(rng.randrange(1, 0x20)) if cmd == Command.BRW else bytes(8)
         dg = Datagram(cmd, 0, ado, data)
         assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(i))
+
+
+def one_station(kind: type[EcatChain]) -> EcatChain:
+    """:func:`line` after a broadcast gave every ESC station address 0x4242, as a hostile write
+    of 0x0010 does, with the DL and AL status events pending (:func:`raise_events`)."""
+    chain = line(kind)
+    chain.process_frame(bwr(0x0010, b"\x42\x42"))
+    raise_events(chain)
+    return chain
+
+
+@pytest.mark.parametrize("cmd", [Command.FPRD, Command.FPWR, Command.FPRW])
+@pytest.mark.parametrize(
+    ("ado", "n", "offsets", "rows"),
+    [  # rows: the commands done over the rows (R FPRD, W FPWR, B FPRW)
+        (0x0120, 2, None, "RWB"),  # AL control: a write that waits for the end of the frame
+        (0x0130, 6, None, "RWB"),  # AL status, whose read clears its event
+        (0x0100, 0x20, None, "RWB"),  # DL control and status (the read clears DL status event)
+        (0x0040, 1, None, "R"),  # the reset register: each ESC writes it on its own
+        (0x0400, 2, 0x0010, "RWB"),  # the watchdog divider, written at 0x0410 by an FPRW
+        (0x0400, 2, 0xF000, "RWB"),  # an FPRW's write into process RAM at 0xF400 (not at CLOSED)
+        (0x0400, 2, 0x0C00, "RWB"),  # into the input buffer (0x1000), which ECAT does not write
+        (0x0400, 2, 0x0E00, "RW"),  # into the buffer ECAT writes (0x1200): each ESC's
+        (0x0F70, 2, 0x0010, "RWB"),  # registers, an FPRW writing them into user RAM at 0x0F80
+        (0x0F70, 0x20, None, ""),  # registers and user RAM: each ESC's
+        (0x0900, 8, None, "W"),  # DC receive times, which run with the clock: each ESC reads
+        (0x0300, 0, None, "RWB"),  # no byte, at a register: counts
+    ],
+)
+def test_a_configured_address_datagram_at_many_escs_leaves_the_same_bytes(
+    cmd: Command,
+    ado: int,
+    n: int,
+    offsets: int | None,
+    rows: str,
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """Every ESC has station address 0x4242: an FPRD, FPWR or FPRW addressed to it leaves the
+    same returned frame, memory and event requests as every ESC in turn; of registers (not DC
+    times for a read, nor the reset register for a write) it is done over the rows, no ESC on
+    its own, and so is an FPRW whose write at the read/write offset (``offsets``, 0x0108 at
+    every ESC) is of such registers, or of RAM where no SyncManager buffer ECAT writes lies."""
+    fast, reference = one_station(EcatChain), one_station(OneByOne)
+    if offsets is not None:
+        for chain in (fast, reference):
+            chain.process_frame(bwr(0x0108, struct.pack("<H", offsets)))
+    alone = on_their_own(monkeypatch, fast.devices)
+    dg = Datagram(cmd, 0x4242, ado, bytes(range(7, 7 + n)))
+    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), f"{cmd} {ado:#x}")
+    letter = {Command.FPRD: "R", Command.FPWR: "W", Command.FPRW: "B"}[cmd]
+    assert (alone == []) == (letter in rows), alone
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_an_fprw_at_many_escs_writes_what_the_esc_before_read(
+    kind: type[EcatChain], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Hand-worked: every ESC has station address 0x4242 but ESC 4; the watchdog divider
+    (0x0400) is 0 but at ESC 1, 0x4000 (:func:`dividers_line`). An FPRW of 0x0400 with data
+    0x1234: each addressed ESC replaces the data with its divider (datasheet I Table 7) and
+    writes the data as it arrived, the ESC before it's divider: ESC 0 writes 0x1234, ESC 2 (after
+    ESC 1) 0x4000, the others 0; the frame brings back the last one's, 0. Working counter:
+    11 x 3 = 33. The chain does it over the rows."""
+    chain = dividers_line(kind)
+    chain.process_frame(bwr(0x0010, b"\x42\x42"))
+    sent(chain, Datagram(Command.APWR, -4 & 0xFFFF, 0x0010, b"\x01\x00"))
+    alone = on_their_own(monkeypatch)
+    got = sent(chain, Datagram(Command.FPRW, 0x4242, 0x0400, b"\x34\x12"))
+    assert (got.data, got.wkc) == (bytes(2), 33)
+    dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
+    assert dividers == [b"\x34\x12", bytes(2), b"\x00\x40"] + [bytes(2)] * 9
+    assert (alone == []) == (kind is EcatChain)
