@@ -452,17 +452,22 @@ def _shadow_rows(
         if bytewise:  # physical a, frame offset b, c bytes
             written = src[:, b : b + min(c, REGISTER_END - a)]
         else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
-            k = min(b, REGISTER_END - a)
+            k = min(b, REGISTER_END - a)  # the register bytes: the shift's low k bytes alone
             mask = _mask(d, b)[:k]
-            new = _shifted(src[:, e : e + f], -c, b)[:, :k]
+            new = _shifted(src[:, e : e + f], -c, k)
             written = (memory[at, a : a + k] & ~mask) | (new & mask)
         if len(written) == 1 or (written == written[0]).all():
             entry = ((a, written[0].tobytes()),)
             for dev in devices:
                 dev.write_shadow(entry)
-        else:
+        elif a <= REG_RESET_ECAT < a + written.shape[1]:  # each ESC counts its reset byte
             for dev, row in zip(devices, written, strict=True):
                 dev.write_shadow(((a, row.tobytes()),))
+        else:  # what write_shadow does there: each ESC's row among its shadow writes
+            k = written.shape[1]
+            blob = written.tobytes()
+            for i, dev in enumerate(devices):
+                dev.pending.append((a, blob[i * k : i * k + k]))
 
 
 def _read_rows(

@@ -320,6 +320,33 @@ def test_logical_writes_of_res_reset_every_esc() -> None:
     assert {dev.station for dev in chain.devices} == {0}  # reset values
 
 
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_logical_writes_of_res_that_differ_from_esc_to_esc_reset_each_esc_they_spell(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: FMMU 0 writes logical 0x4000 into the reset register 0x0040 and FMMU 1
+    reads it from user RAM 0x0F80, at every ESC. An LRW of 0x4000 with 'X' in three frames,
+    after a BWR of user RAM with 'R', 'E' and 'S' in turn: each ESC reads before it writes (datasheet I
+    Table 7), so ESC 0 writes 'X' three times, the others what the ESC before read, 'R', 'E',
+    'S' (writes that differ from ESC to ESC, over the rows): every ESC but ESC 0 resets; the
+    working counter counts a read and a write at each (3)."""
+    nodes = together.LOGICAL_TOGETHER_MIN + 2
+    chain = kind.skin(nodes, SIZE)
+    for p in range(nodes):
+        apwr = Datagram(Command.APWR, -p & 0xFFFF, 0x0010, struct.pack("<H", 0x1001 + p))
+        chain.process_frame(ethercat.frame(EcatFrame((apwr,))).to_bytes())
+    fmmus = struct.pack("<IHBBHBBB3x", 0x4000, 1, 0, 7, 0x0040, 0, 2, 1)
+    fmmus += struct.pack("<IHBBHBBB3x", 0x4000, 1, 0, 7, 0x0F80, 0, 1, 1)
+    chain.process_frame(bwr(0x0600, fmmus))
+    for ch in b"RES":  # user RAM set by the frame itself: three frames in a row
+        ram = Datagram(Command.BWR, 0, 0x0F80, bytes([ch]))
+        lrw = Datagram.logical(Command.LRW, 0x4000, b"X")
+        back = chain.process_frame(ethercat.frame(EcatFrame((ram, lrw))).to_bytes())
+        assert back is not None
+        assert ethercat.decode(back[14:])[0].datagrams[1].wkc == 3 * nodes
+    assert [dev.station for dev in chain.devices] == [0x1001] + [0] * (nodes - 1)
+
+
 def on_their_own(
     monkeypatch: pytest.MonkeyPatch, devices: Sequence[EscDevice] | None = None
 ) -> list[int]:
