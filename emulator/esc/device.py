@@ -237,6 +237,15 @@ def port1_forwarding(setting: int, link: bool) -> bool | None:
     return link  # auto, auto close: open with a link
 
 
+def config_area(image: bytes | bytearray) -> tuple[int, ...] | None:
+    """The ESC configuration area A of an SII image, words 0-7 (datasheet I 11.1, Table 42),
+    or None when its checksum (word 7, CRC-8 of words 0-6, unless the bypass value) is wrong."""
+    words = struct.unpack_from("<8H", image)
+    if words[7] == CHECKSUM_BYPASS or words[7] & 0xFF == crc8(bytes(image[:14])):
+        return words
+    return None
+
+
 class EscDevice:
     """An ESC with its SII EEPROM and the application behind its PDI.
 
@@ -397,11 +406,10 @@ class EscDevice:
 
     def _load_config_area(self, *, first: bool) -> bool:
         """Load ESC configuration area A (datasheet I 11.1, Table 42); False on a bad CRC."""
-        mem, image = self.mem, self.sii
-        words = struct.unpack_from("<8H", image)
-        ok = words[7] == CHECKSUM_BYPASS or words[7] & 0xFF == crc8(bytes(image[:14]))
+        mem = self.mem
+        words = config_area(self.sii)
         (status,) = struct.unpack_from("<H", mem, REG_EEPROM_CONTROL)
-        if not ok:
+        if words is None:
             status |= EE_CHECKSUM_ERROR | EE_NOT_LOADED
             struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
             return False

@@ -31,6 +31,7 @@ among each ESC's shadow writes.)
 
 from __future__ import annotations
 
+import struct
 from collections.abc import Sequence
 from typing import Final
 
@@ -39,7 +40,7 @@ import numpy.typing as npt
 
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together, configure_together
-from emulator.esc.device import EscDevice, port1_forwarding
+from emulator.esc.device import EscDevice, config_area, port1_forwarding
 from emulator.esc.mapping import (
     LogicalOp,
     LogicalPlan,
@@ -55,9 +56,11 @@ from emulator.esc.registers import (
     DL_PORT1_LINK,
     DL_PORTS_2_3_CLOSED,
     EE_ACK_ERROR,
+    EE_CHECKSUM_ERROR,
     EE_CMD_READ,
     EE_CMD_RELOAD,
     EE_CMD_WRITE,
+    EE_NOT_LOADED,
     EE_WRITE_ENABLE,
     EE_WRITE_ENABLE_ERROR,
     EVENT_DL_STATUS,
@@ -188,11 +191,48 @@ def _eeprom_commands(
     each = (command == EE_CMD_READ) | (command == EE_CMD_WRITE) | (command == EE_CMD_RELOAD)
     status = np.where(nothing, status & ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR), status)
     status = np.where(nothing | each, status, status | EE_ACK_ERROR)
+    reload = command == EE_CMD_RELOAD
     here = ~each
     memory[at[here], REG_EEPROM_CONTROL] = status[here] & 0xFF
     memory[at[here], REG_EEPROM_CONTROL + 1] = status[here] >> 8
+    if reload.sum() >= TOGETHER_MIN:
+        _reloads(devices, memory, at[reload], which[reload].tolist(), status[reload])
+        each &= ~reload
     for i in which[each].tolist():
         devices[i].eeprom_command()
+
+
+def _reloads(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: list[int],
+    status: npt.NDArray[np.int64],
+) -> None:
+    """The reload command of :meth:`EscDevice.eeprom_command` at ``devices[i]`` for ``i`` in
+    ``which`` (memory ``rows``, EEPROM control and status with the command cleared ``status``):
+    configuration area A (SII words 0-7, :func:`config_area`) into the registers, as
+    :meth:`EscDevice._load_config_area` does at a later load (datasheet I 11.1, Table 42), over
+    the rows of the ESCs whose SII has the same words 0-7."""
+    alike: dict[bytes, list[int]] = {}
+    for k, i in enumerate(which):
+        alike.setdefault(bytes(devices[i].sii[:16]), []).append(k)
+    for head, ks in alike.items():
+        at, value = rows[ks], status[ks]
+        words = config_area(head)
+        if words is None:
+            value = value | EE_CHECKSUM_ERROR | EE_NOT_LOADED
+        else:
+            value = value & ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
+            esc_config = memory[at, REG_PDI_CONTROL + 1] & 0xF2  # link detection: first load only
+            memory[at, REG_PDI_CONTROL] = words[0] & 0xFF
+            memory[at, REG_PDI_CONTROL + 1] = esc_config | ((words[0] >> 8) & ~0xF2 & 0xFF)
+            pdi = struct.pack("<HH", words[1], words[3])  # PDI configuration (A1, A3)
+            memory[at, 0x0150:0x0154] = np.frombuffer(pdi, np.uint8)
+            esc = struct.pack("<HB", words[5], words[6] & 0xFF)  # ESC configuration A5/A6
+            memory[at, 0x0142:0x0145] = np.frombuffer(esc, np.uint8)
+        memory[at, REG_EEPROM_CONTROL] = value & 0xFF
+        memory[at, REG_EEPROM_CONTROL + 1] = value >> 8
 
 
 def finish_together(

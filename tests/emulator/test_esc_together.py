@@ -21,7 +21,7 @@ from emulator.esc.device import EscDevice, _Sm
 from emulator.esc.hostile import hostile_frames, master_reset_frames
 from emulator.esc.mapping import AS_NEW_CACHE, decode_sms
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_NO_BUFFER
-from emulator.esc.sii import SyncManagerType
+from emulator.esc.sii import SyncManagerType, crc8
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -165,6 +165,33 @@ def test_eeprom_commands_written_at_every_esc_clear_and_set_their_status_bits() 
             assert dev.registers(0x0502, 2) == status, what
     for dev in fast.devices:
         assert dev.registers(0x0508, 8) == first
+
+
+def test_eeprom_reloads_at_every_esc_load_each_escs_configuration_area() -> None:
+    """A broadcast of the reload command (0x0502 bits 8-10 = 4; ECAT owns the interface at
+    every ESC): each ESC loads its configuration area A (SII words 0-7, datasheet I 11.1,
+    Table 42) into PDI control 0x0140 (the link detection bits 1, 4-7 of 0x0141 kept: they load
+    only at the first load), 0x0142-0x0144 and 0x0150-0x0153, and clears checksum error and
+    not loaded (0x0502 bits 11, 12); one whose area has a wrong checksum sets both and loads
+    nothing. ESCs 2 and 5 have another PDI configuration (word 1), ESC 6 a wrong checksum,
+    ESCs 1 and 5 link detection bits set. Alike at each of 8 ESCs and as each on its own."""
+    fast, reference = pair()
+    for chain in (fast, reference):
+        for p, dev in enumerate(chain.devices):
+            if p in (2, 5):
+                dev.sii[2:4] = b"\x34\x12"
+                dev.sii[14] = crc8(bytes(dev.sii[:14]))
+            if p == 6:
+                dev.sii[14] ^= 0xFF
+            if p in (1, 5):
+                dev.mem[0x0141] |= 0xF2
+            dev.mem[0x0150:0x0154] = b"\xee" * 4  # what the load overwrites
+    assert_same(fast, reference, bwr(0x0502, b"\x00\x04"), "reload")
+    status = [fast.devices[p].registers(0x0503, 1)[0] & 0x18 for p in range(NODES)]
+    assert status == [0, 0, 0, 0, 0, 0, 0x18, 0, *([0] * (NODES - 8))]
+    pdi = [fast.devices[p].registers(0x0150, 2) for p in (2, 5, 6)]
+    assert pdi == [b"\x34\x12", b"\x34\x12", b"\xee\xee"]
+    assert fast.devices[5].registers(0x0141, 1)[0] & 0xF2 == 0xF2
 
 
 def test_a_loop_closed_early_keeps_the_rest_out() -> None:
