@@ -792,9 +792,10 @@ class EcatChain:
         increment, whether an ESC's event request changed). Each ESC ORs the bytes it reads
         into the frame, then writes the data as it arrived there at its read/write offset
         (0x0108) further on (read before write, datasheet I Table 7). Consecutive ESCs with
-        one offset whose write lands in user or process RAM, and with one SyncManager table
-        whose areas the read and the write meet only where they do nothing
-        (:func:`_inert_areas`), do it over their rows at once (:meth:`_read_write_rows`); any
+        one offset whose write lands in user or process RAM, and whose SyncManager areas the
+        read and the write meet only where they do nothing (:func:`_inert_areas`), the same
+        holes at each (whatever else their tables hold), do it over their rows at once
+        (:meth:`_read_write_rows`); any
         other ESC in turn (:meth:`EscDevice.process`), on the frame as the ESCs before it left
         it."""
         end = min(ado + n, ADDRESS_SPACE)
@@ -803,15 +804,14 @@ class EcatChain:
         targets = ((ado + (offsets[:, 0] | offsets[:, 1] << 8)) & 0xFFFF).tolist()
         found: dict[tuple[int, int], _Holes | None] = {}  # per SyncManager table and target
         total, changed = 0, False
-        run: list[int] = []  # consecutive plain ESCs with one table and target, not done yet
-        run_key: tuple[int, int] = (0, -1)
+        run: list[int] = []  # consecutive plain ESCs with one target and holes, not done yet
+        run_key: tuple[_Holes, int] = (((), ()), -1)
 
         def flush() -> None:
             nonlocal total, run
             if run:
-                holes = found[run_key]
-                assert holes is not None
-                total += self._read_write_rows(line, run, ado, run_key[1], holes, buf, at, n)
+                holes, to = run_key
+                total += self._read_write_rows(line, run, ado, to, holes, buf, at, n)
                 run = []
 
         for p, dev in enumerate(line):
@@ -822,11 +822,12 @@ class EcatChain:
                 written = _inert_areas(areas, to, min(to + n, ADDRESS_SPACE), True)
                 ok = to >= REGISTER_END and read is not None and written is not None
                 found[key] = (read or (), written or ()) if ok else None
-            if found[key] is not None:
-                if run and key != run_key:
+            holes = found[key]
+            if holes is not None:  # tables that differ where the BRW does not reach run on
+                if run and (holes, to) != run_key:
                     flush()
                 run.append(p)
-                run_key = key
+                run_key = (holes, to)
                 continue
             flush()
             before = dev.irq

@@ -1602,3 +1602,29 @@ def test_an_fprw_at_many_escs_writes_what_the_esc_before_read(
     dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
     assert dividers == [b"\x34\x12", bytes(2), b"\x00\x40"] + [bytes(2)] * 9
     assert (alone == []) == (kind is EcatChain)
+
+
+def test_a_read_write_of_user_ram_is_one_run_over_tables_that_differ_elsewhere(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    """The ESCs of :func:`line` hold three SyncManager tables (the input buffer locked at some,
+    the write buffer open at one), none with an area in user RAM 0x0F80-0x0FFF: a BRW of
+    0x0F80+16 with the read/write offset 0x0010 at every ESC (its write at 0x0F90) does nothing
+    different at any of them, so all 12 do it over their rows in one run, leaving the same
+    returned frame, memory and event requests as every ESC in turn."""
+    fast, reference = line(EcatChain), line(OneByOne)
+    assert len({id(dev.sm_areas) for dev in fast.devices}) == 3
+    for chain in (fast, reference):
+        chain.process_frame(bwr(0x0108, b"\x10\x00"))
+        chain.process_frame(bwr(0x0F80, bytes(range(0x40, 0x80))))
+    runs: list[list[int]] = []
+    rows = EcatChain._read_write_rows
+
+    def counted(self: EcatChain, line: list[EscDevice], run: list[int], *args: object) -> int:
+        runs.append(list(run))
+        return rows(self, line, run, *args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(EcatChain, "_read_write_rows", counted)
+    dg = Datagram(Command.BRW, 0, 0x0F80, bytes(range(1, 17)))
+    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), "BRW")
+    assert runs == [list(range(NODES))]
