@@ -465,9 +465,10 @@ class EcatChain:
         """A logical datagram through the ESCs of ``line`` at ``targets`` (those whose FMMUs
         map part of it), in chain order: (the working counter's increment, whether an ESC's
         event request changed). An LRD of a whole input buffer, or an LRW there that the ESC
-        does not write, is one call (:meth:`EscDevice.read_buffered`); consecutive ESCs that map the datagram onto plain
-        memory with one plan cut (:meth:`EscDevice.row_access`; idle mailboxes are holes in it,
-        :meth:`EscDevice.row_cut`) are done at once over their rows
+        does not write, is one call (:meth:`EscDevice.read_buffered`); consecutive ESCs that
+        map the datagram onto plain memory with one plan cut (:meth:`EscDevice.row_access`;
+        idle mailboxes are holes in it, :meth:`EscDevice.row_cut`) are done at once over their
+        rows
         (:func:`logical_together`), a few of them each straight in its memory
         (:meth:`EscDevice.logical_cut`); an LRD's consecutive plain ESCs, whatever their
         plans, from the last back (:func:`last_readers`); those of them that read DC
@@ -907,7 +908,7 @@ class EcatChain:
         which run with the clock) leaves the frame with the last ESC's registers as committed
         (each ESC replaces the data, datasheet I Table 7), each ESC's read clearing the DL or
         AL status event it reads; an FPRW also writes, at each ESC's read/write offset (0x0108,
-        one for all of them), the data as it arrived there, the ESC before it's registers: into
+        one for all of them), the data as it arrived there, the registers of the ESC before it: into
         its shadow writes, or into user or process RAM where no ESC's SyncManager area there
         has rules of its own (:func:`_by_table`, as :meth:`_registers_into_memory`). 1 per ESC
         for the read, 2 per ESC that wrote a byte."""

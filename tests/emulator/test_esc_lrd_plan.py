@@ -42,6 +42,13 @@ def lrw(lad: int, n: int) -> bytes:
     return frame(Datagram.logical(Command.LRW, lad, bytes(range(n))))
 
 
+def answered(chain: EcatChain, frame: bytes) -> Datagram:
+    """The first datagram of ``frame`` as ``chain`` returns it."""
+    back = chain.process_frame(frame)
+    assert back is not None
+    return ethercat.decode(back[14:])[0].datagrams[0]
+
+
 def bwr(ado: int, data: bytes) -> bytes:
     return frame(Datagram(Command.BWR, 0, ado, data))
 
@@ -90,12 +97,12 @@ def test_planned_lrds_answer_as_the_general_path(change: Callable[[EcatChain], N
     # planned where the buffer is a read one (the PDI's lock is looked at when reading)
     assert bool(used) == (change is not sm0_to_ecat_writes)
     if change is nothing:
-        back = ethercat.decode(planned.process_frame(lrd(0, IMAGE))[14:])[0].datagrams[0]  # type: ignore[index]
+        back = answered(planned, lrd(0, IMAGE))
         assert (back.data, back.wkc) == (ROWS[-1].tobytes(), NODES)
-        back = ethercat.decode(planned.process_frame(lrw(0, IMAGE))[14:])[0].datagrams[0]  # type: ignore[index]
+        back = answered(planned, lrw(0, IMAGE))
         assert (back.data, back.wkc) == (ROWS[-1].tobytes(), NODES)  # read only: 1 an ESC
     if change is fmmu1_writes_after_the_image:  # each ESC reads its inputs and writes 4 bytes
-        back = ethercat.decode(planned.process_frame(lrw(0, IMAGE + 5))[14:])[0].datagrams[0]  # type: ignore[index]
+        back = answered(planned, lrw(0, IMAGE + 5))
         assert back.wkc == 3 * NODES  # ETG.1000.4 Table 14: +1 read, +2 write
         assert planned.devices[0].registers(0x0F80, 4) == bytes(range(IMAGE, IMAGE + 4))
 

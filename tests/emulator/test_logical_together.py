@@ -326,8 +326,8 @@ def test_logical_writes_of_res_that_differ_from_esc_to_esc_reset_each_esc_they_s
 ) -> None:
     """Hand-worked: FMMU 0 writes logical 0x4000 into the reset register 0x0040 and FMMU 1
     reads it from user RAM 0x0F80, at every ESC. An LRW of 0x4000 with 'X' in three frames,
-    after a BWR of user RAM with 'R', 'E' and 'S' in turn: each ESC reads before it writes (datasheet I
-    Table 7), so ESC 0 writes 'X' three times, the others what the ESC before read, 'R', 'E',
+    after a BWR of user RAM with 'R', 'E' and 'S' in turn: each ESC reads before it writes
+    (datasheet I Table 7), so ESC 0 writes 'X' three times, the others what the ESC before read, 'R', 'E',
     'S' (writes that differ from ESC to ESC, over the rows): every ESC but ESC 0 resets; the
     working counter counts a read and a write at each (3)."""
     nodes = together.LOGICAL_TOGETHER_MIN + 2
