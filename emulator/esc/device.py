@@ -246,6 +246,18 @@ def config_area(image: bytes | bytearray) -> tuple[int, ...] | None:
     return None
 
 
+def config_writes(words: tuple[int, ...]) -> tuple[tuple[int, bytes], ...]:
+    """What a load of configuration area A (``words``, :func:`config_area`) writes whatever the
+    registers held: PDI control 0x0140, ESC configuration A5/A6 at 0x0142 and PDI configuration
+    A1/A3 at 0x0150 (datasheet I 11.1, Table 42); the ESC configuration byte 0x0141 keeps its
+    link detection bits after the first load (the caller's)."""
+    return (
+        (REG_PDI_CONTROL, bytes((words[0] & 0xFF,))),
+        (0x0142, struct.pack("<HB", words[5], words[6] & 0xFF)),
+        (0x0150, struct.pack("<HH", words[1], words[3])),
+    )
+
+
 class EscDevice:
     """An ESC with its SII EEPROM and the application behind its PDI.
 
@@ -418,10 +430,9 @@ class EscDevice:
         esc_config = words[0] >> 8
         if not first:  # enhanced link detection bits 1, 4-7 only at the first load
             esc_config = (esc_config & ~0xF2) | (mem[REG_PDI_CONTROL + 1] & 0xF2)
-        mem[REG_PDI_CONTROL] = words[0] & 0xFF
+        for addr, data in config_writes(words):
+            mem[addr : addr + len(data)] = data
         mem[REG_PDI_CONTROL + 1] = esc_config
-        struct.pack_into("<HH", mem, 0x0150, words[1], words[3])  # PDI configuration (A1, A3)
-        struct.pack_into("<HB", mem, 0x0142, words[5], words[6] & 0xFF)  # ESC configuration A5/A6
         if first:
             struct.pack_into("<H", mem, REG_ALIAS, words[4])
             if words[6] & 0x0002:  # A6[1]: default of DL control bit 0 is 0

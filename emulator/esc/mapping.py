@@ -689,7 +689,7 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
             found = shared_access(f, cmd, lad, n, head[1])
         else:  # joined once per pair of parts' accesses, whatever else differs
             others = _part_access(rest, key)
-            at = moved_along(f[0], cmd, lad, n) if len(f) == 1 else None
+            at = None if not others.hit or len(f) > 1 else moved_along(f[0], cmd, lad, n)
             if not others.hit:  # the others' span meets it, but none of them does
                 found = shared_access(f, cmd, lad, n, head[1])
             elif at is not None:  # FMMU 0 inside the access: moved along, no access of its own

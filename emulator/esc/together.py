@@ -31,7 +31,6 @@ among each ESC's shadow writes.)
 
 from __future__ import annotations
 
-import struct
 from collections.abc import Sequence
 from typing import Final
 
@@ -40,7 +39,7 @@ import numpy.typing as npt
 
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together, configure_together
-from emulator.esc.device import EscDevice, config_area, port1_forwarding
+from emulator.esc.device import EscDevice, config_area, config_writes, port1_forwarding
 from emulator.esc.mapping import (
     LogicalOp,
     LogicalPlan,
@@ -225,12 +224,9 @@ def _reloads(
         else:
             value = value & ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
             esc_config = memory[at, REG_PDI_CONTROL + 1] & 0xF2  # link detection: first load only
-            memory[at, REG_PDI_CONTROL] = words[0] & 0xFF
+            for addr, data in config_writes(words):
+                memory[at, addr : addr + len(data)] = np.frombuffer(data, np.uint8)
             memory[at, REG_PDI_CONTROL + 1] = esc_config | ((words[0] >> 8) & ~0xF2 & 0xFF)
-            pdi = struct.pack("<HH", words[1], words[3])  # PDI configuration (A1, A3)
-            memory[at, 0x0150:0x0154] = np.frombuffer(pdi, np.uint8)
-            esc = struct.pack("<HB", words[5], words[6] & 0xFF)  # ESC configuration A5/A6
-            memory[at, 0x0142:0x0145] = np.frombuffer(esc, np.uint8)
         memory[at, REG_EEPROM_CONTROL] = value & 0xFF
         memory[at, REG_EEPROM_CONTROL + 1] = value >> 8
 
