@@ -68,8 +68,10 @@ from emulator.esc.registers import (
     REG_DL_STATUS,
     REG_ECAT_EVENT,
     REG_ECAT_EVENT_MASK,
+    REG_EEPROM_ADDRESS,
     REG_EEPROM_CONFIG,
     REG_EEPROM_CONTROL,
+    REG_EEPROM_DATA,
     REG_EEPROM_PDI,
     REG_ERROR_COUNTERS,
     REG_FMMU,
@@ -190,7 +192,10 @@ def _eeprom_commands(
     each = (command == EE_CMD_READ) | (command == EE_CMD_WRITE) | (command == EE_CMD_RELOAD)
     status = np.where(nothing, status & ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR), status)
     status = np.where(nothing | each, status, status | EE_ACK_ERROR)
-    reload = command == EE_CMD_RELOAD
+    reload, read = command == EE_CMD_RELOAD, command == EE_CMD_READ
+    if read.sum() >= TOGETHER_MIN:
+        status[read] = _reads(devices, memory, at[read], which[read].tolist(), status[read])
+        each &= ~read
     here = ~each
     memory[at[here], REG_EEPROM_CONTROL] = status[here] & 0xFF
     memory[at[here], REG_EEPROM_CONTROL + 1] = status[here] >> 8
@@ -199,6 +204,40 @@ def _eeprom_commands(
         each &= ~reload
     for i in which[each].tolist():
         devices[i].eeprom_command()
+
+
+def _reads(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: list[int],
+    status: npt.NDArray[np.int64],
+) -> npt.NDArray[np.int64]:
+    """The read command of :meth:`EscDevice.eeprom_command` at ``devices[i]`` for ``i`` in
+    ``which`` (memory ``rows``, EEPROM control and status with the command cleared
+    ``status``): 8 bytes from the word address 0x0504 into 0x0508 (a sequential read wraps
+    around the EEPROM's end), or the acknowledge error at an address beyond it (datasheet I
+    11.2.3); each ESC's bytes from its own EEPROM, into the rows at once. The status is
+    returned."""
+    address = memory[rows, REG_EEPROM_ADDRESS : REG_EEPROM_ADDRESS + 4].copy().view("<u4")
+    read: list[bytes | bytearray] = []
+    beyond: list[int] = []  # no EEPROM answers beyond its size
+    for k, (i, word) in enumerate(zip(which, address[:, 0].tolist(), strict=True)):
+        sii = devices[i].sii
+        start = 2 * word
+        if start + 8 <= len(sii):
+            read.append(sii[start : start + 8])
+        elif start < len(sii):
+            read.append((sii[start:] + sii[:8])[:8])
+        else:
+            beyond.append(k)
+    if beyond:
+        status = status.copy()
+        status[beyond] |= EE_ACK_ERROR
+        rows = np.delete(rows, beyond)
+    data = np.frombuffer(b"".join(read), np.uint8).reshape(len(read), 8)
+    memory[rows, REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data
+    return status
 
 
 def _reloads(

@@ -167,6 +167,37 @@ def test_eeprom_commands_written_at_every_esc_clear_and_set_their_status_bits() 
         assert dev.registers(0x0508, 8) == first
 
 
+def test_eeprom_reads_at_every_esc_read_each_escs_own_eeprom_at_its_own_address() -> None:
+    """A broadcast of the read command (0x0502 bits 8-10 = 1; ECAT owns the interface at every
+    ESC) after each ESC was given its own word address (0x0504, by FPWR): each brings 8 bytes
+    of its own EEPROM to 0x0508, a read at the last word wraps around to word 0 (a sequential
+    read), and one beyond the EEPROM's size sets the acknowledge error (0x0502 bit 13) and
+    leaves 0x0508 as it was (datasheet I 11.2.3). ESC 3's EEPROM differs from the others'.
+    Alike at each of 8 ESCs and as each on its own."""
+    fast, reference = pair()
+    for chain in (fast, reference):
+        chain.devices[3].sii[4:12] = bytes(range(0xA0, 0xA8))
+    size = len(fast.devices[0].sii) // 2  # words
+    words = [0, 2, 2, 2, size - 1, size, 0x10000 + 2, 7]
+    setup = [
+        Datagram(Command.FPWR, 0x1001 + p, 0x0504, struct.pack("<I", w))
+        for p, w in enumerate(words)
+    ]
+    assert_same(fast, reference, ethercat.frame(EcatFrame(tuple(setup))).to_bytes(), "addresses")
+    before = [dev.registers(0x0508, 8) for dev in fast.devices]
+    assert_same(fast, reference, bwr(0x0502, b"\x00\x01"), "read")
+    sii = bytes(fast.devices[0].sii)
+    data = [dev.registers(0x0508, 8) for dev in fast.devices]
+    assert data[0] == sii[0:8]
+    assert data[1] == data[2] == sii[4:12]
+    assert data[3] == bytes(range(0xA0, 0xA8))
+    assert data[4] == sii[-2:] + sii[:6]  # the last word, then words 0-2
+    assert data[5] == before[5] and data[6] == before[6]  # beyond the EEPROM: nothing read
+    assert data[7] == sii[14:22]
+    errors = [dev.registers(0x0503, 1)[0] & 0x20 for dev in fast.devices]
+    assert errors == [0, 0, 0, 0, 0, 0x20, 0x20, 0]
+
+
 def test_eeprom_reloads_at_every_esc_load_each_escs_configuration_area() -> None:
     """A broadcast of the reload command (0x0502 bits 8-10 = 4; ECAT owns the interface at
     every ESC): each ESC loads its configuration area A (SII words 0-7, datasheet I 11.1,
