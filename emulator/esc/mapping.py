@@ -366,6 +366,7 @@ class Access:
     the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
 
     __slots__ = (
+        "_along",
         "_at",
         "_first",
         "_moved",
@@ -394,6 +395,7 @@ class Access:
         self._first: Access | None = None  # the first FMMU's access (PARTS_CACHE)
         self._at: tuple[Access, int] | None = None  # or that access moved along (moved)
         self._others: Access | None = None  # the others' (PARTS_CACHE)
+        self._along: tuple[object, ...] | None = None  # the last _joined_along asked (others')
         self._moved: object = _UNASKED  # (the FMMU's access at logical 0, frame offset) or None
         self.areas: SmTable | None = None
         self.top = 0
@@ -522,52 +524,132 @@ class Access:
                 remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
                 return False
             self._others = others
+        at = self._at
+        if at is not None:  # the first FMMU's access is one moved along (joined_along)
+            return self._apart_along(others, at, areas, top, writes)
         reads_registers, writes_registers = others.registers
         others.rows(areas, top, writes)
         if others.cut is None or others.events or others.dc or others.shadow:
             return False
-        at = self._at
-        if at is not None:  # the first FMMU's access is one moved along (joined_along)
-            moved, offset = at
-            moved.rows(areas, top, writes)
-            if moved.cut is None or (moved.events and reads_registers):
-                return False
-            first_cut, shadow = along(moved.cut, offset), _along(moved.shadow, offset)
-            first: Access = moved
-        else:
-            found = self._first
-            if found is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
-                key = (self.hit[:1], cmd, lad, n)
-                found = PARTS_CACHE.get(key)
-                if found is None:
-                    found = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
-                self._first = found
-            first = found
-            first.rows(areas, top, writes)
-            if first.cut is None or (first.events and reads_registers):
-                return False  # (a read of the event request after the first cleared an event)
-            first_cut, shadow = first.cut, first.shadow
+        first = self._first
+        if first is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
+            key = (self.hit[:1], cmd, lad, n)
+            first = PARTS_CACHE.get(key)
+            if first is None:
+                first = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+            self._first = first
+        first.rows(areas, top, writes)
+        if first.cut is None or (first.events and reads_registers):
+            return False  # (a read of the event request after the first cleared an event)
+        return self._claimed(
+            first.cut,
+            first.shadow,
+            (first.events, first.dc, _merged(first.mailboxes, others.mailboxes)),
+            others.cut,
+            others.plan[1] if writes_registers else (),
+        )
+
+    def _apart_along(
+        self,
+        others: Access,
+        at: tuple[Access, int],
+        areas: SmTable,
+        top: int,
+        writes: WritesInert,
+    ) -> bool:
+        """:meth:`_apart` of an access whose first FMMU's part is ``at`` (:meth:`joined_along`):
+        what the ESCs of a configured line share after a change of the others (the others'
+        cut, the moved access's, their checks) is worked out once and kept with the others'
+        access for the tables last asked (:func:`_along_common`); each ESC moves the first's
+        part along and takes its claims from the others'."""
+        moved, offset = at
+        found = others._along
+        if not (
+            found is not None
+            and found[0] is moved
+            and found[1] is areas
+            and found[2] == top
+            and found[3] is writes
+        ):
+            found = (moved, areas, top, writes, _along_common(others, moved, areas, top, writes))
+            others._along = found
+        common: _AlongCommon | None = found[4]  # type: ignore[assignment]
+        if common is None:
+            return False
+        first_cut, shadow, effects, others_cut, register_writes = common
+        return self._claimed(
+            along(first_cut, offset), _along(shadow, offset), effects, others_cut, register_writes
+        )
+
+    def _claimed(
+        self,
+        first_cut: LogicalPlan,
+        shadow: tuple[LogicalOp, ...],
+        effects: tuple[int, tuple[tuple[int, int], ...], Mailboxes],
+        others_cut: LogicalPlan,
+        register_writes: tuple[LogicalOp, ...],
+    ) -> bool:
+        """The cut of :meth:`_apart` from the first FMMU's part's cut and shadow, its events,
+        DC registers and the mailboxes of both (``effects``), and the others' cut, the frame
+        bytes the first claims taken from the others' (:func:`unclaimed`); False where the
+        others' write parts of (inert) registers ``register_writes`` meet those bytes."""
+        cmd, lad, n = self.cmd, self.lad, self.n
         f = self.hit[0]
         lo, hi = max(lad, f[0]) - lad, min(lad + n, f[1]) - lad  # the frame bytes it claims
-        reads, writes_ = others.cut
+        reads, writes_ = others_cut
         if f[6] and cmd != LWR:
             reads = unclaimed(reads, lo, hi, False)
         if f[7] and cmd != LRD:
-            if writes_registers and any(
+            if any(
                 op[1] < REGISTER_END and _frame_bytes(op)[0] < hi and _frame_bytes(op)[1] > lo
-                for op in others.plan[1]
+                for op in register_writes
             ):
                 return False  # a write of (inert) registers counts if the claims leave any of it
             writes_ = unclaimed(writes_, lo, hi, True)
         self.cut = (first_cut[0] + reads, first_cut[1] + writes_)
-        self.events = first.events  # the others' parts, fewer bytes than theirs, clear none
-        self.dc, self.shadow = first.dc, shadow
-        self.mailboxes = (
-            first.mailboxes + tuple([m for m in others.mailboxes if m not in first.mailboxes])
-            if others.mailboxes
-            else first.mailboxes
-        )  # (those of parts the claims took away as well: they need not be idle, but may)
+        # the others' parts, fewer bytes than theirs, clear no event
+        self.events, self.dc, self.mailboxes = effects
+        self.shadow = shadow
         return True
+
+
+# what the ESCs of _apart_along share: the first's (moved) cut and shadow, (its events, its DC
+# registers, the mailboxes of both), the others' cut, and their write parts of registers
+_AlongCommon = tuple[
+    LogicalPlan,
+    tuple[LogicalOp, ...],
+    tuple[int, tuple[tuple[int, int], ...], Mailboxes],
+    LogicalPlan,
+    tuple[LogicalOp, ...],
+]
+
+
+def _along_common(
+    others: Access, moved: Access, areas: SmTable, top: int, writes: WritesInert
+) -> _AlongCommon | None:
+    """What :meth:`Access._apart_along` shares among the ESCs whose first FMMU's access is
+    ``moved`` (moved along) and whose others' is ``others``, at SyncManager ``areas``, memory
+    ``top`` and register write plans ``writes``; None where :meth:`Access._apart` leaves it to
+    the whole plan (the others not plain, clearing events, reading DC registers or writing
+    registers to the shadow; the first not plain, or clearing an event the others may read)."""
+    reads_registers, writes_registers = others.registers
+    others.rows(areas, top, writes)
+    if others.cut is None or others.events or others.dc or others.shadow:
+        return None
+    moved.rows(areas, top, writes)
+    if moved.cut is None or (moved.events and reads_registers):
+        return None
+    effects = (moved.events, moved.dc, _merged(moved.mailboxes, others.mailboxes))
+    register_writes = others.plan[1] if writes_registers else ()
+    return moved.cut, moved.shadow, effects, others.cut, register_writes
+
+
+def _merged(first: Mailboxes, others: Mailboxes) -> Mailboxes:
+    """The mailboxes of the first FMMU's part and then the others' not among them (those of
+    parts the claims took away as well: they need not be idle, but may)."""
+    if not others:
+        return first
+    return first + tuple([m for m in others if m not in first])
 
 
 def moved_along(f: tuple[int, ...], cmd: int, lad: int, n: int) -> tuple[Access, int] | None:

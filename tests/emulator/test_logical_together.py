@@ -621,6 +621,82 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     assert access.plain == (None if whole[2] or whole.dc or whole.shadow else whole[0])
 
 
+def assert_maps_as_whole(
+    access: mapping.Access, hit: tuple[tuple[int, ...], ...], areas: mapping.SmTable, top: int
+) -> None:
+    """``access`` (rows asked at ``areas``, ``top``) against the whole plan of ``hit``
+    (plan_logical with its claims, then esc_row_access), as in the test above."""
+    cmd, lad, n = access.cmd, access.lad, access.n
+    whole = mapping.esc_row_access(
+        mapping.plan_logical(hit, cmd, lad, n), areas, top, Inert().inert
+    )
+    if whole is None:
+        assert access.cut is None
+        return
+    assert access.cut is not None
+    assert bit_pairs(access.cut) == bit_pairs(whole[0][2])
+    assert access.events == whole[1]
+    assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
+    assert set(whole[2]) <= set(access.mailboxes)
+    assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
+
+
+@given(
+    an_fmmu(st.sampled_from(FIRST_PHYS)),
+    st.lists(an_fmmu(st.sampled_from(OTHER_PHYS)), min_size=1, max_size=3),
+    st.lists(sm_areas(), min_size=1, max_size=3),
+    st.sampled_from(LOGICAL),
+    st.integers(0, 8),
+    st.integers(1, 12),
+)
+@example(  # hand-worked: FMMU 1 reads 0x1000 into frame byte 0, plain memory at the first
+    # table; at the second a SyncManager area the PDI locked lies there, where it reads nothing
+    (1, 1, (0, 7, 0), 0x0000, 1),
+    [(0, 1, (0, 7, 0), 0x1000, 1)],
+    [(), ((0, 0x1000, 2, 0x00, 1),)],
+    Command.LRD,
+    0,
+    1,
+)
+def test_first_fmmus_moved_along_take_what_the_others_leave_them(
+    first: tuple[int, ...],
+    others: list[tuple[int, ...]],
+    tables: list[mapping.SmTable],
+    cmd: Command,
+    lad: int,
+    step: int,
+) -> None:
+    """ESCs of a configured line, each mapping its own logical bytes with FMMU 0 (``step``
+    bytes further on at each, the third one byte more), with the same other FMMUs: their
+    joined accesses worked out from FMMU 0's access moved along and the others'
+    (:meth:`mapping.Access.joined_along`, what they share kept with the others' access for
+    the SyncManager table and memory top last asked), each asked at one table and top after
+    another and back, map what each whole plan maps."""
+    log, length, bits, phys, kind = first
+    rows = [(log + k * step, length + k // 2, bits, phys, kind) for k in range(3)]  # 2 sizes
+    table = b"".join(
+        struct.pack("<IHBBHBBB3x", log_, length_, bits_[0], bits_[1], phys_, bits_[2], kind_, 1)
+        for log_, length_, bits_, phys_, kind_ in (*rows, *others)
+    )
+    decoded, _ = mapping.decode_fmmus(table)
+    assume(len(decoded) == len(rows) + len(others))  # none clipped away
+    mine, theirs = decoded[: len(rows)], decoded[len(rows) :]
+    n = max(f[1] for f in mine) - lad + 2
+    hit = tuple(f for f in theirs if not (f[1] <= lad or f[0] >= lad + n))
+    assume(hit and all(lad < f[0] for f in mine))
+    mapping.forget()
+    shared, inert = mapping.Access(hit, int(cmd), lad, n), Inert()  # (one write plan)
+    tops = (0x10000, 0x1008, 0x10000)  # each change alone: the tables, the top, FMMU 0's size
+    asked = [(areas, top) for top in tops for areas in (*tables, tables[0])]
+    for f in mine:
+        at = mapping.moved_along(f, int(cmd), lad, n)
+        assert at is not None
+        for areas, top in asked:
+            access = mapping.Access.joined_along(f, at, shared)
+            access.rows(areas, top, inert)
+            assert_maps_as_whole(access, (f, *hit), areas, top)
+
+
 @given(
     an_fmmu(st.sampled_from(FIRST_PHYS + OTHER_PHYS)),
     sm_areas(),
