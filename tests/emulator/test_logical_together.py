@@ -563,6 +563,31 @@ def sm_areas() -> st.SearchStrategy[mapping.SmTable]:
     )
 
 
+def assert_maps_as_whole(
+    access: mapping.Access, hit: tuple[tuple[int, ...], ...], areas: mapping.SmTable, top: int
+) -> mapping.RowAccess | None:
+    """``access`` (rows asked at ``areas``, ``top``) against the whole plan of ``hit``
+    (plan_logical with its claims, then esc_row_access): plain alike, the same frame and
+    physical bits read and written, the same events cleared, parts on the same sides (the
+    working counter), and every mailbox the whole plan meets among those that must be idle
+    (the first's claims may leave the others fewer mailboxes to meet than they list); the
+    whole plan's row access is returned."""
+    cmd, lad, n = access.cmd, access.lad, access.n
+    whole = mapping.esc_row_access(
+        mapping.plan_logical(hit, cmd, lad, n), areas, top, Inert().inert
+    )
+    if whole is None:
+        assert access.cut is None
+        return None
+    assert access.cut is not None
+    assert bit_pairs(access.cut) == bit_pairs(whole[0][2])
+    assert access.events == whole[1]
+    assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
+    assert set(whole[2]) <= set(access.mailboxes)
+    assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
+    return whole
+
+
 @given(
     an_fmmu(st.sampled_from(FIRST_PHYS)),
     st.lists(an_fmmu(st.sampled_from(OTHER_PHYS)), min_size=1, max_size=3),
@@ -591,54 +616,21 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     top: int,
 ) -> None:
     """An access through several FMMUs, the first worked out apart from the others
-    (:meth:`mapping.Access.rows`), against the whole plan (plan_logical with its claims, then
-    esc_row_access): plain alike, the same frame and physical bits read and written, the
-    same events cleared, parts on the same sides (the working counter), and every mailbox the
-    whole plan meets among those that must be idle (the first's claims may leave the others
-    fewer mailboxes to meet than they list)."""
+    (:meth:`mapping.Access.rows`), maps what the whole plan maps (:func:`assert_maps_as_whole`)
+    and is as plain."""
     table = b"".join(
         struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
         for log, length, bits, phys, kind in (first, *others)
     )
     decoded, _ = mapping.decode_fmmus(table)
     hit = tuple(f for f in decoded if not (f[1] <= lad or f[0] >= lad + n))
-    whole = mapping.esc_row_access(
-        mapping.plan_logical(hit, int(cmd), lad, n), areas, top, Inert().inert
-    )
     mapping.forget()
     mapping.Access(hit, int(cmd), lad, n).rows(areas, top, Inert())  # meets the others first
     access = mapping.Access(hit, int(cmd), lad, n)  # another ESC's, alike
     access.rows(areas, top, Inert())
-    if whole is None:
-        assert access.cut is None
-        return
-    assert access.cut is not None
-    assert bit_pairs(access.cut) == bit_pairs(whole[0][2])
-    assert access.events == whole[1]
-    assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
-    assert set(whole[2]) <= set(access.mailboxes)
-    assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
-    assert access.plain == (None if whole[2] or whole.dc or whole.shadow else whole[0])
-
-
-def assert_maps_as_whole(
-    access: mapping.Access, hit: tuple[tuple[int, ...], ...], areas: mapping.SmTable, top: int
-) -> None:
-    """``access`` (rows asked at ``areas``, ``top``) against the whole plan of ``hit``
-    (plan_logical with its claims, then esc_row_access), as in the test above."""
-    cmd, lad, n = access.cmd, access.lad, access.n
-    whole = mapping.esc_row_access(
-        mapping.plan_logical(hit, cmd, lad, n), areas, top, Inert().inert
-    )
-    if whole is None:
-        assert access.cut is None
-        return
-    assert access.cut is not None
-    assert bit_pairs(access.cut) == bit_pairs(whole[0][2])
-    assert access.events == whole[1]
-    assert [bool(side) for side in access.cut] == [bool(side) for side in whole[0][2]]
-    assert set(whole[2]) <= set(access.mailboxes)
-    assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
+    whole = assert_maps_as_whole(access, hit, areas, top)
+    if whole is not None:
+        assert access.plain == (None if whole[2] or whole.dc or whole.shadow else whole[0])
 
 
 @given(
