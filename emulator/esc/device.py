@@ -1247,9 +1247,25 @@ class EscDevice:
     ) -> None:
         """:meth:`al_control_written` at each of ``devices``, with its AL control value and
         PDI control byte 0x0141 (which the chain reads over the rows)."""
-        for dev, value, control in zip(devices, values, pdi_control, strict=True):
-            if dev.pdi_operational:
-                dev._al_control(value, control)
+        queue = devices[0].firmware_queue if devices else None
+        if queue is None or any(dev.firmware_queue is not queue for dev in devices):
+            for dev, value, control in zip(devices, values, pdi_control, strict=True):
+                if dev.pdi_operational:
+                    dev._al_control(value, control)
+            return
+        # one queue for all (the chain's): the reactions appended in one go, in order; an
+        # ESC in device emulation (0x0141 bit 0) sets AL status at once and queues nothing
+        queue.extend(
+            [
+                (dev, value)
+                for dev, value, control in zip(devices, values, pdi_control, strict=True)
+                if dev.pdi_operational and not control & 0x01
+            ]
+        )
+        if any(control & 0x01 for control in pdi_control):
+            for dev, value, control in zip(devices, values, pdi_control, strict=True):
+                if control & 0x01 and dev.pdi_operational:
+                    dev._al_control(value, control)
 
     def _al_control(self, value: int, pdi_control: int) -> None:
         if pdi_control & 0x01:  # device emulation: AL control -> AL status

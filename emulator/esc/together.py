@@ -531,11 +531,16 @@ def _shadow_rows(
             mask = _mask(d, b)[:k]
             new = _shifted(src[:, e : e + f], -c, k)
             written = (memory[at, a : a + k] & ~mask) | (new & mask)
+        resets = a <= REG_RESET_ECAT < a + written.shape[1]  # each ESC counts its reset byte
         if len(written) == 1 or (written == written[0]).all():
-            entry = ((a, written[0].tobytes()),)
-            for dev in devices:
-                dev.write_shadow(entry)
-        elif a <= REG_RESET_ECAT < a + written.shape[1]:  # each ESC counts its reset byte
+            entry = (a, written[0].tobytes())
+            if resets:
+                for dev in devices:
+                    dev.write_shadow((entry,))
+            else:  # what write_shadow does there: the entry among each ESC's shadow writes
+                for dev in devices:
+                    dev.pending.append(entry)
+        elif resets:
             for dev, row in zip(devices, written, strict=True):
                 dev.write_shadow(((a, row.tobytes()),))
         else:  # what write_shadow does there: each ESC's row among its shadow writes

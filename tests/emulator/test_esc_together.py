@@ -225,6 +225,22 @@ def test_eeprom_reloads_at_every_esc_load_each_escs_configuration_area() -> None
     assert fast.devices[5].registers(0x0141, 1)[0] & 0xF2 == 0xF2
 
 
+def test_al_control_written_at_every_esc_reaches_each_application_or_is_copied() -> None:
+    """Broadcasts of AL control 0x0120 at 8 ESCs, 3 of them in device emulation (0x0141 bit 0,
+    datasheet I 10.1.2): those copy the value to AL status 0x0130 at once, error indication
+    (bit 4) included; the others' applications react once the frame has passed (the ESM).
+    Alike at each ESC and as each on its own does it, request after request."""
+    fast, reference = pair()
+    emulating = (1, 4, 5)
+    for chain in (fast, reference):
+        for p in emulating:
+            chain.devices[p].mem[0x0141] |= 0x01
+    for value in (0x02, 0x12, 0x04, 0x01, 0x11):
+        assert_same(fast, reference, bwr(0x0120, bytes((value, 0))), f"AL control {value:#x}")
+        for p in emulating:
+            assert fast.devices[p].registers(0x0130, 1)[0] == value
+
+
 def test_a_loop_closed_early_keeps_the_rest_out() -> None:
     """ESC 2 closes port 1: a broadcast read or write reaches ESCs 0-2 only, and an ARMW whose
     reader lies beyond writes at all three."""
