@@ -132,8 +132,11 @@ def commit_together(
     touched = 0
     for _, (_, touches) in pending:
         touched |= touches
-    sm_before = memory[rows, REG_SM : plans.sm_end] if touched & TOUCHES_SM else None
-    fmmu_before = memory[rows, REG_FMMU : plans.fmmu_end] if touched & TOUCHES_FMMU else None
+    every = _every(rows)
+    sm_before = memory[every, REG_SM : plans.sm_end].copy() if touched & TOUCHES_SM else None
+    fmmu_before = (
+        memory[every, REG_FMMU : plans.fmmu_end].copy() if touched & TOUCHES_FMMU else None
+    )
     enabled = sm_before[:, 6::SM_BYTES] if sm_before is not None else None  # bit 0
     flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
     eeprom = np.zeros(len(rows), np.bool_)
@@ -144,33 +147,41 @@ def commit_together(
             if mask < 0:  # a register with side effects
                 _special(devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom)
             elif mask:
-                _masked(memory, rows, lo, hi, part, masks[lo:hi])
+                _masked(memory, every, lo, hi, part, masks[lo:hi])
                 if marks:
                     dc = mark(lo, hi, flags, plans.fmmu_end, dc)
     al, _, dl, fmmu, sm = flags
     # what EscDevice.take_effect then does, in its order, step by step over all the ESCs
     if fmmu and fmmu_before is not None:  # changed FMMU tables
-        changed = (memory[rows, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1)
+        changed = (memory[every, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1)
         _fmmus(devices, memory, rows, np.flatnonzero(changed).tolist(), plans.fmmu_end)
     if sm and sm_before is not None and enabled is not None:  # changed SyncManager tables
-        changed = (memory[rows, REG_SM : plans.sm_end] != sm_before).any(axis=1)
+        changed = (memory[every, REG_SM : plans.sm_end] != sm_before).any(axis=1)
         _syncmanagers(devices, memory, rows, np.flatnonzero(changed).tolist(), enabled)
     if dl:
         _dl_status(devices, memory, rows)
     if dc is not None:
         configure_together([dev.dc for dev in devices], memory, rows, *dc)
-    events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
-    enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
+    events = memory[every, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
+    enable = memory[every, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
     irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
     for dev, irq in zip(devices, irqs, strict=True):
         dev.irq = irq  # what EscDevice.update_irq sets
     if eeprom.any():
         _eeprom_commands(devices, memory, rows, np.flatnonzero(eeprom))
     if al:
-        value = memory[rows, REG_AL_CONTROL].astype(np.int64)
-        value |= memory[rows, REG_AL_CONTROL + 1].astype(np.int64) << 8
-        control = memory[rows, REG_PDI_CONTROL + 1].tolist()
+        value = memory[every, REG_AL_CONTROL].astype(np.int64)
+        value |= memory[every, REG_AL_CONTROL + 1].astype(np.int64) << 8
+        control = memory[every, REG_PDI_CONTROL + 1].tolist()
         EscDevice.al_control_together(devices, value.tolist(), control)
+
+
+def _every(rows: _Rows) -> _Rows | slice:
+    """``rows`` (ascending, distinct), or the slice of them where they are consecutive: views
+    of the memory instead of copies, assignments without fancy indexing (a few us less each)."""
+    if len(rows) and rows[-1] - rows[0] == len(rows) - 1:
+        return slice(int(rows[0]), int(rows[-1]) + 1)
+    return rows
 
 
 def _eeprom_commands(
@@ -276,7 +287,7 @@ def finish_together(
     """:meth:`EscDevice.finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
     :func:`commit_together`: 0x0040 shows no reset under way at every row, and the ESCs with
     more to finish (:meth:`EscDevice.unfinished`) finish the frame (:meth:`EscDevice.finish_frames`)."""
-    memory[rows, REG_RESET_ECAT] = 0
+    memory[_every(rows), REG_RESET_ECAT] = 0
     EscDevice.finish_frames(EscDevice.unfinished(devices))
 
 
@@ -349,17 +360,25 @@ def _syncmanagers(
             EscDevice.sm_registers_written_together([devices[i] for i in members])
 
 
+# port1_forwarding by DL control bits 10-11 and the port 1 link (False, True): one lookup an ESC
+_FORWARDING: Final = tuple(
+    (port1_forwarding(setting, False), port1_forwarding(setting, True)) for setting in range(4)
+)
+
+
 def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:
     """:meth:`EscDevice._update_dl_status` at every row, after a write of DL control: DL status
     0x0110 from the PDI, the port 1 link and the loop setting (datasheet II 2.4.3, Table 2), the
     DL status event where it changed, and each ESC's forwarding and source MAC marking."""
     setting = ((memory[rows, REG_DL_CONTROL + 1] >> 2) & 0x03).tolist()
     marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
-    for dev, s, mac in zip(devices, setting, marks, strict=True):
-        dev.onward, dev.sets_mac = port1_forwarding(s, dev.port1_link), mac
-    link = np.array([dev.port1_link for dev in devices], np.bool_)
+    links = [dev.port1_link for dev in devices]
+    onwards = [_FORWARDING[s][link] for s, link in zip(setting, links, strict=True)]
+    for dev, onward, mac in zip(devices, onwards, marks, strict=True):
+        dev.onward, dev.sets_mac = onward, mac
+    link = np.array(links, np.bool_)
     pdi = np.array([dev.pdi_operational for dev in devices], np.bool_)
-    closed = np.array([dev.onward is False for dev in devices], np.bool_)
+    closed = np.array([onward is False for onward in onwards], np.bool_)
     value = np.where(pdi, DL_PDI_OPERATIONAL, 0) | DL_PORT0 | DL_PORTS_2_3_CLOSED
     value |= np.where(link, DL_PORT1_LINK, 0) | np.where(closed, DL_PORT1_CLOSED, 0)
     old = memory[rows, REG_DL_STATUS].astype(np.int64)
@@ -474,9 +493,7 @@ def logical_together(
     """
     reads, writes = plan
     m = len(rows)
-    at: _Rows | slice = np.asarray(rows, np.intp)
-    if rows[-1] - rows[0] == m - 1:
-        at = slice(rows[0], rows[-1] + 1)  # consecutive: views instead of copies
+    at = _every(np.asarray(rows, np.intp))
     arrived = np.frombuffer(buf, np.uint8, n, off)[None, :]
     if reads:  # the frame leaves with the last ESC's reads
         out = arrived.copy()
