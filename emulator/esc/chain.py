@@ -49,7 +49,7 @@ from emulator.esc.commands import (
     LRD,
 )
 from emulator.esc.dc import DcTimebase
-from emulator.esc.device import EscConfig, EscDevice, TraceCopy
+from emulator.esc.device import EscConfig, EscDevice, FirstBuffer, TraceCopy
 from emulator.esc.mapping import Access, LogicalOp, LogicalPlan, SmTable, outside
 from emulator.esc.registers import (
     ADDRESS_SPACE,
@@ -486,12 +486,13 @@ class EcatChain:
         cuts: list[LogicalPlan] = []  # an LRD's: those of the run
         events: list[tuple[int, int]] = []  # (target, the events its reads clear) of the run
         clocks: list[tuple[int, tuple[tuple[int, int], ...]]] = []  # (target, DC registers read)
+        buffers: dict[int, tuple[int, bytes]] = {}  # an LRD's: whole buffers read (FirstBuffer)
 
         def plain() -> tuple[int, bool]:  # the run: over its rows when long enough
             for q, registers in clocks:  # DC registers at the frame's time, then the reads
                 line[q].refresh_dc(registers)
             if lrd:
-                inc = last_readers([line[q] for q in run], cuts, buf, at, n)
+                inc = last_readers([line[q] for q in run], cuts, buf, at, n, buffers)
             elif len(run) >= LOGICAL_TOGETHER_MIN:
                 devices = [line[q] for q in run] if run_shadow else []
                 inc = logical_together(
@@ -539,14 +540,28 @@ class EcatChain:
                     if found.dc:
                         clocks.append((p, found.dc))
                     continue
+                if lrd and cut is None and found.rest is not None:
+                    read = dev.read_first_buffer(lad, n)
+                    if read is not None:  # its buffer read, in the run with its other parts
+                        buffers[len(run)] = read
+                        run.append(p)
+                        cuts.append(found.rest)
+                        continue
                 inc, cleared = plain()
                 wkc_inc, changed = wkc_inc + inc, changed or cleared
                 run, cuts, events, clocks = [], [], [], []  # the ESCs before this one are done
+                buffers = {}
             before = dev.irq
-            done = dev.logical_unless_rows(cmd, lad, buf, at, n)
+            done = dev.logical_unless_rows(cmd, lad, buf, at, n, rest=lrd)
             found = None
             if isinstance(done, int):
                 wkc_inc += done
+                changed = changed or dev.irq != before
+            elif isinstance(done, FirstBuffer):  # an LRD's run starts with a buffer read
+                assert done.access.rest is not None
+                run, run_plan, run_shadow = [p], done.access.rest, ()
+                cuts = [done.access.rest]
+                buffers = {0: (done.at, done.data)}
                 changed = changed or dev.irq != before
             else:  # a run starts, even one that does nothing: the next are asked row_access
                 assert done.cut is not None  # and it holds here (row_cut)

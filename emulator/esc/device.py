@@ -51,7 +51,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
-from typing import Final
+from typing import Final, NamedTuple
 
 from emulator.errors import TopologyError
 from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
@@ -144,6 +144,7 @@ __all__ = [
     "REGISTER_END",
     "EscConfig",
     "EscDevice",
+    "FirstBuffer",
     "TraceCopy",
 ]
 
@@ -224,6 +225,15 @@ def _bits_written(
     value = value << shift if shift >= 0 else value >> -shift
     old = int.from_bytes(target, "little")
     return ((old & ~mask) | (value & mask)).to_bytes(len(target), "little")
+
+
+class FirstBuffer(NamedTuple):
+    """An LRD's whole-buffer read by an ESC's first FMMU, done, whose other parts the chain
+    reads over the rows (:meth:`EscDevice.logical_unless_rows` with ``rest``)."""
+
+    access: Access  # with the other parts' cut, Access.rest
+    at: int  # the buffer's frame offset
+    data: bytes  # the bytes read
 
 
 def port1_forwarding(setting: int, link: bool) -> bool | None:
@@ -349,7 +359,7 @@ class EscDevice:
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle): (frame offset, SyncManager) per (address, length), or None where
         # the general path decides; worked out per FMMU and SyncManager configuration
-        self._lrd_plans: dict[tuple[int, int], tuple[int, _Sm, bool] | None] = {}
+        self._lrd_plans: dict[tuple[int, int, bool], tuple[int, _Sm, bool] | None] = {}
         # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
         self.sm_areas: SmTable = ()
         # SyncManagers changed but not made yet, made when first needed (_make_sms): the
@@ -876,12 +886,29 @@ class EscDevice:
         +1 for a read, +2 for a write)."""
         if self.trace is not None:
             return False
-        key = (lad, n)
+        key = (lad, n, False)
         plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
         if plan is None or plan[1].locked or self.dc_sampling or (cmd != LRD and plan[2]):
             return False
         self._read_buffer(plan[1], buf, off + plan[0])
         return True
+
+    def read_first_buffer(self, lad: int, n: int) -> tuple[int, bytes] | None:
+        """An LRD of ``n`` bytes at ``lad`` whose first read FMMU maps onto exactly the whole
+        buffer of a read SyncManager (:meth:`_plan_lrd`), its other FMMUs' parts plain
+        (:attr:`Access.rest`, the chain's): that buffer read as :meth:`read_buffered` reads it,
+        and (its frame offset, the bytes read); None, having done nothing, otherwise. The other
+        parts read no byte of the buffer (an area ECAT reads is not plain), so the order of the
+        reads does not matter."""
+        if self.trace is not None or self.dc_sampling:
+            return None
+        key = (lad, n, True)
+        plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
+        if plan is None or plan[1].locked:
+            return None
+        data = bytearray(plan[1].length)
+        self._read_buffer(plan[1], data, 0)
+        return plan[0], bytes(data)
 
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
@@ -969,16 +996,23 @@ class EscDevice:
         return self.irq != before
 
     def logical_unless_rows(
-        self, cmd: int, lad: int, buf: bytearray, off: int, n: int
-    ) -> int | Access:
+        self, cmd: int, lad: int, buf: bytearray, off: int, n: int, *, rest: bool = False
+    ) -> int | Access | FirstBuffer:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
         counter's increment; but when the chain may do it over the rows (:meth:`row_access`),
-        that access, untouched, for the chain to do it together with the ESCs after this one."""
+        that access, untouched, for the chain to do it together with the ESCs after this one;
+        with ``rest`` (an LRD), also when only the first FMMU's part is not plain, a whole
+        buffer read (:meth:`read_first_buffer`): that read done, and the access with its
+        :attr:`Access.rest` for the chain (:class:`FirstBuffer`)."""
         if cmd in LRD_OR_LRW and self.read_buffered(lad, buf, off, n, cmd):
             return 1
         found = self._access(cmd, lad, n)
         if self.row_cut(found) is not None:
             return found
+        if rest and found.rest is not None:
+            read = self.read_first_buffer(lad, n)
+            if read is not None:
+                return FirstBuffer(found, *read)
         return self._through(found.plan, cmd, buf, off, n)
 
     def logical_unless_plain(
@@ -990,6 +1024,7 @@ class EscDevice:
         done = self.logical_unless_rows(cmd, lad, buf, off, n)
         if isinstance(done, int):
             return done
+        assert isinstance(done, Access)  # (no FirstBuffer without rest)
         plain = done.plain
         if plain is not None and not done.events:
             return plain
@@ -1111,16 +1146,19 @@ class EscDevice:
         buf[off : off + n] = frame.to_bytes(n, "little")
         return 1
 
-    def _plan_lrd(self, key: tuple[int, int]) -> tuple[int, _Sm, bool] | None:
-        """How an LRD of ``key`` = (address, length) reads, when it is the common case the
-        general path (:func:`plan_logical`, :meth:`_read_phys`, :meth:`_sm_read`) would take
-        one way: one read FMMU, byte-wise, maps part of it onto exactly the whole buffer of a
-        buffered read SyncManager in process memory, which no other SyncManager overlaps: the
-        frame offset, the SyncManager, and whether a write FMMU meets it too (an LRW there is
-        not that LRD)."""
-        lad, n = key
+    def _plan_lrd(self, key: tuple[int, int, bool]) -> tuple[int, _Sm, bool] | None:
+        """How an LRD of ``key`` = (address, length, first) reads, when it is the common case
+        the general path (:func:`plan_logical`, :meth:`_read_phys`, :meth:`_sm_read`) would take
+        one way: one read FMMU (with ``first``, the first of them, which claims its bytes
+        before the others, datasheet I 7), byte-wise, maps part of it onto exactly the whole
+        buffer of a buffered read SyncManager in process memory, which no other SyncManager
+        overlaps: the frame offset, the SyncManager, and whether a write FMMU meets it too (an
+        LRW there is not that LRD)."""
+        lad, n, first = key
         plan: tuple[int, _Sm, bool] | None = None
         reads = [f for f in self._fmmus if f[6] and f[0] < lad + n and f[1] > lad]
+        if first:
+            reads = reads[:1]
         if len(reads) == 1 and reads[0][8]:
             log_start, log_end, phys = reads[0][:3]
             lo, hi = max(lad, log_start), min(lad + n, log_end)

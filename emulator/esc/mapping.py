@@ -360,7 +360,9 @@ class Access:
     ``mailboxes``, those that must be idle at an ESC for the cut to hold there, ``dc``, the
     registers each ESC brings up to the frame's time first, ``shadow``, the write parts whose
     register bytes each ESC puts among its shadow writes (:func:`esc_row_access`), and
-    :attr:`plain`, the plain access with its plan and holes (none of those in it).
+    :attr:`plain`, the plain access with its plan and holes (none of those in it); ``rest``,
+    for an LRD that is not plain only for its first FMMU's part (a buffer it reads) while the
+    others' parts are plain: those parts' cut without the frame bytes the first claims.
 
     An access whose one FMMU lies wholly inside the datagram is that FMMU's access moved along
     the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
@@ -383,6 +385,7 @@ class Access:
         "lad",
         "mailboxes",
         "n",
+        "rest",
         "shadow",
         "top",
         "writes",
@@ -406,6 +409,7 @@ class Access:
         self.mailboxes: Mailboxes = ()
         self.dc: tuple[tuple[int, int], ...] = ()
         self.shadow: tuple[LogicalOp, ...] = ()
+        self.rest: LogicalPlan | None = None  # an LRD's other parts when the first reads a buffer
 
     @classmethod
     def joined(cls, first: Access, others: Access) -> Access:
@@ -484,8 +488,13 @@ class Access:
         if self.areas is areas and self.top == top and self.writes is writes:
             return
         self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
+        self.rest = None
         if len(self.hit) > 1:
             if self._apart(areas, top, writes):
+                return
+            if self.rest is not None:  # the first FMMU's part is not plain: nor the whole plan
+                self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
+                self.dc, self.shadow = (), ()
                 return
         else:
             moved = self.moved()
@@ -571,10 +580,15 @@ class Access:
             and found[2] == top
             and found[3] is writes
         ):
-            found = (moved, areas, top, writes, _along_common(others, moved, areas, top, writes))
+            found = (moved, areas, top, writes, *_along_common(others, moved, areas, top, writes))
             others._along = found
         common: _AlongCommon | None = found[4]  # type: ignore[assignment]
         if common is None:
+            rest: tuple[LogicalOp, ...] | None = found[5]  # type: ignore[assignment]
+            f = self.hit[0]
+            if rest is not None and f[6]:  # an LRD: the first reads a buffer, the others plain
+                lo, hi = max(self.lad, f[0]) - self.lad, min(self.lad + self.n, f[1]) - self.lad
+                self.rest = (unclaimed(rest, lo, hi, False), ())
             return False
         first_cut, shadow, effects, others_cut, register_writes = common
         return self._claimed(
@@ -626,22 +640,27 @@ _AlongCommon = tuple[
 
 def _along_common(
     others: Access, moved: Access, areas: SmTable, top: int, writes: WritesInert
-) -> _AlongCommon | None:
+) -> tuple[_AlongCommon | None, tuple[LogicalOp, ...] | None]:
     """What :meth:`Access._apart_along` shares among the ESCs whose first FMMU's access is
     ``moved`` (moved along) and whose others' is ``others``, at SyncManager ``areas``, memory
     ``top`` and register write plans ``writes``; None where :meth:`Access._apart` leaves it to
     the whole plan (the others not plain, clearing events, reading DC registers or writing
-    registers to the shadow; the first not plain, or clearing an event the others may read)."""
+    registers to the shadow; the first not plain, or clearing an event the others may read).
+    Second, for an LRD whose first part is not plain (it reads a buffer, say) while the others
+    are plain, without mailboxes: the others' read parts (:attr:`Access.rest`); else None."""
     reads_registers, writes_registers = others.registers
     others.rows(areas, top, writes)
     if others.cut is None or others.events or others.dc or others.shadow:
-        return None
+        return None, None
     moved.rows(areas, top, writes)
-    if moved.cut is None or (moved.events and reads_registers):
-        return None
+    if moved.cut is None:
+        plain_rest = moved.cmd == LRD and not others.mailboxes
+        return None, others.cut[0] if plain_rest else None
+    if moved.events and reads_registers:
+        return None, None
     effects = (moved.events, moved.dc, _merged(moved.mailboxes, others.mailboxes))
     register_writes = others.plan[1] if writes_registers else ()
-    return moved.cut, moved.shadow, effects, others.cut, register_writes
+    return (moved.cut, moved.shadow, effects, others.cut, register_writes), None
 
 
 def _merged(first: Mailboxes, others: Mailboxes) -> Mailboxes:

@@ -31,7 +31,7 @@ among each ESC's shadow writes.)
 
 from __future__ import annotations
 
-from collections.abc import Sequence
+from collections.abc import Mapping, Sequence
 from typing import Final
 
 import numpy as np
@@ -633,18 +633,37 @@ def lrd_last_readers(
 
 
 def last_readers(
-    devices: Sequence[EscDevice], plans: Sequence[LogicalPlan], buf: bytearray, off: int, n: int
+    devices: Sequence[EscDevice],
+    plans: Sequence[LogicalPlan],
+    buf: bytearray,
+    off: int,
+    n: int,
+    buffers: Mapping[int, tuple[int, bytes]] | None = None,
 ) -> int:
-    """:func:`lrd_last_readers` of the ESCs' plans cut (:attr:`emulator.esc.mapping.Access.cut`)."""
+    """:func:`lrd_last_readers` of the ESCs' plans cut (:attr:`emulator.esc.mapping.Access.cut`);
+    ``buffers``, by index into ``devices``: the whole buffer an ESC's first FMMU read (its frame
+    offset and bytes, :meth:`EscDevice.read_first_buffer`), one more part of its reads, apart
+    from those of its plan (the first FMMU claimed those bytes from the others)."""
     unread = (1 << 8 * n) - 1  # the frame bits no later ESC reads (bit 8 i + k: byte i, bit k)
     wkc = 0
-    for dev, plan in zip(reversed(devices), reversed(plans), strict=True):
+    last = len(devices) - 1
+    for k, (dev, plan) in enumerate(zip(reversed(devices), reversed(plans), strict=True)):
         reads = plan[0]  # the plan with the holes cut: each part reads a byte
-        if not reads:
+        read = buffers.get(last - k) if buffers else None
+        if not reads and read is None:
             continue
         wkc += 1
         if not unread:  # nothing left to read: it only counts
             continue
+        if read is not None:
+            at, data = read
+            new = (unread >> 8 * at) & ((1 << 8 * len(data)) - 1)  # what no later ESC reads
+            if new:
+                value = int.from_bytes(data, "little")
+                frame = int.from_bytes(buf[off + at : off + at + len(data)], "little")
+                frame = (frame & ~new) | (value & new)
+                buf[off + at : off + at + len(data)] = frame.to_bytes(len(data), "little")
+                unread ^= new << 8 * at
         mem = dev.mem
         for bytewise, a, b, c, d, e, f in reads:
             if bytewise:  # physical a, frame offset b, c bytes

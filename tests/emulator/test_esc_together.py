@@ -241,6 +241,56 @@ def test_al_control_written_at_every_esc_reaches_each_application_or_is_copied()
             assert fast.devices[p].registers(0x0130, 1)[0] == value
 
 
+def fmmu(log: int, length: int, phys: int, bits: tuple[int, int, int], kind: int) -> bytes:
+    """FMMU registers (datasheet II 2.13): logical start, length, start and stop bit, physical
+    start and bit, type (1 read, 2 write), active."""
+    return struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
+
+
+@pytest.mark.parametrize("bits", [(0, 7, 0), (3, 4, 5)], ids=["byte-wise", "bit-wise"])
+def test_an_lrd_of_buffers_and_plain_ram_reads_each_part_where_its_fmmu_maps_it(
+    monkeypatch: pytest.MonkeyPatch, bits: tuple[int, int, int]
+) -> None:
+    """Each ESC's FMMU 0 maps its own 8 logical bytes onto its inputs' buffer (SyncManager 3, a
+    buffer ECAT reads); a broadcast gives every ESC FMMU 4 too, reading the whole image from
+    user RAM at 0x2000, where a broadcast wrote 64 bytes. An LRD of the image: each ESC reads
+    its buffer into its own bytes, which FMMU 0 claims, and the RAM into the rest (datasheet I
+    7); the frame leaves with the last ESC's reads. Byte-wise (hand-worked): the RAM's first 56
+    bytes, then ESC 7's inputs; 8 ESCs count. The buffer read and the RAM's parts go together
+    (EscDevice.read_first_buffer), and leave the bytes each ESC on its own leaves."""
+    fast, reference = pair()
+    ram = bytes(range(0x40, 0x80))
+    setup = ethercat.frame(
+        EcatFrame((Datagram(Command.BWR, 0, 0x2000, ram), Datagram(Command.BWR, 0, 0x0640,
+        fmmu(0, NODES * SIZE, 0x2000, bits, 1))))
+    ).to_bytes()  # fmt: skip
+    for chain in (fast, reference):
+        chain.publish(np.ascontiguousarray(ROWS[2]))
+    assert_same(fast, reference, setup, "RAM and FMMU 4")
+    reads: list[object] = []
+    first = EscDevice.read_first_buffer
+
+    def counted(dev: EscDevice, lad: int, n: int) -> object:
+        found = first(dev, lad, n)
+        reads.append(found)
+        return found
+
+    monkeypatch.setattr(EscDevice, "read_first_buffer", counted)
+    lrd = ethercat.frame(
+        EcatFrame((Datagram.logical(Command.LRD, 0, bytes(NODES * SIZE)),))
+    ).to_bytes()
+    for k in range(2):
+        assert_same(fast, reference, lrd, f"LRD {k}")
+    # (ESC 0's FMMU 0 at logical 0, as the datagram: its access is no joined one, but its own)
+    assert len(reads) == 2 * (NODES - 1) and all(found is not None for found in reads)
+    back = fast.process_frame(lrd)
+    assert back is not None
+    (d,) = ethercat.decode(back[14:])[0].datagrams
+    assert d.wkc == NODES
+    if bits == (0, 7, 0):
+        assert d.data == ram[: (NODES - 1) * SIZE] + ROWS[2][-1].tobytes()
+
+
 def test_a_loop_closed_early_keeps_the_rest_out() -> None:
     """ESC 2 closes port 1: a broadcast read or write reaches ESCs 0-2 only, and an ARMW whose
     reader lies beyond writes at all three."""

@@ -402,9 +402,9 @@ def test_reads_of_al_status_clear_its_event_over_the_rows(
     runs: list[int] = []
     shortcut = together.last_readers
 
-    def counted(devices, plans, buf, off, n):  # type: ignore[no-untyped-def]
+    def counted(devices, plans, buf, off, n, buffers=None):  # type: ignore[no-untyped-def]
         runs.append(len(devices))
-        return shortcut(devices, plans, buf, off, n)
+        return shortcut(devices, plans, buf, off, n, buffers)
 
     monkeypatch.setattr("emulator.esc.chain.last_readers", counted)
     chain = line(EcatChain)
