@@ -357,8 +357,9 @@ class EscDevice:
         # FMMU registers hold the same bytes, so that what follows from it is asked once
         self.fmmu_decoded: FmmuTable = ((), (0, 0), self._logical_plans)
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
-        # of every cycle): (frame offset, SyncManager) per (address, length), or None where
-        # the general path decides; worked out per FMMU and SyncManager configuration
+        # of every cycle), or through the first of several (read_first_buffer): (frame offset,
+        # SyncManager, whether an FMMU writes there) per (address, length, first), or None
+        # where the general path decides; worked out per FMMU and SyncManager configuration
         self._lrd_plans: dict[tuple[int, int, bool], tuple[int, _Sm, bool] | None] = {}
         # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
         self.sm_areas: SmTable = ()
