@@ -398,7 +398,7 @@ class Access:
         self._first: Access | None = None  # the first FMMU's access (PARTS_CACHE)
         self._at: tuple[Access, int] | None = None  # or that access moved along (moved)
         self._others: Access | None = None  # the others' (PARTS_CACHE)
-        self._along: tuple[object, ...] | None = None  # the last _joined_along asked (others')
+        self._along: tuple[object, ...] | None = None  # _apart_along's shared work, last tables
         self._moved: object = _UNASKED  # (the FMMU's access at logical 0, frame offset) or None
         self.areas: SmTable | None = None
         self.top = 0
