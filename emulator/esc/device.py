@@ -247,6 +247,16 @@ def port1_forwarding(setting: int, link: bool) -> bool | None:
     return link  # auto, auto close: open with a link
 
 
+def eeprom_read(image: bytearray, word: int) -> bytearray | None:
+    """The 8 bytes a read command at word address ``word`` brings from the EEPROM ``image``
+    to 0x0508 (datasheet I 11.2.3; a sequential read wraps around the EEPROM's end), or None
+    beyond its size, where no EEPROM answers."""
+    start = 2 * word
+    if start >= len(image):
+        return None
+    return (image[start : start + 8] + image[: max(0, start + 8 - len(image))])[:8]
+
+
 def config_area(image: bytes | bytearray) -> tuple[int, ...] | None:
     """The ESC configuration area A of an SII image, words 0-7 (datasheet I 11.1, Table 42),
     or None when its checksum (word 7, CRC-8 of words 0-6, unless the bypass value) is wrong."""
@@ -1406,14 +1416,11 @@ class EscDevice:
         if command == 0:
             status &= ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR)  # "000" clears the error bits
         elif command == EE_CMD_READ:
-            if word >= words:
+            data = eeprom_read(self.sii, word)
+            if data is None:
                 status |= EE_ACK_ERROR  # no EEPROM answers beyond its size
             else:
-                start = 2 * word
-                data = (
-                    self.sii[start : start + 8] + self.sii[: max(0, start + 8 - len(self.sii))]
-                )[:8]
-                mem[REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data  # sequential read wraps around
+                mem[REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data
         elif command == EE_CMD_WRITE:
             if not control & EE_WRITE_ENABLE:
                 status |= EE_WRITE_ENABLE_ERROR

@@ -39,7 +39,13 @@ import numpy.typing as npt
 
 from emulator.esc.commands import LRD, LWR
 from emulator.esc.dc import REG_DC_RECEIVE, compare_together, configure_together
-from emulator.esc.device import EscDevice, config_area, config_writes, port1_forwarding
+from emulator.esc.device import (
+    EscDevice,
+    config_area,
+    config_writes,
+    eeprom_read,
+    port1_forwarding,
+)
 from emulator.esc.mapping import (
     LogicalOp,
     LogicalPlan,
@@ -231,17 +237,14 @@ def _reads(
     11.2.3); each ESC's bytes from its own EEPROM, into the rows at once. The status is
     returned."""
     address = memory[rows, REG_EEPROM_ADDRESS : REG_EEPROM_ADDRESS + 4].copy().view("<u4")
-    read: list[bytes | bytearray] = []
+    read: list[bytearray] = []
     beyond: list[int] = []  # no EEPROM answers beyond its size
     for k, (i, word) in enumerate(zip(which, address[:, 0].tolist(), strict=True)):
-        sii = devices[i].sii
-        start = 2 * word
-        if start + 8 <= len(sii):
-            read.append(sii[start : start + 8])
-        elif start < len(sii):
-            read.append((sii[start:] + sii[:8])[:8])
-        else:
+        got = eeprom_read(devices[i].sii, word)
+        if got is None:
             beyond.append(k)
+        else:
+            read.append(got)
     if beyond:
         status = status.copy()
         status[beyond] |= EE_ACK_ERROR
@@ -659,10 +662,7 @@ def last_readers(
             at, data = read
             new = (unread >> 8 * at) & ((1 << 8 * len(data)) - 1)  # what no later ESC reads
             if new:
-                value = int.from_bytes(data, "little")
-                frame = int.from_bytes(buf[off + at : off + at + len(data)], "little")
-                frame = (frame & ~new) | (value & new)
-                buf[off + at : off + at + len(data)] = frame.to_bytes(len(data), "little")
+                _merge(buf, off + at, len(data), new, int.from_bytes(data, "little"))
                 unread ^= new << 8 * at
         mem = dev.mem
         for bytewise, a, b, c, d, e, f in reads:
@@ -678,8 +678,13 @@ def last_readers(
             else:
                 value = int.from_bytes(mem[a : a + b], "little")
                 value = value >> c if c >= 0 else value << -c
-            frame = int.from_bytes(buf[off + at : off + at + width], "little")
-            frame = (frame & ~new) | (value & new)
-            buf[off + at : off + at + width] = frame.to_bytes(width, "little")
+            _merge(buf, off + at, width, new, value)
             unread ^= new << 8 * at
     return wkc
+
+
+def _merge(buf: bytearray, at: int, width: int, bits: int, value: int) -> None:
+    """The ``width`` bytes of ``buf`` at ``at``, as a little-endian integer, take ``value``'s
+    bits where ``bits`` has them."""
+    frame = int.from_bytes(buf[at : at + width], "little")
+    buf[at : at + width] = ((frame & ~bits) | (value & bits)).to_bytes(width, "little")
