@@ -86,6 +86,8 @@ class Plans(dict[tuple[int, int, int], "Access"]):
     # (a class default: made without an __init__ of its own, a table's Plans costs what a
     # dict does, about 0.2 us against 0.7 us with one, at every ESC whose FMMU table changed)
     parts: tuple[FmmuTable, FmmuTable] | None = None
+    # of FMMU 0's part: moved_along of its FMMU by access, which outlives changes of the others
+    moved: dict[tuple[int, int, int], tuple[Access, int] | None] | None = None
 
 
 # active FMMUs, the logical span they map, and the plans of logical accesses through them
@@ -490,7 +492,11 @@ class Access:
         self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
         self.rest = None
         if len(self.hit) > 1:
-            if self._apart(areas, top, writes):
+            moved_first, others = self._at, self._others
+            if moved_first is not None and others is not None:  # joined_along (no lookups)
+                if self._apart_along(others, moved_first, areas, top, writes):
+                    return
+            elif self._apart(areas, top, writes):
                 return
             if self.rest is not None:  # the first FMMU's part is not plain: nor the whole plan
                 self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
@@ -533,9 +539,6 @@ class Access:
                 remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
                 return False
             self._others = others
-        at = self._at
-        if at is not None:  # the first FMMU's access is one moved along (joined_along)
-            return self._apart_along(others, at, areas, top, writes)
         reads_registers, writes_registers = others.registers
         others.rows(areas, top, writes)
         if others.cut is None or others.events or others.dc or others.shadow:
@@ -590,9 +593,14 @@ class Access:
                 lo, hi = max(self.lad, f[0]) - self.lad, min(self.lad + self.n, f[1]) - self.lad
                 self.rest = (unclaimed(rest, lo, hi, False), ())
             return False
-        first_cut, shadow, effects, others_cut, register_writes = common
+        first_cut, shadow, effects, others_cut, register_writes, spans = common
         return self._claimed(
-            along(first_cut, offset), _along(shadow, offset), effects, others_cut, register_writes
+            along(first_cut, offset),
+            _along(shadow, offset),
+            effects,
+            others_cut,
+            register_writes,
+            spans,
         )
 
     def _claimed(
@@ -602,18 +610,21 @@ class Access:
         effects: tuple[int, tuple[tuple[int, int], ...], Mailboxes],
         others_cut: LogicalPlan,
         register_writes: tuple[LogicalOp, ...],
+        spans: tuple[tuple[int, int], tuple[int, int]] | None = None,
     ) -> bool:
         """The cut of :meth:`_apart` from the first FMMU's part's cut and shadow, its events,
         DC registers and the mailboxes of both (``effects``), and the others' cut, the frame
-        bytes the first claims taken from the others' (:func:`unclaimed`); False where the
-        others' write parts of (inert) registers ``register_writes`` meet those bytes."""
+        bytes the first claims taken from the others' (:func:`unclaimed`; not where the frame
+        bytes the others' reads and writes span, ``spans`` when known, :func:`_frame_span`, miss
+        them); False where the others' write parts of (inert) registers ``register_writes``
+        meet those bytes."""
         cmd, lad, n = self.cmd, self.lad, self.n
         f = self.hit[0]
         lo, hi = max(lad, f[0]) - lad, min(lad + n, f[1]) - lad  # the frame bytes it claims
         reads, writes_ = others_cut
-        if f[6] and cmd != LWR:
+        if f[6] and cmd != LWR and (spans is None or (lo < spans[0][1] and hi > spans[0][0])):
             reads = unclaimed(reads, lo, hi, False)
-        if f[7] and cmd != LRD:
+        if f[7] and cmd != LRD and (spans is None or (lo < spans[1][1] and hi > spans[1][0])):
             if any(
                 op[1] < REGISTER_END and _frame_bytes(op)[0] < hi and _frame_bytes(op)[1] > lo
                 for op in register_writes
@@ -628,13 +639,15 @@ class Access:
 
 
 # what the ESCs of _apart_along share: the first's (moved) cut and shadow, (its events, its DC
-# registers, the mailboxes of both), the others' cut, and their write parts of registers
+# registers, the mailboxes of both), the others' cut, their write parts of registers, and the
+# frame bytes the others' cut spans (reads, writes; _frame_span)
 _AlongCommon = tuple[
     LogicalPlan,
     tuple[LogicalOp, ...],
     tuple[int, tuple[tuple[int, int], ...], Mailboxes],
     LogicalPlan,
     tuple[LogicalOp, ...],
+    tuple[tuple[int, int], tuple[int, int]],
 ]
 
 
@@ -660,7 +673,10 @@ def _along_common(
         return None, None
     effects = (moved.events, moved.dc, _merged(moved.mailboxes, others.mailboxes))
     register_writes = others.plan[1] if writes_registers else ()
-    return (moved.cut, moved.shadow, effects, others.cut, register_writes), None
+    reads, writes_ = others.cut
+    # the register writes need not be in the writes' span: the cut may have left them out
+    spans = _frame_span(reads), _frame_span(writes_ + register_writes)
+    return (moved.cut, moved.shadow, effects, others.cut, register_writes, spans), None
 
 
 def _merged(first: Mailboxes, others: Mailboxes) -> Mailboxes:
@@ -700,6 +716,15 @@ def _along(ops: tuple[LogicalOp, ...], offset: int) -> tuple[LogicalOp, ...]:
             for bytewise, a, b, c, d, e, f in ops
         ]
     )
+
+
+def _frame_span(ops: tuple[LogicalOp, ...]) -> tuple[int, int]:
+    """The frame bytes [start, end) that the parts ``ops`` of a plan span ((0, 0) for none):
+    claims outside it leave them as they are (:func:`unclaimed`)."""
+    if not ops:
+        return 0, 0
+    ends = [_frame_bytes(op) for op in ops]
+    return min(lo for lo, _ in ends), max(hi for _, hi in ends)
 
 
 def _frame_bytes(op: LogicalOp) -> tuple[int, int]:
@@ -790,7 +815,7 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
             found = shared_access(f, cmd, lad, n, head[1])
         else:  # joined once per pair of parts' accesses, whatever else differs
             others = _part_access(rest, key)
-            at = None if not others.hit or len(f) > 1 else moved_along(f[0], cmd, lad, n)
+            at = None if not others.hit or len(f) > 1 else _moved_along(head, key)
             if not others.hit:  # the others' span meets it, but none of them does
                 found = shared_access(f, cmd, lad, n, head[1])
             elif at is not None:  # FMMU 0 inside the access: moved along, no access of its own
@@ -805,6 +830,18 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
                 if found is None:
                     found = remember(JOINED_CACHE, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
     return remember(plans, key, found, PLAN_CACHE_ENTRIES)
+
+
+def _moved_along(head: FmmuTable, key: tuple[int, int, int]) -> tuple[Access, int] | None:
+    """:func:`moved_along` of the one FMMU of FMMU 0's part ``head``, once per part and access
+    (its :attr:`Plans.moved`): an ESC's own FMMU 0 outlives the others' changes."""
+    plans = head[2]
+    moved = plans.moved
+    if moved is None:
+        moved = plans.moved = {}
+    elif key in moved:
+        return moved[key]
+    return remember(moved, key, moved_along(head[0][0], *key), PLAN_CACHE_ENTRIES)
 
 
 def _part_access(part: FmmuTable, key: tuple[int, int, int]) -> Access:
