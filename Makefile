@@ -12,7 +12,16 @@ $(STAMP): pyproject.toml
 	$(BIN)/pip install --quiet -e '.[test]'
 	touch $(STAMP)
 
-demo: $(STAMP)
+# The ESC's busiest modules compiled with mypyc, again whenever a source changed
+# (emulator/esc/compiled.py); without a C compiler everything runs as Python, and says so.
+COMPILED := $(VENV)/.compiled
+SOURCES := $(shell find emulator skinframes -name '*.py')
+
+$(COMPILED): $(STAMP) $(SOURCES)
+	@$(BIN)/python -m emulator.esc.compiled || true
+	@touch $@
+
+demo: $(STAMP) $(COMPILED)
 	$(BIN)/skinframes demo --out out
 
 # tshark is Wireshark's judge of every pcap we write; install Debian's package when missing and root.
@@ -26,7 +35,7 @@ tshark:
 	  fi; \
 	fi
 
-test: $(STAMP) tshark
+test: $(STAMP) $(COMPILED) tshark
 	$(BIN)/python -m pytest $(PYTEST_ARGS)
 
 lint: $(STAMP)
@@ -37,4 +46,4 @@ bench: $(STAMP)
 	$(BIN)/python benchmarks/bench_codecs.py
 
 clean:
-	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache
+	rm -rf $(VENV) out .pytest_cache .mypy_cache .ruff_cache emulator/esc/_compiled

@@ -6,5 +6,12 @@ for the live transport and the timing engine alike).
 A patch with a mailbox adds :mod:`.mailbox` (SM0/SM1, counter, repeat request), :mod:`.coe`
 (SDO, SDO information, emergencies) and :mod:`.objects` (its object dictionary).
 
-This file imports nothing, so that importing one module does not load the others.
+This file imports nothing but :mod:`.compiled`, so that importing one module does not load the
+others; where :mod:`.compiled` built them, the busiest modules are C extensions of the same sources.
 """
+
+from emulator.esc import compiled as _compiled
+
+_found = _compiled.folder()
+if _found is not None:  # the busiest modules compiled from these very sources (compiled.py)
+    __path__.insert(0, str(_found))

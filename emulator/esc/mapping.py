@@ -83,11 +83,11 @@ class Plans(dict[tuple[int, int, int], "Access"]):
     (:func:`table_access`), and, for a table decoded as FMMU 0 and the others
     (:func:`decode_fmmus`), those two parts (each an :data:`FmmuTable` of its own)."""
 
-    # (a class default: made without an __init__ of its own, a table's Plans costs what a
-    # dict does, about 0.2 us against 0.7 us with one, at every ESC whose FMMU table changed)
-    parts: tuple[FmmuTable, FmmuTable] | None = None
-    # of FMMU 0's part: moved_along of its FMMU by access, which outlives changes of the others
-    moved: dict[tuple[int, int, int], tuple[Access, int] | None] | None = None
+    def __init__(self) -> None:  # (not class defaults: compiled, a class keeps none)
+        super().__init__()
+        self.parts: tuple[FmmuTable, FmmuTable] | None = None
+        # of FMMU 0's part: moved_along of its FMMU by access (it outlives the others' changes)
+        self.moved: dict[tuple[int, int, int], tuple[Access, int] | None] | None = None
 
 
 # active FMMUs, the logical span they map, and the plans of logical accesses through them
@@ -490,8 +490,8 @@ class Access:
         if self.areas is areas and self.top == top and self.writes is writes:
             return
         self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
-        self.rest = None
-        if len(self.hit) > 1:
+        if len(self.hit) > 1:  # (_apart and _apart_along set rest: compiled code trusts what
+            # mypy thinks of an attribute assigned here before a call that changes it)
             moved_first, others = self._at, self._others
             if moved_first is not None and others is not None:  # joined_along (no lookups)
                 if self._apart_along(others, moved_first, areas, top, writes):
@@ -503,6 +503,7 @@ class Access:
                 self.dc, self.shadow = (), ()
                 return
         else:
+            self.rest = None
             moved = self.moved()
             if moved is not None:
                 at, offset = moved
@@ -530,6 +531,7 @@ class Access:
         whose frame bytes the first does not claim (such a write counts in the working counter
         if the claims leave any of it, though it writes no byte); False leaves it to the whole
         plan."""
+        self.rest = None
         cmd, lad, n = self.cmd, self.lad, self.n
         others = self._others
         if others is None:
@@ -574,6 +576,7 @@ class Access:
         cut, the moved access's, their checks) is worked out once and kept with the others'
         access for the tables last asked (:func:`_along_common`); each ESC moves the first's
         part along and takes its claims from the others'."""
+        self.rest = None
         moved, offset = at
         found = others._along
         if not (
