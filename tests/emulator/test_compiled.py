@@ -46,12 +46,13 @@ print(dropped, digest.hexdigest())
 """
 
 
-def answers(pure: bool, seed: int, count: int) -> list[str]:
+def python(code: str, *args: str, pure: bool) -> str:
+    """What ``code`` prints, run by this Python on the sources (``pure``) or the compiled ESC."""
     env = {k: v for k, v in os.environ.items() if k != compiled.PURE_ENV}
     if pure:
         env[compiled.PURE_ENV] = "1"
     done = subprocess.run(
-        [sys.executable, "-c", ANSWER, "160", "8", str(count), str(seed)],
+        [sys.executable, "-c", code, *args],
         cwd=ROOT,
         env=env,
         capture_output=True,
@@ -60,7 +61,11 @@ def answers(pure: bool, seed: int, count: int) -> list[str]:
         check=False,
     )
     assert done.returncode == 0, done.stderr[-2000:]
-    return done.stdout.split()
+    return done.stdout
+
+
+def answers(pure: bool, seed: int, count: int) -> list[str]:
+    return python(ANSWER, "160", "8", str(count), str(seed), pure=pure).split()
 
 
 def test_the_sources_are_what_the_suite_runs() -> None:
@@ -71,15 +76,8 @@ def test_the_sources_are_what_the_suite_runs() -> None:
 
 @pytest.mark.parametrize("seed", [0, 7])
 def test_compiled_escs_answer_hostile_frames_as_their_sources_do(seed: int) -> None:
-    env = {k: v for k, v in os.environ.items() if k != compiled.PURE_ENV}
-    found = subprocess.run(
-        [sys.executable, "-c", "from emulator.esc import compiled; print(compiled.folder())"],
-        cwd=ROOT,
-        env=env,
-        capture_output=True,
-        text=True,
-        check=True,
-    ).stdout.strip()
+    found = python("from emulator.esc import compiled; print(compiled.folder())", pure=False)
+    found = found.strip()
     if found == "None":
         reason = "no compiled ESC modules for these sources (python -m emulator.esc.compiled)"
         if IN_CI:
