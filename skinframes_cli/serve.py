@@ -12,6 +12,7 @@ import traceback
 from types import FrameType
 from typing import Any
 
+from emulator.esc import compiled
 from emulator.esc.dc import DEFAULT_DRIFT_PPM
 from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
@@ -139,6 +140,7 @@ def run(args: argparse.Namespace) -> int:
         "bytes": args.bytes,
         "mailbox": not args.no_mailbox,
         **stats.summary(),
+        "compiled": compiled.in_use(),
         "error_messages": stats.error_messages,
     }
     if args.pcap is not None:
@@ -153,7 +155,8 @@ def run(args: argparse.Namespace) -> int:
             f"processing median {summary['process_us_median']} us, "
             f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us; "
             f"CPU max {summary['cpu_us_max']} us per frame, "
-            f"then the firmware max {summary['firmware_us_max']} us"
+            f"then the firmware max {summary['firmware_us_max']} us; "
+            f"the ESCs {'compiled' if summary['compiled'] else 'as Python'}"
         )
         for message in stats.error_messages:
             print(f"  not processed: {message}")

@@ -257,6 +257,7 @@ def test_pysoem_runs_the_emulated_skin(
     frames = check_capture(tshark, pcap)
     summary = server["summary"]
     assert summary["frames_in"] == summary["frames_out"] > 2000
+    assert summary["compiled"] or not IN_CI  # make test compiled them: real masters drive that
     assert (summary["dropped"], summary["errors"]) == (0, 0)
     # serve's own record: every request it received and every reply it sent, each clean
     assert frames == 2 * summary["frames_in"]
