@@ -18,7 +18,7 @@ COMPILED := $(VENV)/.compiled
 SOURCES := $(shell find emulator skinframes -name '*.py')
 
 $(COMPILED): $(STAMP) $(SOURCES)
-	@$(BIN)/python -m emulator.esc.compiled || true
+	@$(BIN)/python -m emulator.esc.build || true
 	@touch $@
 
 demo: $(STAMP) $(COMPILED)

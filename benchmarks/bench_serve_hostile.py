@@ -397,7 +397,7 @@ def live(
     print(f"  reset and configuration: {len(setup)} frames, {unanswered} not answered")
     print(f"  afterwards a configured LRD answers correctly: {ok}")
     keys = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_max", "over_budget")
-    keys += ("firmware_us_max",)
+    keys += ("firmware_us_max", "compiled")
     print("  serve:", json.dumps({k: summary.get(k) for k in keys}))
     if summary.get("error_messages"):
         print("  not processed:", summary["error_messages"])

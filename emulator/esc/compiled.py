@@ -1,6 +1,6 @@
 """The ESC's busiest modules compiled with mypyc (part of mypy), the same sources as C extensions.
 
-``python -m emulator.esc.compiled`` (``make`` runs it) compiles :data:`MODULES` into
+``python -m emulator.esc.build`` (``make`` runs it) compiles :data:`MODULES` into
 ``emulator/esc/_compiled/<digest>/``, the digest being that of their sources
 (:func:`source_digest`, with everything they import). Importing :mod:`emulator.esc` puts that folder first on the package's
 path when it exists for the sources as they are (:func:`folder`), so an edited source runs as
@@ -14,8 +14,10 @@ Compiled, the ESCs take about 0.6 times the CPU per frame (benchmarks/README).
 
 from __future__ import annotations
 
+import contextlib
 import hashlib
 import importlib
+import io
 import os
 import shutil
 import sys
@@ -118,14 +120,22 @@ def build() -> Path:
 
 
 def main() -> int:
-    """Build, and say where (or why not: then everything runs as Python)."""
+    """Build, and say where (or why not: then everything runs as Python); mypyc's own remarks
+    only where it fails."""
+    if (COMPILED / source_digest()).is_dir():
+        return 0
+    print(f"compiling {', '.join(MODULES)} of emulator/esc with mypyc (a minute or two)")
+    said = io.StringIO()
     try:
-        print(f"compiled {', '.join(MODULES)} into {build()}")
+        with contextlib.redirect_stdout(said):
+            made = build()
+    except KeyboardInterrupt:
+        print("emulator.esc.compiled: interrupted; the ESCs run as Python")
+        return 130
     except (Exception, SystemExit) as exc:  # no compiler, no mypy: Python it is
-        print(f"emulator.esc.compiled: not compiled ({exc}); the ESCs run as Python")
+        sys.stdout.write(said.getvalue()[-4000:])
+        reason = f"{type(exc).__name__}: {exc}".strip()
+        print(f"emulator.esc.compiled: not compiled ({reason}); the ESCs run as Python")
         return 1
+    print(f"compiled into {made.relative_to(HERE.parent.parent)}")
     return 0
-
-
-if __name__ == "__main__":
-    sys.exit(main())

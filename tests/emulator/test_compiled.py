@@ -79,7 +79,7 @@ def test_compiled_escs_answer_hostile_frames_as_their_sources_do(seed: int) -> N
     found = python("from emulator.esc import compiled; print(compiled.folder())", pure=False)
     found = found.strip()
     if found == "None":
-        reason = "no compiled ESC modules for these sources (python -m emulator.esc.compiled)"
+        reason = "no compiled ESC modules for these sources (python -m emulator.esc.build)"
         if IN_CI:
             pytest.fail(reason + ": make test builds them")
         pytest.skip(reason)
