@@ -113,3 +113,40 @@ def test_an_edited_source_runs_as_python_until_compiled_again(
     assert compiled.folder() == made
     (sources / "esc" / "new.py").write_text("X = 1\n")
     assert compiled.folder() is None  # a new source too
+
+
+def test_the_build_says_in_one_line_why_the_escs_run_as_python(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    sources = tmp_path / "emulator"
+    sources.mkdir()
+    (sources / "chain.py").write_text("X = 1\n")
+    monkeypatch.setattr(compiled, "PACKAGES", (sources,))
+    monkeypatch.setattr(compiled, "COMPILED", tmp_path / "_compiled")
+
+    def failing() -> Path:
+        print("emulator/esc/chain.py:958: warning: Treating generator comprehension as list")
+        raise SystemExit("error: command '/bin/false' failed with exit code 1")
+
+    monkeypatch.setattr(compiled, "build", failing)
+    assert compiled.main() == 1
+    said = capsys.readouterr().out.splitlines()
+    assert said[0].startswith("compiling chain, device, mapping, together, write_plans")
+    assert said[1].endswith("warning: Treating generator comprehension as list")  # mypyc's
+    assert said[2:] == [
+        "emulator.esc.compiled: not compiled (SystemExit: error: command '/bin/false' failed "
+        "with exit code 1); the ESCs run as Python"
+    ]
+
+    def interrupted() -> Path:
+        print("a remark nobody needs")
+        raise KeyboardInterrupt
+
+    monkeypatch.setattr(compiled, "build", interrupted)
+    assert compiled.main() == 130
+    said = capsys.readouterr().out.splitlines()
+    assert said[1:] == ["emulator.esc.compiled: interrupted; the ESCs run as Python"]
+
+    (tmp_path / "_compiled" / compiled.source_digest()).mkdir(parents=True)
+    assert compiled.main() == 0  # built: nothing to do, nothing said
+    assert capsys.readouterr().out == ""
