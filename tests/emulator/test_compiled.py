@@ -3,8 +3,10 @@
 The suite runs the Python sources (tests/conftest.py). Here two processes, one on the compiled
 modules and one on the sources, answer the same hostile frames at 160 ESCs, with the master's
 resets between them and the slaves' firmware after each: every answer, every dropped frame and
-the ESCs' memory at the end must be the same. Without a compiled build (no C compiler) this
-skips with the reason; under CI=true, where ``make test`` builds it, it fails instead.
+the ESCs' memory at the end must be the same; and the timing engine's EtherCAT runs (the
+master's start-up through every ESC, a closed ring) must write the same pcaps. Without a
+compiled build (no C compiler) these skip with the reason; under CI=true, where ``make test``
+builds it, they fail instead.
 """
 
 from __future__ import annotations
@@ -46,6 +48,12 @@ print(dropped, digest.hexdigest())
 """
 
 
+FOUND = "from emulator.esc import compiled; print(compiled.folder())"
+NOT_BUILT = (
+    "no compiled ESC modules for these sources (python -m emulator.esc.build; make builds them)"
+)
+
+
 def python(code: str, *args: str, pure: bool) -> str:
     """What ``code`` prints, run by this Python on the sources (``pure``) or the compiled ESC."""
     env = {k: v for k, v in os.environ.items() if k != compiled.PURE_ENV}
@@ -64,6 +72,14 @@ def python(code: str, *args: str, pure: bool) -> str:
     return done.stdout
 
 
+def require_build() -> None:
+    """Skip with the reason where nothing is compiled for these sources; under CI=true, fail."""
+    if python(FOUND, pure=False).strip() == "None":
+        if IN_CI:
+            pytest.fail(NOT_BUILT)
+        pytest.skip(NOT_BUILT)
+
+
 def answers(pure: bool, seed: int, count: int) -> list[str]:
     return python(ANSWER, "160", "8", str(count), str(seed), pure=pure).split()
 
@@ -76,18 +92,39 @@ def test_the_sources_are_what_the_suite_runs() -> None:
 
 @pytest.mark.parametrize("seed", [0, 7])
 def test_compiled_escs_answer_hostile_frames_as_their_sources_do(seed: int) -> None:
-    found = python("from emulator.esc import compiled; print(compiled.folder())", pure=False)
-    found = found.strip()
-    if found == "None":
-        reason = "no compiled ESC modules for these sources (python -m emulator.esc.build)"
-        if IN_CI:
-            pytest.fail(reason + ": make test builds them")
-        pytest.skip(reason)
+    require_build()
     fast = answers(pure=False, seed=seed, count=6000)
     slow = answers(pure=True, seed=seed, count=6000)
     assert fast[0] == "compiled" and slow[0] == "python"
     assert int(slow[1]) > 0  # the chain dropped frames as a real one does (the stream bites)
     assert fast[1:] == slow[1:]
+
+
+# one process: the timing engine's EtherCAT cycles at 160 patches, each run's pcap digested
+ENGINE = """
+import hashlib, sys
+from emulator import WIRE, simulate_ecat
+from emulator.esc import compiled
+print("compiled" if compiled.in_use() else "python")
+pcap = sys.argv[1]
+for kw in (
+    dict(layout="per-slave", startup=True),  # the master's start-up through every ESC first
+    dict(layout="logical", closed_ring=True, every_cycle=True),
+):
+    simulate_ecat(160, 192, WIRE, cycles=3, pcap=pcap, fast=False, **kw)
+    with open(pcap, "rb") as written:
+        print(hashlib.sha256(written.read()).hexdigest())
+"""
+
+
+def test_compiled_escs_give_the_timing_engine_the_frames_their_sources_give(
+    tmp_path: Path,
+) -> None:
+    require_build()
+    fast = python(ENGINE, str(tmp_path / "fast.pcap"), pure=False).split()
+    slow = python(ENGINE, str(tmp_path / "slow.pcap"), pure=True).split()
+    assert fast[0] == "compiled" and slow[0] == "python"
+    assert fast[1:] == slow[1:] and len(slow) == 3
 
 
 def test_an_edited_source_runs_as_python_until_compiled_again(
