@@ -11,11 +11,14 @@ thread's clock, garbage collected between frames) until its answer, as serve cou
 whose chain has ``answer`` lets the slaves' firmware react after it, untimed, as serve does; an
 older one's ``process_frame`` includes the firmware).
 
+``--gap-us`` makes each worker sleep before each frame, as serve idles between a master's frames
+(each frame then meets a cooler machine, as live frames do).
+
 Printed per checkout: frames above 2 ms, total, median and maximum CPU per frame; then the frames
 whose time changed most. Run with the same checkout twice to see the method's own spread.
 
     python benchmarks/bench_serve_ab.py OLD_CHECKOUT [NEW_CHECKOUT] [--frames 3000] [--runs 2]
-        [--nodes 160] [--seed 0] [--cpu 0]
+        [--nodes 160] [--seed 0] [--cpu 0] [--gap-us 0]
 
 A checkout is a directory with this project's sources (``git worktree add`` or
 ``git archive COMMIT | tar -x -C DIR``); NEW_CHECKOUT defaults to this one.
@@ -40,7 +43,7 @@ BATCH = 10  # frames a worker runs before the other one takes its turn
 SIZE, EVERY = 8, 500  # bench_serve_hostile's defaults: bytes a patch, frames between resets
 
 
-def worker(checkout: str, nodes: int, frames: int, seed: int) -> None:
+def worker(checkout: str, nodes: int, frames: int, seed: int, gap_us: float) -> None:
     """Serve the master's requests on stdin: ``reset`` (a fresh configured chain) or ``run LO HI``
     (those frames; their CPU times in us as a JSON list)."""
     sys.path[:0] = [checkout, os.path.join(checkout, "benchmarks")]
@@ -62,6 +65,8 @@ def worker(checkout: str, nodes: int, frames: int, seed: int) -> None:
         answer = getattr(chain, "answer", chain.process_frame)  # older checkouts: no answer
         firmware = getattr(chain, "run_firmware", lambda: None)
         for frame in sent[int(words[1]) : int(words[2])]:
+            if gap_us:
+                time.sleep(gap_us / 1e6)  # idle before each frame, as serve waits in select
             c0 = cpu()
             answer(frame)
             us.append((cpu() - c0) // 1000)
@@ -93,10 +98,12 @@ def ask(proc: subprocess.Popen[str], request: str) -> str:
     return stdout.readline()
 
 
-def start(checkout: str, nodes: int, frames: int, seed: int, cpu: int) -> subprocess.Popen[str]:
+def start(
+    checkout: str, nodes: int, frames: int, seed: int, cpu: int, gap_us: float
+) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [sys.executable, __file__, "--worker", checkout, "--nodes", str(nodes),
-         "--frames", str(frames), "--seed", str(seed)],
+         "--frames", str(frames), "--seed", str(seed), "--gap-us", str(gap_us)],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -122,10 +129,16 @@ def main() -> None:
     parser.add_argument("--nodes", type=int, default=160, help="patches (default 160)")
     parser.add_argument("--seed", type=int, default=0, help="of the hostile frames (default 0)")
     parser.add_argument("--cpu", type=int, default=0, help="the CPU both workers run on")
+    parser.add_argument(
+        "--gap-us",
+        type=float,
+        default=0.0,
+        help="sleep this long before each frame, as serve idles between a master's frames",
+    )
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        worker(args.old, args.nodes, args.frames, args.seed)
+        worker(args.old, args.nodes, args.frames, args.seed, args.gap_us)
         return
     sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
     from bench_serve_hostile import describe, with_resets
@@ -133,7 +146,8 @@ def main() -> None:
     sent = [f for f, _ in with_resets(args.frames, args.nodes, SIZE, args.seed, EVERY)]
     checkouts = {"old": args.old, "new": args.new}
     procs = {
-        k: start(v, args.nodes, args.frames, args.seed, args.cpu) for k, v in checkouts.items()
+        k: start(v, args.nodes, args.frames, args.seed, args.cpu, args.gap_us)
+        for k, v in checkouts.items()
     }
     least = {k: [1 << 62] * len(sent) for k in checkouts}
     for _ in range(args.runs):
@@ -150,6 +164,7 @@ def main() -> None:
     print(
         f"{len(sent)} frames ({args.frames} hostile, seed {args.seed}), {args.nodes} slaves, "
         f"least of {args.runs} runs, both checkouts on CPU {args.cpu}, {BATCH} frames a turn"
+        + (f", {args.gap_us:.0f} us idle before each" if args.gap_us else "")
     )
     for k, path in checkouts.items():
         report(f"  {k} ({path})", least[k], sys.stdout)

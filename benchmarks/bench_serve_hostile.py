@@ -23,7 +23,10 @@
    image: until the answer, then the firmware), and for reference the CPU of an ordinary LRD of the
    whole process image, with how much the same LRD varies from one time to the next (on a shared
    machine the same work now and then takes twice its CPU time). Afterwards a master resets and configures the line again and an LRD
-   must return every patch's inputs.
+   must return every patch's inputs. ``--gap-us`` sleeps before each frame, as serve waits
+   in select for a master's next frame: the same work then takes more CPU, the longer the
+   machine idled before it (caches, predictors and the processor's clock cool down), so
+   back-to-back frames understate what serve needs (benchmarks/README.md).
 2. ``--live``: the same frames sent to ``skinframes serve ecat --nodes N`` over a veth pair in a
    private network namespace (needs root), one at a time (the next after the answer, or after
    ``--timeout-ms`` for a frame the chain drops); then, once late answers stopped coming, the
@@ -37,7 +40,7 @@ SM3 inputs) unless ``--no-mailbox`` (passed on to serve), so the configuration m
 only if it is the frame sent, returned (:func:`is_answer`), not a late answer of the same length.
 
     python benchmarks/bench_serve_hostile.py [--nodes 160] [--frames 10000] [--runs 2] [--live]
-        [--no-mailbox]
+        [--no-mailbox] [--gap-us 0]
 """
 
 from __future__ import annotations
@@ -261,7 +264,14 @@ def print_costs(what: str, us: npt.NDArray[np.float64]) -> None:
 
 
 def in_process(
-    nodes: int, size: int, frames: int, seed: int, every: int, mailbox: bool, runs: int
+    nodes: int,
+    size: int,
+    frames: int,
+    seed: int,
+    every: int,
+    mailbox: bool,
+    runs: int,
+    gap_us: float = 0.0,
 ) -> None:
     cpu = time.thread_time_ns
     sent, masters = zip(*with_resets(frames, nodes, size, seed, every), strict=True)
@@ -278,6 +288,8 @@ def in_process(
                 ref_us.append((cpu() - c0) / 1e3)
             us, firmware = np.empty(len(sent)), np.empty(len(sent))
             for i, frame in enumerate(sent):  # as serve does: the answer, then the firmware
+                if gap_us:
+                    time.sleep(gap_us / 1e6)  # idle, as serve waits in select for the next
                 c0 = cpu()
                 chain.answer(frame)
                 c1 = cpu()
@@ -290,6 +302,7 @@ def in_process(
     print(
         f"in process: {frames} hostile frames (master reset every {every}), "
         f"{nodes} slaves x {size} bytes, {runs} run(s)"
+        + (f", {gap_us:.0f} us idle before each" if gap_us else "")
     )
     print_costs("CPU per frame, first run", per_run[0])
     least = np.min(per_run, axis=0)
@@ -396,8 +409,8 @@ def live(
     print(f"  answered {answered}, not answered {lost}, {time.monotonic() - t0:.0f} s")
     print(f"  reset and configuration: {len(setup)} frames, {unanswered} not answered")
     print(f"  afterwards a configured LRD answers correctly: {ok}")
-    keys = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_max", "over_budget")
-    keys += ("firmware_us_max", "compiled")
+    keys: tuple[str, ...] = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_max")
+    keys += ("over_budget", "firmware_us_max", "compiled")
     print("  serve:", json.dumps({k: summary.get(k) for k in keys}))
     if summary.get("error_messages"):
         print("  not processed:", summary["error_messages"])
@@ -428,6 +441,13 @@ def main() -> None:
     ap.add_argument(
         "--reset-every", type=int, default=500, help="hostile frames between master resets"
     )
+    ap.add_argument(
+        "--gap-us",
+        type=float,
+        default=0.0,
+        help="in process: sleep this long before each frame, as serve idles between a "
+        "master's frames (default 0: back to back)",
+    )
     args = ap.parse_args()
     if args.live:
         with contextlib.suppress(KeyboardInterrupt):
@@ -438,7 +458,7 @@ def main() -> None:
     else:
         in_process(
             *(args.nodes, args.bytes, args.frames, args.seed, args.reset_every),
-            *(not args.no_mailbox, args.runs),
+            *(not args.no_mailbox, args.runs, args.gap_us),
         )
 
 
