@@ -45,7 +45,6 @@ the SII's sync impulse length), the start time plausibility check, 32-bit DC.
 
 from __future__ import annotations
 
-import operator
 import random
 import struct
 from collections.abc import Sequence
@@ -449,19 +448,6 @@ def seed_clocks(clocks: Sequence[DcClock], max_drift_ppm: float, seed: int) -> N
         clock.retune(rng.uniform(-max_drift_ppm, max_drift_ppm), rng.randrange(1 << 40))
 
 
-_STATE = operator.attrgetter(
-    "timebase",
-    "position",
-    "_anchor_host",
-    "_anchor_local",
-    "_rate",
-    "_integral",
-    "_diff_ns",
-    "drift_ppm",
-    "_last_compare",
-)
-
-
 def compare_together(
     clocks: Sequence[DcClock],
     memory: npt.NDArray[np.uint8],
@@ -481,15 +467,15 @@ def compare_together(
     quotients exceed 1e7 and the correction is clamped to the same +-500 ppm. The receive time
     latch (a write of 0x0900, which a master sends to measure propagation delays) is worked out
     over arrays too (:meth:`DcClock._latch`). Where the clocks do not share one timebase, they
-    write one by one.
+    write one by one. (Each clock's state is read attribute by attribute, the latch written as
+    one block, and ``min(max())`` clamps: on the compares of three hostile frames at 157-160
+    clocks, 0.87 of the time reading whole states with ``np.clip`` took.)
     """
     hi = lo + (len(data) if isinstance(data, bytes) else data.shape[1])
-    state = [_STATE(c) for c in clocks]
-    timebases, position, anchor_host, anchor_local, rate, integral, diff_ns, drift, last = (
-        zip(*state, strict=True) if state else ((),) * 9
-    )
-    timebase = clocks[0].timebase if clocks else None
-    if timebase is None or timebases.count(timebase) != len(clocks):
+    if not clocks:
+        return
+    timebase = clocks[0].timebase  # equal timebases give the same times
+    if not all(c.timebase is timebase or c.timebase == timebase for c in clocks):
         for k, (clock, row) in enumerate(zip(clocks, rows.tolist(), strict=True)):
             mine = data if isinstance(data, bytes) else data[k].tobytes()
             clock.write(memoryview(memory[row]), lo, mine)
@@ -498,16 +484,21 @@ def compare_together(
     compare = lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME
     if not (latch or compare):
         return  # 0x0904-0x090F: nothing happens
-    positions = np.array(position, np.int64)
-    anchors = np.array(anchor_host, np.int64), np.array(anchor_local, np.uint64), np.array(rate)
+    count = len(clocks)
+    positions = np.fromiter([c.position for c in clocks], np.int64, count)
+    anchors = (
+        np.fromiter([c._anchor_host for c in clocks], np.int64, count),
+        np.array([c._anchor_local for c in clocks], np.uint64),
+        np.fromiter([c._rate for c in clocks], np.float64, count),
+    )
     host = timebase.frame_ns + timebase.port0_times_ps(positions) / 1000  # _arrival_ns
     local = _local_at(host, *anchors)
     if latch:  # DcClock._latch: the local times the frame passed port 0 and came back to 1
         back_ps, back = timebase.port1_times_ps(positions)
         port1 = np.where(back, _local_at(timebase.frame_ns + back_ps / 1000, *anchors), 0)
-        _put(memory, rows, REG_DC_RECEIVE, (local & 0xFFFFFFFF).astype(np.uint32))
-        _put(memory, rows, REG_DC_RECEIVE + 4, (port1 & 0xFFFFFFFF).astype(np.uint32))
-        memory[rows, REG_DC_RECEIVE + 8 : REG_DC_RECEIVE + 16] = 0
+        latched = np.zeros((count, 4), "<u4")  # 0x0900, 0x0904, ports 2 and 3: 0
+        latched[:, 0], latched[:, 1] = local, port1  # (modulo 2^32)
+        memory[rows, REG_DC_RECEIVE : REG_DC_RECEIVE + 16] = latched.view(np.uint8)
         memory[rows, REG_DC_RECEIVE_PU : REG_DC_RECEIVE_PU + 8] = (
             local.astype("<u8").view(np.uint8).reshape(-1, 8)
         )
@@ -515,7 +506,7 @@ def compare_together(
             return
     system = local + _u64(memory, rows, REG_DC_OFFSET)
     a, b = max(lo, REG_DC_SYSTEM_TIME), min(hi, REG_DC_RECEIVE_PU)
-    received = system.astype("<u8").view(np.uint8).reshape(len(clocks), 8)
+    received = system.astype("<u8").view(np.uint8).reshape(count, 8)
     received[:, a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = (
         np.frombuffer(data, np.uint8, b - a, a - lo)
         if isinstance(data, bytes)
@@ -528,31 +519,33 @@ def compare_together(
         diff = (raw & 0xFFFFFFFF).astype(np.int64)
         diff[diff >= 1 << 31] -= 1 << 32
     d = diff.astype(np.float64)
-    depth = memory[rows, REG_DC_DIFF_FILTER] & 0x0F
-    mean_ns = np.array(diff_ns, np.float64)
-    mean_ns += (d - mean_ns) / (np.ones(len(d), np.int64) << depth).astype(np.float64)
+    depth = (memory[rows, REG_DC_DIFF_FILTER] & 0x0F).astype(np.int64)
+    mean_ns = np.fromiter([c._diff_ns for c in clocks], np.float64, count)
+    mean_ns += (d - mean_ns) / (1 << depth).astype(np.float64)
     mean = np.rint(mean_ns)
     magnitude = np.minimum(np.abs(mean), 0x7FFFFFFF).astype(np.uint32)
-    _put(memory, rows, REG_DC_DIFF, magnitude | np.where(mean < 0, 0x80000000, 0).astype("<u4"))
+    magnitude[mean < 0] |= 0x80000000
+    _put(memory, rows, REG_DC_DIFF, magnitude)
     # DcClock._control: dt is the time since the last compare, as a float, unless that is no
     # compare or more than tau: then tau, an int, and diff * tau / (4 tau^2) is diff / (4 tau)
     # rounded once (Python's int division), as float64 divides two exact operands
-    speed = memory[rows, REG_DC_SPEED_START].astype(np.int64)
-    speed |= memory[rows, REG_DC_SPEED_START + 1].astype(np.int64) << 8
-    tau = np.maximum(1, speed & 0x7FFF) * PHASE_NS_PER_SPEED_COUNT
-    never = np.array([t is None for t in last])
-    gap = host - np.array([0 if t is None else t for t in last], np.int64)
+    speed = memory[rows, REG_DC_SPEED_START : REG_DC_SPEED_START + 2].copy().view("<u2")
+    tau = np.maximum(1, speed.ravel().astype(np.int64) & 0x7FFF) * PHASE_NS_PER_SPEED_COUNT
+    last = [c._last_compare for c in clocks]
+    never = np.fromiter([t is None for t in last], np.bool_, count)
+    gap = host - np.fromiter([0 if t is None else t for t in last], np.int64, count)
+    step = d * gap / (tau * INTEGRAL_FACTOR * tau).astype(np.float64)
     whole = never | (tau < gap)
-    step = np.where(
-        whole,
-        d / (INTEGRAL_FACTOR * tau).astype(np.float64),
-        d * gap / (tau * INTEGRAL_FACTOR * tau).astype(np.float64),
-    )
-    held = np.clip(np.array(integral, np.float64) - step, -MAX_CORRECTION, MAX_CORRECTION)
-    correction = np.clip(held - d / tau.astype(np.float64), -MAX_CORRECTION, MAX_CORRECTION)
+    step[whole] = d[whole] / (INTEGRAL_FACTOR * tau[whole]).astype(np.float64)
+    held = np.fromiter([c._integral for c in clocks], np.float64, count) - step
+    held = np.minimum(np.maximum(held, -MAX_CORRECTION), MAX_CORRECTION)
+    correction = held - d / tau.astype(np.float64)
+    correction = np.minimum(np.maximum(correction, -MAX_CORRECTION), MAX_CORRECTION)
     compared_at = np.rint(host).astype(np.int64)
-    new_rate = (1.0 + np.array(drift, np.float64) * 1e-6) * (1.0 + correction)
-    units = np.clip(np.rint(correction / SPEED_DIFF_UNIT), -0x8000, 0x7FFF).astype("<i2")
+    drift = np.fromiter([c.drift_ppm for c in clocks], np.float64, count)
+    new_rate = (1.0 + drift * 1e-6) * (1.0 + correction)
+    units = np.rint(correction / SPEED_DIFF_UNIT)
+    units = np.minimum(np.maximum(units, -0x8000), 0x7FFF).astype("<i2")
     memory[rows, REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = units.view(np.uint8).reshape(-1, 2)
     for clock, at_local, at_host, new, held_i, mean_i in zip(
         clocks,
