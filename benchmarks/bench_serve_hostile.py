@@ -409,8 +409,8 @@ def live(
     print(f"  answered {answered}, not answered {lost}, {time.monotonic() - t0:.0f} s")
     print(f"  reset and configuration: {len(setup)} frames, {unanswered} not answered")
     print(f"  afterwards a configured LRD answers correctly: {ok}")
-    keys: tuple[str, ...] = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_max")
-    keys += ("over_budget", "firmware_us_max", "compiled")
+    keys: tuple[str, ...] = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_median")
+    keys += ("cpu_us_p99", "cpu_us_max", "over_budget", "firmware_us_max", "compiled")
     print("  serve:", json.dumps({k: summary.get(k) for k in keys}))
     if summary.get("error_messages"):
         print("  not processed:", summary["error_messages"])

@@ -154,7 +154,8 @@ def run(args: argparse.Namespace) -> int:
             f"{summary['publications']} taxel samples; "
             f"processing median {summary['process_us_median']} us, "
             f"p99 {summary['process_us_p99']} us, max {summary['process_us_max']} us; "
-            f"CPU max {summary['cpu_us_max']} us per frame, "
+            f"CPU median {summary['cpu_us_median']} us, p99 {summary['cpu_us_p99']} us, "
+            f"max {summary['cpu_us_max']} us per frame, "
             f"then the firmware max {summary['firmware_us_max']} us; "
             f"the ESCs {'compiled' if summary['compiled'] else 'as Python'}"
         )

@@ -14,7 +14,7 @@ import pytest
 import tshark_util
 
 from emulator.esc.chain import EcatChain
-from emulator.live import FULL_EVERY, YOUNG_OBJECTS, BetweenFrames, serve
+from emulator.live import FULL_EVERY, YOUNG_OBJECTS, BetweenFrames, ServeStats, serve
 from skinframes import ethercat
 from skinframes.capture_writer import CaptureWriter
 from skinframes.ethercat import Command, Datagram, EcatFrame
@@ -127,6 +127,9 @@ def test_serve_counts_a_frame_it_cannot_process_records_all_and_goes_on(
     assert seen == [boom]
     summary = stats.summary()
     assert summary["errors"] == 1 and summary["cpu_us_max"] >= 0
+    # CPU times of every frame (the one not processed too), wall times of the answered ones
+    assert (len(stats.cpu_us), len(stats.process_us)) == (3, 2)
+    assert summary["cpu_us_median"] <= summary["cpu_us_p99"] <= summary["cpu_us_max"]
     # the answers: AL status OP (0x08) ORed over both slaves, working counter 2
     (d,) = ethercat.decode(sock.outbox[0][14:])[0].datagrams
     assert (d.data, d.wkc) == (b"\x08\x00", 2)
@@ -142,6 +145,18 @@ class Cycle:
 
     def __init__(self) -> None:
         self.me = self
+
+
+def test_serve_stats_percentiles_are_the_sorted_times_at_int_q_count() -> None:
+    """serve's summary: the median and p99 of the kept CPU and wall times are the values at index
+    int(q * count) of the sorted times (hand-computed here), rounded to 0.1 us; none kept: 0."""
+    stats = ServeStats(cpu_us=[float(t) for t in range(200, 0, -1)], process_us=[7.26, 1.0, 3.0])
+    summary = stats.summary()
+    # 200 CPU times 1..200: index 100 -> 101, index 198 -> 199; wall 1, 3, 7.26: index 1 and 2
+    assert (summary["cpu_us_median"], summary["cpu_us_p99"]) == (101.0, 199.0)
+    assert (summary["process_us_median"], summary["process_us_p99"]) == (3.0, 7.3)
+    empty = ServeStats().summary()
+    assert (empty["cpu_us_median"], empty["cpu_us_p99"], empty["process_us_p99"]) == (0.0,) * 3
 
 
 def test_serve_collects_garbage_between_frames_not_inside_them() -> None:
