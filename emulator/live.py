@@ -348,8 +348,8 @@ class ServeStats:
         times = sorted(self.process_us)
         cpu = sorted(self.cpu_us)
 
-        def pct(q: float, times: list[float] = times) -> float:
-            return round(times[min(len(times) - 1, int(q * len(times)))], 1) if times else 0.0
+        def pct(q: float, values: list[float]) -> float:
+            return round(values[min(len(values) - 1, int(q * len(values)))], 1) if values else 0.0
 
         return {
             "frames_in": self.frames_in,
@@ -357,8 +357,8 @@ class ServeStats:
             "dropped": self.dropped,
             "errors": self.errors,
             "publications": self.publications,
-            "process_us_median": pct(0.5),
-            "process_us_p99": pct(0.99),
+            "process_us_median": pct(0.5, times),
+            "process_us_p99": pct(0.99, times),
             "process_us_max": round(times[-1], 1) if times else 0.0,
             "cpu_us_median": pct(0.5, cpu),
             "cpu_us_p99": pct(0.99, cpu),
