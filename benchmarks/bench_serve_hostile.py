@@ -20,13 +20,13 @@
    hostile frames by kind (:func:`kind`: a long logical datagram, a write to every ESC's
    SyncManager or FMMU registers, another logical datagram, the rest); the costliest frames'
    datagrams, a master's own start-up (each broadcast of AL control and the first LRD of the
-   image: until the answer, then the firmware), and for reference the CPU of an ordinary LRD of the
-   whole process image, with how much the same LRD varies from one time to the next (on a shared
-   machine the same work now and then takes twice its CPU time). Afterwards a master resets and configures the line again and an LRD
-   must return every patch's inputs. ``--gap-us`` sleeps before each frame, as serve waits
-   in select for a master's next frame: the same work then takes more CPU, the longer the
-   machine idled before it (caches, predictors and the processor's clock cool down), so
-   back-to-back frames understate what serve needs (benchmarks/README.md).
+   image: until the answer, then the firmware), and for reference the CPU of an ordinary LRD of
+   the whole process image, with how much the same LRD varies from one time to the next (on a
+   shared machine the same work now and then takes twice its CPU time). Afterwards a master
+   resets and configures the line again and an LRD must return every patch's inputs. ``--gap-us``
+   sleeps before each frame, as serve waits in select for a master's next frame: the same work
+   then takes more CPU, the longer the machine idled before it (its code paths and data went
+   cold meanwhile), so back-to-back frames understate what serve needs (benchmarks/README.md).
 2. ``--live``: the same frames sent to ``skinframes serve ecat --nodes N`` over a veth pair in a
    private network namespace (needs root), one at a time (the next after the answer, or after
    ``--timeout-ms`` for a frame the chain drops); then, once late answers stopped coming, the

@@ -1,13 +1,14 @@
 """The ESC's busiest modules compiled with mypyc (part of mypy), the same sources as C extensions.
 
 ``python -m emulator.esc.build`` (``make`` runs it) compiles :data:`MODULES` into
-``emulator/esc/_compiled/<digest>/``, the digest being that of their sources and everything
-they import (:func:`source_digest`). Importing :mod:`emulator.esc` puts that folder first on the
-package's path when it exists for the sources as they are (:func:`folder`), so an edited source
-runs as Python until it is compiled again, and never when ``SKINFRAMES_PURE=1``. The test suite
-runs the Python sources, whose paths it checks one by one (some tests stand in for functions
-and methods, which compiled modules do not allow); tests prove the compiled modules answer
-hostile frames byte for byte as the sources do, and give the timing engine the same frames. Without a C compiler everything runs as Python.
+``emulator/esc/_compiled/<digest>/``, the digest being that of their sources and everything they
+import (:func:`source_digest`). Importing :mod:`emulator.esc` puts that folder first on the
+package's path when it exists for the sources as they are (:func:`folder`), so an edited source runs
+as Python until it is compiled again, and never when ``SKINFRAMES_PURE=1``. The test suite runs the
+Python sources, whose paths it checks one by one (some tests stand in for functions and methods,
+which compiled modules do not allow); tests prove the compiled modules answer hostile frames byte
+for byte as the sources do, and give the timing engine the same frames. Without a C compiler
+everything runs as Python.
 
 Compiled, hostile frames at 160 ESCs take about 0.8 times their CPU, the first logical read after
 a change of the FMMUs about 0.6 times (benchmarks/README).
