@@ -35,8 +35,8 @@
    summary (frames it could not process, its maximum CPU per frame) is printed. With
    ``--ordinary``, the null run: the line is reset and configured first, and then ``--frames``
    LRDs of the image go instead of hostile frames. A frame over budget there is not the hostile
-   frames' doing but the machine's: a thread's CPU clock also counts time a virtual machine's
-   hypervisor took from it (``bench_stalls.py``).
+   frames' doing but the machine's: on a virtual machine a thread's CPU clock also counts time
+   in which the thread did not run (``bench_stalls.py``).
 
 Both modes configure the patches ``serve ecat`` builds: with a CoE mailbox (SM0/SM1 mailboxes,
 SM3 inputs) unless ``--no-mailbox`` (passed on to serve), so the configuration matches the SII

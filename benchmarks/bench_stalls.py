@@ -6,11 +6,11 @@ A busy loop on one CPU reads the wall clock (``time.monotonic_ns``) and its thre
 under a microsecond. A step longer than ``--min-us`` is a stall:
 
 - **charged**: the thread's CPU clock went on with the wall clock (by 90 % or more), although the
-  loop did not run: a virtual machine's hypervisor took the CPU and the guest's kernel counted
-  the time as the thread's (steal time, which ``/proc/stat`` reports, not subtracted), or
-  interrupts ran in the thread's stead. A frame that meets such a stall counts it as CPU;
-- **descheduled**: the CPU clock stood still; the guest's kernel ran something else (serve's
-  CPU per frame does not count that).
+  loop did not run: time a virtual machine's hypervisor took that the guest's kernel did not
+  count as steal, or interrupts handled in the thread's stead. A frame that meets such a stall
+  counts it as CPU;
+- **descheduled**: the CPU clock stood still: the guest's kernel ran something else, or counted
+  the time as steal (serve's CPU per frame does not count that).
 
 Then, for as long again, a fixed piece of Python work (:func:`unit`: ints, tuples and a dict,
 about what the emulator does between two numpy calls) runs over and over, each time measured
