@@ -123,9 +123,10 @@ def run(args: argparse.Namespace) -> int:
         with contextlib.ExitStack() as stack:
             sock = stack.enter_context(RawSocket(args.iface))
             capture = None if args.pcap is None else stack.enter_context(CaptureWriter(args.pcap))
+            how = "compiled" if compiled.in_use() else "as Python (make compiles them)"
             print(
-                f"serving {args.nodes} EtherCAT slaves x {args.bytes} bytes on {args.iface} "
-                "(SIGINT/SIGTERM to stop)",
+                f"serving {args.nodes} EtherCAT slaves x {args.bytes} bytes on {args.iface}, "
+                f"the ESCs {how}; SIGINT/SIGTERM to stop",
                 file=sys.stderr,
                 flush=True,
             )

@@ -586,6 +586,27 @@ def test_serve_stops_cleanly_on_sigterm(net: VethPair) -> None:
     assert out.startswith("served 0 of 0 frames")
 
 
+def test_serve_says_at_start_whether_the_escs_run_compiled(net: VethPair) -> None:
+    """With SKINFRAMES_PURE=1 the ESCs run as Python whatever was compiled: the line serve
+    prints once serving says so, and how to compile them; the summary agrees."""
+    proc = subprocess.Popen(
+        [
+            *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve"),
+            *("ecat", "--iface", net.slave, "--nodes", "2", "--bytes", "16", "--json"),
+        ],
+        cwd=ROOT,
+        env={**ENV, "SKINFRAMES_PURE": "1"},
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    line = read_line(proc.stderr, "serving", 60)
+    proc.send_signal(signal.SIGTERM)
+    out, _ = proc.communicate(timeout=60)
+    assert "the ESCs as Python (make compiles them); SIGINT/SIGTERM to stop" in line
+    assert proc.returncode == 0 and json.loads(out)["compiled"] is False
+
+
 NOBODY = ("setpriv", "--reuid=65534", "--regid=65534", "--clear-groups", "--inh-caps=-all")
 NOBODY_PACKAGES = ("skinframes", "skinframes_cli", "emulator", "construct", "numpy", "tqdm")
 
