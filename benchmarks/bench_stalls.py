@@ -24,7 +24,7 @@ above serve's budget of 2 ms), the descheduled ones, and the CPU's steal time ov
 seconds from ``/proc/stat`` (in its ticks of 10 ms); the fixed work's median, 99.9th
 percentile and largest CPU time, and how many times it took 4 times its median or more.
 
-    python benchmarks/bench_stalls.py [--seconds 60] [--cpu 1] [--min-us 200]
+    python benchmarks/bench_stalls.py [--seconds 60] [--cpu N] [--min-us 200]
 
 ``--seconds`` is each part's.
 """
@@ -33,9 +33,14 @@ from __future__ import annotations
 
 import argparse
 import os
+import sys
 import time
+from pathlib import Path
 
-BUDGET_US = 2000.0  # serve's CPU budget per frame (emulator.live.CPU_BUDGET_US)
+sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
+
+from emulator.live import CPU_BUDGET_US as BUDGET_US  # serve's CPU budget per frame
+
 CHARGED = 0.9  # a stall whose CPU time is this share of its wall time or more was charged
 SLOW = 4  # fixed work that took this many times its median or more
 
@@ -87,9 +92,18 @@ def fixed_work(seconds: float) -> list[int]:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--seconds", type=float, default=60.0)
-    ap.add_argument("--cpu", type=int, default=1, help="the CPU the loop runs on")
+    ap.add_argument(
+        "--cpu",
+        type=int,
+        default=max(os.sched_getaffinity(0)),
+        help="the CPU the loop runs on (default: the highest this process may use)",
+    )
     ap.add_argument("--min-us", type=float, default=200.0, help="a longer step is a stall")
     args = ap.parse_args()
+    if not 0 < args.seconds < 86400 or not 0 <= args.min_us < 1e6:
+        ap.error("--seconds: more than 0, under a day; --min-us: 0 to 1e6")
+    if args.cpu not in os.sched_getaffinity(0):
+        ap.error(f"--cpu {args.cpu}: not among the CPUs this process may use")
     os.sched_setaffinity(0, {args.cpu})
     steal_before = steal_ticks(args.cpu)
     found = stalls(args.seconds, args.min_us)
@@ -97,7 +111,7 @@ def main() -> None:
     charged = sorted(c / 1000 for w, c in found if c >= CHARGED * w)
     over_1ms = sum(us > 1000 for us in charged)
     over_budget = sum(us > BUDGET_US for us in charged)
-    print(f"{args.seconds:.0f} s busy on CPU {args.cpu}, steps over {args.min_us:.0f} us:")
+    print(f"{args.seconds:g} s busy on CPU {args.cpu}, steps over {args.min_us:.0f} us:")
     print(
         f"  charged as this thread's CPU: {len(charged)}, {sum(charged) / 1000:.1f} ms in all, "
         f"the largest {charged[-1] if charged else 0:.0f} us; {over_1ms} above 1 ms, "
@@ -109,7 +123,7 @@ def main() -> None:
     median = times[len(times) // 2]
     slow = sum(t >= SLOW * median for t in times)
     print(
-        f"fixed work, {len(times)} times in {args.seconds:.0f} s: median {median / 1000:.0f} us, "
+        f"fixed work, {len(times)} times in {args.seconds:g} s: median {median / 1000:.0f} us, "
         f"p99.9 {times[int(len(times) * 0.999)] / 1000:.0f} us, the largest "
         f"{times[-1] / 1000:.0f} us; {slow} took {SLOW}x the median or more"
     )
