@@ -73,12 +73,12 @@ from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
 from emulator.esc.hostile import hostile_frames, master_reset_frames  # noqa: E402
 from emulator.esc.sii import SlaveInfo  # noqa: E402
 from emulator.esc.state_machine import AlState  # noqa: E402
+from emulator.live import CPU_BUDGET_US as BUDGET_US  # noqa: E402
 from emulator.live import BetweenFrames  # noqa: E402
 from skinframes import ethercat, taxel  # noqa: E402
 from skinframes.errors import DecodeError  # noqa: E402
 from skinframes.ethercat import Command, Datagram, EcatFrame  # noqa: E402
 
-BUDGET_US = 2000.0
 SEED, SAMPLES = 11, 16
 
 
