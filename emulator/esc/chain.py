@@ -200,6 +200,11 @@ class EcatChain:
         self.memory = np.zeros((len(self.devices), ADDRESS_SPACE), np.uint8)
         for row, dev in zip(self.memory, self.devices, strict=True):
             dev.use_memory(row.data)
+        # every ESC's EscDevice.fmmu_span, one a row, which it keeps up to date: the ESCs a
+        # logical datagram may concern are found at once
+        self.fmmu_spans = np.zeros((len(self.devices), 2), np.int64)
+        for spans, dev in zip(self.fmmu_spans, self.devices, strict=True):
+            dev.use_span_row(spans)
         self.timebase = DcTimebase(line_length=len(self.devices))  # distributed clocks (dc.py)
         # host time (ns) at which each frame arrives: frozen at 0 (deterministic, for the timing
         # engine and tests) until a live transport sets a real clock (emulator.live.serve)
@@ -389,7 +394,7 @@ class EcatChain:
         for dev in line:
             irq_all |= dev.irq
         stations: tuple[npt.NDArray[np.int64], ...] | None = None
-        spans: tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]] | None = None
+        spans: npt.NDArray[np.int64] | None = None
         for k, (cmd, _, ado, data_at, n, irq_at) in enumerate(layout):
             adp = adps[k]
             if cmd in EVERYONE:
@@ -408,12 +413,9 @@ class EcatChain:
                     targets = self._addressed(stations, adp)
                 elif cmd in LOGICAL and n:
                     if spans is None:
-                        spans = (
-                            np.array([d.fmmu_span[0] for d in line], dtype=np.int64),
-                            np.array([d.fmmu_span[1] for d in line], dtype=np.int64),
-                        )
+                        spans = self.fmmu_spans[: len(line)]
                     lad = adp | ado << 16
-                    hit = np.flatnonzero((spans[0] < lad + n) & (spans[1] > lad)).tolist()
+                    hit = np.flatnonzero((spans[:, 0] < lad + n) & (spans[:, 1] > lad)).tolist()
                     wkc_inc, changed = self._logical(line, hit, cmd, adp, ado, buf, data_at, n)
                 done = None
                 if len(targets) >= TOGETHER_MIN and cmd in CONFIGURED:

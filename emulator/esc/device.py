@@ -53,9 +53,12 @@ from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from typing import Final, NamedTuple
 
+import numpy as np
+import numpy.typing as npt
+
 from emulator.errors import TopologyError
 from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
-from emulator.esc.dc import REG_DC_RECEIVE, DcClock
+from emulator.esc.dc import REG_DC_ACTIVATION, REG_DC_RECEIVE, DcClock
 from emulator.esc.mapping import (
     AS_NEW_CACHE,
     PLAN_CACHE_ENTRIES,
@@ -151,6 +154,14 @@ __all__ = [
 _RESET_SEQUENCE: Final = b"RES"
 _MAILBOX_EVENT: Final = -1  # EscDevice.react: a mailbox or SyncManager event, not AL control
 LRD_OR_LRW: Final = frozenset((LRD, LRW))  # the logical commands that read (read_buffered)
+_LRD_KEY_SHIFT: Final = 17  # _lrd_key: the length (a datagram's 11 bits) and the flag below
+
+
+def _lrd_key(lad: int, n: int, first: bool) -> int:
+    """The key of :attr:`EscDevice._lrd_plans` for an LRD of ``n`` bytes at ``lad`` (with
+    ``first``, by the first read FMMU alone): an int, which hashes faster than a tuple (every
+    ESC an LRD of the image reaches looks its plan up)."""
+    return lad << _LRD_KEY_SHIFT | n << 1 | first
 
 
 @dataclass(frozen=True, slots=True)
@@ -206,7 +217,9 @@ class _Sm:
         # ECAT side opened the buffer (accessed the start address); accessed the end address
         # in this frame; the mailbox is full (mailbox mode)
         self.open = self.complete = self.full = False
-        self.latest: bytes | None = None  # read SM: last buffer the PDI wrote completely
+        # read SM: last buffer the PDI wrote completely, never changed in place (a bytearray:
+        # copied into a frame as it is, where bytes are first made one, EscDevice._read_buffer)
+        self.latest: bytearray | None = None
         self.buf: bytes | bytearray | None = None  # ECAT's buffer while open
 
 
@@ -306,6 +319,7 @@ class EscDevice:
         "_reset_written",
         "_sii_image",
         "_sms",
+        "_span_row",
         "_unmade",
         "app",
         "config",
@@ -363,6 +377,8 @@ class EscDevice:
         self._fmmus: tuple[tuple[int, ...], ...] = ()
         self._logical_plans = Plans()
         self.fmmu_span = (0, 0)
+        # fmmu_span as an array row, the chain's (use_span_row): _set_span keeps both alike
+        self._span_row: npt.NDArray[np.int64] = np.zeros(2, np.int64)
         # the decoded FMMU table the ESC follows (fmmu_table): one object for every ESC whose
         # FMMU registers hold the same bytes, so that what follows from it is asked once
         self.fmmu_decoded: FmmuTable = ((), (0, 0), self._logical_plans)
@@ -370,7 +386,8 @@ class EscDevice:
         # of every cycle), or through the first of several (read_first_buffer): (frame offset,
         # SyncManager, whether an FMMU writes there) per (address, length, first), or None
         # where the general path decides; worked out per FMMU and SyncManager configuration
-        self._lrd_plans: dict[tuple[int, int, bool], tuple[int, _Sm, bool] | None] = {}
+        # by _lrd_key(address, length, first)
+        self._lrd_plans: dict[int, tuple[int, _Sm, bool] | None] = {}
         # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
         self.sm_areas: SmTable = ()
         # SyncManagers changed but not made yet, made when first needed (_make_sms): the
@@ -427,7 +444,7 @@ class EscDevice:
         self._logical_plans = Plans()
         self._lrd_plans.clear()
         self.sm_areas = ()
-        self.fmmu_span = (0, 0)
+        self._set_span((0, 0))
         self.fmmu_decoded = ((), (0, 0), self._logical_plans)
         self.dc.power_on(mem)
         self.pdi_operational = self._load_config_area(first=True)
@@ -483,8 +500,11 @@ class EscDevice:
 
     @property
     def dc_sampling(self) -> bool:
-        """SYNC0 is active and the application samples at its pulses (dc.py)."""
-        return self.dc.sync0_active(self.mem) and hasattr(self.app, "sync0")
+        """SYNC0 is active and the application samples at its pulses (dc.py). The activation
+        register is read here, as :meth:`DcClock.sync0_active` reads it (0x0981 bits 0 and 1),
+        not through it: dc.py runs as Python, and every ESC an LRD of the image reaches asks
+        this (the call cost a tenth of that LRD's instructions at 160 ESCs, benchmarks/README)."""
+        return self.mem[REG_DC_ACTIVATION] & 0x03 == 0x03 and hasattr(self.app, "sync0")
 
     @property
     def changes_source_mac(self) -> bool:
@@ -509,6 +529,12 @@ class EscDevice:
             raise TopologyError(f"ESC {self.info.serial}: already in a chain")
         row[:] = self.mem
         self.mem = row
+
+    def use_span_row(self, row: npt.NDArray[np.int64]) -> None:
+        """Keep :attr:`fmmu_span` in ``row`` (two int64) too, from now on: the chain holds every
+        ESC's span as one array, to find the ESCs a logical datagram may concern at once."""
+        row[0], row[1] = self.fmmu_span
+        self._span_row = row
 
     def registers(self, addr: int, length: int) -> bytes:
         """The committed register/memory bytes (no side effects; for tests and tools)."""
@@ -563,7 +589,7 @@ class EscDevice:
         for sm in self._active:
             if sm.start == addr and sm.length == len(data) and not sm.ecat_writes:
                 sm = self._own(sm)  # the ESC's own, in the list's place
-                sm.latest = data if isinstance(data, bytes) else bytes(data)
+                sm.latest = bytearray(data)
                 st = REG_SM + SM_BYTES * sm.index + 5
                 if sm.mailbox:
                     sm.full = True
@@ -897,8 +923,10 @@ class EscDevice:
         +1 for a read, +2 for a write)."""
         if self.trace is not None:
             return False
-        key = (lad, n, False)
-        plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
+        key = _lrd_key(lad, n, False)
+        plan = self._lrd_plans.get(key)  # one look-up where a plan is known
+        if plan is None and key not in self._lrd_plans:
+            plan = self._plan_lrd(key)
         if plan is None or plan[1].locked or self.dc_sampling or (cmd != LRD and plan[2]):
             return False
         self._read_buffer(plan[1], buf, off + plan[0])
@@ -913,8 +941,10 @@ class EscDevice:
         reads does not matter."""
         if self.trace is not None or self.dc_sampling:
             return None
-        key = (lad, n, True)
-        plan = self._lrd_plans[key] if key in self._lrd_plans else self._plan_lrd(key)
+        key = _lrd_key(lad, n, True)
+        plan = self._lrd_plans.get(key)
+        if plan is None and key not in self._lrd_plans:
+            plan = self._plan_lrd(key)
         if plan is None or plan[1].locked:
             return None
         data = bytearray(plan[1].length)
@@ -1157,15 +1187,15 @@ class EscDevice:
         buf[off : off + n] = frame.to_bytes(n, "little")
         return 1
 
-    def _plan_lrd(self, key: tuple[int, int, bool]) -> tuple[int, _Sm, bool] | None:
-        """How an LRD of ``key`` = (address, length, first) reads, when it is the common case
-        the general path (:func:`plan_logical`, :meth:`_read_phys`, :meth:`_sm_read`) would take
-        one way: one read FMMU (with ``first``, the first of them, which claims its bytes
+    def _plan_lrd(self, key: int) -> tuple[int, _Sm, bool] | None:
+        """How an LRD of ``key`` = :func:`_lrd_key` (address, length, first) reads, when it is
+        the common case the general path (:func:`plan_logical`, :meth:`_read_phys`,
+        :meth:`_sm_read`) would take one way: one read FMMU (with ``first``, the first of them, which claims its bytes
         before the others, datasheet I 7), byte-wise, maps part of it onto exactly the whole
         buffer of a buffered read SyncManager in process memory, which no other SyncManager
         overlaps: the frame offset, the SyncManager, and whether a write FMMU meets it too (an
         LRW there is not that LRD)."""
-        lad, n, first = key
+        lad, n, first = key >> _LRD_KEY_SHIFT, (key >> 1) & 0xFFFF, bool(key & 1)
         plan: tuple[int, _Sm, bool] | None = None
         reads = [f for f in self._fmmus if f[6] and f[0] < lad + n and f[1] > lad]
         if first:
@@ -1193,7 +1223,7 @@ class EscDevice:
         mem = self.mem
         st = REG_SM + SM_BYTES * sm.index + 5
         sm.open = True
-        data = sm.latest if sm.latest is not None else bytes(mem[sm.start : sm.end])
+        data = sm.latest if sm.latest is not None else bytearray(mem[sm.start : sm.end])
         sm.buf = data
         mem[st] = (mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
         buf[at : at + sm.length] = data
@@ -1448,9 +1478,16 @@ class EscDevice:
         """The FMMUs follow ``decoded``, their register bytes decoded (:func:`fmmu_table`; the
         chain decodes the tables of many ESCs at once, :func:`emulator.esc.together.
         commit_together`)."""
-        self._fmmus, self.fmmu_span, self._logical_plans = decoded
+        self._fmmus, span, self._logical_plans = decoded
+        self._set_span(span)
         self.fmmu_decoded = decoded
         self._lrd_plans.clear()
+
+    def _set_span(self, span: tuple[int, int]) -> None:
+        """:attr:`fmmu_span` and its row of the chain's array (:meth:`use_span_row`)."""
+        self.fmmu_span = span
+        row = self._span_row
+        row[0], row[1] = span
 
     def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
         """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.

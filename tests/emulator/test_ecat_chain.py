@@ -153,3 +153,30 @@ def test_every_returned_frame_has_the_request_length() -> None:
         raw = ethercat.frame(f).to_bytes()
         back = chain.process_frame(raw)
         assert back is not None and len(back) == len(raw)
+
+
+def _sent(chain: EcatChain, d: Datagram) -> Datagram:
+    """``d`` in a frame of its own through ``chain``, as it comes back."""
+    back = chain.process_frame(ethercat.frame(ethercat.EcatFrame((d,))).to_bytes())
+    assert back is not None
+    return ethercat.decode(back[14:])[0].datagrams[0]
+
+
+def test_each_esc_keeps_its_fmmu_span_in_the_chains_row() -> None:
+    """Hand-worked: ``EcatChain.configured`` maps slave p's 8 input bytes at logical 8 p
+    (FMMU 0, byte-wise), so its span is [8 p, 8 p + 8). A BWR of FMMU 0's logical start
+    (0x0600, 4 bytes) moves every span to [0x100, 0x108): an LRD of the image then reaches no
+    ESC and one at 0x100 every ESC. Disabling FMMU 0 of slave 1 (station 0x1002, 0x060C = 0)
+    leaves it no span, (0, 0), and takes it out of the working counter."""
+    chain = EcatChain.configured(3, 8)
+    assert chain.fmmu_spans.tolist() == [[0, 8], [8, 16], [16, 24]]
+    assert [dev.fmmu_span for dev in chain.devices] == [(0, 8), (8, 16), (16, 24)]
+    assert _sent(chain, Datagram.logical(C.LRD, 0, bytes(24))).wkc == 3
+    _sent(chain, Datagram(C.BWR, 0, 0x0600, (0x100).to_bytes(4, "little")))
+    assert chain.fmmu_spans.tolist() == [[0x100, 0x108]] * 3
+    assert _sent(chain, Datagram.logical(C.LRD, 0, bytes(24))).wkc == 0
+    assert _sent(chain, Datagram.logical(C.LRD, 0x100, bytes(8))).wkc == 3
+    _sent(chain, Datagram(C.FPWR, 0x1002, 0x060C, b"\x00"))
+    assert chain.fmmu_spans.tolist() == [[0x100, 0x108], [0, 0], [0x100, 0x108]]
+    assert chain.devices[1].fmmu_span == (0, 0)
+    assert _sent(chain, Datagram.logical(C.LRD, 0x100, bytes(8))).wkc == 2
