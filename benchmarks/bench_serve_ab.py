@@ -14,11 +14,15 @@ older one's ``process_frame`` includes the firmware).
 ``--gap-us`` makes each worker sleep before each frame, as serve idles between a master's frames
 (each frame then meets a cooler machine, as live frames do).
 
+``--ordinary`` sends no hostile frame: ``--frames`` LRDs of the whole image, new taxels
+published to every patch before each (untimed, as serve's taxel feed publishes between frames):
+serve's everyday frame with a master at 160 patches.
+
 Printed per checkout: frames above 2 ms, total, median and maximum CPU per frame; then the frames
 whose time changed most. Run with the same checkout twice to see the method's own spread.
 
     python benchmarks/bench_serve_ab.py OLD_CHECKOUT [NEW_CHECKOUT] [--frames 3000] [--runs 2]
-        [--nodes 160] [--seed 0] [--cpu 0] [--gap-us 0]
+        [--nodes 160] [--seed 0] [--cpu 0] [--gap-us 0] [--ordinary]
 
 A checkout is a directory with this project's sources (``git worktree add`` or
 ``git archive COMMIT | tar -x -C DIR``); NEW_CHECKOUT defaults to this one.
@@ -34,6 +38,7 @@ import statistics
 import subprocess
 import sys
 import time
+from collections.abc import Callable
 from pathlib import Path
 from typing import IO
 
@@ -43,13 +48,21 @@ BATCH = 10  # frames a worker runs before the other one takes its turn
 SIZE, EVERY = 8, 500  # bench_serve_hostile's defaults: bytes a patch, frames between resets
 
 
-def worker(checkout: str, nodes: int, frames: int, seed: int, gap_us: float) -> None:
+def worker(
+    checkout: str, nodes: int, frames: int, seed: int, gap_us: float, ordinary: bool
+) -> None:
     """Serve the master's requests on stdin: ``reset`` (a fresh configured chain) or ``run LO HI``
     (those frames; their CPU times in us as a JSON list)."""
     sys.path[:0] = [checkout, os.path.join(checkout, "benchmarks")]
-    from bench_serve_hostile import configured_chain, with_resets  # the checkout's own
+    # the checkout's own
+    from bench_serve_hostile import configured_chain, final_frames, with_resets
 
-    sent = [f for f, _ in with_resets(frames, nodes, SIZE, seed, EVERY)]
+    from emulator.live import TaxelFeed
+
+    sent = ordinary_frames(frames, nodes, final_frames) if ordinary else [
+        f for f, _ in with_resets(frames, nodes, SIZE, seed, EVERY)
+    ]  # fmt: skip
+    feed = TaxelFeed(nodes, SIZE, samples=16, seed=seed, period_s=0.0) if ordinary else None
     cpu = time.thread_time_ns
     chain = None
     gc.disable()
@@ -58,6 +71,7 @@ def worker(checkout: str, nodes: int, frames: int, seed: int, gap_us: float) -> 
         if words[0] == "reset":
             forget_caches()
             chain = configured_chain(nodes, SIZE, True)
+            chain.clock_ns = time.monotonic_ns  # as serve runs the ESCs' clocks
             print("ok", flush=True)
             continue
         assert chain is not None
@@ -67,12 +81,22 @@ def worker(checkout: str, nodes: int, frames: int, seed: int, gap_us: float) -> 
         for frame in sent[int(words[1]) : int(words[2])]:
             if gap_us:
                 time.sleep(gap_us / 1e6)  # idle before each frame, as serve waits in select
+            if feed is not None:  # new taxels at every patch, as serve publishes between frames
+                feed.publish(chain, time.monotonic() + 1.0)
             c0 = cpu()
             answer(frame)
             us.append((cpu() - c0) // 1000)
             firmware()  # as serve does: after the answer, not timed
             gc.collect(0)
         print(json.dumps(us), flush=True)
+
+
+def ordinary_frames(
+    frames: int, nodes: int, final_frames: Callable[[int, int, bool], list[bytes]]
+) -> list[bytes]:
+    """``frames`` times the LRD of the whole image that ends ``final_frames``
+    (bench_serve_hostile's)."""
+    return [final_frames(nodes, SIZE, True)[-1]] * frames
 
 
 def forget_caches() -> None:
@@ -99,11 +123,12 @@ def ask(proc: subprocess.Popen[str], request: str) -> str:
 
 
 def start(
-    checkout: str, nodes: int, frames: int, seed: int, cpu: int, gap_us: float
+    checkout: str, nodes: int, frames: int, seed: int, cpu: int, gap_us: float, ordinary: bool
 ) -> subprocess.Popen[str]:
     return subprocess.Popen(
         [sys.executable, __file__, "--worker", checkout, "--nodes", str(nodes),
-         "--frames", str(frames), "--seed", str(seed), "--gap-us", str(gap_us)],
+         "--frames", str(frames), "--seed", str(seed), "--gap-us", str(gap_us),
+         *(["--ordinary"] if ordinary else [])],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
         text=True,
@@ -135,18 +160,30 @@ def main() -> None:
         default=0.0,
         help="sleep this long before each frame, as serve idles between a master's frames",
     )
+    parser.add_argument(
+        "--ordinary",
+        action="store_true",
+        help="no hostile frame: LRDs of the image, new taxels published before each",
+    )
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
-        worker(args.old, args.nodes, args.frames, args.seed, args.gap_us)
+        worker(args.old, args.nodes, args.frames, args.seed, args.gap_us, args.ordinary)
         return
+    for checkout in (args.old, args.new):
+        if not (Path(checkout) / "emulator" / "esc" / "chain.py").is_file():
+            parser.error(
+                f"{checkout!r} is not a checkout of this project (no emulator/esc/chain.py)"
+            )
     sys.path[:0] = [str(ROOT), str(ROOT / "benchmarks")]
-    from bench_serve_hostile import describe, with_resets
+    from bench_serve_hostile import describe, final_frames, with_resets
 
-    sent = [f for f, _ in with_resets(args.frames, args.nodes, SIZE, args.seed, EVERY)]
+    sent = ordinary_frames(args.frames, args.nodes, final_frames) if args.ordinary else [
+        f for f, _ in with_resets(args.frames, args.nodes, SIZE, args.seed, EVERY)
+    ]  # fmt: skip
     checkouts = {"old": args.old, "new": args.new}
     procs = {
-        k: start(v, args.nodes, args.frames, args.seed, args.cpu, args.gap_us)
+        k: start(v, args.nodes, args.frames, args.seed, args.cpu, args.gap_us, args.ordinary)
         for k, v in checkouts.items()
     }
     least = {k: [1 << 62] * len(sent) for k in checkouts}
@@ -161,13 +198,18 @@ def main() -> None:
         assert proc.stdin is not None
         proc.stdin.close()
         proc.wait()
+    what = "LRDs of the image, taxels published before each" if args.ordinary else (
+        f"{args.frames} hostile, seed {args.seed}"
+    )  # fmt: skip
     print(
-        f"{len(sent)} frames ({args.frames} hostile, seed {args.seed}), {args.nodes} slaves, "
+        f"{len(sent)} frames ({what}), {args.nodes} slaves, "
         f"least of {args.runs} runs, both checkouts on CPU {args.cpu}, {BATCH} frames a turn"
         + (f", {args.gap_us:.0f} us idle before each" if args.gap_us else "")
     )
     for k, path in checkouts.items():
         report(f"  {k} ({path})", least[k], sys.stdout)
+    if args.ordinary:
+        return  # the same frame throughout: nothing to tell apart frame by frame
     old, new = least["old"], least["new"]
     order = sorted(range(len(sent)), key=lambda i: new[i] - old[i])
     print("  most faster (frame: old us -> new us, datagrams cmd@ado+bytes):")
