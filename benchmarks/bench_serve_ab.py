@@ -6,10 +6,12 @@ processes running side by side disagree as well. So the checkouts run in two wor
 pinned to the same CPU, and take turns ten frames at a time: whatever slows the machine
 slows both. Each worker runs the frames of ``bench_serve_hostile`` with its defaults (hostile
 frames of ``--seed``, 8 bytes a patch, a master's reset every 500) through its own chain of
-``--nodes`` configured patches, ``--runs`` times, and keeps each frame's least CPU time (this
-thread's clock, garbage collected between frames) until its answer, as serve counts it (a checkout
-whose chain has ``answer`` lets the slaves' firmware react after it, untimed, as serve does; an
-older one's ``process_frame`` includes the firmware).
+``--nodes`` configured patches, the ESCs' clocks in host time as serve runs them (before
+2026-11-27 they stood at 0 here, so that no SYNC0 pulse came due), ``--runs`` times, and keeps
+each frame's least CPU time (this thread's clock, garbage collected between frames) until its
+answer, as serve counts it (a checkout whose chain has ``answer`` lets the slaves' firmware
+react after it, untimed, as serve does; an older one's ``process_frame`` includes the
+firmware).
 
 ``--gap-us`` makes each worker sleep before each frame, as serve idles between a master's frames
 (each frame then meets a cooler machine, as live frames do).
