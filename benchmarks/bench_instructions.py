@@ -23,7 +23,9 @@ Printed per checkout and workload: instructions per frame, and new / old.
 Needs valgrind and each checkout's ESC modules compiled (``make``, or ``python -m
 emulator.esc.build`` in the checkout): the count is taken in the compiled ``answer``. A
 checkout is a directory with this project's sources (``git archive COMMIT | tar -x -C DIR``).
-Hash seeds are fixed (``PYTHONHASHSEED=0``): the same checkout counts the same twice.
+Hash seeds are fixed (``PYTHONHASHSEED=0``) and the ESCs' clocks stand at 0 (the chain's
+default, so no SYNC0 pulse comes due with the time of day): the same checkout counts the same
+twice. (``bench_serve_ab.py`` runs the clocks in host time, as serve does.)
 """
 
 from __future__ import annotations
