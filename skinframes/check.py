@@ -143,8 +143,28 @@ def _node_findings(m: powerlink.EplMessage) -> list[Finding]:
             bad(f"destination {m.dest}, a PRes is broadcast to {BROADCAST}")
     elif isinstance(m, powerlink.ASnd):
         for name, node in (("source", m.src), ("destination", m.dest)):
-            if node == 0 or 241 <= node <= 252:
+            if _is_reserved(node):
                 bad(f"{name} {node} is reserved")
+    return out
+
+
+def _is_reserved(node: int) -> bool:
+    return node == 0 or 241 <= node <= 252
+
+
+def _udp_node_findings(packet: ipv4udp.Ipv4Udp) -> list[Finding]:
+    """EPL over UDP: the node ids are the IP addresses' last octets (DS 301 5.1.2; bytes 1-2 are
+    reserved). An ASnd's reserved ones are errors, as on Ethernet, where the address is in
+    192.168.100.0/24; other message types and addresses are :mod:`ipv4udp`'s info findings."""
+    out: list[Finding] = []
+    if not isinstance(packet.payload, powerlink.ASnd):
+        return out
+    for name, node, ip in (
+        ("source", packet.src_node, packet.src_ip),
+        ("destination", packet.dest_node, packet.dst_ip),
+    ):
+        if ip in ipv4udp.EPL_IP_NETWORK and _is_reserved(node):
+            out.append(error("epl.node_id", f"EPL ASnd over UDP: {name} {node} ({ip}) is reserved"))
     return out
 
 
@@ -524,7 +544,10 @@ def _decode(data: bytes) -> tuple[ethernet.EthernetFrame, str, list[Finding]]:
     proto = protocol_of(frame)
     found = list(frame.findings)
     if proto == "epl":
-        found += _node_findings(encap.message_of(frame))  # type: ignore[arg-type]
+        if isinstance(frame.payload, ipv4udp.Ipv4Udp):
+            found += _udp_node_findings(frame.payload)
+        else:
+            found += _node_findings(encap.message_of(frame))  # type: ignore[arg-type]
     return frame, proto, found
 
 
@@ -544,7 +567,9 @@ def _judge(data: bytes) -> _Judged:
     node: int | None = None
     cyclic = None
     if proto == "epl":
-        node = getattr(message, "src", None)
-        if not isinstance(frame.payload, ipv4udp.Ipv4Udp):
+        if isinstance(frame.payload, ipv4udp.Ipv4Udp):
+            node = frame.payload.src_node  # DS 301 5.1.2: bytes 1-2 are reserved over UDP
+        else:
+            node = getattr(message, "src", None)
             cyclic = message
     return proto, found, fcs, frame.src, signature, node, cyclic

@@ -12,7 +12,7 @@ from dataclasses import dataclass
 from enum import IntEnum
 from typing import Any
 
-from skinframes import encap, ethercat, ethernet, powerlink
+from skinframes import encap, ethercat, ethernet, ipv4udp, powerlink
 from skinframes.canbus import CanFrame
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError, TruncatedError
@@ -69,7 +69,16 @@ def frame_fields(frame: ethernet.EthernetFrame) -> dict[str, Any]:
         out["payload_length"] = len(p)
     else:
         out.update(_epl_fields(p))
+        _udp_nodes(frame, out)
     return out
+
+
+def _udp_nodes(frame: ethernet.EthernetFrame, fields: dict[str, Any]) -> None:
+    """EPL over UDP: ``src``/``dest`` are the node ids of the IP addresses (DS 301 5.1.2), as
+    Wireshark shows them; bytes 1-2, where the message keeps them, are reserved there."""
+    packet = frame.payload
+    if isinstance(packet, ipv4udp.Ipv4Udp):
+        fields["src"], fields["dest"] = packet.src_node, packet.dest_node
 
 
 _MESSAGE_NAMES: dict[int, str] = {int(t): t.name for t in powerlink.MessageType}
@@ -161,6 +170,7 @@ def summary(frame: ethernet.EthernetFrame) -> str:
     if proto == "other":
         return f"ethertype {frame.ethertype:#06x}, {len(frame.payload_bytes)} bytes"
     f = _epl_fields(p)
+    _udp_nodes(frame, f)
     text = f"EPL {f['src']:>3}->{f['dest']:>3} {f['message']}"
     if "size" in f:
         text += f" [{f['size']}]"

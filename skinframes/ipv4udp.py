@@ -2,10 +2,11 @@
 checksums, and the message inside.
 
 * EPL over UDP: port 3819 (EPSG DS 301 5.1.4 "EPL over UDP/IP"; Wireshark ``packet-epl.c``,
-  ``UDP_PORT_EPL``). The UDP payload's first byte is the EPL MessageType; the layout is the
-  Ethernet one (MessageType, Destination, Source, then the message), so an ASnd's ServiceID is
-  its fourth byte. Wireshark does not show Destination and Source of EPL/UDP (the IP addresses
-  say who talks), skinframes decodes them and keeps them.
+  ``UDP_PORT_EPL``). The UDP payload's first byte is the EPL MessageType, bytes 1-2 are reserved
+  (where Ethernet has Destination and Source), an ASnd's ServiceID is byte 3. The node ids are
+  the IPv4 addresses' last octets (DS 301 5.1.2: 192.168.100.<NodeID>), as Wireshark shows them
+  (``dissect_epludp``): :attr:`Ipv4Udp.src_node`, :attr:`Ipv4Udp.dest_node`. The reserved bytes
+  are kept (as the message's ``dest``/``src``, for byte-exactness) and noted when not zero.
 * EtherCAT over UDP: port 0x88A4 = 34980 (ETG.1000.4 5.3.2; Wireshark ``packet-ethercat-frame.c``
   registers ``udp.port`` 0x88A4): the UDP payload is an EtherCAT frame (2-byte header and
   datagrams) as it follows the EtherType 0x88A4.
@@ -34,6 +35,7 @@ from skinframes.errors import (
 from skinframes.findings import Finding, error, info
 
 __all__ = [
+    "EPL_IP_NETWORK",
     "ETHERTYPE_IPV4",
     "IPV4_HEADER_BYTES",
     "PROTO_UDP",
@@ -42,6 +44,7 @@ __all__ = [
     "UDP_PORT_EPL",
     "Ipv4Udp",
     "decode",
+    "epl_node_id",
     "inner_protocol",
     "internet_checksum",
     "ipv4_header_schema",
@@ -54,6 +57,7 @@ UDP_HEADER_BYTES: Final = 8  # RFC 768
 PROTO_UDP: Final = 17  # IANA protocol numbers
 UDP_PORT_EPL: Final = 3819  # EPSG DS 301 5.1.4; Wireshark UDP_PORT_EPL
 UDP_PORT_ECAT: Final = 0x88A4  # ETG.1000.4 5.3.2; Wireshark packet-ethercat-frame.c
+EPL_IP_NETWORK: Final = ipaddress.IPv4Network("192.168.100.0/24")  # DS 301 5.1.2
 DEFAULT_TTL: Final = 64  # RFC 1700 / RFC 1122 3.2.1.7 recommended default
 _MORE_FRAGMENTS: Final = 0x2000
 _FRAGMENT_OFFSET_MASK: Final = 0x1FFF
@@ -103,6 +107,12 @@ def _udp_checksum(src: bytes, dst: bytes, udp: bytes) -> int:
     return value or 0xFFFF
 
 
+def epl_node_id(address: ipaddress.IPv4Address) -> int:
+    """The EPL node id of an IPv4 address: its last octet (DS 301 5.1.2, 192.168.100.<NodeID>;
+    Wireshark takes the last octet of any address)."""
+    return address.packed[3]
+
+
 def inner_protocol(sport: int, dport: int) -> str | None:
     """``"epl"``, ``"ecat"`` or None for a UDP port pair, lower port first (as Wireshark)."""
     for port in sorted((sport, dport)):
@@ -124,7 +134,9 @@ class Ipv4Udp:
     Attributes:
         src_ip, dst_ip: the addresses.
         sport, dport: UDP ports (3819 EPL, 0x88A4 EtherCAT).
-        payload: the EPL message or EtherCAT frame (raw bytes if built so).
+        payload: the EPL message or EtherCAT frame (raw bytes if built so). An EPL message's
+            ``dest`` and ``src`` travel as the reserved bytes 1-2 (DS 301): 0 in a conformant
+            frame; the node ids are the IP addresses' (:attr:`src_node`, :attr:`dest_node`).
         extra: bytes inside the UDP datagram after the message.
         options: IPv4 options (a multiple of 4 bytes).
     """
@@ -150,6 +162,16 @@ class Ipv4Udp:
     def protocol(self) -> str | None:
         """``"epl"`` or ``"ecat"`` by the ports."""
         return inner_protocol(self.sport, self.dport)
+
+    @property
+    def src_node(self) -> int:
+        """EPL: the source node id, the last octet of ``src_ip`` (DS 301 5.1.2)."""
+        return epl_node_id(self.src_ip)
+
+    @property
+    def dest_node(self) -> int:
+        """EPL: the destination node id, the last octet of ``dst_ip`` (DS 301 5.1.2)."""
+        return epl_node_id(self.dst_ip)
 
     @property
     def message_bytes(self) -> bytes:
@@ -220,7 +242,8 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[Ipv4Udp, int, list[F
     Returns:
         The packet, the bytes it occupies (IPv4 total length; the rest is Ethernet padding),
         and findings: ``ipv4.checksum``, ``udp.checksum`` (errors: a receiver drops the packet),
-        ``ipv4.length``, ``udp.length``, ``udp.extra``.
+        ``ipv4.length``, ``udp.length``, ``udp.extra``; EPL (info, Wireshark says nothing; not
+        raised when strict): ``epl.udp.reserved``, ``epl.udp.message_type``, ``epl.udp.address``.
 
     Raises:
         DecodeError: not an IPv4/UDP packet on the EPL or EtherCAT port, truncated, an
@@ -275,6 +298,7 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[Ipv4Udp, int, list[F
     message: powerlink.EplMessage | ethercat.EcatFrame
     if proto == "epl":
         message, used, more = powerlink.decode(data, strict=strict)
+        more = more + _epl_findings(message, src, dst)
     else:
         message, used, more = ethercat.decode(data, strict=strict)
     findings += more
@@ -303,3 +327,41 @@ def decode(payload: bytes, *, strict: bool = True) -> tuple[Ipv4Udp, int, list[F
     if packet.to_bytes() != buf[:total]:  # e.g. bytes between UDP length and IPv4 length
         raise LengthMismatchError("IPv4/UDP: the packet does not re-encode to its bytes")
     return packet, total, findings
+
+
+def _epl_findings(message: powerlink.EplMessage, src: bytes, dst: bytes) -> list[Finding]:
+    """EPL over UDP, what DS 301 5.1 asks and Wireshark does not check: reserved bytes 1-2 zero,
+    only ASnd, addresses in 192.168.100.0/24 (else the node id, the last octet, means nothing)."""
+    out: list[Finding] = []
+    if message.dest or message.src:
+        out.append(
+            info(
+                "epl.udp.reserved",
+                f"EPL/UDP: reserved bytes 1-2 are {message.dest:#04x} {message.src:#04x}, not 0 "
+                "(the node ids are the IP addresses'; Wireshark ignores these bytes)",
+            )
+        )
+    mtype = (
+        message.message_type & 0x7F  # bit 7 reserved: powerlink.decode reports it
+        if isinstance(message, powerlink.RawMessage)
+        else message.MESSAGE_TYPE
+    )
+    if mtype != powerlink.MessageType.ASND:
+        try:
+            name = powerlink.MessageType(mtype).name
+        except ValueError:
+            name = f"MessageType {mtype:#04x}"
+        out.append(
+            info("epl.udp.message_type", f"EPL/UDP: {name}; DS 301 defines only ASnd over UDP/IP")
+        )
+    for side, raw in (("source", src), ("destination", dst)):
+        address = ipaddress.IPv4Address(raw)
+        if address not in EPL_IP_NETWORK:
+            out.append(
+                info(
+                    "epl.udp.address",
+                    f"EPL/UDP: {side} {address} is outside {EPL_IP_NETWORK}; its node id "
+                    f"{raw[3]} (the last octet, as Wireshark shows it) is not an EPL node's",
+                )
+            )
+    return out

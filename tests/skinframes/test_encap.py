@@ -11,8 +11,11 @@ from hypothesis import given
 from hypothesis import strategies as st
 
 from skinframes import decode_frame, ethercat, powerlink, protocol_of
+from skinframes.check import check_capture
+from skinframes.describe import frame_fields, summary
 from skinframes.errors import ChecksumError
 from skinframes.ethernet import EthernetFrame
+from skinframes.findings import Severity
 from skinframes.ipv4udp import (
     UDP_PORT_ECAT,
     UDP_PORT_EPL,
@@ -21,6 +24,7 @@ from skinframes.ipv4udp import (
     ipv4_header_schema,
     udp_header_schema,
 )
+from skinframes.pcap import parse_capture, pcap_bytes
 
 A = ipaddress.IPv4Address("192.168.100.1")
 B = ipaddress.IPv4Address("192.168.100.240")
@@ -102,3 +106,55 @@ def test_lower_port_decides_as_in_wireshark() -> None:
     # sport 3819 < dport 0x88A4: Wireshark's UDP dissector tries the lower port first
     raw = EthernetFrame(MAC1, MAC2, Ipv4Udp(A, B, UDP_PORT_EPL, UDP_PORT_ECAT, SOA)).to_bytes()
     assert protocol_of(decode_frame(raw)) == "epl"
+
+
+# --- EPL over UDP: node ids from the IPv4 addresses (DS 301 5.1.2: node n is 192.168.100.n) ---
+def _epl_udp(src: str, dst: str, message: powerlink.EplMessage) -> bytes:
+    packet = Ipv4Udp(ipaddress.IPv4Address(src), ipaddress.IPv4Address(dst), 3819, 3819, message)
+    return EthernetFrame(MAC1, MAC2, packet).to_bytes()
+
+
+def _check(frames: list[bytes]) -> list[tuple[str, str, str]]:
+    raw = pcap_bytes([(i * 10_000, f) for i, f in enumerate(frames)])
+    report = check_capture(parse_capture(raw, "hand-built"))
+    return [(str(f.finding.severity), f.finding.code, f.finding.message) for f in report.findings]
+
+
+# bytes 1-2 are reserved over UDP: a conformant sender leaves them 0
+STATUS = powerlink.ASnd(powerlink.StatusResponse(), dest=0, src=0)
+
+
+def test_epl_udp_node_ids_are_the_last_octets_of_the_addresses() -> None:
+    raw = _epl_udp("192.168.100.4", "192.168.100.240", STATUS)
+    frame = decode_frame(raw, strict=True)
+    fields = frame_fields(frame)
+    assert (fields["src"], fields["dest"], fields["service_id"]) == (4, 240, 2)
+    assert "EPL   4->240 ASND (STATUS_RESPONSE)" in summary(frame)
+    assert frame.to_bytes() == raw
+    assert _check([raw]) == []
+
+
+def test_epl_udp_reserved_bytes_are_noted_not_errors() -> None:
+    # the Ethernet node ids left in bytes 1-2: kept byte-exact, an info finding, strict or not
+    message = powerlink.ASnd(powerlink.StatusResponse(), dest=240, src=9)
+    raw = _epl_udp("192.168.100.4", "192.168.100.240", message)
+    frame = decode_frame(raw, strict=True)
+    assert frame.to_bytes() == raw
+    assert (frame_fields(frame)["src"], frame_fields(frame)["dest"]) == (4, 240)
+    assert [(f.severity, f.code) for f in frame.findings] == [(Severity.INFO, "epl.udp.reserved")]
+    assert [c[:2] for c in _check([raw])] == [("info", "epl.udp.reserved")]
+
+
+def test_epl_udp_reserved_node_ids_are_still_errors() -> None:
+    # DS 301 node ids: 0 invalid, 241..252 reserved
+    findings = _check([_epl_udp("192.168.100.4", "192.168.100.245", STATUS)])
+    assert [c[:2] for c in findings] == [("error", "epl.node_id")]
+    assert "destination 245 (192.168.100.245) is reserved" in findings[0][2]
+
+
+def test_epl_udp_outside_the_epl_network_and_non_asnd_are_info() -> None:
+    # 10.1.2.250: not an EPL address, so 250 is no node id to judge (Wireshark shows it anyway)
+    routed = _check([_epl_udp("10.1.2.250", "192.168.100.1", STATUS)])
+    assert [c[:2] for c in routed] == [("info", "epl.udp.address")]
+    soc = _check([_epl_udp("192.168.100.240", "192.168.100.255", powerlink.SoC(dest=0, src=0))])
+    assert [c[:2] for c in soc] == [("info", "epl.udp.message_type")]
