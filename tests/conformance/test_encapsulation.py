@@ -7,6 +7,8 @@ fields, re-encode them byte-exact and find nothing wrong with them.
 
 from __future__ import annotations
 
+import json
+import re
 from pathlib import Path
 
 import pytest
@@ -14,7 +16,7 @@ import tshark_util
 
 from conformance.fields import ALL_FIELDS, CONTENT_FIELDS, UDP_FIELDS
 from conformance.test_tshark import assert_fields_agree
-from skinframes import decode_frame, ethercat, golden, read_capture
+from skinframes import decode_frame, encap, ethercat, golden, powerlink, read_capture
 from skinframes.check import check_capture
 from skinframes.dispatch import protocol_of
 from skinframes.findings import Severity
@@ -162,3 +164,102 @@ def test_m_bit_chains_show_the_datagrams_tshark_shows(tshark: str, tmp_path: Pat
     assert assert_fields_agree(tshark, path, ALL_FIELDS) == len(frames)
     for raw in frames:
         assert decode_frame(raw).to_bytes() == raw
+
+
+# tshark 4.0 over UDP shows no epl.src/epl.dest: the node ids appear in the Info column only,
+# taken from the IPv4 addresses' last octets ("  4-> 32  ASnd ...").
+INFO_NODES = re.compile(r"^\s*(\d+)->\s*(\d+)\s+ASnd\b")
+ASND_FIELDS = [
+    "epl.mtyp",
+    "epl.src",
+    "epl.dest",
+    "epl.asnd.svid",
+    "epl.asnd.ires.state",
+    "epl.asnd.ires.vendorid",
+    "epl.asnd.sres.stat",
+    "epl.asnd.nmtrequest.rcid",
+    "epl.asnd.nmtrequest.rct",
+    "epl.asnd.nmtcommand.cid",
+    "epl.asnd.sdo.cmd.transaction.id",
+    "epl.asnd.sdo.cmd.command.id",
+    "_ws.col.Info",
+]
+
+
+def _epl_udp_frames() -> list[bytes]:
+    """The golden ASnd frames over UDP (DS 301 5.1.2: node n is 192.168.100.n), bytes 1-2
+    zeroed (reserved there); then one ASnd with its Ethernet node ids still in bytes 1-2 and
+    other IP addresses, and one from an ephemeral port, as a PC's SDO client sends."""
+    from scapy.layers.inet import IP, UDP
+    from scapy.layers.l2 import Ether
+    from scapy.packet import Raw
+
+    out = []
+    asnds = [raw for _, raw in golden.build("epl_asnd_services") if raw[14] == 6]
+    for raw in asnds:
+        dest, src = raw[15], raw[16]
+        body = raw[14:15] + b"\x00\x00" + raw[17:]  # with Ethernet padding, as tshark wants
+        ip = IP(src=f"192.168.100.{src}", dst=f"192.168.100.{dest}")
+        out.append(bytes(Ether() / ip / UDP(sport=3819, dport=3819) / Raw(body)))
+    ip = IP(src="192.168.100.4", dst="192.168.100.32")
+    out.append(bytes(Ether() / ip / UDP(sport=3819, dport=3819) / Raw(asnds[1][14:])))
+    ip = IP(src="192.168.100.240", dst="192.168.100.7")
+    body = asnds[-1][14:15] + b"\x00\x00" + asnds[-1][17:]
+    out.append(bytes(Ether() / ip / UDP(sport=50123, dport=3819) / Raw(body)))
+    return out
+
+
+def test_epl_over_udp_nodes_and_services_agree_with_tshark(
+    tshark: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from skinframes_cli import main
+
+    frames = _epl_udp_frames()
+    path = tmp_path / "epl_udp.pcap"
+    write_pcap(path, [(i * 1_000_000, f) for i, f in enumerate(frames)])
+    assert tshark_util.problems(tshark, path, *CHECKSUMS) == []
+    rows = tshark_util.fields(tshark, path, ASND_FIELDS, "", *CHECKSUMS)
+    assert len(rows) == len(frames) == 8
+
+    assert main(["decode", "--json", str(path)]) == 0
+    objs = [json.loads(line) for line in capsys.readouterr().out.splitlines()]
+    assert main(["decode", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    for row, obj, line in zip(rows, objs, lines, strict=True):
+        assert row["epl.src"] == row["epl.dest"] == []  # not shown over UDP
+        info_nodes = INFO_NODES.match(row["_ws.col.Info"][0])
+        assert info_nodes is not None, row["_ws.col.Info"]
+        src, dest = int(info_nodes[1]), int(info_nodes[2])
+        assert (obj["src"], obj["dest"]) == (src, dest), (obj, row)
+        assert re.search(rf"EPL\s+{src}->\s*{dest} ASND", line), line
+        assert obj["message_type"] == int(row["epl.mtyp"][0])
+        assert obj["service_id"] == int(row["epl.asnd.svid"][0], 0)
+    # the service payloads at their offsets: tshark's value of each field equals ours
+    payload = {
+        "epl.asnd.ires.state": ("IDENT_RESPONSE", "nmt_status"),
+        "epl.asnd.sres.stat": ("STATUS_RESPONSE", "nmt_status"),
+        "epl.asnd.nmtcommand.cid": ("NMT_COMMAND", "command_id"),
+        "epl.asnd.sdo.cmd.command.id": ("SDO", "sdo_command_id"),
+    }
+    for field, (service, key) in payload.items():
+        theirs = [int(r[field][0], 0) for r in rows if r[field]]
+        ours = [o[key] for o in objs if o["service"] == service]
+        assert ours == theirs and theirs, field
+    for frame, row in zip(frames, rows, strict=True):  # fields decode --json does not show
+        m = encap.message_of(decode_frame(frame))
+        assert isinstance(m, powerlink.ASnd)
+        s = m.service
+        if isinstance(s, powerlink.IdentResponse):
+            assert s.vendor_id == int(row["epl.asnd.ires.vendorid"][0], 0)
+        if isinstance(s, powerlink.NmtRequest):
+            assert s.requested_command_id == int(row["epl.asnd.nmtrequest.rcid"][0], 0)
+            assert s.requested_command_target == int(row["epl.asnd.nmtrequest.rct"][0], 0)
+    assert assert_fields_agree(tshark, path, {**ALL_FIELDS, **UDP_FIELDS}, *CHECKSUMS) == 8
+
+    # check: tshark has no expert item here, so no error and no warning either
+    report = check_capture(read_capture(path))
+    assert report.at_least(Severity.WARNING) == []
+    codes = {f.finding.code for f in report.findings}
+    assert codes <= {"udp.extra", "epl.udp.reserved", "eth.unpadded"}, codes
+    reserved = [f.frame for f in report.findings if f.finding.code == "epl.udp.reserved"]
+    assert reserved == [7]  # the one that kept its Ethernet node ids in bytes 1-2
