@@ -57,6 +57,7 @@ from emulator.esc.registers import (
     REG_ALIAS,
     REG_DL_CONTROL,
     REG_ECAT_EVENT,
+    REG_FORWARDED_ERRORS,
     REG_RESET_ECAT,
     REG_RW_OFFSET,
     REG_STATION,
@@ -1189,8 +1190,20 @@ class EcatChain:
     def _drop(self, *, malformed: bool) -> None:
         self.dropped += 1
         if malformed:
-            self.devices[0].count_frame_error()
+            self._count_malformed()
         return None
+
+    def _count_malformed(self) -> None:
+        """A malformed frame: the first ESC's processing unit counts it (0x030C); it forwards
+        the frame marked as an error, which every ESC after it counts as a forwarded error at
+        port 0 (0x0308) and in its processing unit (datasheet II 0x0308, 0x030C): how a master
+        localises the fault. The frame goes as far as the ports let it."""
+        for p, dev in enumerate(self.devices):
+            if p:
+                dev.count_error(REG_FORWARDED_ERRORS)
+            dev.count_frame_error()
+            if not dev.onward:
+                break
 
     # --- the timing emulator's view -----------------------------------------------------------
     def frame_effect(self, ecat: EcatFrame) -> FrameEffect:

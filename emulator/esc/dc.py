@@ -12,25 +12,27 @@ The ESC datasheet section I chapter 9 ("Distributed Clocks") and section II 2.19
   which it reached the processing unit (0x0918). The arrival times follow the propagation the
   timing model computes (:class:`emulator.model.params.TimingParams`: one ESC pass
   ``ecat_processing_ps`` plus a cable per hop, the way back ``ecat_forwarding_ps`` plus a cable);
-* the local copy of the system time (0x0910) is local time + system time offset (0x0920). A
-  write to 0x0910 (the master's ARMW/FRMW of the reference clock's time) is no store: the ESC
-  compares the written value plus the system time delay (0x0928) with its own system time at
-  that instant and feeds the difference to its time control loop; the mean difference is in
-  0x092C (bit 31 set: the local copy is smaller; bits 0-30 the magnitude), filtered over
-  2^(0x0934 bits 0-3) compares;
+* the local copy of the system time is local time + system time offset (0x0920); a read of
+  0x0910 gives it as it was when the frame passed the reference clock (its value at this ESC
+  less the system time delay 0x0928), so synchronised ESCs read one time in one frame. A write
+  including 0x0910 (the master's ARMW/FRMW of the reference clock's time; 0x0911-0x0917 alone
+  do nothing) is no store: the ESC compares the written value plus the delay with its own
+  system time at that instant and feeds the difference to its time control loop (4 bytes: a
+  32-bit compare); the mean difference is in 0x092C (bit 31 set: the local copy is smaller;
+  bits 0-30 the magnitude), filtered over 2^(0x0934 bits 0-3) compares;
 * the time control loop slews the local clock's rate (it never jumps). Its law is the
   emulator's own, a proportional-integral controller with a phase time constant of 0x0930
   (speed counter start) x 5 us (20.5 ms for the 0x1000 SOEM writes; a larger value gives a
   smaller bandwidth, as the datasheet says) and critical damping, its correction clamped to
   +-500 ppm; 0x0932 (speed counter diff) shows the correction in units of 0.1 ppm. A write of
-  0x0930 resets it;
+  0x0930 resets the loop, 0x0932 and the mean difference 0x092C (datasheet II 0x0930);
 * SYNC0/SYNC1: cyclic unit control 0x0980, activation 0x0981 (bit 0 cyclic operation, bit 1
   SYNC0, bit 2 SYNC1), start time 0x0990 (read: the system time of the next SYNC0 pulse),
   SYNC0/SYNC1 cycle times 0x09A0/0x09A4 (0: a single pulse; SYNC1 fires ``0x09A4`` after each
   SYNC0 pulse), activation status 0x0984 (bit 0/1: first SYNC0/SYNC1 pulse pending), SYNC0 and
   SYNC1 status 0x098E/0x098F (bit 0: a pulse since the last read; reading clears it), next
   SYNC1 pulse 0x0998. Pulses are computed when something looks (a register read, a taxel
-  sample), never by a timer.
+  sample), never by a timer; their times are 64-bit system times and wrap as such.
 
 Taxel samples at SYNC0: while SYNC0 is active, a skin patch takes the sample its sensor holds at
 each SYNC0 pulse; the system time of the pulse at which the sample in the input buffer was
@@ -39,8 +41,8 @@ the same frame as the taxels (an FPRD, or a second FMMU mapping those 8 bytes). 
 those bytes read 0 and samples are taken when the host publishes them.
 
 Not modelled: latch units (0x09A8-0x09CF read 0), PDI control of the cyclic unit (0x0980
-bit 0 = 1 is stored but ECAT still writes), SYNC pulse outputs and their length (0x0982 reads
-the SII's sync impulse length), the start time plausibility check, 32-bit DC.
+bit 0 = 1 is stored but ECAT still writes), SYNC pulse outputs (their length 0x0982 is loaded
+from SII word 2 and read-only), the debug pulse (0x0981 bit 7 reads 0), the start time plausibility check, 32-bit DC.
 """
 
 from __future__ import annotations
@@ -73,6 +75,7 @@ __all__ = [
     "REG_DC_DIFF_FILTER",
     "REG_DC_NEXT_SYNC1",
     "REG_DC_OFFSET",
+    "REG_DC_PULSE_LENGTH",
     "REG_DC_RECEIVE",
     "REG_DC_RECEIVE_PU",
     "REG_DC_SPEED_DIFF",
@@ -147,7 +150,8 @@ def dc_write_masks(masks: bytearray) -> None:
     put(REG_DC_DELAY, *(0xFF,) * 4)
     put(REG_DC_SPEED_START, 0xFF, 0x7F)
     put(REG_DC_DIFF_FILTER, 0x0F, 0x0F)
-    put(REG_DC_CYCLIC_CONTROL, 0x31, 0xFF)  # SYNC out / latch unit control, activation
+    # SYNC out / latch unit control; activation, whose bit 7 (debug pulse) self-clears: reads 0
+    put(REG_DC_CYCLIC_CONTROL, 0x31, 0x7F)
     put(REG_DC_START_TIME, *(0xFF,) * 8)
     put(REG_DC_SYNC0_CYCLE, *(0xFF,) * 8)
 
@@ -303,7 +307,10 @@ class DcClock:
         t = self._arrival_ns()
         assert t is not None
         if lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME:
-            _U64.pack_into(mem, REG_DC_SYSTEM_TIME, self.system_time(mem, t))
+            # the local copy "when the frame passed the reference clock, i.e. including System
+            # Time Delay" (datasheet II 0x0910): its time at this ESC less the delay 0x0928
+            delay: int = _U32.unpack_from(mem, REG_DC_DELAY)[0]
+            _U64.pack_into(mem, REG_DC_SYSTEM_TIME, (self.system_time(mem, t) - delay) & MASK64)
         if lo < REG_DC_END and hi > REG_DC_ACTIVATION_STATUS:
             self._advance(mem, t)
             active = self._next_sync0 is not None or self._last_pulse is not None
@@ -327,8 +334,8 @@ class DcClock:
         hi = lo + len(data)
         if lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE:
             self._latch(mem)
-        if lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME:
-            a, b = max(lo, REG_DC_SYSTEM_TIME), min(hi, REG_DC_RECEIVE_PU)
+        if lo <= REG_DC_SYSTEM_TIME < hi:  # only "if at least the first byte (0x0910) was
+            a, b = REG_DC_SYSTEM_TIME, min(hi, REG_DC_RECEIVE_PU)  # written" (II 0x0910)
             current = bytearray(_U64.pack(self.system_time(mem, self._arrival_ns() or 0)))
             current[a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = data[a - lo : b - lo]
             self.compare(mem, _U64.unpack(current)[0], wide=b - REG_DC_SYSTEM_TIME > 4)
@@ -336,7 +343,10 @@ class DcClock:
     def configured(self, mem: Memory, lo: int, hi: int) -> None:
         """After writes of [lo, hi) in 0x0920-0x09A7 took effect (end of the frame)."""
         if lo < REG_DC_SPEED_START + 2 and hi > REG_DC_SPEED_START:
-            self._integral = 0.0  # a write resets the speed counter diff (datasheet II 2.20)
+            # a write resets the system time difference 0x092C and the speed counter diff
+            # 0x0932 (datasheet II 0x0930): the loop and its mean start anew
+            self._integral = self._diff_ns = 0.0
+            mem[REG_DC_DIFF : REG_DC_DIFF + 4] = bytes(4)
             mem[REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = bytes(2)
             self._set_rate(self._arrival_ns() or 0, 0.0)
         if lo <= REG_DC_ACTIVATION < hi:
@@ -411,11 +421,11 @@ class DcClock:
             last, self._next_sync0 = nxt, None
         else:
             last = nxt + (now - nxt) // cycle * cycle
-            self._next_sync0 = last + cycle
+            self._next_sync0 = (last + cycle) & MASK64  # 64-bit system time: wraps
         self._last_pulse = last
         self._sync0_status = 1
         if mem[REG_DC_ACTIVATION] & 0x04:
-            self._next_sync1 = last + _U32.unpack_from(mem, REG_DC_SYNC1_CYCLE)[0]
+            self._next_sync1 = (last + _U32.unpack_from(mem, REG_DC_SYNC1_CYCLE)[0]) & MASK64
             if now >= self._next_sync1:
                 self._sync1_status = 1
 
@@ -481,7 +491,7 @@ def compare_together(
             clock.write(memoryview(memory[row]), lo, mine)
         return
     latch = lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE
-    compare = lo < REG_DC_RECEIVE_PU and hi > REG_DC_SYSTEM_TIME
+    compare = lo <= REG_DC_SYSTEM_TIME < hi  # a compare needs 0x0910 itself (II 0x0910)
     if not (latch or compare):
         return  # 0x0904-0x090F: nothing happens
     count = len(clocks)
@@ -582,7 +592,8 @@ def configure_together(
         for clock, row in zip(clocks, rows.tolist(), strict=True):
             clock.configured(memoryview(memory[row]), lo, hi)
         return
-    if speed:  # DcClock._set_rate(arrival, 0.0) with the loop's integral reset
+    if speed:  # DcClock._set_rate(arrival, 0.0) with the loop and its mean reset
+        memory[rows, REG_DC_DIFF : REG_DC_DIFF + 4] = 0
         memory[rows, REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = 0
         state = [(c.position, c._anchor_host, c._anchor_local, c._rate) for c in clocks]
         position, anchor_host, anchor_local, rate = zip(*state, strict=True)
@@ -596,7 +607,7 @@ def configure_together(
         for clock, at_local, at_host in zip(
             clocks, local.tolist(), np.rint(host).astype(np.int64).tolist(), strict=True
         ):
-            clock._integral = 0.0
+            clock._integral = clock._diff_ns = 0.0
             clock._anchor_local, clock._anchor_host = at_local, at_host
             clock._rate = 1.0 + clock.drift_ppm * 1e-6  # (times 1 + a correction of 0)
     if activation:  # DcClock._activate

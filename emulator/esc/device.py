@@ -58,7 +58,7 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
-from emulator.esc.dc import REG_DC_ACTIVATION, REG_DC_RECEIVE, DcClock
+from emulator.esc.dc import REG_DC_ACTIVATION, REG_DC_PULSE_LENGTH, REG_DC_RECEIVE, DcClock
 from emulator.esc.mapping import (
     AS_NEW_CACHE,
     PLAN_CACHE_ENTRIES,
@@ -281,13 +281,15 @@ def config_area(image: bytes | bytearray) -> tuple[int, ...] | None:
 
 def config_writes(words: tuple[int, ...]) -> tuple[tuple[int, bytes], ...]:
     """What a load of configuration area A (``words``, :func:`config_area`) writes whatever the
-    registers held: PDI control 0x0140, ESC configuration A5/A6 at 0x0142 and PDI configuration
-    A1/A3 at 0x0150 (datasheet I 11.1, Table 42); the ESC configuration byte 0x0141 keeps its
-    link detection bits after the first load (the caller's)."""
+    registers held: PDI control 0x0140, ESC configuration A5/A6 at 0x0142, PDI configuration
+    A1/A3 at 0x0150 and the SYNC pulse length A2 at 0x0982 (datasheet I 11.1, Table 42; II
+    0x0982: "reset value from EEPROM word 2"); the ESC configuration byte 0x0141 keeps its link
+    detection bits after the first load (the caller's)."""
     return (
         (REG_PDI_CONTROL, bytes((words[0] & 0xFF,))),
         (0x0142, struct.pack("<HB", words[5], words[6] & 0xFF)),
         (0x0150, struct.pack("<HH", words[1], words[3])),
+        (REG_DC_PULSE_LENGTH, struct.pack("<H", words[2])),
     )
 
 

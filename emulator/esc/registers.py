@@ -51,6 +51,7 @@ __all__ = [
     "REG_EEPROM_PDI",
     "REG_ERROR_COUNTERS",
     "REG_FMMU",
+    "REG_FORWARDED_ERRORS",
     "REG_PDI_CONTROL",
     "REG_PU_ERRORS",
     "REG_RESET_ECAT",
@@ -97,6 +98,7 @@ REG_PDI_CONTROL: Final = 0x0140
 REG_ECAT_EVENT_MASK: Final = 0x0200
 REG_ECAT_EVENT: Final = 0x0210
 REG_ERROR_COUNTERS: Final = 0x0300
+REG_FORWARDED_ERRORS: Final = 0x0308  # forwarded RX error counter, port 0 (+ port)
 REG_PU_ERRORS: Final = 0x030C  # ECAT processing unit error counter
 REG_WD_DIVIDER: Final = 0x0400
 REG_WD_PDI: Final = 0x0410

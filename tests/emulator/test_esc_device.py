@@ -284,6 +284,10 @@ def test_non_ethercat_frames_and_broken_frames() -> None:
     raw[22] = 0x40  # datagram length 64 runs past the frame
     assert chain.process_frame(bytes(raw)) is None
     assert one(chain, Datagram(C.APRD, 0, 0x030C, bytes(1))).data == b"\x01"
+    # the first ESC's processing unit found it; the next one counts a forwarded error at port 0
+    # (0x0308) and in its processing unit (datasheet II 0x0308, 0x030C)
+    assert one(chain, Datagram(C.APRD, 0, 0x0308, bytes(1))).data == b"\x00"
+    assert one(chain, Datagram(C.APRD, 0xFFFF, 0x0308, bytes(5))).data == b"\x01\x00\x00\x00\x01"
     vlan = bytearray(ethercat.frame(EcatFrame((Datagram(C.BRD, 0, 0, bytes(1)),))).to_bytes())
     vlan[12:12] = b"\x81\x00\x00\x05"  # 802.1Q tag: processed, tag untouched
     back = chain.process_frame(bytes(vlan))
@@ -992,7 +996,9 @@ def test_dc_system_time_compare_filter_and_control_loop() -> None:
     send(chain, Datagram(C.APWR, 0, 0x0920, struct.pack("<Q", 500)))  # offset
     send(chain, Datagram(C.APWR, 0, 0x0928, struct.pack("<I", 100)))  # delay
     send(chain, Datagram(C.APWR, 0, 0x0934, b"\x02"))  # mean over 2^2 compares
-    assert int.from_bytes(one(chain, Datagram(C.APRD, 0, 0x0910, bytes(8))).data, "little") == 1500
+    # local copy 1000 + 500 = 1500 here; a read gives it as the frame passed the reference
+    # clock, 100 ns (the delay) earlier: 1400 (datasheet II 0x0910, "including System Time Delay")
+    assert int.from_bytes(one(chain, Datagram(C.APRD, 0, 0x0910, bytes(8))).data, "little") == 1400
 
     def compare(value: int) -> tuple[int, int]:
         assert one(chain, Datagram(C.APWR, 0, 0x0910, struct.pack("<Q", value))).wkc == 1
@@ -1008,13 +1014,13 @@ def test_dc_system_time_compare_filter_and_control_loop() -> None:
     assert compare(2300)[0] == 0x80000000 | 150  # d = -900: m = 100 - 250 = -150 (local smaller)
     assert compare(1150)[0] == 0x80000000 | 50  # d = 250: m = -150 + 100 = -50
     # the system time register itself never jumps: the compare is no write
-    assert int.from_bytes(one(chain, Datagram(C.APRD, 0, 0x0910, bytes(8))).data, "little") == 1500
+    assert int.from_bytes(one(chain, Datagram(C.APRD, 0, 0x0910, bytes(8))).data, "little") == 1400
 
 
-def test_dc_drift_compensation_brings_every_clock_to_the_reference() -> None:
-    # what SOEM's config_dc and cycles do, with host time moving 1 ms per cycle: latch, offsets
-    # from the processing-unit receive times, delays from the port times, then one FRMW of the
-    # reference's system time per cycle. Clocks of 0, +25, -25 and +10 ppm.
+def soem_dc_chain() -> tuple[EcatChain, list[int]]:
+    """Four ESCs set up as SOEM's config_dc does, with host time moving 1 ms per cycle: latch,
+    offsets from the processing-unit receive times, delays from the port times, speed counter
+    start and filters; station addresses 0x1001-0x1004. Clocks of 0, +25, -25 and +10 ppm."""
     chain, now = clocked_chain(4, [10**9, 3 * 10**9, 17, 5 * 10**8], [0.0, 25.0, -25.0, 10.0])
     now[0] = 2_000_000
     send(chain, Datagram(C.BWR, 0, 0x0900, bytes(4)))
@@ -1035,6 +1041,17 @@ def test_dc_drift_compensation_brings_every_clock_to_the_reference() -> None:
         send(chain, Datagram(C.APWR, -p & 0xFFFF, 0x0928, struct.pack("<I", delay)))
     send(chain, Datagram(C.BWR, 0, 0x0930, struct.pack("<H", 0x1000)))
     send(chain, Datagram(C.BWR, 0, 0x0934, b"\x00\x0c"))
+    send(chain, *(Datagram(C.APWR, -p & 0xFFFF, 0x0010, u16(0x1001 + p)) for p in range(4)))
+    return chain, now
+
+
+FRMW_REFERENCE = ethercat.frame(
+    EcatFrame((Datagram(C.FRMW, 0x1001, 0x0910, bytes(8)),))
+).to_bytes()  # SOEM's cyclic FRMW of the reference clock's system time
+
+
+def test_dc_drift_compensation_brings_every_clock_to_the_reference() -> None:
+    chain, now = soem_dc_chain()
 
     def differences() -> list[int]:
         out = []
@@ -1043,8 +1060,7 @@ def test_dc_drift_compensation_brings_every_clock_to_the_reference() -> None:
             out.append(-(v & 0x7FFFFFFF) if v & 0x80000000 else v)
         return out
 
-    send(chain, *(Datagram(C.APWR, -p & 0xFFFF, 0x0010, u16(0x1001 + p)) for p in range(4)))
-    frmw = ethercat.frame(EcatFrame((Datagram(C.FRMW, 0x1001, 0x0910, bytes(8)),))).to_bytes()
+    frmw = FRMW_REFERENCE
     first = None
     for cycle in range(1000):
         now[0] += 1_000_000
@@ -1088,3 +1104,84 @@ def test_sync0_pulses_and_taxels_sampled_at_sync0() -> None:
     assert one(chain, lrd).data == b"\x03" * 4 + b"\x04" * 4
     stamp = one(chain, Datagram(C.APRD, 0, 0x0F80, bytes(8)))
     assert int.from_bytes(stamp.data, "little") == 8_000_000
+
+
+# --- the register audit against the datasheet (issue "One ESC, written once") ------------------
+def diff_ns(value: int) -> int:
+    """0x092C: bit 31 set when the local copy is smaller, bits 0-30 the magnitude (II 0x092C)."""
+    return -(value & 0x7FFFFFFF) if value & 0x80000000 else value
+
+
+@pytest.mark.parametrize("nodes", [1, 5])  # one ESC on its own, and a broadcast's joint commit
+def test_dc_speed_counter_start_resets_the_system_time_difference(nodes: int) -> None:
+    # SOEM's start-up: a BWR of zeros to 0x0910 (a compare with local times of seconds), then
+    # 0x0930 = 0x1000. A write of Speed Counter Start resets System Time Difference 0x092C and
+    # Speed Counter Diff 0x0932 (datasheet II 0x0930): both read 0, the reference clock's too.
+    chain, now = clocked_chain(nodes, [(p + 1) * 10**9 for p in range(nodes)], [0.0] * nodes)
+    now[0] = 1_000_000
+    send(chain, Datagram(C.BWR, 0, 0x0910, bytes(8)))
+    before = [
+        u32(one(chain, Datagram(C.APRD, -p & 0xFFFF, 0x092C, bytes(4)))) for p in range(nodes)
+    ]
+    assert all(diff_ns(v) > 10**7 for v in before)  # work to do: a 16th of a second or more
+    send(chain, Datagram(C.BWR, 0, 0x0930, struct.pack("<H", 0x1000)))
+    for p in range(nodes):
+        d = one(chain, Datagram(C.APRD, -p & 0xFFFF, 0x092C, bytes(8)))
+        assert (u32(d), d.data[6:8]) == (0, b"\x00\x00")
+
+
+def test_dc_synchronised_clocks_read_one_system_time_in_one_frame() -> None:
+    # datasheet II 0x0910, ECAT read: "local copy of the System Time when the frame passed the
+    # reference clock (i.e. including System Time Delay)". After SOEM's set-up and 1,000 FRMW
+    # cycles, four patches read 0x0910 in one frame within 100 ns of each other (their delays
+    # alone are 540 ns apart a hop).
+    chain, now = soem_dc_chain()
+    for _ in range(1000):
+        now[0] += 1_000_000
+        assert chain.process_frame(FRMW_REFERENCE) is not None
+    now[0] += 1_000_000
+    out = send(chain, *(Datagram(C.FPRD, 0x1001 + p, 0x0910, bytes(8)) for p in range(4)))
+    times = [int.from_bytes(d.data, "little") for d in out]
+    assert all(d.wkc == 1 for d in out)
+    assert max(times) - min(times) < 100, times
+
+
+def test_dc_only_a_write_including_0x0910_compares() -> None:
+    # II 0x0910: the written value is compared "if at least the first byte (0x0910) was
+    # written"; 0x0914-0x0917 alone change nothing. Four bytes from 0x0910: a 32-bit compare.
+    chain, _ = clocked_chain(1, [1000], [0.0])
+    assert one(chain, Datagram(C.APWR, 0, 0x0914, struct.pack("<I", 7))).wkc == 1
+    d = one(chain, Datagram(C.APRD, 0, 0x092C, bytes(8)))
+    assert (u32(d), d.data[6:8]) == (0, b"\x00\x00")
+    send(chain, Datagram(C.APWR, 0, 0x0910, struct.pack("<I", 400)))  # 1000 - 400 - delay 0
+    # the mean over 2^4 compares from 0: 600 / 16 = 37.5, to the nearest ns 38
+    assert diff_ns(u32(one(chain, Datagram(C.APRD, 0, 0x092C, bytes(4))))) == 38
+
+
+def test_dc_sync0_times_wrap_at_64_bits() -> None:
+    # the system time is 64 bits: a SYNC0 start 10 ns before its end, a cycle of 1 us, read when
+    # the system time is 5 ns before the end: the pulse fired, the next is (2^64 - 10 + 1000)
+    # mod 2^64 = 990 (II 0x0990 read: "next SYNC0 pulse", system time)
+    chain, _ = clocked_chain(1, [1000], [0.0])
+    send(chain, Datagram(C.APWR, 0, 0x0920, struct.pack("<Q", (1 << 64) - 5 - 1000)))
+    send(chain, Datagram(C.APWR, 0, 0x0990, struct.pack("<Q", (1 << 64) - 10)))
+    send(chain, Datagram(C.APWR, 0, 0x09A0, struct.pack("<I", 1000)))
+    send(chain, Datagram(C.APWR, 0, 0x0981, b"\x07"))  # cyclic, SYNC0, SYNC1 (0x09A4 = 0)
+    regs = one(chain, Datagram(C.APRD, 0, 0x098E, bytes(0x12)))
+    assert regs.data[0] == 1  # SYNC0 status: a pulse
+    assert int.from_bytes(regs.data[2:10], "little") == 990  # 0x0990
+    assert int.from_bytes(regs.data[10:18], "little") == (1 << 64) - 10  # 0x0998: next SYNC1
+
+
+def test_dc_debug_pulse_bit_reads_0_and_pulse_length_comes_from_the_eeprom() -> None:
+    # II 0x0981 bit 7 (SyncSignal debug pulse) self-clears: it always reads 0. II 0x0982: the
+    # pulse length of the SYNC signals, read-only for ECAT, loaded from SII word 2 (I Table 42).
+    info = SlaveInfo.skin_patch(16, serial=1)
+    image = bytearray(build_sii(info))
+    struct.pack_into("<H", image, 4, 1000)  # word 2: 1000 x 10 ns
+    image[14] = crc8(bytes(image[:14]))
+    chain = EcatChain([EscDevice(info, sii=bytes(image), app=NullApp())])
+    assert one(chain, Datagram(C.APRD, 0, 0x0982, bytes(2))).data == u16(1000)
+    send(chain, Datagram(C.APWR, 0, 0x0981, b"\x81"))
+    send(chain, Datagram(C.APWR, 0, 0x0982, u16(5)))
+    assert one(chain, Datagram(C.APRD, 0, 0x0981, bytes(3))).data == b"\x01" + u16(1000)
