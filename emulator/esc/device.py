@@ -58,7 +58,14 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
-from emulator.esc.dc import REG_DC_ACTIVATION, REG_DC_PULSE_LENGTH, REG_DC_RECEIVE, DcClock
+from emulator.esc.dc import (
+    REG_DC_ACTIVATION,
+    REG_DC_PULSE_LENGTH,
+    REG_DC_RECEIVE,
+    DcClock,
+    compare_together,
+    configure_together,
+)
 from emulator.esc.mapping import (
     AS_NEW_CACHE,
     PLAN_CACHE_ENTRIES,
@@ -79,6 +86,7 @@ from emulator.esc.mapping import (
 )
 from emulator.esc.registers import (
     ADDRESS_SPACE,
+    DL_ENHANCED_LINK,
     DL_PDI_OPERATIONAL,
     DL_PORT0,
     DL_PORT1_CLOSED,
@@ -96,7 +104,6 @@ from emulator.esc.registers import (
     EE_WRITE_ENABLE_ERROR,
     EVENT_AL_STATUS,
     EVENT_DL_STATUS,
-    FMMU_BYTES,
     PROCESS_RAM,
     REG_AL_CODE,
     REG_AL_CONTROL,
@@ -120,6 +127,7 @@ from emulator.esc.registers import (
     REG_SM,
     REG_STATION,
     REG_TYPE,
+    REG_WD_COUNTERS,
     REG_WD_DIVIDER,
     REG_WD_PD,
     REG_WD_PDI,
@@ -310,15 +318,14 @@ class EscDevice:
         "__dict__",
         "_active",
         "_completed",
-        "_dc_written",
         "_fmmus",
         "_logical_plans",
         "_lrd_plans",
         "_mailbox_due",
         "_mailbox_hook",
-        "_masks",
         "_reset_progress",
         "_reset_written",
+        "_rows",
         "_sii_image",
         "_sms",
         "_span_row",
@@ -359,15 +366,16 @@ class EscDevice:
         if len(self._sii_image) % 2 or len(self._sii_image) < 2 * 0x40:
             raise TopologyError(f"SII image of {len(self._sii_image)} bytes (even, >= 128)")
         self.write_plans = WritePlans.of(self.config)  # how register writes are cut (shared)
-        self._masks = self.write_plans.masks
         self.dc = DcClock()  # distributed clocks (dc.py); the chain shares its timebase
-        self._dc_written: tuple[int, int] | None = None
         self.position = 0  # set by the chain; used in traces
         self.port1_link = False  # set by the chain: a neighbour on port 1
         self.onward: bool | None = False  # cached forwards()
         self.sets_mac = True  # cached changes_source_mac
         self.trace: list[TraceCopy] | None = None
         self.mem: Memory = bytearray(ADDRESS_SPACE)
+        # the memory as rows, and this ESC's row: what the behaviours written over rows of ESCs
+        # take (a single ESC is a line of one; in a chain, a view of its row, use_memory)
+        self._rows = (np.frombuffer(self.mem, np.uint8).reshape(1, -1), np.zeros(1, np.intp))
         self.sii = bytearray(self._sii_image)  # non-volatile: survives an ESC reset
         self.pdi_operational = False
         # register writes of the current frame, committed at its end (datasheet I 3.4); the chain
@@ -449,35 +457,12 @@ class EscDevice:
         self._set_span((0, 0))
         self.fmmu_decoded = ((), (0, 0), self._logical_plans)
         self.dc.power_on(mem)
-        self.pdi_operational = self._load_config_area(first=True)
+        load_config_areas([self], *self._rows, first=True)
         mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS  # the links came up
         self._update_dl_status()
         if self.pdi_operational:
             self.app.power_on(self)
         self.update_irq()
-
-    def _load_config_area(self, *, first: bool) -> bool:
-        """Load ESC configuration area A (datasheet I 11.1, Table 42); False on a bad CRC."""
-        mem = self.mem
-        words = config_area(self.sii)
-        (status,) = struct.unpack_from("<H", mem, REG_EEPROM_CONTROL)
-        if words is None:
-            status |= EE_CHECKSUM_ERROR | EE_NOT_LOADED
-            struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
-            return False
-        status &= ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
-        struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
-        esc_config = words[0] >> 8
-        if not first:  # enhanced link detection bits 1, 4-7 only at the first load
-            esc_config = (esc_config & ~0xF2) | (mem[REG_PDI_CONTROL + 1] & 0xF2)
-        for addr, data in config_writes(words):
-            mem[addr : addr + len(data)] = data
-        mem[REG_PDI_CONTROL + 1] = esc_config
-        if first:
-            struct.pack_into("<H", mem, REG_ALIAS, words[4])
-            if words[6] & 0x0002:  # A6[1]: default of DL control bit 0 is 0
-                mem[REG_DL_CONTROL] &= ~0x01
-        return True
 
     # --- properties the chain and the PDI application use ---------------------------------------
     @property
@@ -531,6 +516,7 @@ class EscDevice:
             raise TopologyError(f"ESC {self.info.serial}: already in a chain")
         row[:] = self.mem
         self.mem = row
+        self._rows = (np.frombuffer(row, np.uint8).reshape(1, -1), np.zeros(1, np.intp))
 
     def use_span_row(self, row: npt.NDArray[np.int64]) -> None:
         """Keep :attr:`fmmu_span` in ``row`` (two int64) too, from now on: the chain holds every
@@ -1235,99 +1221,17 @@ class EscDevice:
 
     # --- shadow registers and their side effects ------------------------------------------------
     def _commit_registers(self) -> None:
-        """Apply the frame's register writes through the ECAT write masks (datasheet I 3.4).
-
-        Each write is cut at the registers with side effects (error counters, EEPROM interface,
-        SyncManager configuration); the plain parts are masked as whole integers, so the work
-        is bounded by the bytes written, whatever they ask for. How a write of (address,
-        length) is cut, its masks and what it touches are worked out once per configuration
-        (:meth:`WritePlans.plan`) and shared by every ESC of that configuration.
-        """
-        mem = self.mem
-        plans = self.write_plans
-        pending = [(addr, data, plans.plan(addr, len(data))) for addr, data in self.pending]
-        self.pending.clear()
-        touched = 0
-        for _, _, (_, touches) in pending:
-            touched |= touches
-        sm_before = fmmu_before = b""
-        if touched & TOUCHES_SM:  # rebuild caches only when these change
-            sm_before = bytes(mem[REG_SM : plans.sm_end])
-        if touched & TOUCHES_FMMU:
-            fmmu_before = bytes(mem[REG_FMMU : plans.fmmu_end])
-        sm_enabled = sm_before[6::SM_BYTES]  # bit 0
-        flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
-        for addr, data, (segments, _) in pending:
-            for lo, hi, mask, marks in segments:
-                if mask < 0:  # a register with side effects
-                    self._special_write(lo, hi, data[lo - addr : hi - addr], sm_enabled, flags)
-                elif mask:
-                    old = int.from_bytes(mem[lo:hi], "little")
-                    value = int.from_bytes(data[lo - addr : hi - addr], "little")
-                    mem[lo:hi] = ((old & ~mask) | (value & mask)).to_bytes(hi - lo, "little")
-                    if marks:
-                        self._dc_written = mark(
-                            lo, hi, flags, self.write_plans.fmmu_end, self._dc_written
-                        )
-        al_written, eeprom_command, dl_changed, fmmu_changed, sm_changed = flags
-        dc_written, self._dc_written = self._dc_written, None
-        self.take_effect(
-            fmmu=fmmu_changed and bytes(mem[REG_FMMU : plans.fmmu_end]) != fmmu_before,
-            sm=sm_changed and bytes(mem[REG_SM : plans.sm_end]) != sm_before,
-            sm_enabled=sm_enabled,
-            dl=dl_changed,
-            dc=dc_written,
-            eeprom=eeprom_command,
-            al=al_written,
-        )
-
-    def take_effect(
-        self,
-        *,
-        fmmu: bool,
-        sm: bool,
-        sm_enabled: bytes,
-        dl: bool,
-        dc: tuple[int, int] | None,
-        eeprom: bool,
-        al: bool,
-    ) -> None:
-        """What the frame's committed register writes set off, in this order: the FMMU and
-        SyncManager tables changed (``sm_enabled``: their activate bytes before the frame), DL
-        control, DC registers [lo, hi), an EEPROM command, AL control (datasheet I 3.4)."""
-        mem = self.mem
-        if fmmu:
-            self._rebuild_fmmus()
-        if sm:
-            self._rebuild_sms(sm_enabled)
-            self.sm_registers_written()
-        if dl:
-            self._update_dl_status()
-        if dc is not None:
-            self.dc.configured(mem, *dc)
-        self.update_irq()
-        if eeprom:
-            self.eeprom_command()
-        if al:
-            self.al_control_written()
-
-    def al_control_written(self) -> None:
-        """After a frame wrote AL control (0x0120): with the PDI operational, the AL status
-        follows it in device emulation (0x0141 bit 0), else the application reacts
-        (datasheet I 10.1; the last step of :meth:`take_effect`)."""
-        if not self.pdi_operational:
-            return
-        mem = self.mem
-        self._al_control(
-            mem[REG_AL_CONTROL] | mem[REG_AL_CONTROL + 1] << 8, mem[REG_PDI_CONTROL + 1]
-        )
+        """Apply the frame's register writes through the ECAT write masks and set off what they
+        set off (datasheet I 3.4): :func:`commit_together` of this ESC alone."""
+        commit_together([self], *self._rows)
 
     @staticmethod
     def al_control_together(
         devices: Sequence[EscDevice], values: Sequence[int], pdi_control: Sequence[int]
     ) -> None:
-        """:meth:`al_control_written` at each of ``devices``, with its AL control value and
-        PDI control byte 0x0141 (which the chain reads over the rows)."""
+        """After a frame wrote AL control (0x0120), at each of ``devices``, with its AL control
+        value and PDI control byte 0x0141: with the PDI operational, the AL status follows it
+        in device emulation (0x0141 bit 0), else the application reacts (datasheet I 10.1)."""
         queue = devices[0].firmware_queue if devices else None
         if queue is None or any(dev.firmware_queue is not queue for dev in devices):
             for dev, value, control in zip(devices, values, pdi_control, strict=True):
@@ -1383,98 +1287,8 @@ class EscDevice:
         for what in mine:
             self.react(what)
 
-    def _masked_write(self, lo: int, data: bytes, flags: list[bool]) -> None:
-        """Bytes [lo, lo + len(data)) without side effects but change flags: masked at once."""
-        hi = lo + len(data)
-        mask = int.from_bytes(self._masks[lo:hi], "little")
-        if not mask:
-            return
-        old = int.from_bytes(self.mem[lo:hi], "little")
-        new = (old & ~mask) | (int.from_bytes(data, "little") & mask)
-        self.mem[lo:hi] = new.to_bytes(hi - lo, "little")
-        self._dc_written = mark(lo, hi, flags, self.write_plans.fmmu_end, self._dc_written)
-
-    def _special_write(
-        self, lo: int, hi: int, data: bytes, sm_enabled: bytes, flags: list[bool]
-    ) -> None:
-        """Write ``data`` to [lo, hi), a part of one special register block (cut by
-        :func:`_special_end`).
-
-        Error counters are cleared by any write (datasheet II 2.6), the EEPROM interface obeys
-        ECAT/PDI ownership (I 11.2.2), a SyncManager's configuration bytes 0-4 only change
-        while it is disabled (II 2.14.1).
-        """
-        mem = self.mem
-        if lo < REG_PU_ERRORS:  # one write clears all RX error counters
-            mem[REG_ERROR_COUNTERS:REG_PU_ERRORS] = bytes(REG_PU_ERRORS - REG_ERROR_COUNTERS)
-            return
-        if lo < 0x0314 or lo in (0x0442, 0x0443):
-            mem[lo:hi] = bytes(hi - lo)
-            return
-        if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
-            if lo == REG_EEPROM_CONFIG and data[0] & 0x02:
-                mem[REG_EEPROM_PDI] &= ~0x01  # force ECAT access
-            self._masked_write(lo, data, flags)
-            return
-        if lo < 0x0510:
-            if self._ecat_owns_eeprom():
-                self._masked_write(lo, data, flags)
-                if lo < REG_EEPROM_CONTROL + 2:
-                    flags[1] = True
-            return
-        if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
-            self.dc.write(mem, lo, data)
-            return
-        part = bytearray(data)
-        for y, enabled in enumerate(sm_enabled):
-            if enabled & 1:  # configuration bytes 0-4 keep their value: nothing changes
-                a, b = max(lo, REG_SM + SM_BYTES * y), min(hi, REG_SM + SM_BYTES * y + 5)
-                if a < b:
-                    part[a - lo : b - lo] = mem[a:b]
-        self._masked_write(lo, bytes(part), flags)
-        flags[4] = True
-
     def _ecat_owns_eeprom(self) -> bool:
         return not (self.mem[REG_EEPROM_CONFIG] & 0x01 or self.mem[REG_EEPROM_PDI] & 0x01)
-
-    def eeprom_command(self) -> None:
-        """Execute the command written to 0x0502 bits 8-10 (datasheet I 11.2.3)."""
-        mem = self.mem
-        (control,) = struct.unpack_from("<H", mem, REG_EEPROM_CONTROL)
-        command = (control >> 8) & 0x07
-        status = control & ~(0x0700 | EE_WRITE_ENABLE)  # command and write enable self-clear
-        (word,) = struct.unpack_from("<I", mem, REG_EEPROM_ADDRESS)
-        words = len(self.sii) // 2
-        if command == 0:
-            status &= ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR)  # "000" clears the error bits
-        elif command == EE_CMD_READ:
-            data = eeprom_read(self.sii, word)
-            if data is None:
-                status |= EE_ACK_ERROR  # no EEPROM answers beyond its size
-            else:
-                mem[REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data
-        elif command == EE_CMD_WRITE:
-            if not control & EE_WRITE_ENABLE:
-                status |= EE_WRITE_ENABLE_ERROR
-            elif word >= words:
-                status |= EE_ACK_ERROR
-            else:
-                self.sii[2 * word : 2 * word + 2] = mem[REG_EEPROM_DATA : REG_EEPROM_DATA + 2]
-        elif command == EE_CMD_RELOAD:
-            struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
-            self._load_config_area(first=False)
-            return
-        else:
-            status |= EE_ACK_ERROR  # invalid command
-        struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
-
-    def _rebuild_fmmus(self) -> None:
-        """Cache the active FMMUs (datasheet II 2.13): decoded once per distinct register
-        bytes (:func:`decode_fmmus`), so that a broadcast configuring every ESC alike costs
-        each ESC one lookup."""
-        self.use_fmmus(
-            fmmu_table(bytes(self.mem[REG_FMMU : REG_FMMU + FMMU_BYTES * self.config.fmmus]))
-        )
 
     def use_fmmus(self, decoded: FmmuTable) -> None:
         """The FMMUs follow ``decoded``, their register bytes decoded (:func:`fmmu_table`; the
@@ -1605,24 +1419,10 @@ class EscDevice:
             dev._mailbox_due = True
 
     def _update_dl_status(self) -> None:
-        """DL status 0x0110 from the links and loop settings (datasheet II 2.4.3, Table 2).
-
-        Also caches what the chain asks for every frame: the port 1 forwarding decision and
-        whether the source MAC is marked (both change only with DL control or a link).
-        """
-        self.onward = port1_forwarding((self.mem[REG_DL_CONTROL + 1] >> 2) & 0x03, self.port1_link)
-        self.sets_mac = self.changes_source_mac
-        value = DL_PORT0 | DL_PORTS_2_3_CLOSED
-        if self.pdi_operational:
-            value |= DL_PDI_OPERATIONAL
-        if self.port1_link:
-            value |= DL_PORT1_LINK
-        if self.onward is False:  # the loop is closed (forced, or auto without a link)
-            value |= DL_PORT1_CLOSED
-        old = self.mem[REG_DL_STATUS] | self.mem[REG_DL_STATUS + 1] << 8
-        if value != old:
-            struct.pack_into("<H", self.mem, REG_DL_STATUS, value)
-            self.mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS
+        """DL status 0x0110 from the links and loop settings (:func:`_dl_status`), which also
+        caches what the chain asks for every frame: the port 1 forwarding decision and whether
+        the source MAC is marked (both change only with DL control or a link)."""
+        _dl_status([self], *self._rows)
 
     def set_port1_link(self, link: bool) -> None:
         """The chain connects (or disconnects) a neighbour at port 1."""
@@ -1654,3 +1454,425 @@ class EscDevice:
         if not REG_ERROR_COUNTERS <= register < 0x0314:
             raise TopologyError(f"{register:#06x} is not an ESC error counter")
         self.mem[register] = min(0xFF, self.mem[register] + times)
+
+
+TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows beats one by one
+_Rows = npt.NDArray[np.intp]
+# bytes a row from which write_masked writes a run of whole bytes straight and masks only its ends:
+# that saves passes over the bytes, but takes four more accesses of the rows, dearer for fewer
+_WIDE: Final = 256
+
+
+def commit_together(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    *,
+    alike: bool = True,
+) -> None:
+    """Commit the pending register writes of ``devices`` (one configuration), whose memory is
+    ``memory[rows]``, as each one's :meth:`EscDevice.end_frame` would (before
+    :meth:`EscDevice.finish_frame`): equal lists, or with ``alike`` False lists of writes at the
+    same addresses and lengths whose bytes differ from ESC to ESC (a logical datagram's through
+    FMMUs that map each ESC's own frame bytes onto registers), each write then a row of bytes
+    per ESC."""
+    plans = devices[0].write_plans
+    masks = plans.mask_array
+    first = devices[0].pending
+    datas: list[npt.NDArray[np.uint8]] = []
+    for j, (_, written) in enumerate(first):
+        if alike:
+            datas.append(np.frombuffer(written, np.uint8))
+        else:
+            blob = b"".join([dev.pending[j][1] for dev in devices])
+            datas.append(np.frombuffer(blob, np.uint8).reshape(len(devices), len(written)))
+    pending = [(addr, plans.plan(addr, len(written))) for addr, written in first]
+    for dev in devices:
+        dev.pending.clear()
+    touched = 0
+    for _, (_, touches) in pending:
+        touched |= touches
+    every = consecutive(rows)
+    sm_before = memory[every, REG_SM : plans.sm_end].copy() if touched & TOUCHES_SM else None
+    fmmu_before = (
+        memory[every, REG_FMMU : plans.fmmu_end].copy() if touched & TOUCHES_FMMU else None
+    )
+    enabled = sm_before[:, 6::SM_BYTES] if sm_before is not None else None  # bit 0
+    flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
+    eeprom = np.zeros(len(rows), np.bool_)
+    dc: tuple[int, int] | None = None
+    for (addr, (segments, _)), values in zip(pending, datas, strict=True):
+        for lo, hi, mask, marks in segments:
+            part = values[..., lo - addr : hi - addr]  # one row, or one per ESC
+            if mask < 0:  # a register with side effects
+                write_special(devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom)
+            elif mask:
+                write_masked(memory, every, lo, hi, part, masks[lo:hi])
+                if marks:
+                    dc = mark(lo, hi, flags, plans.fmmu_end, dc)
+    al, _, dl, fmmu, sm = flags
+    # what the writes set off, in this order (datasheet I 3.4), step by step over all the ESCs:
+    # FMMU and SyncManager tables, DL control, DC registers, an EEPROM command, AL control
+    if fmmu and fmmu_before is not None:  # changed FMMU tables
+        changed = (memory[every, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1)
+        _fmmus(devices, memory, rows, np.flatnonzero(changed).tolist(), plans.fmmu_end)
+    if sm and sm_before is not None and enabled is not None:  # changed SyncManager tables
+        changed = (memory[every, REG_SM : plans.sm_end] != sm_before).any(axis=1)
+        _syncmanagers(devices, memory, rows, np.flatnonzero(changed).tolist(), enabled)
+    if dl:
+        _dl_status(devices, memory, rows)
+    if dc is not None:
+        configure_together([dev.dc for dev in devices], memory, rows, *dc)
+    _event_requests(devices, memory, every)
+    if eeprom.any():
+        _eeprom_commands(devices, memory, rows, np.flatnonzero(eeprom))
+    if al:
+        value = memory[every, REG_AL_CONTROL].astype(np.int64)
+        value |= memory[every, REG_AL_CONTROL + 1].astype(np.int64) << 8
+        control = memory[every, REG_PDI_CONTROL + 1].tolist()
+        EscDevice.al_control_together(devices, value.tolist(), control)
+
+
+def consecutive(rows: _Rows) -> _Rows | slice:
+    """``rows`` (ascending, distinct), or the slice of them where they are consecutive: views
+    of the memory instead of copies, assignments without fancy indexing (a few us less each)."""
+    if len(rows) and rows[-1] - rows[0] == len(rows) - 1:
+        return slice(int(rows[0]), int(rows[-1]) + 1)
+    return rows
+
+
+def _eeprom_commands(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: npt.NDArray[np.intp],
+) -> None:
+    """Execute the command written to 0x0502 bits 8-10 at ``devices[i]`` for ``i`` in ``which``
+    (ECAT owns the interface there and wrote 0x0502; datasheet I 11.2.3): the command bits and
+    write enable self-clear, no command clears the error bits, an invalid one sets the
+    acknowledge error; a read, a write or a reload at each ESC, which has its EEPROM."""
+    at = rows[which]
+    control = memory[at, REG_EEPROM_CONTROL].astype(np.int64)
+    control |= memory[at, REG_EEPROM_CONTROL + 1].astype(np.int64) << 8
+    command = (control >> 8) & 0x07
+    status = control & ~(0x0700 | EE_WRITE_ENABLE)
+    nothing = command == 0
+    read, write = command == EE_CMD_READ, command == EE_CMD_WRITE
+    reload = command == EE_CMD_RELOAD
+    status = np.where(nothing, status & ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR), status)
+    status = np.where(nothing | read | write | reload, status, status | EE_ACK_ERROR)
+    if read.any():
+        status[read] = _reads(devices, memory, at[read], which[read].tolist(), status[read])
+    if write.any():
+        status[write] = _writes(
+            devices, memory, at[write], which[write].tolist(), status[write], control[write]
+        )
+    memory[at, REG_EEPROM_CONTROL] = status & 0xFF
+    memory[at, REG_EEPROM_CONTROL + 1] = status >> 8
+    if reload.any():  # configuration area A again; PDI operational follows it (I 11.2.1)
+        again = [devices[i] for i in which[reload].tolist()]
+        load_config_areas(again, memory, at[reload], first=False)
+        _dl_status(again, memory, at[reload])
+        _event_requests(again, memory, at[reload])
+
+
+def _writes(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: list[int],
+    status: npt.NDArray[np.int64],
+    control: npt.NDArray[np.int64],
+) -> npt.NDArray[np.int64]:
+    """The write command at ``devices[i]`` for ``i`` in ``which`` (memory ``rows``, EEPROM
+    control as written ``control``, with the command cleared ``status``): the word at 0x0508
+    into each ESC's EEPROM at the word address 0x0504, with write enable set in the same
+    frame, else the write enable error; beyond the EEPROM the acknowledge error (datasheet I
+    11.2.3). The status is returned."""
+    address = memory[rows, REG_EEPROM_ADDRESS : REG_EEPROM_ADDRESS + 4].copy().view("<u4")
+    data = memory[rows, REG_EEPROM_DATA : REG_EEPROM_DATA + 2]
+    status = status.copy()
+    enabled = (control & EE_WRITE_ENABLE) != 0
+    status[~enabled] |= EE_WRITE_ENABLE_ERROR
+    for k, (i, word) in enumerate(zip(which, address[:, 0].tolist(), strict=True)):
+        sii = devices[i].sii
+        if not enabled[k]:
+            continue
+        if word >= len(sii) // 2:
+            status[k] |= EE_ACK_ERROR
+        else:
+            sii[2 * word : 2 * word + 2] = data[k].tobytes()
+    return status
+
+
+def _reads(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: list[int],
+    status: npt.NDArray[np.int64],
+) -> npt.NDArray[np.int64]:
+    """The read command of :func:`_eeprom_commands` at ``devices[i]`` for ``i`` in
+    ``which`` (memory ``rows``, EEPROM control and status with the command cleared
+    ``status``): 8 bytes from the word address 0x0504 into 0x0508 (a sequential read wraps
+    around the EEPROM's end), or the acknowledge error at an address beyond it (datasheet I
+    11.2.3); each ESC's bytes from its own EEPROM, into the rows at once. The status is
+    returned."""
+    address = memory[rows, REG_EEPROM_ADDRESS : REG_EEPROM_ADDRESS + 4].copy().view("<u4")
+    read: list[bytearray] = []
+    beyond: list[int] = []  # no EEPROM answers beyond its size
+    for k, (i, word) in enumerate(zip(which, address[:, 0].tolist(), strict=True)):
+        got = eeprom_read(devices[i].sii, word)
+        if got is None:
+            beyond.append(k)
+        else:
+            read.append(got)
+    if beyond:
+        status = status.copy()
+        status[beyond] |= EE_ACK_ERROR
+        rows = np.delete(rows, beyond)
+    data = np.frombuffer(b"".join(read), np.uint8).reshape(len(read), 8)
+    memory[rows, REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data
+    return status
+
+
+def load_config_areas(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    *,
+    first: bool,
+) -> None:
+    """Load ESC configuration area A (SII words 0-7, :func:`config_area`) into the registers of
+    ``devices``, whose memory is ``memory[rows]``: at power-on (``first``) and on a reload
+    command (datasheet I 11.1, Table 42; II 0x0502 command 4), over the rows of the ESCs whose
+    words 0-7 are alike. The EEPROM status shows the checksum's verdict, and "PDI operational"
+    (DL status bit 0, access to process RAM, I 11.2.1) follows it, a good load bringing both
+    back and a bad one taking them away; the enhanced link detection bits of 0x0141 and, after
+    the first load, the station alias 0x0012 and DL control bit 0 keep their values."""
+    alike: dict[bytes, list[int]] = {}
+    for k, dev in enumerate(devices):
+        alike.setdefault(bytes(dev.sii[:16]), []).append(k)
+    for head, ks in alike.items():
+        at = rows[ks]
+        status = memory[at, REG_EEPROM_CONTROL].astype(np.int64)
+        status |= memory[at, REG_EEPROM_CONTROL + 1].astype(np.int64) << 8
+        words = config_area(head)
+        if words is None:
+            status |= EE_CHECKSUM_ERROR | EE_NOT_LOADED
+        else:
+            status &= ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
+            kept = memory[at, REG_PDI_CONTROL + 1] & 0xF2  # link detection: first load only
+            for addr, data in config_writes(words):
+                memory[at, addr : addr + len(data)] = np.frombuffer(data, np.uint8)
+            esc_config = (words[0] >> 8) & 0xFF
+            memory[at, REG_PDI_CONTROL + 1] = esc_config if first else kept | (esc_config & ~0xF2)
+            if first:
+                memory[at, REG_ALIAS] = words[4] & 0xFF
+                memory[at, REG_ALIAS + 1] = words[4] >> 8
+                if words[6] & 0x0002:  # A6[1]: default of DL control bit 0 is 0
+                    memory[at, REG_DL_CONTROL] &= 0xFE
+        memory[at, REG_EEPROM_CONTROL] = status & 0xFF
+        memory[at, REG_EEPROM_CONTROL + 1] = status >> 8
+        for k in ks:
+            devices[k].pdi_operational = words is not None
+
+
+def _event_requests(
+    devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows | slice
+) -> None:
+    """Each ESC's event request to the master, 0x0210 under the mask 0x0200 (datasheet I
+    Table 3), into its :attr:`EscDevice.irq` for the IRQ field of every datagram."""
+    events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
+    enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
+    irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
+    for dev, irq in zip(devices, irqs, strict=True):
+        dev.irq = irq
+
+
+def finish_together(
+    devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows
+) -> None:
+    """:meth:`EscDevice.finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
+    :func:`commit_together`: 0x0040 shows no reset under way at every row, and the ESCs with
+    more to finish (:meth:`EscDevice.unfinished`) finish the frame (:meth:`EscDevice.finish_frames`)."""
+    memory[consecutive(rows), REG_RESET_ECAT] = 0
+    EscDevice.finish_frames(EscDevice.unfinished(devices))
+
+
+def _fmmus(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: Sequence[int],
+    end: int,
+) -> None:
+    """The FMMUs of ``devices[i]`` for ``i`` in ``which`` after a frame changed their registers
+    [0x0600, ``end``): each table decoded once per distinct bytes (:func:`fmmu_table`), as
+    the commit does after the writes."""
+    if not which:
+        return
+    width = end - REG_FMMU
+    tables = memory[rows[list(which)], REG_FMMU:end].tobytes()
+    for k, i in enumerate(which):
+        devices[i].use_fmmus(fmmu_table(tables[k * width : (k + 1) * width]))
+
+
+def _syncmanagers(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    which: Sequence[int],
+    enabled: npt.NDArray[np.uint8],
+) -> None:
+    """What a commit does first to the ESCs ``devices[i]`` for ``i`` in
+    ``which`` after a frame changed their SyncManager registers (the rest of it, which an FMMU,
+    DC, EEPROM or AL control write sets off, does not touch the SyncManagers, and follows):
+    their tables decoded and the changes worked out (:func:`sm_table`, :func:`sm_change`) once
+    per distinct table before, table after and activate bytes before the frame (``enabled``, a
+    row each), each change's status registers set over the rows at once, and each ESC's
+    SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers_together`); the
+    mailbox handler runs once the frame has passed. An ESC whose table and activate bytes equal
+    those of the ESC before it (compared over the rows), with the same table before, joins its
+    group without a key of its own."""
+    if not which:
+        return
+    count = enabled.shape[1]
+    width = SM_BYTES * count
+    at = list(which)
+    block = np.concatenate((memory[rows[at], REG_SM : REG_SM + width], enabled[at]), axis=1)
+    differs = np.ones(len(at), np.bool_)
+    differs[1:] = (block[1:] != block[:-1]).any(axis=1)
+    held = [devices[i].sm_areas for i in at]
+    starts = [  # where a run of ESCs with equal bytes and the same table before starts
+        k
+        for k, (new, mine, last) in enumerate(
+            zip(differs.tolist(), held, [None, *held[:-1]], strict=True)
+        )
+        if new or mine is not last
+    ]
+    stride = width + count
+    data = block.tobytes()
+    groups: dict[tuple[int, bytes], list[int]] = {}
+    for k, end in zip(starts, [*starts[1:], len(at)], strict=True):
+        groups.setdefault((id(held[k]), data[k * stride : (k + 1) * stride]), []).extend(at[k:end])
+    for (_, key), members in groups.items():
+        table, before = key[:width], key[width:]
+        areas = devices[members[0]].sm_areas  # the same object at each of them
+        found = sm_table(table)
+        if found[0] != areas:
+            change = sm_change(areas, before, found)
+            if change[0]:
+                memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
+            EscDevice.change_syncmanagers_together([devices[i] for i in members], change, found[0])
+        else:
+            EscDevice.sm_registers_written_together([devices[i] for i in members])
+
+
+# port1_forwarding by DL control bits 10-11 and the port 1 link (False, True): one lookup an ESC
+_FORWARDING: Final = tuple(
+    (port1_forwarding(setting, False), port1_forwarding(setting, True)) for setting in range(4)
+)
+
+
+def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:
+    """DL status 0x0110 at every row (after a write of DL control, a link change, a load of the
+    EEPROM): from the PDI, the enhanced link detection, the port 1 link and the loop setting (datasheet II 2.4.3, Table 2), the
+    DL status event where it changed, and each ESC's forwarding and source MAC marking."""
+    setting = ((memory[rows, REG_DL_CONTROL + 1] >> 2) & 0x03).tolist()
+    marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
+    links = [dev.port1_link for dev in devices]
+    onwards = [_FORWARDING[s][link] for s, link in zip(setting, links, strict=True)]
+    for dev, onward, mac in zip(devices, onwards, marks, strict=True):
+        dev.onward, dev.sets_mac = onward, mac
+    link = np.array(links, np.bool_)
+    pdi = np.array([dev.pdi_operational for dev in devices], np.bool_)
+    closed = np.array([onward is False for onward in onwards], np.bool_)
+    value = np.where(pdi, DL_PDI_OPERATIONAL, 0) | DL_PORT0 | DL_PORTS_2_3_CLOSED
+    # enhanced link detection on at least one port: 0x0141 bit 1 (all) or bits 4-7 (II 0x0110)
+    value |= np.where(memory[rows, REG_PDI_CONTROL + 1] & 0xF2, DL_ENHANCED_LINK, 0)
+    value |= np.where(link, DL_PORT1_LINK, 0) | np.where(closed, DL_PORT1_CLOSED, 0)
+    old = memory[rows, REG_DL_STATUS].astype(np.int64)
+    old |= memory[rows, REG_DL_STATUS + 1].astype(np.int64) << 8
+    differs = value != old
+    changed, new = rows[differs], value[differs]
+    memory[changed, REG_DL_STATUS] = new & 0xFF
+    memory[changed, REG_DL_STATUS + 1] = new >> 8
+    memory[changed, REG_ECAT_EVENT] |= EVENT_DL_STATUS
+
+
+def write_masked(
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows | slice,
+    lo: int,
+    hi: int,
+    data: npt.NDArray[np.uint8],
+    mask: npt.NDArray[np.uint8],
+) -> None:
+    """Bytes [lo, hi) of ``rows`` from ``data`` (one row, or one per row) where ``mask`` has
+    bits: read-only and reserved bits keep their value (datasheet II, column ECAT)."""
+    if hi - lo >= _WIDE and (mask[1:-1] == 0xFF).all():  # whole bytes: only the ends masked
+        memory[rows, lo + 1 : hi - 1] = data[..., 1:-1]
+        for k in (0, hi - lo - 1):
+            if mask[k]:
+                old_k = memory[rows, lo + k]
+                memory[rows, lo + k] = (old_k & ~mask[k]) | (data[..., k] & mask[k])
+        return
+    old = memory[rows, lo:hi]
+    memory[rows, lo:hi] = (old & ~mask) | (data & mask)
+
+
+def write_special(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    lo: int,
+    hi: int,
+    data: npt.NDArray[np.uint8],
+    enabled: npt.NDArray[np.uint8] | None,
+    masks: npt.NDArray[np.uint8],
+    flags: list[bool],
+    eeprom: npt.NDArray[np.bool_],
+) -> None:
+    """A write of ``data`` (one row, or one per row) into [lo, hi) at every row, a part of one
+    register block with side effects (cut by :meth:`WritePlans.plan`): error counters and
+    watchdog counters cleared (II 2.6, 0x0442), the EEPROM interface where ECAT owns it (I 11.2.2),
+    SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
+    and system time compare (:func:`compare_together`)."""
+    if lo < REG_PU_ERRORS:  # one write clears all RX error counters
+        memory[rows, REG_ERROR_COUNTERS:REG_PU_ERRORS] = 0
+        return
+    if lo < 0x0314:  # each other counter is cleared by a write of it
+        memory[rows, lo:hi] = 0
+        return
+    if lo < REG_EEPROM_CONFIG:  # a write of either watchdog counter clears both (II 0x0442)
+        memory[rows, REG_WD_COUNTERS : REG_WD_COUNTERS + 2] = 0
+        return
+    if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
+        if lo == REG_EEPROM_CONFIG:
+            force = np.broadcast_to((data[..., 0] & 0x02) != 0, rows.shape)
+            memory[rows[force], REG_EEPROM_PDI] &= 0xFE  # force ECAT access
+        write_masked(memory, rows, lo, hi, data, masks[lo:hi])
+        return
+    if lo < 0x0510:
+        owner = ((memory[rows, REG_EEPROM_CONFIG] | memory[rows, REG_EEPROM_PDI]) & 0x01) == 0
+        if owner.any():
+            mine = data[owner] if data.ndim > 1 else data
+            write_masked(memory, rows[owner], lo, hi, mine, masks[lo:hi])
+            if lo < REG_EEPROM_CONTROL + 2:
+                eeprom |= owner
+        return
+    if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
+        compare_together(
+            [dev.dc for dev in devices], memory, rows, lo, data if data.ndim > 1 else data.tobytes()
+        )
+        return
+    assert enabled is not None
+    # configuration bytes 0-4 of a SyncManager enabled before the frame keep their value
+    at = np.arange(lo - REG_SM, hi - REG_SM)
+    keep = (enabled[:, at // SM_BYTES] & 0x01).astype(np.bool_) & (at % SM_BYTES < 5)
+    old = memory[rows, lo:hi]
+    new = np.where(keep, old, data)
+    mask = masks[lo:hi]
+    memory[rows, lo:hi] = (old & ~mask) | (new & mask)  # _masked, the bytes before at hand
+    flags[4] = True

@@ -16,6 +16,7 @@ from emulator.esc.dc import REG_DC_END, REG_DC_RECEIVE, dc_write_masks
 
 __all__ = [
     "ADDRESS_SPACE",
+    "DL_ENHANCED_LINK",
     "DL_PDI_OPERATIONAL",
     "DL_PORT0",
     "DL_PORT1_CLOSED",
@@ -59,6 +60,7 @@ __all__ = [
     "REG_SM",
     "REG_STATION",
     "REG_TYPE",
+    "REG_WD_COUNTERS",
     "REG_WD_DIVIDER",
     "REG_WD_PD",
     "REG_WD_PDI",
@@ -104,6 +106,7 @@ REG_WD_DIVIDER: Final = 0x0400
 REG_WD_PDI: Final = 0x0410
 REG_WD_PD: Final = 0x0420
 REG_WD_STATUS: Final = 0x0440
+REG_WD_COUNTERS: Final = 0x0442  # watchdog counters process data, PDI (a write clears both)
 REG_EEPROM_CONFIG: Final = 0x0500
 REG_EEPROM_PDI: Final = 0x0501
 REG_EEPROM_CONTROL: Final = 0x0502
@@ -128,6 +131,7 @@ EE_CMD_RELOAD: Final = 4
 
 # DL status 0x0110 bits (datasheet II 2.4.3, Table 2)
 DL_PDI_OPERATIONAL: Final = 0x0003  # PDI operational, PDI watchdog reloaded
+DL_ENHANCED_LINK: Final = 0x0004  # enhanced link detection activated for at least one port
 DL_PORT0: Final = 0x0010 | 0x0200  # port 0: link, open, communication established
 DL_PORT1_LINK: Final = 0x0020 | 0x0800  # port 1: link, communication established
 DL_PORT1_CLOSED: Final = 0x0400  # port 1 loop closed

@@ -38,58 +38,26 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.esc.commands import LRD, LWR
-from emulator.esc.dc import REG_DC_RECEIVE, compare_together, configure_together
 from emulator.esc.device import (
+    TOGETHER_MIN,
     EscDevice,
-    config_area,
-    config_writes,
-    eeprom_read,
-    port1_forwarding,
+    commit_together,
+    consecutive,
+    finish_together,
+    write_masked,
 )
 from emulator.esc.mapping import (
     LogicalOp,
     LogicalPlan,
     PlainAccess,
-    fmmu_table,
-    sm_change,
-    sm_table,
 )
 from emulator.esc.registers import (
-    DL_PDI_OPERATIONAL,
-    DL_PORT0,
-    DL_PORT1_CLOSED,
-    DL_PORT1_LINK,
-    DL_PORTS_2_3_CLOSED,
-    EE_ACK_ERROR,
-    EE_CHECKSUM_ERROR,
-    EE_CMD_READ,
-    EE_CMD_RELOAD,
-    EE_CMD_WRITE,
-    EE_NOT_LOADED,
-    EE_WRITE_ENABLE,
-    EE_WRITE_ENABLE_ERROR,
-    EVENT_DL_STATUS,
-    REG_AL_CONTROL,
-    REG_DL_CONTROL,
-    REG_DL_STATUS,
-    REG_ECAT_EVENT,
-    REG_ECAT_EVENT_MASK,
-    REG_EEPROM_ADDRESS,
-    REG_EEPROM_CONFIG,
-    REG_EEPROM_CONTROL,
-    REG_EEPROM_DATA,
-    REG_EEPROM_PDI,
-    REG_ERROR_COUNTERS,
-    REG_FMMU,
-    REG_PDI_CONTROL,
-    REG_PU_ERRORS,
     REG_RESET_ECAT,
-    REG_SM,
     REGISTER_END,
-    SM_BYTES,
-    SM_NO_BUFFER,
 )
-from emulator.esc.write_plans import TOUCHES_FMMU, TOUCHES_SM, mark
+
+LOGICAL_TOGETHER_MIN: Final = 8  # ESCs with one plain logical plan from which rows beat one by one
+_Rows = npt.NDArray[np.intp]
 
 __all__ = [
     "LOGICAL_TOGETHER_MIN",
@@ -100,370 +68,6 @@ __all__ = [
     "logical_together",
     "lrd_last_readers",
 ]
-
-TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows beats one by one
-LOGICAL_TOGETHER_MIN: Final = 8  # ESCs with one plain logical plan from which rows beat one by one
-_Rows = npt.NDArray[np.intp]
-# bytes a row from which _masked writes a run of whole bytes straight and masks only its ends:
-# that saves passes over the bytes, but takes four more accesses of the rows, dearer for fewer
-_WIDE: Final = 256
-
-
-def commit_together(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    *,
-    alike: bool = True,
-) -> None:
-    """Commit the pending register writes of ``devices`` (one configuration), whose memory is
-    ``memory[rows]``, as each one's :meth:`EscDevice.end_frame` would (before
-    :meth:`EscDevice.finish_frame`): equal lists, or with ``alike`` False lists of writes at the
-    same addresses and lengths whose bytes differ from ESC to ESC (a logical datagram's through
-    FMMUs that map each ESC's own frame bytes onto registers), each write then a row of bytes
-    per ESC."""
-    plans = devices[0].write_plans
-    masks = plans.mask_array
-    first = devices[0].pending
-    datas: list[npt.NDArray[np.uint8]] = []
-    for j, (_, written) in enumerate(first):
-        if alike:
-            datas.append(np.frombuffer(written, np.uint8))
-        else:
-            blob = b"".join([dev.pending[j][1] for dev in devices])
-            datas.append(np.frombuffer(blob, np.uint8).reshape(len(devices), len(written)))
-    pending = [(addr, plans.plan(addr, len(written))) for addr, written in first]
-    for dev in devices:
-        dev.pending.clear()
-    touched = 0
-    for _, (_, touches) in pending:
-        touched |= touches
-    every = _every(rows)
-    sm_before = memory[every, REG_SM : plans.sm_end].copy() if touched & TOUCHES_SM else None
-    fmmu_before = (
-        memory[every, REG_FMMU : plans.fmmu_end].copy() if touched & TOUCHES_FMMU else None
-    )
-    enabled = sm_before[:, 6::SM_BYTES] if sm_before is not None else None  # bit 0
-    flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
-    eeprom = np.zeros(len(rows), np.bool_)
-    dc: tuple[int, int] | None = None
-    for (addr, (segments, _)), values in zip(pending, datas, strict=True):
-        for lo, hi, mask, marks in segments:
-            part = values[..., lo - addr : hi - addr]  # one row, or one per ESC
-            if mask < 0:  # a register with side effects
-                _special(devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom)
-            elif mask:
-                _masked(memory, every, lo, hi, part, masks[lo:hi])
-                if marks:
-                    dc = mark(lo, hi, flags, plans.fmmu_end, dc)
-    al, _, dl, fmmu, sm = flags
-    # what EscDevice.take_effect then does, in its order, step by step over all the ESCs
-    if fmmu and fmmu_before is not None:  # changed FMMU tables
-        changed = (memory[every, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1)
-        _fmmus(devices, memory, rows, np.flatnonzero(changed).tolist(), plans.fmmu_end)
-    if sm and sm_before is not None and enabled is not None:  # changed SyncManager tables
-        changed = (memory[every, REG_SM : plans.sm_end] != sm_before).any(axis=1)
-        _syncmanagers(devices, memory, rows, np.flatnonzero(changed).tolist(), enabled)
-    if dl:
-        _dl_status(devices, memory, rows)
-    if dc is not None:
-        configure_together([dev.dc for dev in devices], memory, rows, *dc)
-    events = memory[every, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
-    enable = memory[every, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
-    irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
-    for dev, irq in zip(devices, irqs, strict=True):
-        dev.irq = irq  # what EscDevice.update_irq sets
-    if eeprom.any():
-        _eeprom_commands(devices, memory, rows, np.flatnonzero(eeprom))
-    if al:
-        value = memory[every, REG_AL_CONTROL].astype(np.int64)
-        value |= memory[every, REG_AL_CONTROL + 1].astype(np.int64) << 8
-        control = memory[every, REG_PDI_CONTROL + 1].tolist()
-        EscDevice.al_control_together(devices, value.tolist(), control)
-
-
-def _every(rows: _Rows) -> _Rows | slice:
-    """``rows`` (ascending, distinct), or the slice of them where they are consecutive: views
-    of the memory instead of copies, assignments without fancy indexing (a few us less each)."""
-    if len(rows) and rows[-1] - rows[0] == len(rows) - 1:
-        return slice(int(rows[0]), int(rows[-1]) + 1)
-    return rows
-
-
-def _eeprom_commands(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    which: npt.NDArray[np.intp],
-) -> None:
-    """:meth:`EscDevice.eeprom_command` at ``devices[i]`` for ``i`` in ``which`` (ECAT owns
-    the interface there and wrote 0x0502): the command bits and write enable self-clear, no
-    command clears the error bits, an invalid one sets the acknowledge error (datasheet I
-    11.2.3), over the rows; a read, write or reload at each ESC, which has its EEPROM."""
-    at = rows[which]
-    control = memory[at, REG_EEPROM_CONTROL].astype(np.int64)
-    control |= memory[at, REG_EEPROM_CONTROL + 1].astype(np.int64) << 8
-    command = (control >> 8) & 0x07
-    status = control & ~(0x0700 | EE_WRITE_ENABLE)
-    nothing = command == 0
-    each = (command == EE_CMD_READ) | (command == EE_CMD_WRITE) | (command == EE_CMD_RELOAD)
-    status = np.where(nothing, status & ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR), status)
-    status = np.where(nothing | each, status, status | EE_ACK_ERROR)
-    reload, read = command == EE_CMD_RELOAD, command == EE_CMD_READ
-    if read.sum() >= TOGETHER_MIN:
-        status[read] = _reads(devices, memory, at[read], which[read].tolist(), status[read])
-        each &= ~read
-    here = ~each
-    memory[at[here], REG_EEPROM_CONTROL] = status[here] & 0xFF
-    memory[at[here], REG_EEPROM_CONTROL + 1] = status[here] >> 8
-    if reload.sum() >= TOGETHER_MIN:
-        _reloads(devices, memory, at[reload], which[reload].tolist(), status[reload])
-        each &= ~reload
-    for i in which[each].tolist():
-        devices[i].eeprom_command()
-
-
-def _reads(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    which: list[int],
-    status: npt.NDArray[np.int64],
-) -> npt.NDArray[np.int64]:
-    """The read command of :meth:`EscDevice.eeprom_command` at ``devices[i]`` for ``i`` in
-    ``which`` (memory ``rows``, EEPROM control and status with the command cleared
-    ``status``): 8 bytes from the word address 0x0504 into 0x0508 (a sequential read wraps
-    around the EEPROM's end), or the acknowledge error at an address beyond it (datasheet I
-    11.2.3); each ESC's bytes from its own EEPROM, into the rows at once. The status is
-    returned."""
-    address = memory[rows, REG_EEPROM_ADDRESS : REG_EEPROM_ADDRESS + 4].copy().view("<u4")
-    read: list[bytearray] = []
-    beyond: list[int] = []  # no EEPROM answers beyond its size
-    for k, (i, word) in enumerate(zip(which, address[:, 0].tolist(), strict=True)):
-        got = eeprom_read(devices[i].sii, word)
-        if got is None:
-            beyond.append(k)
-        else:
-            read.append(got)
-    if beyond:
-        status = status.copy()
-        status[beyond] |= EE_ACK_ERROR
-        rows = np.delete(rows, beyond)
-    data = np.frombuffer(b"".join(read), np.uint8).reshape(len(read), 8)
-    memory[rows, REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data
-    return status
-
-
-def _reloads(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    which: list[int],
-    status: npt.NDArray[np.int64],
-) -> None:
-    """The reload command of :meth:`EscDevice.eeprom_command` at ``devices[i]`` for ``i`` in
-    ``which`` (memory ``rows``, EEPROM control and status with the command cleared ``status``):
-    configuration area A (SII words 0-7, :func:`config_area`) into the registers, as
-    :meth:`EscDevice._load_config_area` does at a later load (datasheet I 11.1, Table 42), over
-    the rows of the ESCs whose SII has the same words 0-7."""
-    alike: dict[bytes, list[int]] = {}
-    for k, i in enumerate(which):
-        alike.setdefault(bytes(devices[i].sii[:16]), []).append(k)
-    for head, ks in alike.items():
-        at, value = rows[ks], status[ks]
-        words = config_area(head)
-        if words is None:
-            value = value | EE_CHECKSUM_ERROR | EE_NOT_LOADED
-        else:
-            value = value & ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
-            esc_config = memory[at, REG_PDI_CONTROL + 1] & 0xF2  # link detection: first load only
-            for addr, data in config_writes(words):
-                memory[at, addr : addr + len(data)] = np.frombuffer(data, np.uint8)
-            memory[at, REG_PDI_CONTROL + 1] = esc_config | ((words[0] >> 8) & ~0xF2 & 0xFF)
-        memory[at, REG_EEPROM_CONTROL] = value & 0xFF
-        memory[at, REG_EEPROM_CONTROL + 1] = value >> 8
-
-
-def finish_together(
-    devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows
-) -> None:
-    """:meth:`EscDevice.finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
-    :func:`commit_together`: 0x0040 shows no reset under way at every row, and the ESCs with
-    more to finish (:meth:`EscDevice.unfinished`) finish the frame (:meth:`EscDevice.finish_frames`)."""
-    memory[_every(rows), REG_RESET_ECAT] = 0
-    EscDevice.finish_frames(EscDevice.unfinished(devices))
-
-
-def _fmmus(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    which: Sequence[int],
-    end: int,
-) -> None:
-    """The FMMUs of ``devices[i]`` for ``i`` in ``which`` after a frame changed their registers
-    [0x0600, ``end``): each table decoded once per distinct bytes (:func:`fmmu_table`), as
-    :meth:`EscDevice.take_effect` does ESC by ESC."""
-    if not which:
-        return
-    width = end - REG_FMMU
-    tables = memory[rows[list(which)], REG_FMMU:end].tobytes()
-    for k, i in enumerate(which):
-        devices[i].use_fmmus(fmmu_table(tables[k * width : (k + 1) * width]))
-
-
-def _syncmanagers(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    which: Sequence[int],
-    enabled: npt.NDArray[np.uint8],
-) -> None:
-    """What :meth:`EscDevice.take_effect` does first to the ESCs ``devices[i]`` for ``i`` in
-    ``which`` after a frame changed their SyncManager registers (the rest of it, which an FMMU,
-    DC, EEPROM or AL control write sets off, does not touch the SyncManagers, and follows):
-    their tables decoded and the changes worked out (:func:`sm_table`, :func:`sm_change`) once
-    per distinct table before, table after and activate bytes before the frame (``enabled``, a
-    row each), each change's status registers set over the rows at once, and each ESC's
-    SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers_together`); the
-    mailbox handler runs once the frame has passed. An ESC whose table and activate bytes equal
-    those of the ESC before it (compared over the rows), with the same table before, joins its
-    group without a key of its own."""
-    if not which:
-        return
-    count = enabled.shape[1]
-    width = SM_BYTES * count
-    at = list(which)
-    block = np.concatenate((memory[rows[at], REG_SM : REG_SM + width], enabled[at]), axis=1)
-    differs = np.ones(len(at), np.bool_)
-    differs[1:] = (block[1:] != block[:-1]).any(axis=1)
-    held = [devices[i].sm_areas for i in at]
-    starts = [  # where a run of ESCs with equal bytes and the same table before starts
-        k
-        for k, (new, mine, last) in enumerate(
-            zip(differs.tolist(), held, [None, *held[:-1]], strict=True)
-        )
-        if new or mine is not last
-    ]
-    stride = width + count
-    data = block.tobytes()
-    groups: dict[tuple[int, bytes], list[int]] = {}
-    for k, end in zip(starts, [*starts[1:], len(at)], strict=True):
-        groups.setdefault((id(held[k]), data[k * stride : (k + 1) * stride]), []).extend(at[k:end])
-    for (_, key), members in groups.items():
-        table, before = key[:width], key[width:]
-        areas = devices[members[0]].sm_areas  # the same object at each of them
-        found = sm_table(table)
-        if found[0] != areas:
-            change = sm_change(areas, before, found)
-            if change[0]:
-                memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
-            EscDevice.change_syncmanagers_together([devices[i] for i in members], change, found[0])
-        else:
-            EscDevice.sm_registers_written_together([devices[i] for i in members])
-
-
-# port1_forwarding by DL control bits 10-11 and the port 1 link (False, True): one lookup an ESC
-_FORWARDING: Final = tuple(
-    (port1_forwarding(setting, False), port1_forwarding(setting, True)) for setting in range(4)
-)
-
-
-def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:
-    """:meth:`EscDevice._update_dl_status` at every row, after a write of DL control: DL status
-    0x0110 from the PDI, the port 1 link and the loop setting (datasheet II 2.4.3, Table 2), the
-    DL status event where it changed, and each ESC's forwarding and source MAC marking."""
-    setting = ((memory[rows, REG_DL_CONTROL + 1] >> 2) & 0x03).tolist()
-    marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
-    links = [dev.port1_link for dev in devices]
-    onwards = [_FORWARDING[s][link] for s, link in zip(setting, links, strict=True)]
-    for dev, onward, mac in zip(devices, onwards, marks, strict=True):
-        dev.onward, dev.sets_mac = onward, mac
-    link = np.array(links, np.bool_)
-    pdi = np.array([dev.pdi_operational for dev in devices], np.bool_)
-    closed = np.array([onward is False for onward in onwards], np.bool_)
-    value = np.where(pdi, DL_PDI_OPERATIONAL, 0) | DL_PORT0 | DL_PORTS_2_3_CLOSED
-    value |= np.where(link, DL_PORT1_LINK, 0) | np.where(closed, DL_PORT1_CLOSED, 0)
-    old = memory[rows, REG_DL_STATUS].astype(np.int64)
-    old |= memory[rows, REG_DL_STATUS + 1].astype(np.int64) << 8
-    differs = value != old
-    changed, new = rows[differs], value[differs]
-    memory[changed, REG_DL_STATUS] = new & 0xFF
-    memory[changed, REG_DL_STATUS + 1] = new >> 8
-    memory[changed, REG_ECAT_EVENT] |= EVENT_DL_STATUS
-
-
-def _masked(
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows | slice,
-    lo: int,
-    hi: int,
-    data: npt.NDArray[np.uint8],
-    mask: npt.NDArray[np.uint8],
-) -> None:
-    """Bytes [lo, hi) of ``rows`` from ``data`` (one row, or one per row) where ``mask`` has
-    bits: read-only and reserved bits keep their value (datasheet II, column ECAT)."""
-    if hi - lo >= _WIDE and (mask[1:-1] == 0xFF).all():  # whole bytes: only the ends masked
-        memory[rows, lo + 1 : hi - 1] = data[..., 1:-1]
-        for k in (0, hi - lo - 1):
-            if mask[k]:
-                old_k = memory[rows, lo + k]
-                memory[rows, lo + k] = (old_k & ~mask[k]) | (data[..., k] & mask[k])
-        return
-    old = memory[rows, lo:hi]
-    memory[rows, lo:hi] = (old & ~mask) | (data & mask)
-
-
-def _special(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    lo: int,
-    hi: int,
-    data: npt.NDArray[np.uint8],
-    enabled: npt.NDArray[np.uint8] | None,
-    masks: npt.NDArray[np.uint8],
-    flags: list[bool],
-    eeprom: npt.NDArray[np.bool_],
-) -> None:
-    """:meth:`EscDevice._special_write` at every row, of ``data`` (one row, or one per row):
-    error counters cleared (II 2.6), the EEPROM interface where ECAT owns it (I 11.2.2),
-    SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
-    and system time compare (:func:`compare_together`)."""
-    if lo < REG_PU_ERRORS:  # one write clears all RX error counters
-        memory[rows, REG_ERROR_COUNTERS:REG_PU_ERRORS] = 0
-        return
-    if lo < 0x0314 or lo in (0x0442, 0x0443):
-        memory[rows, lo:hi] = 0
-        return
-    if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
-        if lo == REG_EEPROM_CONFIG:
-            force = np.broadcast_to((data[..., 0] & 0x02) != 0, rows.shape)
-            memory[rows[force], REG_EEPROM_PDI] &= 0xFE  # force ECAT access
-        _masked(memory, rows, lo, hi, data, masks[lo:hi])
-        return
-    if lo < 0x0510:
-        owner = ((memory[rows, REG_EEPROM_CONFIG] | memory[rows, REG_EEPROM_PDI]) & 0x01) == 0
-        if owner.any():
-            mine = data[owner] if data.ndim > 1 else data
-            _masked(memory, rows[owner], lo, hi, mine, masks[lo:hi])
-            if lo < REG_EEPROM_CONTROL + 2:
-                eeprom |= owner
-        return
-    if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
-        compare_together(
-            [dev.dc for dev in devices], memory, rows, lo, data if data.ndim > 1 else data.tobytes()
-        )
-        return
-    assert enabled is not None
-    # configuration bytes 0-4 of a SyncManager enabled before the frame keep their value
-    at = np.arange(lo - REG_SM, hi - REG_SM)
-    keep = (enabled[:, at // SM_BYTES] & 0x01).astype(np.bool_) & (at % SM_BYTES < 5)
-    old = memory[rows, lo:hi]
-    new = np.where(keep, old, data)
-    mask = masks[lo:hi]
-    memory[rows, lo:hi] = (old & ~mask) | (new & mask)  # _masked, the bytes before at hand
-    flags[4] = True
 
 
 def logical_together(
@@ -496,7 +100,7 @@ def logical_together(
     """
     reads, writes = plan
     m = len(rows)
-    at = _every(np.asarray(rows, np.intp))
+    at = consecutive(np.asarray(rows, np.intp))
     arrived = np.frombuffer(buf, np.uint8, n, off)[None, :]
     if reads:  # the frame leaves with the last ESC's reads
         out = arrived.copy()
@@ -521,7 +125,7 @@ def logical_together(
         if bytewise:  # physical a, frame offset b, c bytes
             memory[at, a : a + c] = src[:, b : b + c]
         else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
-            _masked(memory, at, a, a + b, _shifted(src[:, e : e + f], -c, b), _mask(d, b))
+            write_masked(memory, at, a, a + b, _shifted(src[:, e : e + f], -c, b), _mask(d, b))
     if reads:
         buf[off : off + n] = out[0].tobytes()
     r, w = int(bool(reads)), int(bool(writes))
@@ -582,7 +186,7 @@ def _read_rows(
         if bytewise:  # physical a, frame offset b, c bytes
             left[:, b : b + c] = memory[rows, a : a + c]
         else:  # physical bytes [a, a + b), shift c, mask d, frame bytes [e, e + f)
-            _masked(
+            write_masked(
                 left, slice(None), e, e + f, _shifted(memory[rows, a : a + b], c, f), _mask(d, f)
             )
 

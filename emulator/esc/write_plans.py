@@ -42,7 +42,7 @@ class WritePlans:
     and whether they touch AL control, DL control, FMMUs or DC registers); the registers with
     side effects (error counters 0x0300-0x0313, 0x0442-0x0443, the EEPROM interface
     0x0500-0x050F byte 0x0500/0x0501 one by one, SyncManagers, DC receive times 0x0900-0x0917)
-    are cut into the parts :meth:`EscDevice._special_write` handles. One plan serves every
+    are cut into the parts :func:`emulator.esc.device.write_special` handles. One plan serves every
     ESC a broadcast reaches.
     """
 
@@ -119,7 +119,7 @@ class WritePlans:
 
     def _special_end(self, lo: int, end: int) -> int:
         """Where the part of a write at ``lo`` (in a special block) that one call of
-        :meth:`EscDevice._special_write` handles ends."""
+        :func:`emulator.esc.device.write_special` handles ends."""
         if lo < REG_PU_ERRORS:  # the RX error counters, cleared together
             return min(end, REG_PU_ERRORS)
         if lo < 0x0314:

@@ -8,6 +8,7 @@ EtherCAT codec (tested on its own against tshark).
 
 from __future__ import annotations
 
+import dataclasses
 import struct
 
 import pytest
@@ -1185,3 +1186,51 @@ def test_dc_debug_pulse_bit_reads_0_and_pulse_length_comes_from_the_eeprom() -> 
     send(chain, Datagram(C.APWR, 0, 0x0981, b"\x81"))
     send(chain, Datagram(C.APWR, 0, 0x0982, u16(5)))
     assert one(chain, Datagram(C.APRD, 0, 0x0981, bytes(3))).data == b"\x01" + u16(1000)
+
+
+def eeprom_word_write(chain: EcatChain, word: int, value: int) -> None:
+    """ECAT writes one EEPROM word: address, data, then write enable and command 2 together
+    (datasheet I 11.2.3, II 0x0502-0x050F)."""
+    send(chain, Datagram(C.APWR, 0, 0x0504, struct.pack("<I", word)))
+    send(chain, Datagram(C.APWR, 0, 0x0508, u16(value)))
+    send(chain, Datagram(C.APWR, 0, 0x0502, u16(0x0201)))
+
+
+def test_eeprom_reload_brings_pdi_operational_back_and_takes_it_away() -> None:
+    # I 11.1/11.2.1: "PDI operational" (DL status bit 0) and access to process RAM follow the
+    # configuration area's checksum at every load, a reload command (II 0x0502 command 4) too
+    chain = bare_chain(1)
+    assert one(chain, Datagram(C.APWR, 0, 0x1800, b"\x5a")).wkc == 1
+    crc = crc8(bytes(chain.devices[0].sii[:14]))  # word 7's low byte (I 11.1)
+    eeprom_word_write(chain, 7, crc ^ 0xFF)  # a wrong checksum
+    send(chain, Datagram(C.APWR, 0, 0x0502, u16(0x0400)))  # reload
+    status = word(one(chain, Datagram(C.APRD, 0, 0x0502, bytes(2))))
+    assert status & 0x1800 == 0x1800  # checksum error, EEPROM not loaded (II 0x0502 bits 11, 12)
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0110, bytes(2)))) & 0x0001 == 0
+    assert one(chain, Datagram(C.APRD, 0, 0x1800, bytes(1))).wkc == 0  # no process RAM
+    eeprom_word_write(chain, 7, crc)
+    send(chain, Datagram(C.APWR, 0, 0x0502, u16(0x0400)))
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0502, bytes(2)))) & 0x1800 == 0
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0110, bytes(2)))) & 0x0001 == 0x0001
+    d = one(chain, Datagram(C.APRD, 0, 0x1800, bytes(1)))
+    assert (d.wkc, d.data) == (1, b"\x5a")  # back, with what it held
+
+
+def test_dl_status_shows_enhanced_link_detection_from_the_eeprom() -> None:
+    # II 0x0110 bit 2: enhanced link detection activated for at least one port, which the ESC
+    # configuration 0x0141 (SII word 0 bits 8-15) sets: bit 1 all ports, bits 4-7 port by port
+    info = dataclasses.replace(SlaveInfo.skin_patch(16, serial=1), esc_configuration=0x02)
+    chain = EcatChain([EscDevice(info, app=NullApp())])
+    assert one(chain, Datagram(C.APRD, 0, 0x0141, bytes(1))).data == b"\x02"
+    # a single (last) ESC: 0x5613 as in test_dl_status_middle_and_last_slave, and bit 2
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0110, bytes(2)))) == 0x5613 | 0x0004
+
+
+def test_a_write_of_either_watchdog_counter_clears_both() -> None:
+    # II 0x0442/0x0443 (watchdog counter process data, PDI): "cleared if one of the watchdog
+    # counters 0x0442-0x0443 is written"; the counters as expirations would have left them
+    chain = bare_chain(1)
+    chain.memory[0, 0x0442:0x0444] = (5, 7)
+    assert one(chain, Datagram(C.APRD, 0, 0x0442, bytes(2))).data == b"\x05\x07"
+    assert one(chain, Datagram(C.APWR, 0, 0x0443, b"\x09")).wkc == 1
+    assert one(chain, Datagram(C.APRD, 0, 0x0442, bytes(2))).data == b"\x00\x00"

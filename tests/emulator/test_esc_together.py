@@ -15,6 +15,7 @@ import numpy as np
 import pytest
 
 from emulator.errors import TopologyError
+from emulator.esc import device as esc_device
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice, _Sm
@@ -374,7 +375,7 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
 ) -> None:
     """A change of an ESC's SyncManager table does what comparing each SyncManager with the
     one the ESC holds does (:func:`rebuild_one_by_one`), whether worked out once and shared
-    (``mapping.sm_change``), at one ESC or over the rows of many (``together._syncmanagers``);
+    (``mapping.sm_change``), at one ESC or over the rows of many (``device._syncmanagers``);
     and register bytes that set no SyncManager (a disabled one's configuration, repeat and
     latch bits) change nothing: the ESC keeps its SyncManagers. Under hostile frames, which
     write SyncManager registers at every ESC, the chain leaves the bytes and SyncManager states
@@ -383,7 +384,7 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     fast, reference = EcatChain.configured(NODES, SIZE), OneByOne.configured(NODES, SIZE)
     references = {id(dev) for dev in reference.devices}
     rebuild, change = EscDevice._rebuild_sms, EscDevice._change_sms
-    written, by_rows = EscDevice.sm_registers_written, together._syncmanagers
+    written, by_rows = EscDevice.sm_registers_written, esc_device._syncmanagers
     change_all = EscDevice.change_syncmanagers_together
     calls = {"written": 0, "changed": 0, "by rows": 0}
 
@@ -410,7 +411,7 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
         calls["by rows"] += len(which)
         by_rows(devices, memory, at, which, *args)
 
-    monkeypatch.setattr(together, "_syncmanagers", rows)
+    monkeypatch.setattr(esc_device, "_syncmanagers", rows)
     monkeypatch.setattr(EscDevice, "_rebuild_sms", either)
     monkeypatch.setattr(EscDevice, "_change_sms", changed)
     monkeypatch.setattr(EscDevice, "change_syncmanagers_together", staticmethod(counted_all))
