@@ -140,7 +140,7 @@ def dc_write_masks(masks: bytearray) -> None:
     """Set the ECAT write masks of the DC registers (datasheet II 2.20-2.22) in ``masks``.
 
     0x0900-0x0917 keep mask 0: writes there are events (latch, compare), handled by
-    :meth:`DcClock.write`, never stored.
+    :func:`compare_together`, never stored.
     """
 
     def put(addr: int, *values: int) -> None:
@@ -214,10 +214,11 @@ def _port_times_ps(p: TimingParams, line_length: int, position: int) -> tuple[in
 
 
 class DcClock:
-    """The DC unit of one ESC; the ESC calls :meth:`refresh` before reads of 0x0900-0x09FF,
-    :meth:`write` for writes of 0x0900-0x0917, and :meth:`configured` after writes of its other
-    registers. ``drift_ppm``: the local oscillator's deviation; ``start_ns``: its value at the
-    host time 0."""
+    """The DC unit of one ESC; the ESC calls :meth:`refresh` before reads of 0x0900-0x09FF; a
+    frame's writes reach its clock at the end of the frame, over the rows of all the ESCs they
+    reach: :func:`compare_together` for 0x0900-0x0917, :func:`configure_together` for the
+    other registers. ``drift_ppm``: the local oscillator's deviation; ``start_ns``: its value at
+    the host time 0."""
 
     __slots__ = (
         "_anchor_host",
@@ -329,84 +330,10 @@ class DcClock:
             if lo <= REG_DC_SYNC1_STATUS < hi:
                 self._sync1_status = 0
 
-    def write(self, mem: Memory, lo: int, data: bytes) -> None:
-        """A write into 0x0900-0x0917: the receive time latch or a system time compare."""
-        hi = lo + len(data)
-        if lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE:
-            self._latch(mem)
-        if lo <= REG_DC_SYSTEM_TIME < hi:  # only "if at least the first byte (0x0910) was
-            a, b = REG_DC_SYSTEM_TIME, min(hi, REG_DC_RECEIVE_PU)  # written" (II 0x0910)
-            current = bytearray(_U64.pack(self.system_time(mem, self._arrival_ns() or 0)))
-            current[a - REG_DC_SYSTEM_TIME : b - REG_DC_SYSTEM_TIME] = data[a - lo : b - lo]
-            self.compare(mem, _U64.unpack(current)[0], wide=b - REG_DC_SYSTEM_TIME > 4)
-
-    def configured(self, mem: Memory, lo: int, hi: int) -> None:
-        """After writes of [lo, hi) in 0x0920-0x09A7 took effect (end of the frame)."""
-        if lo < REG_DC_SPEED_START + 2 and hi > REG_DC_SPEED_START:
-            # a write resets the system time difference 0x092C and the speed counter diff
-            # 0x0932 (datasheet II 0x0930): the loop and its mean start anew
-            self._integral = self._diff_ns = 0.0
-            mem[REG_DC_DIFF : REG_DC_DIFF + 4] = bytes(4)
-            mem[REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = bytes(2)
-            self._set_rate(self._arrival_ns() or 0, 0.0)
-        if lo <= REG_DC_ACTIVATION < hi:
-            self._activate(mem)
-
-    # --- latch and compare --------------------------------------------------------------------
-    def _latch(self, mem: Memory) -> None:
-        t0 = self._arrival_ns(0)
-        t1 = self._arrival_ns(1)
-        assert t0 is not None
-        port0 = self.local_at(t0)
-        _U32.pack_into(mem, REG_DC_RECEIVE, port0 & 0xFFFFFFFF)
-        _U32.pack_into(mem, REG_DC_RECEIVE + 4, 0 if t1 is None else self.local_at(t1) & 0xFFFFFFFF)
-        mem[REG_DC_RECEIVE + 8 : REG_DC_RECEIVE + 16] = bytes(8)
-        _U64.pack_into(mem, REG_DC_RECEIVE_PU, port0)
-
-    def compare(self, mem: Memory, received: int, *, wide: bool = True) -> int:
-        """Compare a received system time with the local copy at this frame's arrival; feed the
-        time control loop; returns the difference (local copy - received - delay, ns)."""
-        host = self._arrival_ns()
-        assert host is not None
-        delay: int = _U32.unpack_from(mem, REG_DC_DELAY)[0]
-        mod = 1 << (64 if wide else 32)
-        diff: int = (self.system_time(mem, host) - received - delay) % mod
-        if diff >= mod // 2:
-            diff -= mod
-        depth = mem[REG_DC_DIFF_FILTER] & 0x0F
-        self._diff_ns += (diff - self._diff_ns) / (1 << depth)
-        mean = round(self._diff_ns)
-        magnitude = min(abs(mean), 0x7FFFFFFF)
-        _U32.pack_into(mem, REG_DC_DIFF, magnitude | (0x80000000 if mean < 0 else 0))
-        self._control(mem, host, diff)
-        return diff
-
-    def _control(self, mem: Memory, host: float, diff: int) -> None:
-        """The PI time control loop (the emulator's law; see the module docstring)."""
-        speed_start = max(1, _U32.unpack_from(mem, REG_DC_SPEED_START)[0] & 0x7FFF)
-        tau_ns = speed_start * PHASE_NS_PER_SPEED_COUNT
-        dt = tau_ns if self._last_compare is None else min(host - self._last_compare, tau_ns)
-        self._last_compare = round(host)
-        self._integral -= diff * dt / (tau_ns * INTEGRAL_FACTOR * tau_ns)
-        self._integral = max(-MAX_CORRECTION, min(MAX_CORRECTION, self._integral))
-        correction = max(-MAX_CORRECTION, min(MAX_CORRECTION, self._integral - diff / tau_ns))
-        self._set_rate(host, correction)
-        units = max(-0x8000, min(0x7FFF, round(correction / SPEED_DIFF_UNIT)))
-        struct.pack_into("<h", mem, REG_DC_SPEED_DIFF, units)
-
     # --- SYNC0 / SYNC1 ------------------------------------------------------------------------
     def sync0_active(self, mem: Memory) -> bool:
         """Cyclic operation and SYNC0 activated (0x0981 bits 0 and 1)."""
         return mem[REG_DC_ACTIVATION] & 0x03 == 0x03
-
-    def _activate(self, mem: Memory) -> None:
-        self._sync0_status = self._sync1_status = 0
-        self._last_pulse = self._sampled_pulse = None
-        self._next_sync1 = None
-        if not self.sync0_active(mem):
-            self._next_sync0 = None
-            return
-        self._next_sync0 = _U64.unpack_from(mem, REG_DC_START_TIME)[0]
 
     def _advance(self, mem: Memory, host_ns: float) -> None:
         """Fire the SYNC0 (and SYNC1) pulses due by ``host_ns``."""
@@ -465,30 +392,31 @@ def compare_together(
     lo: int,
     data: bytes | npt.NDArray[np.uint8],
 ) -> None:
-    """:meth:`DcClock.write` of ``data`` at ``lo`` in every clock, whose ESC's memory is
-    ``memory[rows]`` (a broadcast's, or an ARMW/FRMW's, write at the end of the frame): the same
-    bytes, or a row of bytes per clock (a logical datagram's, each ESC's own frame bytes).
+    """A write of ``data`` at ``lo`` (0x0900-0x0917) at every clock, whose ESC's memory is
+    ``memory[rows]``, at the end of the frame: the same bytes, or a row of bytes per clock (a
+    logical datagram's, each ESC's own frame bytes). A single ESC is a line of one.
 
-    The system time compare (0x0910, what a master's ARMW/FRMW of the reference clock's time
-    sets off) runs over arrays, with float64 operations in the order :meth:`DcClock.compare`
-    and :meth:`DcClock._control` do them on Python numbers, so every clock ends in the same
-    state. Python divides the integer difference by tau exactly and rounds once, numpy
-    rounds the difference to float64 first: the same up to 2^53 ns, and beyond it both
-    quotients exceed 1e7 and the correction is clamped to the same +-500 ppm. The receive time
-    latch (a write of 0x0900, which a master sends to measure propagation delays) is worked out
-    over arrays too (:meth:`DcClock._latch`). Where the clocks do not share one timebase, they
-    write one by one. (Each clock's state is read attribute by attribute, the latch written as
-    one block, and ``min(max())`` clamps: on the compares of three hostile frames at 157-160
-    clocks, 0.87 of the time reading whole states with ``np.clip`` took.)
+    A write of 0x0900 latches the local times at which the frame passed port 0 and came back to
+    port 1 (0x0900, 0x0904; 0x0918 the 64-bit port 0 time); a write including 0x0910 (a
+    master's ARMW/FRMW of the reference clock's time) compares the written value plus the
+    system time delay with the local copy at the frame's arrival, modulo 2^64 (2^32 when only
+    0x0910-0x0913 are written), filters the difference into 0x092C and feeds the PI loop
+    (module docstring), whose correction 0x0932 shows. In float64 over arrays: the difference
+    is rounded to float64 first, exact up to 2^53 ns; beyond it the correction is clamped to
+    +-500 ppm anyway. Clocks of different lines go line by line. (Each clock's state is read
+    attribute by attribute, the latch written as one block, and ``min(max())`` clamps: on the
+    compares of three hostile frames at 157-160 clocks, 0.87 of the time reading whole states
+    with ``np.clip`` took.) tests/dc_oracle.py holds the clock-by-clock model these
+    arrays once were, as a test oracle.
     """
     hi = lo + (len(data) if isinstance(data, bytes) else data.shape[1])
     if not clocks:
         return
     timebase = clocks[0].timebase  # equal timebases give the same times
     if not all(c.timebase is timebase or c.timebase == timebase for c in clocks):
-        for k, (clock, row) in enumerate(zip(clocks, rows.tolist(), strict=True)):
-            mine = data if isinstance(data, bytes) else data[k].tobytes()
-            clock.write(memoryview(memory[row]), lo, mine)
+        for group in _by_timebase(clocks):  # (clocks of several lines: each line's own times)
+            part = data if isinstance(data, bytes) else data[group]
+            compare_together([clocks[k] for k in group], memory, rows[group], lo, part)
         return
     latch = lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE
     compare = lo <= REG_DC_SYSTEM_TIME < hi  # a compare needs 0x0910 itself (II 0x0910)
@@ -503,7 +431,7 @@ def compare_together(
     )
     host = timebase.frame_ns + timebase.port0_times_ps(positions) / 1000  # _arrival_ns
     local = _local_at(host, *anchors)
-    if latch:  # DcClock._latch: the local times the frame passed port 0 and came back to 1
+    if latch:  # the local times the frame passed port 0 and came back to port 1
         back_ps, back = timebase.port1_times_ps(positions)
         port1 = np.where(back, _local_at(timebase.frame_ns + back_ps / 1000, *anchors), 0)
         latched = np.zeros((count, 4), "<u4")  # 0x0900, 0x0904, ports 2 and 3: 0
@@ -523,7 +451,7 @@ def compare_together(
         else data[:, a - lo : b - lo]
     )
     raw = system - received.view("<u8").ravel() - _u32(memory, rows, REG_DC_DELAY)
-    if b - REG_DC_SYSTEM_TIME > 4:  # DcClock.compare: the difference modulo 2^64 or 2^32
+    if b - REG_DC_SYSTEM_TIME > 4:  # the difference modulo 2^64 or 2^32
         diff = raw.view(np.int64)
     else:
         diff = (raw & 0xFFFFFFFF).astype(np.int64)
@@ -536,7 +464,7 @@ def compare_together(
     magnitude = np.minimum(np.abs(mean), 0x7FFFFFFF).astype(np.uint32)
     magnitude[mean < 0] |= 0x80000000
     _put(memory, rows, REG_DC_DIFF, magnitude)
-    # DcClock._control: dt is the time since the last compare, as a float, unless that is no
+    # the loop: dt is the time since the last compare, as a float, unless that is no
     # compare or more than tau: then tau, an int, and diff * tau / (4 tau^2) is diff / (4 tau)
     # rounded once (Python's int division), as float64 divides two exact operands
     speed = memory[rows, REG_DC_SPEED_START : REG_DC_SPEED_START + 2].copy().view("<u2")
@@ -577,20 +505,20 @@ def configure_together(
     lo: int,
     hi: int,
 ) -> None:
-    """:meth:`DcClock.configured` of every clock, whose ESC's memory is ``memory[rows]``, after
-    writes of [lo, hi) took effect at the end of a frame (a broadcast's, or a logical
-    datagram's through FMMUs): a write of the speed counter start resets each loop and sets
-    its rate anew at the frame's arrival (over arrays, as :func:`compare_together` does), a
-    write of the activation register (de)activates SYNC0 from each one's start time. Where the
-    clocks do not share one timebase, they go one by one."""
+    """What writes of [lo, hi) (0x0920-0x09A7) do at every clock, whose ESC's memory is
+    ``memory[rows]``, once they took effect at the end of a frame: a write of the speed counter
+    start 0x0930 resets the loop, 0x092C and 0x0932 and sets the rate anew at the frame's
+    arrival (datasheet II 0x0930); a write of the activation register 0x0981 (de)activates
+    SYNC0 from the start time 0x0990, clearing the pulse states. A single ESC is a line of
+    one; clocks of different lines go line by line."""
     speed = lo < REG_DC_SPEED_START + 2 and hi > REG_DC_SPEED_START
     activation = lo <= REG_DC_ACTIVATION < hi
     if not (speed or activation) or not clocks:
         return
     timebase = clocks[0].timebase
     if any(clock.timebase is not timebase for clock in clocks):
-        for clock, row in zip(clocks, rows.tolist(), strict=True):
-            clock.configured(memoryview(memory[row]), lo, hi)
+        for group in _by_timebase(clocks):  # (clocks of several lines: each line's own times)
+            configure_together([clocks[k] for k in group], memory, rows[group], lo, hi)
         return
     if speed:  # DcClock._set_rate(arrival, 0.0) with the loop and its mean reset
         memory[rows, REG_DC_DIFF : REG_DC_DIFF + 4] = 0
@@ -610,13 +538,26 @@ def configure_together(
             clock._integral = clock._diff_ns = 0.0
             clock._anchor_local, clock._anchor_host = at_local, at_host
             clock._rate = 1.0 + clock.drift_ppm * 1e-6  # (times 1 + a correction of 0)
-    if activation:  # DcClock._activate
+    if activation:  # SYNC0 from the start time, or off; no pulse yet
         active = ((memory[rows, REG_DC_ACTIVATION] & 0x03) == 0x03).tolist()
         starts = _u64(memory, rows, REG_DC_START_TIME).tolist()
         for clock, on, start in zip(clocks, active, starts, strict=True):
             clock._sync0_status = clock._sync1_status = 0
             clock._last_pulse = clock._sampled_pulse = clock._next_sync1 = None
             clock._next_sync0 = start if on else None
+
+
+def _by_timebase(clocks: Sequence[DcClock]) -> list[list[int]]:
+    """The indices of ``clocks`` grouped by their timebase (equal ones together)."""
+    groups: list[tuple[DcTimebase, list[int]]] = []
+    for k, clock in enumerate(clocks):
+        for timebase, members in groups:
+            if clock.timebase is timebase or clock.timebase == timebase:
+                members.append(k)
+                break
+        else:
+            groups.append((clock.timebase, [k]))
+    return [members for _, members in groups]
 
 
 def _local_at(

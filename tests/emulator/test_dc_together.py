@@ -1,5 +1,5 @@
 """The system time compare over arrays (:func:`emulator.esc.dc.compare_together`) leaves every
-clock and its registers as :meth:`DcClock.write` does clock by clock: the same bytes, the same
+clock and its registers as the clock-by-clock oracle (tests/dc_oracle.py) does: the same bytes, the same
 floats and ints, the same types, over random clock states, partial and 32-bit writes,
 differences beyond float64's exact integers (2^53 ns, where the arrays round the difference
 and Python does not), first compares and long gaps; and the receive time latch (0x0900) alone
@@ -11,6 +11,7 @@ import copy
 import random
 import struct
 
+import dc_oracle
 import numpy as np
 import pytest
 
@@ -85,7 +86,7 @@ def test_compare_together_equals_clock_by_clock(seed: int) -> None:
         data = (before + written(rng, clocks, memory))[:n]
         together = rng.sample(range(CLOCKS), rng.randint(1, CLOCKS))  # a group of the line
         for p in together:
-            ones[p].write(memoryview(mem_ones[p]), lo, data)
+            dc_oracle.write(ones[p], memoryview(mem_ones[p]), lo, data)
         compare_together([clocks[p] for p in together], memory, rows[together], lo, data)
         assert state(clocks, memory) == state(ones, mem_ones), (seed, step, hex(lo), n)
         # the next frame: the same instant, a cycle later, exactly the first clock's tau later
@@ -106,10 +107,10 @@ CONFIGURED = (  # [lo, hi) of register writes that took effect: speed start, act
 @pytest.mark.parametrize("seed", range(4))
 def test_configure_together_equals_clock_by_clock(seed: int) -> None:
     """:func:`configure_together` leaves every clock and its registers as
-    :meth:`DcClock.configured` does clock by clock: after writes of the speed counter start, of
+    :func:`dc_oracle.configured` does clock by clock: after writes of the speed counter start, of
     the activation register (SYNC0 on or off, from random start times) or of both, at random
     groups of the line, with compares and time passing in between; and clocks on different
-    timebases go one by one."""
+    timebases go line by line."""
     rng = random.Random(seed)
     clocks, memory = line(rng)
     rows = np.arange(CLOCKS, dtype=np.intp)
@@ -123,7 +124,7 @@ def test_configure_together_equals_clock_by_clock(seed: int) -> None:
         lo, hi = rng.choice(CONFIGURED)
         together = rng.sample(range(CLOCKS), rng.randint(1, CLOCKS))
         for p in together:
-            ones[p].configured(memoryview(mem_ones[p]), lo, hi)
+            dc_oracle.configured(ones[p], memoryview(mem_ones[p]), lo, hi)
         configure_together([clocks[p] for p in together], memory, rows[together], lo, hi)
         assert state(clocks, memory) == state(ones, mem_ones), (seed, step, hex(lo), hex(hi))
         compare_together(clocks, memory, rows, 0x0910, written(rng, clocks, memory))
@@ -135,6 +136,6 @@ def test_configure_together_equals_clock_by_clock(seed: int) -> None:
         mine.retune(10.0, 1 << 30)
     mem_ones = memory[:3].copy()
     for p, mine in enumerate(ones):
-        mine.configured(memoryview(mem_ones[p]), 0x0930, 0x0982)
+        dc_oracle.configured(mine, memoryview(mem_ones[p]), 0x0930, 0x0982)
     configure_together(apart, memory, rows[:3], 0x0930, 0x0982)
     assert state(apart, memory[:3]) == state(ones, mem_ones)
