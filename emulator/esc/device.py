@@ -789,11 +789,11 @@ class EscDevice:
         if lo == sm.start:
             if sm.mailbox and not sm.full:
                 return  # "read w. failure (mailbox empty)"
+            sm = self._own(sm)  # before the application writes it (a sample at SYNC0)
             if not sm.mailbox and self.dc_sampling:
                 pulse = self.dc.sample_due(self.mem)
                 if pulse is not None:  # a SYNC0 pulse since the last sample (dc.py)
                     self.app.sync0(self, pulse)  # type: ignore[attr-defined]
-            sm = self._own(sm)
             sm.open = True
             sm.buf = (
                 sm.latest

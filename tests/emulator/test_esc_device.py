@@ -18,7 +18,7 @@ from hypothesis import strategies as st
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
 from emulator.esc.hostile import hostile_frames, master_reset_frames
-from emulator.esc.sii import SlaveInfo, build_sii, crc8
+from emulator.esc.sii import SlaveInfo, SyncManagerType, build_sii, crc8
 from emulator.esc.state_machine import AlStatusCode, SkinPatchApplication
 from skinframes import ethercat, taxel
 from skinframes.errors import DecodeError
@@ -1234,3 +1234,28 @@ def test_a_write_of_either_watchdog_counter_clears_both() -> None:
     assert one(chain, Datagram(C.APRD, 0, 0x0442, bytes(2))).data == b"\x05\x07"
     assert one(chain, Datagram(C.APWR, 0, 0x0443, b"\x09")).wkc == 1
     assert one(chain, Datagram(C.APRD, 0, 0x0442, bytes(2))).data == b"\x00\x00"
+
+
+def test_a_buffer_started_anew_is_sampled_at_sync0_when_ecat_opens_it() -> None:
+    # A hostile frame found this (tests/hostile_any.py, BRW of an input buffer): the input
+    # SyncManager disabled and enabled again starts anew (II 2.14, 0x0806 bit 0) with no buffer;
+    # with SYNC0 active, ECAT opening it lets the patch sample at the pulse (dc.py) and the
+    # read returns that sample, in a configured chain as SOEM's dc_sync leaves it.
+    chain = EcatChain.configured(2, 4)
+    now = [0]
+    chain.clock_ns = lambda: now[0]
+    for dev in chain.devices:
+        dev.dc.retune(0.0, 0)
+    send(chain, Datagram(C.BWR, 0, 0x0990, struct.pack("<Q", 1_000_000)))
+    send(chain, Datagram(C.BWR, 0, 0x09A0, struct.pack("<I", 1_000_000)))
+    send(chain, Datagram(C.BWR, 0, 0x0981, b"\x03"))
+    y = chain.devices[0].info.sm_of_type(SyncManagerType.INPUTS)
+    assert y is not None
+    start = chain.devices[0].sm_registers(y)[0]
+    for value in (b"\x00", b"\x01"):  # SM disabled, enabled: a new buffer at every ESC
+        send(chain, Datagram(C.BWR, 0, 0x0800 + 8 * y + 6, value))
+    chain.publish([b"\x0a" * 4, b"\x0b" * 4])
+    now[0] = 1_500_000  # the first pulse fired
+    d = one(chain, Datagram(C.BRW, 0, start, bytes(4)))
+    assert (d.data, d.wkc) == (b"\x0b" * 4, 2)  # BRW: both read (OR), neither may write (ECAT
+    # reads this buffer, II 2.14); the OR of 0x0a and 0x0b is 0x0b
