@@ -142,3 +142,87 @@ def test_python_m_skinframes_runs_the_cli() -> None:
             check=True,
         )
         assert out.stdout.startswith("usage: skinframes ")
+
+
+def import_graph(package: str) -> dict[str, set[str]]:
+    """Module -> the modules of ``package`` it imports, every import statement counted (module
+    level, inside functions, under ``TYPE_CHECKING``); ``from p import m`` of a module ``m``
+    counts as importing ``p.m``. A module's own packages are left out: Python imports them
+    before the module, whatever it says."""
+    modules = dict(modules_of(package))
+    graph: dict[str, set[str]] = {}
+    for module, path in modules.items():
+        found: set[str] = set()
+        for node in ast.walk(ast.parse(path.read_text(), str(path))):
+            names: list[str] = []
+            if isinstance(node, ast.Import):
+                names = [alias.name for alias in node.names]
+            elif isinstance(node, ast.ImportFrom):
+                base = dict((line, name) for line, name in imported_names(path, module))[
+                    node.lineno
+                ]
+                names = [base, *(f"{base}.{alias.name}" for alias in node.names)]
+            found |= {
+                name
+                for name in names
+                if name in modules and name != module and not module.startswith(f"{name}.")
+            }
+        graph[module] = found
+    return graph
+
+
+def cycles(graph: dict[str, set[str]]) -> list[list[str]]:
+    """Every import loop of ``graph`` found by a depth-first walk, each once (by its members)."""
+    out: list[list[str]] = []
+    seen: set[frozenset[str]] = set()
+
+    def walk(path: list[str]) -> None:
+        for nxt in sorted(graph[path[-1]]):
+            if nxt in path:
+                loop = path[path.index(nxt) :]
+                if frozenset(loop) not in seen:
+                    seen.add(frozenset(loop))
+                    out.append([*loop, nxt])
+            elif len(path) < 12:
+                walk([*path, nxt])
+
+    for module in sorted(graph):
+        walk([module])
+    return out
+
+
+def test_no_import_loop_in_emulator() -> None:
+    """Issue "One ESC": no module of ``emulator`` imports, however indirectly, a module that
+    imports it, counting imports under ``TYPE_CHECKING`` (the firmware types against the PDI,
+    emulator/esc/pdi.py, not against the ESC)."""
+    graph = import_graph("emulator")
+    assert "emulator.esc.device" in graph and graph["emulator.esc.device"]
+    found = cycles(graph)
+    assert not found, "\n".join(" -> ".join(loop) for loop in found)
+
+
+def test_the_loop_finder_finds_loops() -> None:
+    assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c", "a"]]
+    assert cycles({"a": {"b"}, "b": set()}) == []
+
+
+def test_registers_with_side_effects_are_written_in_one_module() -> None:
+    """Issue "One ESC": the end addresses of the error counters (0x0314), the watchdog counters
+    (0x0442, their start) and the EEPROM interface (0x0510), and the DC speed counter start
+    0x0930, each appear as a number in at most one module of emulator/esc."""
+    import io
+    import tokenize
+
+    where: dict[int, set[str]] = {0x0314: set(), 0x0442: set(), 0x0510: set(), 0x0930: set()}
+    for path in sorted((ROOT / "emulator" / "esc").glob("*.py")):
+        tokens = tokenize.generate_tokens(io.StringIO(path.read_text()).readline)
+        for token in tokens:
+            if token.type != tokenize.NUMBER:
+                continue
+            try:
+                value = int(token.string.replace("_", ""), 0)
+            except ValueError:  # a float or complex literal
+                continue
+            if value in where:
+                where[value].add(path.name)
+    assert all(len(files) == 1 for files in where.values()), where

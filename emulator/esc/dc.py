@@ -51,16 +51,39 @@ import random
 import struct
 from collections.abc import Sequence
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING, Final
+from typing import Final
 
 import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.esc.registers import (  # the DC unit's registers, re-exported here
+    REG_DC_ACTIVATION,
+    REG_DC_ACTIVATION_STATUS,
+    REG_DC_CYCLIC_CONTROL,
+    REG_DC_DELAY,
+    REG_DC_DIFF,
+    REG_DC_DIFF_FILTER,
+    REG_DC_END,
+    REG_DC_NEXT_SYNC1,
+    REG_DC_OFFSET,
+    REG_DC_PULSE_LENGTH,
+    REG_DC_RECEIVE,
+    REG_DC_RECEIVE_PU,
+    REG_DC_SPEED_DIFF,
+    REG_DC_SPEED_FILTER,
+    REG_DC_SPEED_START,
+    REG_DC_START_TIME,
+    REG_DC_SYNC0_CYCLE,
+    REG_DC_SYNC0_STATUS,
+    REG_DC_SYNC1_CYCLE,
+    REG_DC_SYNC1_STATUS,
+    REG_DC_SYSTEM_TIME,
+    REG_SAMPLE_TIME,
+    Memory,
+    dc_write_masks,
+)
 from emulator.model.params import WIRE, TimingParams
-
-if TYPE_CHECKING:  # registers.py imports this module
-    from emulator.esc.registers import Memory
 
 __all__ = [
     "DC_FEATURES",
@@ -98,29 +121,6 @@ __all__ = [
 
 DC_FEATURES: Final = 0x000C  # ESC features 0x0008: bit 2 DC available, bit 3 DC width 64 bit
 
-REG_DC_RECEIVE: Final = 0x0900  # receive time ports 0-3, 4 x 32 bit
-REG_DC_SYSTEM_TIME: Final = 0x0910  # 64 bit
-REG_DC_RECEIVE_PU: Final = 0x0918  # receive time ECAT processing unit, 64 bit
-REG_DC_OFFSET: Final = 0x0920  # system time offset, 64 bit
-REG_DC_DELAY: Final = 0x0928  # system time delay, 32 bit
-REG_DC_DIFF: Final = 0x092C  # system time difference, sign + magnitude
-REG_DC_SPEED_START: Final = 0x0930  # speed counter start, 15 bit
-REG_DC_SPEED_DIFF: Final = 0x0932  # speed counter diff, signed 16 bit
-REG_DC_DIFF_FILTER: Final = 0x0934  # system time difference filter depth, bits 0-3
-REG_DC_SPEED_FILTER: Final = 0x0935  # speed counter filter depth, bits 0-3
-REG_DC_CYCLIC_CONTROL: Final = 0x0980
-REG_DC_ACTIVATION: Final = 0x0981
-REG_DC_PULSE_LENGTH: Final = 0x0982
-REG_DC_ACTIVATION_STATUS: Final = 0x0984
-REG_DC_SYNC0_STATUS: Final = 0x098E
-REG_DC_SYNC1_STATUS: Final = 0x098F
-REG_DC_START_TIME: Final = 0x0990  # write: start time; read: next SYNC0 pulse (system time)
-REG_DC_NEXT_SYNC1: Final = 0x0998
-REG_DC_SYNC0_CYCLE: Final = 0x09A0
-REG_DC_SYNC1_CYCLE: Final = 0x09A4
-REG_DC_END: Final = 0x0A00
-REG_SAMPLE_TIME: Final = 0x0F80  # user RAM: system time of the sample's SYNC0 pulse (emulator)
-
 # reset values (datasheet II 2.20): speed counter start 0x1000, filter depths 4 and 12
 SPEED_START_RESET: Final = 0x1000
 DIFF_FILTER_RESET: Final = 0x04
@@ -134,26 +134,6 @@ SPEED_DIFF_UNIT: Final = 1e-7  # 0x0932 in 0.1 ppm
 MASK64: Final = (1 << 64) - 1
 _U64 = struct.Struct("<Q")
 _U32 = struct.Struct("<I")
-
-
-def dc_write_masks(masks: bytearray) -> None:
-    """Set the ECAT write masks of the DC registers (datasheet II 2.20-2.22) in ``masks``.
-
-    0x0900-0x0917 keep mask 0: writes there are events (latch, compare), handled by
-    :func:`compare_together`, never stored.
-    """
-
-    def put(addr: int, *values: int) -> None:
-        masks[addr : addr + len(values)] = bytes(values)
-
-    put(REG_DC_OFFSET, *(0xFF,) * 8)
-    put(REG_DC_DELAY, *(0xFF,) * 4)
-    put(REG_DC_SPEED_START, 0xFF, 0x7F)
-    put(REG_DC_DIFF_FILTER, 0x0F, 0x0F)
-    # SYNC out / latch unit control; activation, whose bit 7 (debug pulse) self-clears: reads 0
-    put(REG_DC_CYCLIC_CONTROL, 0x31, 0x7F)
-    put(REG_DC_START_TIME, *(0xFF,) * 8)
-    put(REG_DC_SYNC0_CYCLE, *(0xFF,) * 8)
 
 
 @dataclass

@@ -61,9 +61,7 @@ from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, 
 from emulator.esc.dc import (
     REG_DC_ACTIVATION,
     REG_DC_PULSE_LENGTH,
-    REG_DC_RECEIVE,
     DcClock,
-    compare_together,
     configure_together,
 )
 from emulator.esc.mapping import (
@@ -118,7 +116,6 @@ from emulator.esc.registers import (
     REG_EEPROM_CONTROL,
     REG_EEPROM_DATA,
     REG_EEPROM_PDI,
-    REG_ERROR_COUNTERS,
     REG_FMMU,
     REG_PDI_CONTROL,
     REG_PU_ERRORS,
@@ -127,7 +124,6 @@ from emulator.esc.registers import (
     REG_SM,
     REG_STATION,
     REG_TYPE,
-    REG_WD_COUNTERS,
     REG_WD_DIVIDER,
     REG_WD_PD,
     REG_WD_PDI,
@@ -147,7 +143,15 @@ from emulator.esc.registers import (
 )
 from emulator.esc.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
 from emulator.esc.state_machine import PdiApplication, SkinPatchApplication
-from emulator.esc.write_plans import TOUCHES_FMMU, TOUCHES_SM, WritePlans, mark
+from emulator.esc.write_plans import (
+    ERROR_COUNTERS,
+    TOUCHES_FMMU,
+    TOUCHES_SM,
+    WritePlans,
+    mark,
+    write_masked,
+    write_special,
+)
 
 __all__ = [
     "ADDRESS_SPACE",
@@ -1451,16 +1455,13 @@ class EscDevice:
         """An 8-bit error counter in 0x0300-0x0313 counts ``times`` (saturating at 0xFF):
         invalid frames 0x0300 + 2 x port, forwarded errors 0x0308 + port, lost links
         0x0310 + port (datasheet II 2.6)."""
-        if not REG_ERROR_COUNTERS <= register < 0x0314:
+        if not ERROR_COUNTERS[0] <= register < ERROR_COUNTERS[1]:
             raise TopologyError(f"{register:#06x} is not an ESC error counter")
         self.mem[register] = min(0xFF, self.mem[register] + times)
 
 
 TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows beats one by one
 _Rows = npt.NDArray[np.intp]
-# bytes a row from which write_masked writes a run of whole bytes straight and masks only its ends:
-# that saves passes over the bytes, but takes four more accesses of the rows, dearer for fewer
-_WIDE: Final = 256
 
 
 def commit_together(
@@ -1799,80 +1800,3 @@ def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows
     memory[changed, REG_DL_STATUS] = new & 0xFF
     memory[changed, REG_DL_STATUS + 1] = new >> 8
     memory[changed, REG_ECAT_EVENT] |= EVENT_DL_STATUS
-
-
-def write_masked(
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows | slice,
-    lo: int,
-    hi: int,
-    data: npt.NDArray[np.uint8],
-    mask: npt.NDArray[np.uint8],
-) -> None:
-    """Bytes [lo, hi) of ``rows`` from ``data`` (one row, or one per row) where ``mask`` has
-    bits: read-only and reserved bits keep their value (datasheet II, column ECAT)."""
-    if hi - lo >= _WIDE and (mask[1:-1] == 0xFF).all():  # whole bytes: only the ends masked
-        memory[rows, lo + 1 : hi - 1] = data[..., 1:-1]
-        for k in (0, hi - lo - 1):
-            if mask[k]:
-                old_k = memory[rows, lo + k]
-                memory[rows, lo + k] = (old_k & ~mask[k]) | (data[..., k] & mask[k])
-        return
-    old = memory[rows, lo:hi]
-    memory[rows, lo:hi] = (old & ~mask) | (data & mask)
-
-
-def write_special(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    lo: int,
-    hi: int,
-    data: npt.NDArray[np.uint8],
-    enabled: npt.NDArray[np.uint8] | None,
-    masks: npt.NDArray[np.uint8],
-    flags: list[bool],
-    eeprom: npt.NDArray[np.bool_],
-) -> None:
-    """A write of ``data`` (one row, or one per row) into [lo, hi) at every row, a part of one
-    register block with side effects (cut by :meth:`WritePlans.plan`): error counters and
-    watchdog counters cleared (II 2.6, 0x0442), the EEPROM interface where ECAT owns it (I 11.2.2),
-    SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
-    and system time compare (:func:`compare_together`)."""
-    if lo < REG_PU_ERRORS:  # one write clears all RX error counters
-        memory[rows, REG_ERROR_COUNTERS:REG_PU_ERRORS] = 0
-        return
-    if lo < 0x0314:  # each other counter is cleared by a write of it
-        memory[rows, lo:hi] = 0
-        return
-    if lo < REG_EEPROM_CONFIG:  # a write of either watchdog counter clears both (II 0x0442)
-        memory[rows, REG_WD_COUNTERS : REG_WD_COUNTERS + 2] = 0
-        return
-    if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
-        if lo == REG_EEPROM_CONFIG:
-            force = np.broadcast_to((data[..., 0] & 0x02) != 0, rows.shape)
-            memory[rows[force], REG_EEPROM_PDI] &= 0xFE  # force ECAT access
-        write_masked(memory, rows, lo, hi, data, masks[lo:hi])
-        return
-    if lo < 0x0510:
-        owner = ((memory[rows, REG_EEPROM_CONFIG] | memory[rows, REG_EEPROM_PDI]) & 0x01) == 0
-        if owner.any():
-            mine = data[owner] if data.ndim > 1 else data
-            write_masked(memory, rows[owner], lo, hi, mine, masks[lo:hi])
-            if lo < REG_EEPROM_CONTROL + 2:
-                eeprom |= owner
-        return
-    if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
-        compare_together(
-            [dev.dc for dev in devices], memory, rows, lo, data if data.ndim > 1 else data.tobytes()
-        )
-        return
-    assert enabled is not None
-    # configuration bytes 0-4 of a SyncManager enabled before the frame keep their value
-    at = np.arange(lo - REG_SM, hi - REG_SM)
-    keep = (enabled[:, at // SM_BYTES] & 0x01).astype(np.bool_) & (at % SM_BYTES < 5)
-    old = memory[rows, lo:hi]
-    new = np.where(keep, old, data)
-    mask = masks[lo:hi]
-    memory[rows, lo:hi] = (old & ~mask) | (new & mask)  # _masked, the bytes before at hand
-    flags[4] = True

@@ -22,12 +22,13 @@ import struct
 from collections.abc import Iterator
 from typing import Final
 
+from emulator.esc.write_plans import EEPROM_INTERFACE
 from skinframes import ethercat
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
 __all__ = ["hostile_frames", "master_reset_frames"]
 
-_AREAS: Final = ((0x0600, 0x0700), (0x0800, 0x0880), (0x0120, 0x0122), (0x0500, 0x0510))
+_AREAS: Final = ((0x0600, 0x0700), (0x0800, 0x0880), (0x0120, 0x0122), EEPROM_INTERFACE)
 _WRITES: Final = (
     Command.APWR,
     Command.FPWR,

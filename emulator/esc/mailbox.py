@@ -25,16 +25,14 @@ next frame: a fast firmware.
 from __future__ import annotations
 
 from collections import deque
-from typing import TYPE_CHECKING, Final
+from typing import Final
 
 from emulator.esc.coe import CoeServer
+from emulator.esc.pdi import Pdi
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_MAILBOX_FULL
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 from skinframes import ecat_mailbox as mb
 from skinframes.ecat_mailbox import MailboxErrorCode, MailboxHeader, MailboxType
-
-if TYPE_CHECKING:
-    from emulator.esc.device import EscDevice
 
 __all__ = ["Mailbox"]
 
@@ -61,7 +59,7 @@ class Mailbox:
         self.sent = 0  # messages put into SM1 (repeats included)
 
     # --- configuration (ESM INIT -> PREOP and back) -------------------------------------------
-    def configured(self, device: EscDevice) -> bool:
+    def configured(self, device: Pdi) -> bool:
         """SM0/SM1 programmed as the SII says: start, length, mode and direction, enabled."""
         for index, spec in ((self.rx, self.rx_spec), (self.tx, self.tx_spec)):
             start, length, control, activate = device.sm_registers(index)
@@ -74,14 +72,14 @@ class Mailbox:
                 return False
         return True
 
-    def start(self, device: EscDevice) -> None:
+    def start(self, device: Pdi) -> None:
         """Release SM0/SM1 to the master (entering PREOP) with an empty mailbox."""
         self._reset()
         device.pdi_deactivate_sms((self.rx, self.tx), False)
         device.pdi_set_repeat_ack(self.tx, bool(self._repeat(device)))
         self.active = True
 
-    def stop(self, device: EscDevice) -> None:
+    def stop(self, device: Pdi) -> None:
         """Lock SM0/SM1 again (back to INIT); queued messages are dropped."""
         self._reset()
         self.active = False
@@ -100,7 +98,7 @@ class Mailbox:
         """Queue a message for the master (sent when SM1 is empty)."""
         self.outbox.append((kind, body))
 
-    def service(self, device: EscDevice, state: int) -> None:
+    def service(self, device: Pdi, state: int) -> None:
         """What the application does after a frame: repeat, receive, send."""
         if not self.active:
             return
@@ -137,14 +135,14 @@ class Mailbox:
             if answer:
                 self.post(MailboxType.COE, answer)
 
-    def _put(self, device: EscDevice, message: bytes) -> None:
+    def _put(self, device: Pdi, message: bytes) -> None:
         self.last = message
         self.sent += 1
         device.pdi_write(self.tx_spec.start, message)
 
     @staticmethod
-    def _full(device: EscDevice, index: int) -> bool:
+    def _full(device: Pdi, index: int) -> bool:
         return bool(device.registers(REG_SM + SM_BYTES * index + 5, 1)[0] & SM_MAILBOX_FULL)
 
-    def _repeat(self, device: EscDevice) -> int:
+    def _repeat(self, device: Pdi) -> int:
         return device.registers(REG_SM + SM_BYTES * self.tx + 6, 1)[0] & SM_REPEAT

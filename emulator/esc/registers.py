@@ -12,7 +12,6 @@ from dataclasses import dataclass
 from typing import Final, TypeAlias
 
 from emulator.errors import TopologyError
-from emulator.esc.dc import REG_DC_END, REG_DC_RECEIVE, dc_write_masks
 
 __all__ = [
     "ADDRESS_SPACE",
@@ -41,6 +40,27 @@ __all__ = [
     "REG_AL_CODE",
     "REG_AL_CONTROL",
     "REG_AL_STATUS",
+    "REG_DC_ACTIVATION",
+    "REG_DC_ACTIVATION_STATUS",
+    "REG_DC_CYCLIC_CONTROL",
+    "REG_DC_DELAY",
+    "REG_DC_DIFF",
+    "REG_DC_DIFF_FILTER",
+    "REG_DC_END",
+    "REG_DC_NEXT_SYNC1",
+    "REG_DC_OFFSET",
+    "REG_DC_PULSE_LENGTH",
+    "REG_DC_RECEIVE",
+    "REG_DC_RECEIVE_PU",
+    "REG_DC_SPEED_DIFF",
+    "REG_DC_SPEED_FILTER",
+    "REG_DC_SPEED_START",
+    "REG_DC_START_TIME",
+    "REG_DC_SYNC0_CYCLE",
+    "REG_DC_SYNC0_STATUS",
+    "REG_DC_SYNC1_CYCLE",
+    "REG_DC_SYNC1_STATUS",
+    "REG_DC_SYSTEM_TIME",
     "REG_DL_CONTROL",
     "REG_DL_STATUS",
     "REG_ECAT_EVENT",
@@ -57,10 +77,10 @@ __all__ = [
     "REG_PU_ERRORS",
     "REG_RESET_ECAT",
     "REG_RW_OFFSET",
+    "REG_SAMPLE_TIME",
     "REG_SM",
     "REG_STATION",
     "REG_TYPE",
-    "REG_WD_COUNTERS",
     "REG_WD_DIVIDER",
     "REG_WD_PD",
     "REG_WD_PDI",
@@ -75,6 +95,7 @@ __all__ = [
     "EscConfig",
     "Memory",
     "cleared_events",
+    "dc_write_masks",
     "reads_dc",
     "write_masks",
 ]
@@ -106,7 +127,6 @@ REG_WD_DIVIDER: Final = 0x0400
 REG_WD_PDI: Final = 0x0410
 REG_WD_PD: Final = 0x0420
 REG_WD_STATUS: Final = 0x0440
-REG_WD_COUNTERS: Final = 0x0442  # watchdog counters process data, PDI (a write clears both)
 REG_EEPROM_CONFIG: Final = 0x0500
 REG_EEPROM_PDI: Final = 0x0501
 REG_EEPROM_CONTROL: Final = 0x0502
@@ -150,6 +170,31 @@ SM_READ_OPEN: Final = 0x40
 SM_WRITE_OPEN: Final = 0x80
 
 
+# distributed clocks 0x0900-0x09FF (datasheet II 2.19-2.22; what they do: emulator.esc.dc)
+REG_DC_RECEIVE: Final = 0x0900  # receive time ports 0-3, 4 x 32 bit
+REG_DC_SYSTEM_TIME: Final = 0x0910  # 64 bit
+REG_DC_RECEIVE_PU: Final = 0x0918  # receive time ECAT processing unit, 64 bit
+REG_DC_OFFSET: Final = 0x0920  # system time offset, 64 bit
+REG_DC_DELAY: Final = 0x0928  # system time delay, 32 bit
+REG_DC_DIFF: Final = 0x092C  # system time difference, sign + magnitude
+REG_DC_SPEED_START: Final = 0x0930  # speed counter start, 15 bit
+REG_DC_SPEED_DIFF: Final = 0x0932  # speed counter diff, signed 16 bit
+REG_DC_DIFF_FILTER: Final = 0x0934  # system time difference filter depth, bits 0-3
+REG_DC_SPEED_FILTER: Final = 0x0935  # speed counter filter depth, bits 0-3
+REG_DC_CYCLIC_CONTROL: Final = 0x0980
+REG_DC_ACTIVATION: Final = 0x0981
+REG_DC_PULSE_LENGTH: Final = 0x0982
+REG_DC_ACTIVATION_STATUS: Final = 0x0984
+REG_DC_SYNC0_STATUS: Final = 0x098E
+REG_DC_SYNC1_STATUS: Final = 0x098F
+REG_DC_START_TIME: Final = 0x0990  # write: start time; read: next SYNC0 pulse (system time)
+REG_DC_NEXT_SYNC1: Final = 0x0998
+REG_DC_SYNC0_CYCLE: Final = 0x09A0
+REG_DC_SYNC1_CYCLE: Final = 0x09A4
+REG_DC_END: Final = 0x0A00
+REG_SAMPLE_TIME: Final = 0x0F80  # user RAM: system time of the sample's SYNC0 pulse (emulator)
+
+
 @dataclass(frozen=True, slots=True)
 class EscConfig:
     """The ESC's identity registers 0x0000-0x0009 (datasheet II 2.1).
@@ -172,6 +217,26 @@ class EscConfig:
     def __post_init__(self) -> None:
         if not 1 <= self.fmmus <= 16 or not 1 <= self.syncmanagers <= 16:
             raise TopologyError("ESC: 1..16 FMMUs and SyncManagers (0x0600-0x06FF, 0x0800-0x087F)")
+
+
+def dc_write_masks(masks: bytearray) -> None:
+    """Set the ECAT write masks of the DC registers (datasheet II 2.20-2.22) in ``masks``.
+
+    0x0900-0x0917 keep mask 0: writes there are events (latch, compare), handled by
+    :func:`emulator.esc.dc.compare_together`, never stored.
+    """
+
+    def put(addr: int, *values: int) -> None:
+        masks[addr : addr + len(values)] = bytes(values)
+
+    put(REG_DC_OFFSET, *(0xFF,) * 8)
+    put(REG_DC_DELAY, *(0xFF,) * 4)
+    put(REG_DC_SPEED_START, 0xFF, 0x7F)
+    put(REG_DC_DIFF_FILTER, 0x0F, 0x0F)
+    # SYNC out / latch unit control; activation, whose bit 7 (debug pulse) self-clears: reads 0
+    put(REG_DC_CYCLIC_CONTROL, 0x31, 0x7F)
+    put(REG_DC_START_TIME, *(0xFF,) * 8)
+    put(REG_DC_SYNC0_CYCLE, *(0xFF,) * 8)
 
 
 def write_masks(cfg: EscConfig) -> bytes:

@@ -32,11 +32,11 @@ from enum import IntEnum
 from typing import TYPE_CHECKING, Final, Protocol
 
 from emulator.esc.dc import REG_SAMPLE_TIME
+from emulator.esc.pdi import Pdi
 from emulator.esc.sii import SlaveInfo, SyncManagerType
 from skinframes.ecat_mailbox import MailboxType
 
 if TYPE_CHECKING:
-    from emulator.esc.device import EscDevice
     from emulator.esc.mailbox import Mailbox
     from emulator.esc.objects import SkinDictionary
 
@@ -128,10 +128,10 @@ def transition_code(current: int, requested: int) -> AlStatusCode:
 class PdiApplication(Protocol):
     """The slave application on the PDI side of an ESC (a microcontroller's firmware)."""
 
-    def power_on(self, device: EscDevice) -> None:
+    def power_on(self, device: Pdi) -> None:
         """Called after the ESC loaded its EEPROM at power-on or reset."""
 
-    def al_control(self, device: EscDevice, value: int) -> None:
+    def al_control(self, device: Pdi, value: int) -> None:
         """Called at the end of a frame that wrote AL control (0x0120) with ``value``."""
 
 
@@ -175,19 +175,19 @@ class SkinPatchApplication:
         self.outputs = bytes(info.output_bytes)
 
     # --- the PDI application protocol ------------------------------------------------------
-    def power_on(self, device: EscDevice) -> None:
+    def power_on(self, device: Pdi) -> None:
         """INIT, every SyncManager deactivated by the PDI (ESM state INIT)."""
         device.pdi_deactivate_sms(range(device.config.syncmanagers), True)
         if self.mailbox is not None:
             self.mailbox.stop(device)
         device.pdi_set_al_status(AlState.INIT, error=False, code=AlStatusCode.NO_ERROR)
 
-    def mailbox_event(self, device: EscDevice) -> None:
+    def mailbox_event(self, device: Pdi) -> None:
         """After a frame that touched a mailbox or a SyncManager register (device hook)."""
         if self.mailbox is not None:
             self.mailbox.service(device, device.al_status & STATE_MASK)
 
-    def emergency(self, device: EscDevice, code: int, data: bytes = b"") -> None:
+    def emergency(self, device: Pdi, code: int, data: bytes = b"") -> None:
         """Send an emergency message (ETG.1000.6 5.6.4) and set the error register 0x1001."""
         if self.mailbox is None or self.objects is None or not self.mailbox.active:
             return
@@ -197,7 +197,7 @@ class SkinPatchApplication:
         self.mailbox.post(MailboxType.COE, coe.emergency(code, self.objects.error_register, data))
         self.mailbox.service(device, device.al_status & STATE_MASK)
 
-    def al_control(self, device: EscDevice, value: int) -> None:
+    def al_control(self, device: Pdi, value: int) -> None:
         """Run the ESM on a write of AL control (ETG.1000.6 6.4)."""
         status = device.al_status
         current, error = status & STATE_MASK, bool(status & ERROR_INDICATION)
@@ -224,9 +224,7 @@ class SkinPatchApplication:
             self.objects.error_register = 0
         device.pdi_set_al_status(requested, error=error, code=code)
 
-    def local_error(
-        self, device: EscDevice, code: AlStatusCode, current: int | None = None
-    ) -> None:
+    def local_error(self, device: Pdi, code: AlStatusCode, current: int | None = None) -> None:
         """The application reports an error: the indication and ``code`` in AL status; in OP
         the slave drops to SAFEOP first (ETG.1000.6 6.4.1: an error in OP -> SAFEOP + error)."""
         state = device.al_status & STATE_MASK if current is None else current
@@ -236,7 +234,7 @@ class SkinPatchApplication:
         device.pdi_set_al_status(state, error=True, code=code)
 
     # --- inputs ------------------------------------------------------------------------------
-    def publish(self, device: EscDevice, data: bytes) -> None:
+    def publish(self, device: Pdi, data: bytes) -> None:
         """Write a complete input buffer through the PDI (a buffer exchange of SM inputs).
 
         While SYNC0 is active (emulator.esc.dc) the data is what the sensor holds; the patch
@@ -248,14 +246,14 @@ class SkinPatchApplication:
         if not device.dc_sampling:
             self._write_inputs(device)
 
-    def sync0(self, device: EscDevice, pulse_ns: int) -> None:
+    def sync0(self, device: Pdi, pulse_ns: int) -> None:
         """A SYNC0 pulse at system time ``pulse_ns``: sample the taxels, stamp the sample
         (user RAM 0x0F80, emulator.esc.dc.REG_SAMPLE_TIME)."""
         if self._input_start is not None:
             device.pdi_write(REG_SAMPLE_TIME, pulse_ns.to_bytes(8, "little"))
             self._write_inputs(device)
 
-    def _write_inputs(self, device: EscDevice) -> None:
+    def _write_inputs(self, device: Pdi) -> None:
         """The held inputs into the input buffer, as the assigned PDOs map them."""
         assert self._input_start is not None
         if self._image is None:
@@ -265,7 +263,7 @@ class SkinPatchApplication:
             device.pdi_write(self._input_start, b"".join(data[a : a + n] for a, n in self._image))
 
     # --- transitions --------------------------------------------------------------------------
-    def _enter(self, device: EscDevice, current: int, requested: int) -> AlStatusCode:
+    def _enter(self, device: Pdi, current: int, requested: int) -> AlStatusCode:
         if requested == AlState.PREOP and current == AlState.INIT and self.mailbox is not None:
             if not self.mailbox.configured(device):
                 return AlStatusCode.INVALID_MAILBOX_CONFIGURATION
@@ -317,7 +315,7 @@ class SkinPatchApplication:
             at += p.bit_length // 8
         return [ranges[i] for i in assigned]
 
-    def _check_process_data_sms(self, device: EscDevice) -> AlStatusCode:
+    def _check_process_data_sms(self, device: Pdi) -> AlStatusCode:
         for i, spec in self._pd_sms:
             start, length, control, activate = device.sm_registers(i)
             expected_length = self.sm_bytes(i)

@@ -44,7 +44,6 @@ from emulator.esc.device import (
     commit_together,
     consecutive,
     finish_together,
-    write_masked,
 )
 from emulator.esc.mapping import (
     LogicalOp,
@@ -55,6 +54,7 @@ from emulator.esc.registers import (
     REG_RESET_ECAT,
     REGISTER_END,
 )
+from emulator.esc.write_plans import write_masked
 
 LOGICAL_TOGETHER_MIN: Final = 8  # ESCs with one plain logical plan from which rows beat one by one
 _Rows = npt.NDArray[np.intp]

@@ -1,21 +1,30 @@
-"""How a register write of (address, length) is cut, once per ESC configuration: the plain parts
-masked as whole integers, the registers with side effects in the parts the ESC handles one by
-one (datasheet I 3.4, II "ECAT" write columns)."""
+"""Register writes: how a write of (address, length) is cut, once per ESC configuration (the plain
+parts masked as whole integers, datasheet I 3.4, II "ECAT" write columns), and what a write of
+the registers with side effects does (:func:`write_special`): the one description of those
+registers, which the commit of a frame's writes (:func:`emulator.esc.device.commit_together`)
+reads for every ESC."""
 
 from __future__ import annotations
 
-from typing import ClassVar, Final
+from collections.abc import Sequence
+from typing import ClassVar, Final, Protocol
 
 import numpy as np
+import numpy.typing as npt
 
-from emulator.esc.dc import REG_DC_END, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU
+from emulator.esc.dc import DcClock, compare_together
 from emulator.esc.mapping import PLAN_CACHE_ENTRIES, remember
 from emulator.esc.registers import (
     FMMU_BYTES,
     REG_AL_CONTROL,
+    REG_DC_END,
+    REG_DC_OFFSET,
+    REG_DC_RECEIVE,
+    REG_DC_RECEIVE_PU,
     REG_DL_CONTROL,
     REG_EEPROM_CONFIG,
     REG_EEPROM_CONTROL,
+    REG_EEPROM_PDI,
     REG_ERROR_COUNTERS,
     REG_FMMU,
     REG_PU_ERRORS,
@@ -27,10 +36,35 @@ from emulator.esc.registers import (
     write_masks,
 )
 
-__all__ = ["TOUCHES_FMMU", "TOUCHES_SM", "WritePlans", "mark"]
+__all__ = [
+    "EEPROM_INTERFACE",
+    "ERROR_COUNTERS",
+    "TOUCHES_FMMU",
+    "TOUCHES_SM",
+    "WATCHDOG_COUNTERS",
+    "Clocked",
+    "WritePlans",
+    "mark",
+    "write_masked",
+    "write_special",
+]
+
+# The registers whose ECAT writes do more than store (datasheet II), besides the SyncManagers and
+# the DC latch and compare: [start, end) of each block; what a write there does: write_special
+ERROR_COUNTERS: Final = (REG_ERROR_COUNTERS, 0x0314)  # RX, forwarded, PU, PDI, lost link (II 2.6)
+WATCHDOG_COUNTERS: Final = (0x0442, 0x0444)  # process data, PDI: a write clears both (II 0x0442)
+EEPROM_INTERFACE: Final = (REG_EEPROM_CONFIG, 0x0510)  # SII EEPROM interface (I 11.2, II 2.11)
+
+
+class Clocked(Protocol):
+    """What :func:`write_special` asks of an ESC: its distributed clocks."""
+
+    dc: DcClock
+
 
 TOUCHES_FMMU: Final = 1
 TOUCHES_SM: Final = 2
+_Rows = npt.NDArray[np.intp]
 Segment = tuple[int, int, int, bool]  # lo, hi, mask (-1: side effects), may set a flag
 WritePlan = tuple[tuple[Segment, ...], int]
 
@@ -61,9 +95,9 @@ class WritePlans:
         self.fmmu_end = REG_FMMU + FMMU_BYTES * config.fmmus
         self.sm_end = REG_SM + SM_BYTES * config.syncmanagers
         self.special = (  # registers written in parts (side effects), ascending
-            (REG_ERROR_COUNTERS, 0x0314),
-            (0x0442, 0x0444),
-            (REG_EEPROM_CONFIG, 0x0510),
+            ERROR_COUNTERS,
+            WATCHDOG_COUNTERS,
+            EEPROM_INTERFACE,
             (REG_SM, self.sm_end),
             (REG_DC_RECEIVE, REG_DC_RECEIVE_PU),
         )
@@ -122,14 +156,14 @@ class WritePlans:
         :func:`emulator.esc.device.write_special` handles ends."""
         if lo < REG_PU_ERRORS:  # the RX error counters, cleared together
             return min(end, REG_PU_ERRORS)
-        if lo < 0x0314:
-            return min(end, 0x0314)
-        if lo < REG_EEPROM_CONFIG:  # 0x0442-0x0443
-            return min(end, 0x0444)
+        if lo < ERROR_COUNTERS[1]:
+            return min(end, ERROR_COUNTERS[1])
+        if lo < REG_EEPROM_CONFIG:  # the watchdog counters
+            return min(end, WATCHDOG_COUNTERS[1])
         if lo < REG_EEPROM_CONTROL:  # 0x0500, 0x0501: byte by byte
             return lo + 1
-        if lo < 0x0510:
-            return min(end, 0x0510)
+        if lo < EEPROM_INTERFACE[1]:
+            return min(end, EEPROM_INTERFACE[1])
         if lo >= REG_DC_RECEIVE:
             return min(end, REG_DC_RECEIVE_PU)
         return min(end, self.sm_end)
@@ -149,3 +183,85 @@ def mark(
     if lo < REG_DC_END and hi > REG_DC_OFFSET:
         return (lo, hi) if dc is None else (min(dc[0], lo), max(dc[1], hi))
     return dc
+
+
+# bytes a row from which write_masked writes a run of whole bytes straight and masks only its ends:
+# that saves passes over the bytes, but takes four more accesses of the rows, dearer for fewer
+_WIDE: Final = 256
+
+
+def write_masked(
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows | slice,
+    lo: int,
+    hi: int,
+    data: npt.NDArray[np.uint8],
+    mask: npt.NDArray[np.uint8],
+) -> None:
+    """Bytes [lo, hi) of ``rows`` from ``data`` (one row, or one per row) where ``mask`` has
+    bits: read-only and reserved bits keep their value (datasheet II, column ECAT)."""
+    if hi - lo >= _WIDE and (mask[1:-1] == 0xFF).all():  # whole bytes: only the ends masked
+        memory[rows, lo + 1 : hi - 1] = data[..., 1:-1]
+        for k in (0, hi - lo - 1):
+            if mask[k]:
+                old_k = memory[rows, lo + k]
+                memory[rows, lo + k] = (old_k & ~mask[k]) | (data[..., k] & mask[k])
+        return
+    old = memory[rows, lo:hi]
+    memory[rows, lo:hi] = (old & ~mask) | (data & mask)
+
+
+def write_special(
+    devices: Sequence[Clocked],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    lo: int,
+    hi: int,
+    data: npt.NDArray[np.uint8],
+    enabled: npt.NDArray[np.uint8] | None,
+    masks: npt.NDArray[np.uint8],
+    flags: list[bool],
+    eeprom: npt.NDArray[np.bool_],
+) -> None:
+    """A write of ``data`` (one row, or one per row) into [lo, hi) at every row, a part of one
+    register block with side effects (cut by :meth:`WritePlans.plan`) of ``devices``: error counters and
+    watchdog counters cleared (II 2.6, 0x0442), the EEPROM interface where ECAT owns it (I 11.2.2),
+    SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
+    and system time compare (:func:`compare_together`)."""
+    if lo < REG_PU_ERRORS:  # one write clears all RX error counters
+        memory[rows, REG_ERROR_COUNTERS:REG_PU_ERRORS] = 0
+        return
+    if lo < ERROR_COUNTERS[1]:  # each other counter is cleared by a write of it
+        memory[rows, lo:hi] = 0
+        return
+    if lo < REG_EEPROM_CONFIG:  # a write of either watchdog counter clears both (II 0x0442)
+        memory[rows, WATCHDOG_COUNTERS[0] : WATCHDOG_COUNTERS[1]] = 0
+        return
+    if lo < REG_EEPROM_CONTROL:  # 0x0500 may hand the interface to ECAT
+        if lo == REG_EEPROM_CONFIG:
+            force = np.broadcast_to((data[..., 0] & 0x02) != 0, rows.shape)
+            memory[rows[force], REG_EEPROM_PDI] &= 0xFE  # force ECAT access
+        write_masked(memory, rows, lo, hi, data, masks[lo:hi])
+        return
+    if lo < EEPROM_INTERFACE[1]:
+        owner = ((memory[rows, REG_EEPROM_CONFIG] | memory[rows, REG_EEPROM_PDI]) & 0x01) == 0
+        if owner.any():
+            mine = data[owner] if data.ndim > 1 else data
+            write_masked(memory, rows[owner], lo, hi, mine, masks[lo:hi])
+            if lo < REG_EEPROM_CONTROL + 2:
+                eeprom |= owner
+        return
+    if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
+        compare_together(
+            [dev.dc for dev in devices], memory, rows, lo, data if data.ndim > 1 else data.tobytes()
+        )
+        return
+    assert enabled is not None
+    # configuration bytes 0-4 of a SyncManager enabled before the frame keep their value
+    at = np.arange(lo - REG_SM, hi - REG_SM)
+    keep = (enabled[:, at // SM_BYTES] & 0x01).astype(np.bool_) & (at % SM_BYTES < 5)
+    old = memory[rows, lo:hi]
+    new = np.where(keep, old, data)
+    mask = masks[lo:hi]
+    memory[rows, lo:hi] = (old & ~mask) | (new & mask)  # _masked, the bytes before at hand
+    flags[4] = True

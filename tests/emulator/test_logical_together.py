@@ -20,8 +20,7 @@ import pytest
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
 
-from emulator.esc import device as esc_device
-from emulator.esc import mapping, together
+from emulator.esc import mapping, together, write_plans
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
 from emulator.esc.registers import SM_BYTES, EscConfig
@@ -201,7 +200,7 @@ def test_rows_shift_as_integers_do(shift: int) -> None:
 
 @pytest.mark.parametrize("ends", [(0xFF, 0xFF), (0x1F, 0xF8), (0x00, 0x00), (0x80, 0x01)])
 @pytest.mark.parametrize("hole", [False, True])
-@pytest.mark.parametrize("width", [4, esc_device._WIDE + 3])
+@pytest.mark.parametrize("width", [4, write_plans._WIDE + 3])
 @pytest.mark.parametrize("rows", [1, 3])
 def test_masked_bytes_take_the_data_under_the_mask_alone(
     ends: tuple[int, int], hole: bool, width: int, rows: int
@@ -229,7 +228,7 @@ def test_masked_bytes_take_the_data_under_the_mask_alone(
             value = (old & ~mask) | (new & mask)
             expected[row, 2 : 2 + width] = np.frombuffer(value.to_bytes(width, "little"), np.uint8)
         mine = data if isinstance(at, slice) or rows == 1 else data[::2]
-        esc_device.write_masked(memory, at, 2, 2 + width, mine, together._mask(mask, width))
+        write_plans.write_masked(memory, at, 2, 2 + width, mine, together._mask(mask, width))
         assert memory.tobytes() == expected.tobytes()
         memory = before
 
