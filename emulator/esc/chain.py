@@ -49,7 +49,7 @@ from emulator.esc.commands import (
     LRD,
 )
 from emulator.esc.dc import DcTimebase
-from emulator.esc.device import EscConfig, EscDevice, FirstBuffer, TraceCopy
+from emulator.esc.device import EscConfig, EscDevice, FirstBuffer, TraceCopy, latches
 from emulator.esc.mapping import Access, LogicalOp, LogicalPlan, SmTable, outside
 from emulator.esc.registers import (
     ADDRESS_SPACE,
@@ -606,8 +606,10 @@ class EcatChain:
         if cmd == BWR:
             if _plain_write(ado, end):
                 entry = (ado, bytes(buf[at : at + n]))
+                due = latches(ado, n)
                 for dev in line:
                     dev.pending.append(entry)
+                    dev.latch_due = dev.latch_due or due
                 return reach, False
         elif cmd == BRD:
             if _registers(ado, end):
@@ -935,8 +937,10 @@ class EcatChain:
             if not _plain_write(ado, end):
                 return None
             entry = (ado, bytes(buf[at : at + n]))
+            due = latches(ado, n)
             for p in targets:
                 line[p].pending.append(entry)
+                line[p].latch_due = line[p].latch_due or due
             return len(targets), False
         if not _register_read(ado, end):
             return None

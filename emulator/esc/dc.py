@@ -6,10 +6,11 @@ The ESC datasheet section I chapter 9 ("Distributed Clocks") and section II 2.19
 * every ESC has a 64-bit local clock in ns; here it runs at its own rate ``1 + drift_ppm e-6``
   against the host's monotonic clock (a crystal's tolerance, seeded per patch), from a seeded
   start value, so that a master's offset and drift compensation have work to do;
-* a write to 0x0900 (any length, usually a BWR) latches, in each ESC, the local time at which
-  the frame's first bit arrived at port 0 (0x0900) and, after the rest of the line, returned at
-  port 1 (0x0904; ports 2 and 3 are not implemented and read 0), and the 64-bit local time at
-  which it reached the processing unit (0x0918). The arrival times follow the propagation the
+* a BWR or FPWR of 0x0900 (any length; other commands do not latch, datasheet II 0x0900)
+  latches, in each ESC, the local time at which the frame's first bit arrived at port 0
+  (0x0900) and, after the rest of the line, returned at port 1 (0x0904; ports 2 and 3 are not
+  implemented and read 0), and the 64-bit local time at which it reached the processing unit
+  (0x0918). The arrival times follow the propagation the
   timing model computes (:class:`emulator.model.params.TimingParams`: one ESC pass
   ``ecat_processing_ps`` plus a cable per hop, the way back ``ecat_forwarding_ps`` plus a cable);
 * the local copy of the system time is local time + system time offset (0x0920); a read of
@@ -371,13 +372,15 @@ def compare_together(
     rows: npt.NDArray[np.intp],
     lo: int,
     data: bytes | npt.NDArray[np.uint8],
+    latching: npt.NDArray[np.bool_] | None = None,
 ) -> None:
     """A write of ``data`` at ``lo`` (0x0900-0x0917) at every clock, whose ESC's memory is
     ``memory[rows]``, at the end of the frame: the same bytes, or a row of bytes per clock (a
     logical datagram's, each ESC's own frame bytes). A single ESC is a line of one.
 
-    A write of 0x0900 latches the local times at which the frame passed port 0 and came back to
-    port 1 (0x0900, 0x0904; 0x0918 the 64-bit port 0 time); a write including 0x0910 (a
+    A write of 0x0900 by a BWR or FPWR (``latching``: the clocks whose ESC took one; None: all)
+    latches the local times at which the frame passed port 0 and came back to port 1 (0x0900,
+    0x0904; 0x0918 the 64-bit port 0 time; datasheet II 0x0900); a write including 0x0910 (a
     master's ARMW/FRMW of the reference clock's time) compares the written value plus the
     system time delay with the local copy at the frame's arrival, modulo 2^64 (2^32 when only
     0x0910-0x0913 are written), filters the difference into 0x092C and feeds the PI loop
@@ -396,7 +399,8 @@ def compare_together(
     if not all(c.timebase is timebase or c.timebase == timebase for c in clocks):
         for group in _by_timebase(clocks):  # (clocks of several lines: each line's own times)
             part = data if isinstance(data, bytes) else data[group]
-            compare_together([clocks[k] for k in group], memory, rows[group], lo, part)
+            mine = None if latching is None else latching[group]
+            compare_together([clocks[k] for k in group], memory, rows[group], lo, part, mine)
         return
     latch = lo < REG_DC_RECEIVE + 4 and hi > REG_DC_RECEIVE
     compare = lo <= REG_DC_SYSTEM_TIME < hi  # a compare needs 0x0910 itself (II 0x0910)
@@ -416,9 +420,11 @@ def compare_together(
         port1 = np.where(back, _local_at(timebase.frame_ns + back_ps / 1000, *anchors), 0)
         latched = np.zeros((count, 4), "<u4")  # 0x0900, 0x0904, ports 2 and 3: 0
         latched[:, 0], latched[:, 1] = local, port1  # (modulo 2^32)
-        memory[rows, REG_DC_RECEIVE : REG_DC_RECEIVE + 16] = latched.view(np.uint8)
-        memory[rows, REG_DC_RECEIVE_PU : REG_DC_RECEIVE_PU + 8] = (
-            local.astype("<u8").view(np.uint8).reshape(-1, 8)
+        at = rows if latching is None else rows[latching]
+        which = slice(None) if latching is None else latching
+        memory[at, REG_DC_RECEIVE : REG_DC_RECEIVE + 16] = latched[which].view(np.uint8)
+        memory[at, REG_DC_RECEIVE_PU : REG_DC_RECEIVE_PU + 8] = (
+            local[which].astype("<u8").view(np.uint8).reshape(-1, 8)
         )
         if not compare:
             return

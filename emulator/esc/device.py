@@ -57,13 +57,22 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.esc.commands import APRD, APRW, ARMW, BRD, BRW, FPRD, FPRW, FRMW, LRD, LRW, LWR
-from emulator.esc.dc import (
-    REG_DC_ACTIVATION,
-    REG_DC_PULSE_LENGTH,
-    DcClock,
-    configure_together,
+from emulator.esc.commands import (
+    APRD,
+    APRW,
+    ARMW,
+    BRD,
+    BRW,
+    BWR,
+    FPRD,
+    FPRW,
+    FPWR,
+    FRMW,
+    LRD,
+    LRW,
+    LWR,
 )
+from emulator.esc.dc import DcClock, configure_together
 from emulator.esc.mapping import (
     AS_NEW_CACHE,
     PLAN_CACHE_ENTRIES,
@@ -107,6 +116,9 @@ from emulator.esc.registers import (
     REG_AL_CONTROL,
     REG_AL_STATUS,
     REG_ALIAS,
+    REG_DC_ACTIVATION,
+    REG_DC_PULSE_LENGTH,
+    REG_DC_RECEIVE,
     REG_DL_CONTROL,
     REG_DL_STATUS,
     REG_ECAT_EVENT,
@@ -261,6 +273,13 @@ class FirstBuffer(NamedTuple):
     data: bytes  # the bytes read
 
 
+def latches(ado: int, n: int) -> bool:
+    """Whether a BWR or FPWR of ``n`` bytes at ``ado`` writes the receive time register
+    0x0900-0x0903, and so latches the receive times (datasheet II 0x0900: "a write access with
+    BWR or FPWR")."""
+    return ado < REG_DC_RECEIVE + 4 and ado + n > REG_DC_RECEIVE
+
+
 def port1_forwarding(setting: int, link: bool) -> bool | None:
     """Where port 1 sends a processed frame under DL control bits 10-11 ``setting`` (datasheet
     II 2.4.1) and the port's ``link``: on (True), back towards the master (False, the loop is
@@ -342,6 +361,7 @@ class EscDevice:
         "fmmu_span",
         "info",
         "irq",
+        "latch_due",
         "mem",
         "onward",
         "pdi_operational",
@@ -409,6 +429,9 @@ class EscDevice:
         # by start; until then _sms and _active are those before
         self._unmade: tuple[frozenset[int] | None, SmTable, tuple[int, ...]] | None = None
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
+        # a BWR or FPWR of the receive time register 0x0900 in this frame: the writes that
+        # latch the receive times at the end of the frame (datasheet II 0x0900)
+        self.latch_due = False
         self._reset_progress = 0
         self._reset_written: int | None = None
         # the application's mailbox handler (emulator.esc.mailbox), run after frames that
@@ -455,6 +478,7 @@ class EscDevice:
         self._sms = [None] * cfg.syncmanagers
         self._unmade = None
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
+        self.latch_due = False
         self._logical_plans = Plans()
         self._lrd_plans.clear()
         self.sm_areas = ()
@@ -695,12 +719,16 @@ class EscDevice:
             hit = adp == mem[REG_STATION] | mem[REG_STATION + 1] << 8 or (
                 mem[REG_DL_CONTROL + 3] & 0x01 and adp == mem[REG_ALIAS] | mem[REG_ALIAS + 1] << 8
             )
+            if hit and cmd == FPWR and latches(ado, n):
+                self.latch_due = True
             if cmd == FRMW:
                 if hit:
                     return adp, self._read(ado, buf, off, n, False)
                 return adp, self._write(ado, bytes(buf[off : off + n]))
             return adp, (self._physical(cmd - FPRD, ado, buf, off, n) if hit else 0)
         if cmd <= BRW:  # broadcast
+            if cmd == BWR and latches(ado, n):
+                self.latch_due = True
             return (adp + 1) & 0xFFFF, self._physical(cmd - BRD, ado, buf, off, n, broadcast=True)
         if cmd <= LRW:
             lad = adp | ado << 16

@@ -57,9 +57,12 @@ EEPROM_INTERFACE: Final = (REG_EEPROM_CONFIG, 0x0510)  # SII EEPROM interface (I
 
 
 class Clocked(Protocol):
-    """What :func:`write_special` asks of an ESC: its distributed clocks."""
+    """What :func:`write_special` asks of an ESC: its distributed clocks, and whether a BWR or
+    FPWR of the receive time register 0x0900 reached it in this frame (the writes that latch,
+    datasheet II 0x0900)."""
 
     dc: DcClock
+    latch_due: bool
 
 
 TOUCHES_FMMU: Final = 1
@@ -252,9 +255,11 @@ def write_special(
                 eeprom |= owner
         return
     if lo >= REG_DC_RECEIVE:  # receive time latch, system time compare
-        compare_together(
-            [dev.dc for dev in devices], memory, rows, lo, data if data.ndim > 1 else data.tobytes()
-        )
+        latching = np.fromiter([dev.latch_due for dev in devices], np.bool_, len(devices))
+        for dev in devices:
+            dev.latch_due = False
+        mine = data if data.ndim > 1 else data.tobytes()
+        compare_together([dev.dc for dev in devices], memory, rows, lo, mine, latching)
         return
     assert enabled is not None
     # configuration bytes 0-4 of a SyncManager enabled before the frame keep their value

@@ -1259,3 +1259,22 @@ def test_a_buffer_started_anew_is_sampled_at_sync0_when_ecat_opens_it() -> None:
     d = one(chain, Datagram(C.BRW, 0, start, bytes(4)))
     assert (d.data, d.wkc) == (b"\x0b" * 4, 2)  # BRW: both read (OR), neither may write (ECAT
     # reads this buffer, II 2.14); the OR of 0x0a and 0x0b is 0x0b
+
+
+def test_dc_only_bwr_and_fpwr_latch_the_receive_times() -> None:
+    # II 0x0900: "a write access to this register with BWR or FPWR latches the local time of
+    # the beginning of the receive frame"; other writes of it (APWR, ARMW here) latch nothing.
+    # Port 0 of ESC 0 at host 1,000,000 ns plus its start of 5,000 ns (see the latch test).
+    chain, now = clocked_chain(2, [5000, 7000], [0.0, 0.0])
+    send(chain, *(Datagram(C.APWR, -p & 0xFFFF, 0x0010, u16(0x1001 + p)) for p in range(2)))
+    now[0] = 1_000_000
+    send(chain, Datagram(C.APWR, 0, 0x0900, bytes(4)), Datagram(C.ARMW, 0, 0x0900, bytes(4)))
+    assert u32(one(chain, Datagram(C.APRD, 0, 0x0900, bytes(4)))) == 0  # nothing latched
+    send(chain, Datagram(C.FPWR, 0x1001, 0x0900, bytes(4)))
+    assert u32(one(chain, Datagram(C.FPRD, 0x1001, 0x0900, bytes(4)))) == 1_005_000
+    assert u32(one(chain, Datagram(C.FPRD, 0x1002, 0x0900, bytes(4)))) == 0  # not addressed
+    now[0] = 2_000_000
+    send(chain, Datagram(C.BWR, 0, 0x0900, bytes(4)))
+    assert u32(one(chain, Datagram(C.FPRD, 0x1001, 0x0900, bytes(4)))) == 2_005_000
+    # ESC 1: 7,000 + 2,000,540.05 (one hop)
+    assert u32(one(chain, Datagram(C.FPRD, 0x1002, 0x0900, bytes(4)))) == 2_007_540
