@@ -353,6 +353,7 @@ class EscDevice:
         "_sms",
         "_span_row",
         "_unmade",
+        "al_control_full",
         "app",
         "config",
         "dc",
@@ -432,6 +433,9 @@ class EscDevice:
         # a BWR or FPWR of the receive time register 0x0900 in this frame: the writes that
         # latch the receive times at the end of the frame (datasheet II 0x0900)
         self.latch_due = False
+        # AL control 0x0120 written by ECAT and not read by the PDI yet: while device emulation
+        # is off it is a mailbox, and ECAT cannot write it again (datasheet II 0x0120)
+        self.al_control_full = False
         self._reset_progress = 0
         self._reset_written: int | None = None
         # the application's mailbox handler (emulator.esc.mailbox), run after frames that
@@ -478,7 +482,7 @@ class EscDevice:
         self._sms = [None] * cfg.syncmanagers
         self._unmade = None
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
-        self.latch_due = False
+        self.latch_due = self.al_control_full = False
         self._logical_plans = Plans()
         self._lrd_plans.clear()
         self.sm_areas = ()
@@ -1306,6 +1310,7 @@ class EscDevice:
             assert self._mailbox_hook is not None
             self._mailbox_hook(self)
         else:
+            self.al_control_full = False  # the firmware reads AL control: ECAT may write again
             self.app.al_control(self, what)
 
     def react_now(self) -> None:
@@ -1527,19 +1532,22 @@ def commit_together(
         memory[every, REG_FMMU : plans.fmmu_end].copy() if touched & TOUCHES_FMMU else None
     )
     enabled = sm_before[:, 6::SM_BYTES] if sm_before is not None else None  # bit 0
-    flags = [False] * 5  # AL control, EEPROM command, DL control, FMMU, SM written
+    flags = [False] * 5  # (unused), EEPROM command, DL control, FMMU, SM written
     eeprom = np.zeros(len(rows), np.bool_)
+    al = np.zeros(len(rows), np.bool_)  # AL control written (taken: not a full mailbox)
     dc: tuple[int, int] | None = None
     for (addr, (segments, _)), values in zip(pending, datas, strict=True):
         for lo, hi, mask, marks in segments:
             part = values[..., lo - addr : hi - addr]  # one row, or one per ESC
             if mask < 0:  # a register with side effects
-                write_special(devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom)
+                write_special(
+                    devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom, al
+                )
             elif mask:
                 write_masked(memory, every, lo, hi, part, masks[lo:hi])
                 if marks:
                     dc = mark(lo, hi, flags, plans.fmmu_end, dc)
-    al, _, dl, fmmu, sm = flags
+    _, _, dl, fmmu, sm = flags
     # what the writes set off, in this order (datasheet I 3.4), step by step over all the ESCs:
     # FMMU and SyncManager tables, DL control, DC registers, an EEPROM command, AL control
     if fmmu and fmmu_before is not None:  # changed FMMU tables
@@ -1555,11 +1563,16 @@ def commit_together(
     _event_requests(devices, memory, every)
     if eeprom.any():
         _eeprom_commands(devices, memory, rows, np.flatnonzero(eeprom))
-    if al:
-        value = memory[every, REG_AL_CONTROL].astype(np.int64)
-        value |= memory[every, REG_AL_CONTROL + 1].astype(np.int64) << 8
-        control = memory[every, REG_PDI_CONTROL + 1].tolist()
-        EscDevice.al_control_together(devices, value.tolist(), control)
+    if al.any():  # AL control, a mailbox the PDI empties by reading it (II 0x0120)
+        which = np.flatnonzero(al)
+        at = rows[which]
+        value = memory[at, REG_AL_CONTROL].astype(np.int64)
+        value |= memory[at, REG_AL_CONTROL + 1].astype(np.int64) << 8
+        control = memory[at, REG_PDI_CONTROL + 1].tolist()
+        writers = [devices[i] for i in which.tolist()]
+        for writer, pdi in zip(writers, control, strict=True):
+            writer.al_control_full = not pdi & 0x01  # but in device emulation
+        EscDevice.al_control_together(writers, value.tolist(), control)
 
 
 def consecutive(rows: _Rows) -> _Rows | slice:

@@ -27,6 +27,7 @@ from emulator.esc.registers import (
     REG_EEPROM_PDI,
     REG_ERROR_COUNTERS,
     REG_FMMU,
+    REG_PDI_CONTROL,
     REG_PU_ERRORS,
     REG_RESET_ECAT,
     REG_SM,
@@ -37,13 +38,14 @@ from emulator.esc.registers import (
 )
 
 __all__ = [
+    "AL_CONTROL",
     "EEPROM_INTERFACE",
     "ERROR_COUNTERS",
     "TOUCHES_FMMU",
     "TOUCHES_SM",
     "WATCHDOG_COUNTERS",
-    "Clocked",
     "WritePlans",
+    "WriteTarget",
     "mark",
     "write_masked",
     "write_special",
@@ -51,18 +53,20 @@ __all__ = [
 
 # The registers whose ECAT writes do more than store (datasheet II), besides the SyncManagers and
 # the DC latch and compare: [start, end) of each block; what a write there does: write_special
+AL_CONTROL: Final = (REG_AL_CONTROL, REG_AL_CONTROL + 2)  # a mailbox to the PDI (II 0x0120)
 ERROR_COUNTERS: Final = (REG_ERROR_COUNTERS, 0x0314)  # RX, forwarded, PU, PDI, lost link (II 2.6)
 WATCHDOG_COUNTERS: Final = (0x0442, 0x0444)  # process data, PDI: a write clears both (II 0x0442)
 EEPROM_INTERFACE: Final = (REG_EEPROM_CONFIG, 0x0510)  # SII EEPROM interface (I 11.2, II 2.11)
 
 
-class Clocked(Protocol):
-    """What :func:`write_special` asks of an ESC: its distributed clocks, and whether a BWR or
-    FPWR of the receive time register 0x0900 reached it in this frame (the writes that latch,
-    datasheet II 0x0900)."""
+class WriteTarget(Protocol):
+    """What :func:`write_special` asks of an ESC: its distributed clocks, whether a BWR or FPWR
+    of the receive time register 0x0900 reached it in this frame (the writes that latch,
+    datasheet II 0x0900), and whether its AL control holds a write the PDI has not read."""
 
     dc: DcClock
     latch_due: bool
+    al_control_full: bool
 
 
 TOUCHES_FMMU: Final = 1
@@ -98,6 +102,7 @@ class WritePlans:
         self.fmmu_end = REG_FMMU + FMMU_BYTES * config.fmmus
         self.sm_end = REG_SM + SM_BYTES * config.syncmanagers
         self.special = (  # registers written in parts (side effects), ascending
+            AL_CONTROL,
             ERROR_COUNTERS,
             WATCHDOG_COUNTERS,
             EEPROM_INTERFACE,
@@ -157,6 +162,8 @@ class WritePlans:
     def _special_end(self, lo: int, end: int) -> int:
         """Where the part of a write at ``lo`` (in a special block) that one call of
         :func:`emulator.esc.device.write_special` handles ends."""
+        if lo < AL_CONTROL[1]:
+            return min(end, AL_CONTROL[1])
         if lo < REG_PU_ERRORS:  # the RX error counters, cleared together
             return min(end, REG_PU_ERRORS)
         if lo < ERROR_COUNTERS[1]:
@@ -175,10 +182,8 @@ class WritePlans:
 def mark(
     lo: int, hi: int, flags: list[bool], fmmu_end: int, dc: tuple[int, int] | None
 ) -> tuple[int, int] | None:
-    """Note in ``flags`` what a masked register write of [lo, hi) changed (AL control, DL
-    control, the FMMUs below ``fmmu_end``); the DC registers written, [lo, hi) joined to ``dc``."""
-    if lo <= REG_AL_CONTROL < hi:
-        flags[0] = True
+    """Note in ``flags`` what a masked register write of [lo, hi) changed (DL control, the FMMUs
+    below ``fmmu_end``); the DC registers written, [lo, hi) joined to ``dc``."""
     if lo < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL:
         flags[2] = True
     if lo < fmmu_end and hi > REG_FMMU:
@@ -215,7 +220,7 @@ def write_masked(
 
 
 def write_special(
-    devices: Sequence[Clocked],
+    devices: Sequence[WriteTarget],
     memory: npt.NDArray[np.uint8],
     rows: _Rows,
     lo: int,
@@ -225,12 +230,23 @@ def write_special(
     masks: npt.NDArray[np.uint8],
     flags: list[bool],
     eeprom: npt.NDArray[np.bool_],
+    al: npt.NDArray[np.bool_],
 ) -> None:
     """A write of ``data`` (one row, or one per row) into [lo, hi) at every row, a part of one
     register block with side effects (cut by :meth:`WritePlans.plan`) of ``devices``: error counters and
     watchdog counters cleared (II 2.6, 0x0442), the EEPROM interface where ECAT owns it (I 11.2.2),
     SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
     and system time compare (:func:`compare_together`)."""
+    if lo < AL_CONTROL[1]:  # a mailbox while device emulation is off: a write the PDI has not
+        # read yet keeps out the next (II 0x0120); the application reacts to the rows in ``al``
+        free = np.fromiter([not dev.al_control_full for dev in devices], np.bool_, len(devices))
+        free |= (memory[rows, REG_PDI_CONTROL + 1] & 0x01) != 0  # device emulation
+        if free.any():
+            taken = data[free] if data.ndim > 1 else data
+            write_masked(memory, rows[free], lo, hi, taken, masks[lo:hi])
+            if lo == REG_AL_CONTROL:
+                al |= free
+        return
     if lo < REG_PU_ERRORS:  # one write clears all RX error counters
         memory[rows, REG_ERROR_COUNTERS:REG_PU_ERRORS] = 0
         return

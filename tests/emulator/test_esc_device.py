@@ -1278,3 +1278,28 @@ def test_dc_only_bwr_and_fpwr_latch_the_receive_times() -> None:
     assert u32(one(chain, Datagram(C.FPRD, 0x1001, 0x0900, bytes(4)))) == 2_005_000
     # ESC 1: 7,000 + 2,000,540.05 (one hop)
     assert u32(one(chain, Datagram(C.FPRD, 0x1002, 0x0900, bytes(4)))) == 2_007_540
+
+
+def test_al_control_is_a_mailbox_the_pdi_must_read() -> None:
+    # II 0x0120: while device emulation is off, "the PDI has to read the AL Control register
+    # after ECAT has written it. Otherwise ECAT can not write again"; after a reset ECAT can.
+    # With a bad configuration area the PDI never runs (I 11.2.1), so nothing reads it.
+    info = SlaveInfo.skin_patch(16, serial=1)
+    image = bytearray(build_sii(info))
+    image[14] ^= 0xFF  # word 7: a wrong checksum
+    chain = EcatChain([EscDevice(info, sii=bytes(image))])
+    assert one(chain, Datagram(C.APWR, 0, 0x0120, u16(0x0002))).wkc == 1
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0120, bytes(2)))) == 0x0002
+    assert one(chain, Datagram(C.APWR, 0, 0x0120, u16(0x0004))).wkc == 1  # counted, not taken
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0120, bytes(2)))) == 0x0002
+    for c in b"RES":  # ESC reset: 'R', 'E', 'S' in consecutive frames (II 0x0040)
+        send(chain, Datagram(C.APWR, 0, 0x0040, bytes([c])))
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0120, bytes(2)))) == 0x0001  # reset value
+    send(chain, Datagram(C.APWR, 0, 0x0120, u16(0x0008)))
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0120, bytes(2)))) == 0x0008
+    # a running PDI reads every write: INIT -> PREOP -> INIT, each taken
+    chain = EcatChain.skin(1, 16)
+    for state in (0x0002, 0x0001, 0x0002):
+        send(chain, Datagram(C.APWR, 0, 0x0120, u16(state)))
+        assert word(one(chain, Datagram(C.APRD, 0, 0x0120, bytes(2)))) == state
+        assert chain.devices[0].al_status == state
