@@ -199,8 +199,8 @@ class EcatChain:
         self.devices = list(devices)
         # every ESC's 64 KiB, one a row: a broadcast reads and commits them all at once
         self.memory = np.zeros((len(self.devices), ADDRESS_SPACE), np.uint8)
-        for row, dev in zip(self.memory, self.devices, strict=True):
-            dev.use_memory(row.data)
+        for p, (row, dev) in enumerate(zip(self.memory, self.devices, strict=True)):
+            dev.use_memory(row.data, line=self.memory, index=p)
         # every ESC's EscDevice.fmmu_span, one a row, which it keeps up to date: the ESCs a
         # logical datagram may concern are found at once
         self.fmmu_spans = np.zeros((len(self.devices), 2), np.int64)

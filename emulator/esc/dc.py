@@ -272,12 +272,13 @@ class DcClock:
 
     # --- the ESC's hooks --------------------------------------------------------------------
     def power_on(self, mem: Memory) -> None:
-        """Reset values of the DC registers (datasheet II 2.20-2.22)."""
-        mem[REG_DC_RECEIVE:REG_DC_END] = bytes(REG_DC_END - REG_DC_RECEIVE)
-        struct.pack_into("<H", mem, REG_DC_SPEED_START, SPEED_START_RESET)
-        mem[REG_DC_DIFF_FILTER] = DIFF_FILTER_RESET
-        mem[REG_DC_SPEED_FILTER] = SPEED_FILTER_RESET
-        mem[REG_SAMPLE_TIME : REG_SAMPLE_TIME + 8] = bytes(8)
+        """Reset values of the DC registers (datasheet II 2.20-2.22) and of the clock's loop
+        and pulses: :func:`registers_power_on` of a line of one, and :meth:`reset`."""
+        registers_power_on(np.frombuffer(mem, np.uint8).reshape(1, -1), np.zeros(1, np.intp))
+        self.reset()
+
+    def reset(self) -> None:
+        """The clock's loop and SYNC pulses as at power-on (its oscillator runs on)."""
         self._integral = self._diff_ns = 0.0
         self._last_compare = None
         self._next_sync0 = self._next_sync1 = None
@@ -350,6 +351,17 @@ class DcClock:
             return None
         self._sampled_pulse = self._last_pulse
         return self._last_pulse
+
+
+def registers_power_on(memory: npt.NDArray[np.uint8], rows: npt.NDArray[np.intp] | slice) -> None:
+    """Reset values of the DC registers (datasheet II 2.20-2.22) at every row: 0 but speed
+    counter start 0x1000 and the filter depths 4 and 12; the sample time in user RAM 0."""
+    memory[rows, REG_DC_RECEIVE:REG_DC_END] = 0
+    memory[rows, REG_DC_SPEED_START] = SPEED_START_RESET & 0xFF
+    memory[rows, REG_DC_SPEED_START + 1] = SPEED_START_RESET >> 8
+    memory[rows, REG_DC_DIFF_FILTER] = DIFF_FILTER_RESET
+    memory[rows, REG_DC_SPEED_FILTER] = SPEED_FILTER_RESET
+    memory[rows, REG_SAMPLE_TIME : REG_SAMPLE_TIME + 8] = 0
 
 
 def seed_clocks(clocks: Sequence[DcClock], max_drift_ppm: float, seed: int) -> None:

@@ -72,7 +72,7 @@ from emulator.esc.commands import (
     LRW,
     LWR,
 )
-from emulator.esc.dc import DcClock, configure_together
+from emulator.esc.dc import DcClock, configure_together, registers_power_on
 from emulator.esc.mapping import (
     AS_NEW_CACHE,
     PLAN_CACHE_ENTRIES,
@@ -142,6 +142,7 @@ from emulator.esc.registers import (
     REG_WD_STATUS,
     REGISTER_END,
     SM_BYTES,
+    SM_ECAT_INTERRUPT,
     SM_IRQ_READ,
     SM_IRQ_WRITE,
     SM_MAILBOX_FULL,
@@ -451,34 +452,14 @@ class EscDevice:
 
     # --- power-on, EEPROM load ----------------------------------------------------------------
     def _power_on(self) -> None:
-        """Reset values of section II, then the EEPROM load of datasheet I 11.1."""
-        cfg, mem = self.config, self.mem
-        mem[:] = bytes(ADDRESS_SPACE)
-        struct.pack_into(
-            "<BBHBBBBH",
-            mem,
-            REG_TYPE,
-            cfg.esc_type,
-            cfg.revision,
-            cfg.build,
-            cfg.fmmus,
-            cfg.syncmanagers,
-            cfg.ram_kib,
-            cfg.port_descriptor,
-            cfg.features,
-        )
-        mem[REG_DL_CONTROL : REG_DL_CONTROL + 4] = bytes((0x01, 0x00, 0x07, 0x00))
-        struct.pack_into("<H", mem, REG_AL_CONTROL, 0x0001)
-        struct.pack_into("<H", mem, REG_AL_STATUS, 0x0001)
-        struct.pack_into("<H", mem, REG_WD_DIVIDER, 0x09C2)  # 100 us watchdog ticks
-        struct.pack_into("<H", mem, REG_WD_PDI, 0x03E8)  # 100 ms
-        struct.pack_into("<H", mem, REG_WD_PD, 0x03E8)  # 100 ms
-        mem[REG_WD_STATUS] = 0x01
-        kibit = struct.unpack_from("<H", self.sii, 2 * 0x3E)[0] + 1
-        status = EE_READ_8_BYTES | EE_NOT_LOADED | (EE_TWO_ADDRESS_BYTES if kibit > 16 else 0)
-        struct.pack_into("<H", mem, REG_EEPROM_CONTROL, status)
-        for y in range(cfg.syncmanagers):
-            mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+        """Reset values of section II, then the EEPROM load of datasheet I 11.1:
+        :func:`power_on_together` of this ESC alone."""
+        power_on_together([self])
+
+    def _reset_state(self) -> None:
+        """What the ESC keeps besides its memory, as at power-on: no SyncManager, no FMMU, no
+        plan, no write pending, the clock's loop and pulses (:func:`power_on_together`)."""
+        cfg = self.config
         self._sms = [None] * cfg.syncmanagers
         self._unmade = None
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
@@ -488,13 +469,7 @@ class EscDevice:
         self.sm_areas = ()
         self._set_span((0, 0))
         self.fmmu_decoded = ((), (0, 0), self._logical_plans)
-        self.dc.power_on(mem)
-        load_config_areas([self], *self._rows, first=True)
-        mem[REG_ECAT_EVENT] |= EVENT_DL_STATUS  # the links came up
-        self._update_dl_status()
-        if self.pdi_operational:
-            self.app.power_on(self)
-        self.update_irq()
+        self.dc.reset()
 
     # --- properties the chain and the PDI application use ---------------------------------------
     @property
@@ -539,16 +514,27 @@ class EscDevice:
         """
         return self.onward
 
-    def use_memory(self, row: memoryview) -> None:
+    def use_memory(
+        self,
+        row: memoryview,
+        *,
+        line: npt.NDArray[np.uint8] | None = None,
+        index: int = 0,
+    ) -> None:
         """Keep the 64 KiB in ``row`` from now on (its content now): the chain holds every ESC's
-        memory as one array, so that a broadcast reads or commits all of them at once."""
+        memory as one array, so that a broadcast reads or commits all of them at once; ``line``
+        that array, whose row ``index`` is ``row`` (what works over rows of many ESCs at once
+        takes the ESC's row of it, :func:`power_on_together`)."""
         if row.nbytes != ADDRESS_SPACE or row.format != "B" or row.readonly:
             raise TopologyError("ESC memory: a writable row of 64 KiB bytes")
         if isinstance(self.mem, memoryview):  # the other chain would read a row left behind
             raise TopologyError(f"ESC {self.info.serial}: already in a chain")
         row[:] = self.mem
         self.mem = row
-        self._rows = (np.frombuffer(row, np.uint8).reshape(1, -1), np.zeros(1, np.intp))
+        if line is None:
+            self._rows = (np.frombuffer(row, np.uint8).reshape(1, -1), np.zeros(1, np.intp))
+        else:
+            self._rows = (line, np.full(1, index, np.intp))
 
     def use_span_row(self, row: npt.NDArray[np.int64]) -> None:
         """Keep :attr:`fmmu_span` in ``row`` (two int64) too, from now on: the chain holds every
@@ -618,6 +604,7 @@ class EscDevice:
                     last = (self.mem[st] >> 4) & 0x03
                     self.mem[st] = (self.mem[st] & 0xCD) | ((last + 1) % 3 if last < 3 else 0) << 4
                 self.mem[st] = (self.mem[st] | SM_IRQ_WRITE) & ~SM_IRQ_READ
+                self._sm_event(sm.index)
 
     def pdi_read(self, addr: int, length: int) -> bytes:
         """The application reads memory (outputs a master committed to a write SyncManager)."""
@@ -631,6 +618,7 @@ class EscDevice:
                     if sm.full:  # (a shared one is as new, empty: nothing to change)
                         sm.full = False
                     self.mem[st] &= ~SM_MAILBOX_FULL
+                self._sm_event(sm.index)
         return bytes(self.mem[addr : addr + length])
 
     # --- frame processing -----------------------------------------------------------------------
@@ -671,19 +659,38 @@ class EscDevice:
                 self._power_on()
         self.mem[REG_RESET_ECAT] = self._reset_progress
 
+    def _finish_unless_reset(self) -> bool:
+        """:meth:`finish_frame` up to a reset it completes: True (the application reacted to
+        what it was to before), the power-on left to the caller, which does many at once."""
+        if (
+            self._reset_progress == len(_RESET_SEQUENCE) - 1
+            and self._reset_written == _RESET_SEQUENCE[-1]
+        ):
+            self._reset_written = None
+            self._reset_progress = 0
+            self.finish_frame()  # buffers, mailbox; no reset written now: 0x0040 = 0
+            self.react_now()
+            return True
+        self.finish_frame()
+        return False
+
     @staticmethod
     def finish_frames(devices: Iterable[EscDevice]) -> None:
         """:meth:`finish_frame` at each of ``devices``, whose reset register 0x0040 the chain
         set to 0 (over the rows): one that is only to run its mailbox handler (no buffer
         completed, no reset written or under way) just has it run (or queued), as
         :meth:`finish_frame` would."""
+        resets: list[EscDevice] = []
         for dev in devices:
             if dev._completed or dev._reset_written is not None or dev._reset_progress:
-                dev.finish_frame()
+                if dev._finish_unless_reset():
+                    resets.append(dev)
             elif dev._mailbox_due:
                 dev._mailbox_due = False
                 if dev._mailbox_hook is not None:
                     dev._react(_MAILBOX_EVENT)
+        if resets:
+            power_on_together(resets)
 
     @staticmethod
     def unfinished(devices: Iterable[EscDevice]) -> list[EscDevice]:
@@ -837,6 +844,7 @@ class EscDevice:
                 else bytes(self.mem[sm.start : sm.end])
             )
             self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
+            self._sm_event(sm.index)
         elif not sm.open:
             return  # "a buffer has to be accessed beginning with the start address"
         assert sm.buf is not None
@@ -897,6 +905,7 @@ class EscDevice:
             sm.open = True
             sm.buf = bytearray(self.mem[sm.start : sm.end])
             self.mem[st] = (self.mem[st] & ~SM_IRQ_READ) | SM_WRITE_OPEN
+            self._sm_event(sm.index)
         elif not sm.open:
             return 0
         assert isinstance(sm.buf, bytearray)
@@ -936,6 +945,7 @@ class EscDevice:
                 sm.latest = None
                 self.mem[st] &= ~SM_MAILBOX_FULL
         sm.buf = None
+        self._sm_event(sm.index)
 
     # --- logical access through the FMMUs ------------------------------------------------------
     def read_buffered(self, lad: int, buf: bytearray, off: int, n: int, cmd: int = LRD) -> bool:
@@ -1250,6 +1260,8 @@ class EscDevice:
         data = sm.latest if sm.latest is not None else bytearray(mem[sm.start : sm.end])
         sm.buf = data
         mem[st] = (mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
+        if sm.control & SM_ECAT_INTERRUPT:
+            self._sm_event(sm.index)
         buf[at : at + sm.length] = data
         if not sm.complete:
             sm.complete = True
@@ -1359,6 +1371,7 @@ class EscDevice:
         mem = self.mem
         for st in change[0]:
             mem[st] = SM_NO_BUFFER
+            self._sm_event((st - REG_SM) // SM_BYTES)
         self.change_syncmanagers(change, found[0])
 
     def change_syncmanagers(self, change: SmChange, decoded: SmTable) -> None:
@@ -1413,6 +1426,7 @@ class EscDevice:
                 held = sms[y]
                 if held is None:  # reset by the PDI just before (pdi_deactivate_sms)
                     self.mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
+                    self._sm_event(y)
                 elif not held.shared:  # (a shared one is as new: the entry's own now)
                     held.locked = locked != 0
                     made[y] = held
@@ -1466,6 +1480,25 @@ class EscDevice:
         self.port1_link = link
         self._update_dl_status()
         self.update_irq()
+
+    def _sm_event(self, index: int) -> None:
+        """ECAT event request 0x0210 bits 4-11 mirror SyncManager 0-7's interrupt for ECAT
+        where its control bit 4 enables it (datasheet II 0x0210, 0x0804): a buffer the PDI
+        wrote and ECAT has not opened (status bit 0, ECAT reads it), or read and ECAT has not
+        written again (bit 1, ECAT writes it)."""
+        if index >= 8:
+            return
+        mem = self.mem
+        at = REG_SM + SM_BYTES * index
+        control, status = mem[at + 4], mem[at + 5]
+        for_ecat = SM_IRQ_READ if control & 0x0C == 0x04 else SM_IRQ_WRITE
+        pending = control & SM_ECAT_INTERRUPT and status & for_ecat
+        byte, bit = REG_ECAT_EVENT + (4 + index) // 8, 1 << ((4 + index) % 8)
+        old = mem[byte]
+        new = old | bit if pending else old & ~bit
+        if new != old:
+            mem[byte] = new
+            self.update_irq()
 
     def _clear_event(self, bits: int) -> None:
         if self.mem[REG_ECAT_EVENT] & bits:
@@ -1678,6 +1711,70 @@ def _reads(
     return status
 
 
+def power_on_together(devices: Sequence[EscDevice]) -> None:
+    """Power on ``devices`` (at power-on, or an ESC reset, datasheet II 0x0040): the reset values
+    of section II and then the EEPROM load of datasheet I 11.1, over the rows of each line's
+    memory; then each one's application starts where the load made the PDI operational."""
+    lines: dict[int, tuple[npt.NDArray[np.uint8], list[EscDevice]]] = {}
+    for dev in devices:
+        lines.setdefault(id(dev._rows[0]), (dev._rows[0], []))[1].append(dev)
+    for memory, members in lines.values():
+        rows = np.concatenate([dev._rows[1] for dev in members])
+        every = consecutive(rows) if len(rows) > 1 else rows
+        memory[every] = 0
+        configs: dict[EscConfig, list[int]] = {}
+        for k, dev in enumerate(members):
+            configs.setdefault(dev.config, []).append(k)
+        for cfg, ks in configs.items():
+            at = rows[ks]
+            identity = struct.pack(
+                "<BBHBBBBH",
+                cfg.esc_type,
+                cfg.revision,
+                cfg.build,
+                cfg.fmmus,
+                cfg.syncmanagers,
+                cfg.ram_kib,
+                cfg.port_descriptor,
+                cfg.features,
+            )
+            memory[at, REG_TYPE : REG_TYPE + len(identity)] = np.frombuffer(identity, np.uint8)
+            memory[at, REG_SM + 5 : REG_SM + SM_BYTES * cfg.syncmanagers : SM_BYTES] = SM_NO_BUFFER
+        for addr, value in _RESET_VALUES:
+            memory[every, addr : addr + len(value)] = np.frombuffer(value, np.uint8)
+        kibit = [struct.unpack_from("<H", dev.sii, 2 * 0x3E)[0] + 1 for dev in members]
+        status = EE_READ_8_BYTES | EE_NOT_LOADED
+        big = np.array([k > 16 for k in kibit], np.bool_)
+        memory[rows, REG_EEPROM_CONTROL] = status & 0xFF
+        memory[rows, REG_EEPROM_CONTROL + 1] = np.where(
+            big, (status | EE_TWO_ADDRESS_BYTES) >> 8, status >> 8
+        )
+        for dev in members:
+            dev._reset_state()
+        registers_power_on(memory, every)
+        load_config_areas(members, memory, rows, first=True)
+        memory[every, REG_ECAT_EVENT] |= EVENT_DL_STATUS  # the links came up
+        _dl_status(members, memory, rows)
+        for dev in members:
+            if dev.pdi_operational:
+                dev.app.power_on(dev)
+        _event_requests(members, memory, every)
+
+
+# the reset values of section II besides identity, EEPROM and SyncManager status: DL control
+# (loop ports auto, forwarding of non-EtherCAT frames, RX FIFO), AL control and status INIT,
+# watchdog divider (100 us ticks), PDI and process data watchdogs (100 ms), watchdog status
+_RESET_VALUES: Final = (
+    (REG_DL_CONTROL, bytes((0x01, 0x00, 0x07, 0x00))),
+    (REG_AL_CONTROL, struct.pack("<H", 0x0001)),
+    (REG_AL_STATUS, struct.pack("<H", 0x0001)),
+    (REG_WD_DIVIDER, struct.pack("<H", 0x09C2)),
+    (REG_WD_PDI, struct.pack("<H", 0x03E8)),
+    (REG_WD_PD, struct.pack("<H", 0x03E8)),
+    (REG_WD_STATUS, b"\x01"),
+)
+
+
 def load_config_areas(
     devices: Sequence[EscDevice],
     memory: npt.NDArray[np.uint8],
@@ -1806,6 +1903,10 @@ def _syncmanagers(
             change = sm_change(areas, before, found)
             if change[0]:
                 memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
+                for st in change[0]:  # no buffer: no interrupt for ECAT (0x0210 bits 4-11)
+                    bit = 4 + (st - REG_SM) // SM_BYTES
+                    if bit < 12:
+                        memory[rows[members], REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
             EscDevice.change_syncmanagers_together([devices[i] for i in members], change, found[0])
         else:
             EscDevice.sm_registers_written_together([devices[i] for i in members])

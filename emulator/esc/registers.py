@@ -86,6 +86,7 @@ __all__ = [
     "REG_WD_PDI",
     "REG_WD_STATUS",
     "SM_BYTES",
+    "SM_ECAT_INTERRUPT",
     "SM_IRQ_READ",
     "SM_IRQ_WRITE",
     "SM_MAILBOX_FULL",
@@ -160,6 +161,8 @@ DL_PORTS_2_3_CLOSED: Final = 0x1000 | 0x4000  # ports 2 and 3 not implemented: c
 # ECAT event request 0x0210 (datasheet II 2.7)
 EVENT_DL_STATUS: Final = 0x0004
 EVENT_AL_STATUS: Final = 0x0008
+
+SM_ECAT_INTERRUPT: Final = 0x10  # SyncManager control 0x0804 bit 4: interrupt in 0x0210
 
 # SyncManager status 0x0805 bits (datasheet II 2.14.4)
 SM_IRQ_WRITE: Final = 0x01

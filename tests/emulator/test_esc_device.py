@@ -1303,3 +1303,25 @@ def test_al_control_is_a_mailbox_the_pdi_must_read() -> None:
         send(chain, Datagram(C.APWR, 0, 0x0120, u16(state)))
         assert word(one(chain, Datagram(C.APRD, 0, 0x0120, bytes(2)))) == state
         assert chain.devices[0].al_status == state
+
+
+def test_syncmanager_interrupts_reach_the_ecat_event_request() -> None:
+    # II 0x0804 bit 4 enables a SyncManager's interrupt in the ECAT event request; 0x0210 bits
+    # 4-11 mirror SyncManager 0-7: an input buffer the PDI wrote and ECAT has not opened yet
+    # (0x0805 bit 0). Through the event mask 0x0200 it reaches every datagram's IRQ field.
+    chain = EcatChain.configured(1, 4)  # inputs on SM0 at 0x1000, control 0x20
+    assert one(chain, Datagram(C.APRD, 0, 0x0804, bytes(1))).data == b"\x20"
+    send(chain, Datagram(C.APWR, 0, 0x0806, b"\x00"))  # disabled: its configuration writable
+    send(chain, Datagram(C.APWR, 0, 0x0804, b"\x30"))  # + ECAT interrupt
+    send(chain, Datagram(C.APWR, 0, 0x0806, b"\x01"))
+    send(chain, Datagram(C.APWR, 0, 0x0200, u16(0x0010)))  # mask: SM0's event
+    # reading DL and AL status clears their events (bits 2, 3; datasheet I Table 3)
+    send(chain, Datagram(C.APRD, 0, 0x0110, bytes(2)), Datagram(C.APRD, 0, 0x0130, bytes(2)))
+    assert one(chain, Datagram(C.APRD, 0, 0x0210, bytes(2))).data == b"\x00\x00"  # no buffer
+    chain.publish([b"\x07" * 4])  # the PDI writes a buffer: interrupt write (II 0x0805 bit 0)
+    d = one(chain, Datagram(C.APRD, 0, 0x0210, bytes(2)))
+    assert (d.data, d.irq) == (b"\x10\x00", 0x0010)
+    lrd = one(chain, Datagram.logical(C.LRD, 0, bytes(4)))  # ECAT opens it: the event clears
+    assert (lrd.data, lrd.wkc) == (b"\x07" * 4, 1)
+    d = one(chain, Datagram(C.APRD, 0, 0x0210, bytes(2)))
+    assert (d.data, d.irq) == (b"\x00\x00", 0)
