@@ -49,8 +49,8 @@ import hostile_any  # noqa: E402
 from emulator.esc import compiled, mapping  # noqa: E402
 from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
 from emulator.esc.dc import DEFAULT_DRIFT_PPM, seed_clocks  # noqa: E402
-from emulator.esc.hostile import master_reset_frames  # noqa: E402
-from emulator.esc.sii import SlaveInfo  # noqa: E402
+from emulator.esc.hostile import eeprom_repair_frames, master_reset_frames  # noqa: E402
+from emulator.esc.sii import SlaveInfo, build_sii  # noqa: E402
 from emulator.esc.state_machine import AlState  # noqa: E402
 from emulator.live import BetweenFrames, _abandon_frame  # noqa: E402
 from emulator.model.limits import MAX_SERVED_SLAVES  # noqa: E402
@@ -203,6 +203,16 @@ def lrd_works(chain: EcatChain, nodes: int, size: int) -> bool:
     """A master resets and configures the line; an LRD of the image returns every patch's
     published inputs with working counter ``nodes`` (ETG.1000.4 Table 14: one read each)."""
     try:
+        for frame in master_reset_frames(nodes):
+            chain.process_frame(frame)
+        broken = [dev.position for dev in chain.devices if dev.registers(0x0502, 2)[1] & 0x08]
+        if broken:  # EEPROM checksum error (0x0502 bit 11): the frames rewrote configuration
+            # area A (their EEPROM writes set write enable), which a real slave would not
+            # survive either; a master rewrites it (as eeprom tools do) and reloads
+            print(f"  {len(broken)} slaves' EEPROM configuration area was corrupted; rewritten")
+            areas = [bytes(build_sii(dev.info)[:16]) for dev in chain.devices]
+            for frame in eeprom_repair_frames(areas):
+                chain.process_frame(frame)
         for frame in master_frames(nodes, size):
             chain.process_frame(frame)
         rows = taxel.sample_payloads(nodes, 1, size, seed=3)[0]

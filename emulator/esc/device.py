@@ -1646,8 +1646,13 @@ def _eeprom_commands(
     memory[at, REG_EEPROM_CONTROL + 1] = status >> 8
     if reload.any():  # configuration area A again; PDI operational follows it (I 11.2.1)
         again = [devices[i] for i in which[reload].tolist()]
+        running = [dev.pdi_operational for dev in again]
         load_config_areas(again, memory, at[reload], first=False)
         _dl_status(again, memory, at[reload])
+        for dev, before in zip(again, running, strict=True):
+            if dev.pdi_operational and not before:  # the PDI came up: the firmware starts
+                dev.al_control_full = False  # and reads AL control (II 0x0120)
+                dev.app.power_on(dev)
         _event_requests(again, memory, at[reload])
 
 

@@ -42,6 +42,36 @@ _WRITES: Final = (
 _FRAME_DATA_BYTES: Final = ethercat.MAX_DATAGRAM_DATA_BYTES + ethercat.DATAGRAM_OVERHEAD_BYTES
 
 
+CONFIG_AREA_WORDS: Final = 8  # SII words 0-7: ESC configuration area A (datasheet I 11.1)
+
+
+def eeprom_repair_frames(areas: list[bytes]) -> list[bytes]:
+    """What a master sends to rewrite each slave's EEPROM configuration area (words 0-7, with
+    its checksum; ``areas[p]`` the 16 bytes for the slave at position ``p``) and reload it:
+    one word a slave a frame, each an address, the word and the write command with write
+    enable in one frame (datasheet I 11.2.3, II 0x0502-0x050F), then a reload at every slave.
+    Hostile frames of a generator that sets write enable can corrupt an EEPROM; a real slave
+    then stays without its PDI until its EEPROM is written again (as this does, in the way
+    eeprom tools of masters do). ECAT must own the EEPROM interface
+    (:func:`master_reset_frames` gives it to ECAT)."""
+    frames = []
+    for word in range(CONFIG_AREA_WORDS):
+        batch: list[Datagram] = []
+        for p, area in enumerate(areas):
+            adp = -p & 0xFFFF
+            value = area[2 * word : 2 * word + 2]
+            batch += [
+                Datagram(Command.APWR, adp, 0x0504, struct.pack("<I", word)),
+                Datagram(Command.APWR, adp, 0x0508, value),
+                Datagram(Command.APWR, adp, 0x0502, struct.pack("<H", 0x0201)),
+            ]
+            if len(batch) >= 3 * 32 or p == len(areas) - 1:  # 32 slaves a frame: 1,280 bytes
+                frames.append(ethercat.frame(EcatFrame(tuple(batch))).to_bytes())
+                batch = []
+    reload = Datagram(Command.BWR, 0, 0x0502, struct.pack("<H", 0x0400))
+    return [*frames, ethercat.frame(EcatFrame((reload,))).to_bytes()]
+
+
 def master_reset_frames(nodes: int) -> list[bytes]:
     """Broadcast writes that bring a line of ``nodes`` back to a state a master can configure.
 

@@ -1216,6 +1216,23 @@ def test_eeprom_reload_brings_pdi_operational_back_and_takes_it_away() -> None:
     assert (d.wkc, d.data) == (1, b"\x5a")  # back, with what it held
 
 
+def test_the_firmware_starts_when_a_reload_brings_the_pdi_up() -> None:
+    # Without a PDI nothing reads AL control, a mailbox while device emulation is off (II
+    # 0x0120): a request stays there and keeps the next out. A good reload brings the PDI up
+    # (I 11.2.1); the firmware starts, reads AL control, and the master's requests go through.
+    info = SlaveInfo.skin_patch(16, serial=1)
+    image = bytearray(build_sii(info))
+    crc = image[14]
+    image[14] ^= 0xFF
+    chain = EcatChain([EscDevice(info, sii=bytes(image))])
+    send(chain, Datagram(C.APWR, 0, 0x0120, u16(0x0004)))  # taken, never read
+    eeprom_word_write(chain, 7, crc)  # the right checksum, then a reload
+    send(chain, Datagram(C.APWR, 0, 0x0502, u16(0x0400)))
+    send(chain, Datagram(C.APWR, 0, 0x0120, u16(0x0002)))
+    assert word(one(chain, Datagram(C.APRD, 0, 0x0120, bytes(2)))) == 0x0002
+    assert chain.devices[0].al_status == 0x0002  # PREOP: the firmware took the request
+
+
 def test_dl_status_shows_enhanced_link_detection_from_the_eeprom() -> None:
     # II 0x0110 bit 2: enhanced link detection activated for at least one port, which the ESC
     # configuration 0x0141 (SII word 0 bits 8-15) sets: bit 1 all ports, bits 4-7 port by port
@@ -1325,3 +1342,23 @@ def test_syncmanager_interrupts_reach_the_ecat_event_request() -> None:
     assert (lrd.data, lrd.wkc) == (b"\x07" * 4, 1)
     d = one(chain, Datagram(C.APRD, 0, 0x0210, bytes(2)))
     assert (d.data, d.irq) == (b"\x00\x00", 0)
+
+
+def test_a_master_rewrites_a_corrupted_eeprom_configuration_area() -> None:
+    # Slave 1's configuration area checksum overwritten and reloaded: no PDI (I 11.2.1), its
+    # firmware cannot take the master to OP; eeprom_repair_frames writes words 0-7 back and
+    # reloads (I 11.2.3), after which the line is configured to OP.
+    from emulator.esc.hostile import eeprom_repair_frames
+
+    chain = EcatChain.skin(3, 16)
+    good = [bytes(dev.sii[:16]) for dev in chain.devices]
+    bad = good[1][:14] + bytes([good[1][14] ^ 0xFF, good[1][15]])
+    for frame in eeprom_repair_frames([good[0], bad, good[2]]):
+        chain.process_frame(frame)
+    assert [bool(dev.registers(0x0110, 1)[0] & 0x01) for dev in chain.devices] == [1, 0, 1]
+    for frame in eeprom_repair_frames(good):
+        chain.process_frame(frame)
+    assert [dev.registers(0x0502, 2)[1] & 0x08 for dev in chain.devices] == [0, 0, 0]
+    for frame in configure_frames(chain.devices[0].info, 3):
+        assert chain.process_frame(frame) is not None
+    assert [dev.al_status for dev in chain.devices] == [0x08] * 3
