@@ -604,7 +604,8 @@ class EscDevice:
                     last = (self.mem[st] >> 4) & 0x03
                     self.mem[st] = (self.mem[st] & 0xCD) | ((last + 1) % 3 if last < 3 else 0) << 4
                 self.mem[st] = (self.mem[st] | SM_IRQ_WRITE) & ~SM_IRQ_READ
-                self._sm_event(sm.index)
+                if sm.control & SM_ECAT_INTERRUPT:
+                    self._sm_event(sm.index)
 
     def pdi_read(self, addr: int, length: int) -> bytes:
         """The application reads memory (outputs a master committed to a write SyncManager)."""
@@ -618,7 +619,8 @@ class EscDevice:
                     if sm.full:  # (a shared one is as new, empty: nothing to change)
                         sm.full = False
                     self.mem[st] &= ~SM_MAILBOX_FULL
-                self._sm_event(sm.index)
+                if sm.control & SM_ECAT_INTERRUPT:
+                    self._sm_event(sm.index)
         return bytes(self.mem[addr : addr + length])
 
     # --- frame processing -----------------------------------------------------------------------
@@ -682,9 +684,11 @@ class EscDevice:
         :meth:`finish_frame` would."""
         resets: list[EscDevice] = []
         for dev in devices:
-            if dev._completed or dev._reset_written is not None or dev._reset_progress:
+            if dev._reset_written is not None:
                 if dev._finish_unless_reset():
                     resets.append(dev)
+            elif dev._completed or dev._reset_progress:
+                dev.finish_frame()
             elif dev._mailbox_due:
                 dev._mailbox_due = False
                 if dev._mailbox_hook is not None:
@@ -844,7 +848,8 @@ class EscDevice:
                 else bytes(self.mem[sm.start : sm.end])
             )
             self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
-            self._sm_event(sm.index)
+            if sm.control & SM_ECAT_INTERRUPT:
+                self._sm_event(sm.index)
         elif not sm.open:
             return  # "a buffer has to be accessed beginning with the start address"
         assert sm.buf is not None
@@ -905,7 +910,8 @@ class EscDevice:
             sm.open = True
             sm.buf = bytearray(self.mem[sm.start : sm.end])
             self.mem[st] = (self.mem[st] & ~SM_IRQ_READ) | SM_WRITE_OPEN
-            self._sm_event(sm.index)
+            if sm.control & SM_ECAT_INTERRUPT:
+                self._sm_event(sm.index)
         elif not sm.open:
             return 0
         assert isinstance(sm.buf, bytearray)
@@ -945,7 +951,8 @@ class EscDevice:
                 sm.latest = None
                 self.mem[st] &= ~SM_MAILBOX_FULL
         sm.buf = None
-        self._sm_event(sm.index)
+        if sm.control & SM_ECAT_INTERRUPT:  # (else its event stayed clear since it started)
+            self._sm_event(sm.index)
 
     # --- logical access through the FMMUs ------------------------------------------------------
     def read_buffered(self, lad: int, buf: bytearray, off: int, n: int, cmd: int = LRD) -> bool:
