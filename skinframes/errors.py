@@ -10,8 +10,10 @@ Every error the library raises on bad input comes from here::
     │   ├── ChecksumError               FCS / CRC
     │   ├── UnknownProtocolError        unregistered EtherType / link type
     │   ├── PcapFormatError             bad magic, version, truncated record
-    │   └── CanLogFormatError           not a readable CAN log (unknown suffix, damaged);
-    │                                   its old name TraceFormatError is the same class
+    │   ├── CanLogFormatError           not a readable CAN log (unknown suffix, damaged);
+    │   │                               its old name TraceFormatError is the same class
+    │   └── EsiFormatError              an ESI XML file that cannot be used (malformed, an
+    │                                   element missing or unusable: named with its line)
     └── EncodeError(…, ValueError)      model -> bytes
         ├── FieldRangeError             a value does not fit its field (11-bit length > 2047, node id > 255)
         ├── FrameTooLargeError          > 1500-byte payload, too many datagrams
@@ -38,6 +40,7 @@ __all__ = [
     "ChecksumError",
     "DecodeError",
     "EncodeError",
+    "EsiFormatError",
     "FieldRangeError",
     "FrameTooLargeError",
     "InvalidFieldError",
@@ -101,6 +104,15 @@ class CanLogFormatError(DecodeError):
 
 
 TraceFormatError = CanLogFormatError  # its old name (docs/interface.md, Old names)
+
+
+class EsiFormatError(DecodeError):
+    """An EtherCAT Slave Information (ESI) file cannot be used.
+
+    Not well-formed XML, a required element missing, or a value that is not what ETG.2000
+    allows; the message names the element and its line. Also raised when a device asked for is
+    not in the file.
+    """
 
 
 class EncodeError(SkinframesError, ValueError):

@@ -19,6 +19,7 @@ os.environ["SKINFRAMES_PURE"] = "1"
 ROOT = Path(__file__).resolve().parent.parent
 PCAPS = ROOT / "pcaps"
 SHARED_CAPTURES = ROOT.parent / "shared" / "captures"
+SHARED_ESI = ROOT.parent / "shared" / "esi"
 IN_CI = os.environ.get("CI", "").lower() == "true"
 
 settings.register_profile(
@@ -73,6 +74,18 @@ def shared_captures() -> Path:
             pytest.fail("CI=true: " + reason)
         pytest.skip(reason)
     return SHARED_CAPTURES
+
+
+@pytest.fixture(scope="session")
+def shared_esi() -> Path:
+    """../shared/esi (third-party ESI files and their SII images); skips, or fails under
+    CI=true, when the folder is not beside the project."""
+    if not SHARED_ESI.is_dir():
+        reason = f"{SHARED_ESI} not found: the third-party ESI files are not beside the project"
+        if IN_CI:
+            pytest.fail("CI=true: " + reason)
+        pytest.skip(reason)
+    return SHARED_ESI
 
 
 def first_difference(a: bytes, b: bytes) -> int:

@@ -1,0 +1,231 @@
+"""The ESI reader against third-party ESI files (../shared/esi), typed-in values and bad XML.
+
+Expected values are read off the XML files by eye (the line numbers are the files') and typed in
+here, never taken from the reader's own output.
+"""
+
+from __future__ import annotations
+
+import time
+from pathlib import Path
+
+import pytest
+from memory_util import traced_peak
+
+from skinframes.errors import DecodeError, EsiFormatError
+from skinframes.esi import (
+    EsiCoe,
+    EsiDcOpMode,
+    EsiFmmu,
+    EsiPdoEntry,
+    EsiSyncManager,
+    parse_esi,
+    parse_number,
+    read_esi,
+)
+
+
+def test_numbers_as_esi_writes_them() -> None:
+    assert parse_number("#x1000") == 0x1000
+    assert parse_number("#X1a00") == 0x1A00
+    assert parse_number("128") == 128
+    assert parse_number(" 42 ") == 42
+    assert parse_number("-5") == -5
+    for bad in ("", "#x", "#xZZ", "1.5", "x10", "١٢"):
+        with pytest.raises(ValueError):
+            parse_number(bad)
+
+
+def test_lan9252_demo(shared_esi: Path) -> None:
+    esi = read_esi(shared_esi / "soes_linux_lan9252demo.xml")
+    assert (esi.vendor.vendor_id, esi.vendor.name) == (0x1337, "rt-labs AB")
+    assert esi.groups == (("lan9252_spi", "lan9252"),)
+    d = esi.device()
+    assert (d.type_name, d.product_code, d.revision, d.name) == ("evb9252_dig", 1234, 0, "lan9252")
+    assert d.physics == "YY" and d.group_type == "lan9252_spi"
+    assert d.fmmus == (EsiFmmu("Outputs"), EsiFmmu("Inputs"))
+    assert d.sync_managers == (
+        EsiSyncManager(0x1000, 128, 0x26, 1, "MBoxOut"),
+        EsiSyncManager(0x1080, 128, 0x22, 1, "MBoxIn"),
+        EsiSyncManager(0x1100, None, 0x24, 1, "Outputs"),
+        EsiSyncManager(0x1180, None, 0x20, 1, "Inputs"),
+    )
+    (rx,) = d.rx_pdos
+    assert (rx.index, rx.sync_manager, rx.mandatory, rx.fixed) == (0x1600, 2, True, True)
+    assert [(e.index, e.subindex, e.bit_length) for e in rx.entries] == [
+        (0x7000, 1, 8),
+        (0x7000, 2, 8),
+    ]
+    (tx,) = d.tx_pdos
+    assert (tx.index, tx.sync_manager, tx.bit_length) == (0x1A00, 3, 8)
+    assert d.mailbox is not None and d.mailbox.data_link_layer
+    assert d.mailbox.coe == EsiCoe(sdo_info=True)
+    assert d.mailbox.foe and not (d.mailbox.eoe or d.mailbox.soe or d.mailbox.aoe)
+    assert d.eeprom is not None and d.eeprom.byte_size == 256
+    assert d.eeprom.config_data == bytes.fromhex("8002000000000000")
+    assert d.eeprom.bootstrap == bytes.fromhex("0010800080108000")
+    assert d.dictionary is not None and len(d.dictionary.objects) == 13
+    dt1018 = next(t for t in d.dictionary.data_types if t.name == "DT1018")
+    assert dt1018.bit_size == 144
+    assert [(s.subindex, s.name, s.type_name, s.bit_offset, s.access) for s in dt1018.sub_items][
+        1
+    ] == (1, "Vendor ID", "UDINT", 16, "ro")
+    arr = next(t for t in d.dictionary.data_types if t.name == "DT1C00ARR")
+    assert (arr.base_type, arr.array_lower_bound, arr.array_elements) == ("USINT", 1, 4)
+
+
+def test_dynpdo_dictionary_and_coe(shared_esi: Path) -> None:
+    d = read_esi(shared_esi / "soes_rtl_xmc4_dynpdo.xml").device("xmc48relax")
+    assert d.mailbox is not None
+    assert d.mailbox.coe == EsiCoe(
+        sdo_info=True, pdo_assign=True, pdo_config=True, complete_access=True
+    )
+    assert [(p.index, len(p.entries), p.fixed) for p in d.rx_pdos] == [
+        (0x1600, 1, True),
+        (0x1601, 1, True),
+        (0x1602, 0, False),
+    ]
+    assert d.tx_pdos[0].entries == (EsiPdoEntry(0x6000, 1, 8, "Button1", "USINT"),)
+    assert d.dictionary is not None
+    device_type = d.dictionary.object(0x1000)
+    assert device_type is not None
+    assert (device_type.name, device_type.type_name, device_type.bit_size) == (
+        "Device Type",
+        "UDINT",
+        32,
+    )
+    assert (device_type.default_value, device_type.access, device_type.category) == (
+        "#x00001389",
+        "ro",
+        "m",
+    )
+
+
+def test_bogus_io_names_and_undeclared_sizes(shared_esi: Path) -> None:
+    esi = read_esi(shared_esi / "hw_device_mgr_BogusIO.xml")
+    assert esi.vendor.vendor_id == 0xB090C0
+    d = esi.device("#xB0901030")  # by product code
+    assert (d.type_name, d.revision) == ("B090.IO.3.0", 42)
+    assert d.names[1] == (2052, "B090.IO.001 3路数字量输入/3路数字量输出")
+    assert d.name == "B090.IO.001 3-ch Digital In/3-ch Digital Out"
+    assert [s.default_size_bytes for s in d.sync_managers] == [None, None]
+    assert d.tx_pdos[0].sync_manager == 2  # as written, though the device has SMs 0 and 1 only
+    assert d.mailbox is None and d.dictionary is None
+    assert d.eeprom is not None
+    assert d.eeprom.config_data == bytes.fromhex("B0900000DEADBEEF")
+    assert d.eeprom.bootstrap is None
+
+
+def test_dc_op_mode(shared_esi: Path) -> None:
+    d = read_esi(shared_esi / "soes_xmc4300_slavedemo.xml").device()
+    assert d.dc_op_modes == (EsiDcOpMode("DcOff", "DC unused", 0),)
+    assert d.eeprom is not None and d.eeprom.byte_size == 3968
+
+
+MULTI = b"""<?xml version="1.0"?>
+<EtherCATInfo>
+  <Vendor><Id>2</Id><Name>Two</Name></Vendor>
+  <Descriptions>
+    <Groups><Group><Type>G</Type><Name>Group G</Name></Group></Groups>
+    <Devices>
+      <Device Physics="YK">
+        <Type ProductCode="#x10" RevisionNo="#x1">A-1</Type><Name>first</Name>
+        <Sm StartAddress="#x1000" ControlByte="#x20" Enable="1">Inputs</Sm>
+        <Fmmu Sm="0">Inputs</Fmmu>
+        <TxPdo Sm="0"><Index>#x1a00</Index><Name>In</Name><Exclude>#x1a01</Exclude>
+          <Entry><Index>#x6000</Index><SubIndex>1</SubIndex><BitLen>1</BitLen><Name>b</Name><DataType>BOOL</DataType></Entry>
+          <Entry><Index>0</Index><BitLen>7</BitLen></Entry>
+        </TxPdo>
+        <AlternativeSmMapping Default="1"><Name>Alt</Name><Sm No="0"><Pdo>#x1a00</Pdo></Sm></AlternativeSmMapping>
+        <Dc><OpMode><Name>DC</Name><Desc>sync</Desc><AssignActivate>#x300</AssignActivate>
+          <CycleTimeSync0 Factor="1">0</CycleTimeSync0><ShiftTimeSync0>100</ShiftTimeSync0>
+          <CycleTimeSync1 Factor="-2">0</CycleTimeSync1></OpMode></Dc>
+        <Eeprom><ByteSize>512</ByteSize><ConfigData>0500</ConfigData>
+          <Category><CatNo>1</CatNo><Data>ABCD</Data></Category></Eeprom>
+      </Device>
+      <Device><Type ProductCode="#x20" RevisionNo="2">B-2</Type><Name>second</Name></Device>
+    </Devices>
+  </Descriptions>
+</EtherCATInfo>
+"""
+
+
+def test_several_devices_are_picked_by_type_or_product_code() -> None:
+    esi = parse_esi(MULTI)
+    assert [d.type_name for d in esi.devices] == ["A-1", "B-2"]
+    assert esi.device("B-2").product_code == 0x20
+    assert esi.device("0x10").type_name == "A-1"
+    assert esi.device("32").type_name == "B-2"
+    with pytest.raises(EsiFormatError, match=r"2 devices.*A-1 \(product code 0x10\).*B-2"):
+        esi.device()
+    with pytest.raises(EsiFormatError, match="no device 'C'"):
+        esi.device("C")
+    a = esi.devices[0]
+    assert a.line == 7 and a.physics == "YK"
+    assert a.fmmus == (EsiFmmu("Inputs", 0),)
+    assert a.tx_pdos[0].excludes == (0x1A01,)
+    assert a.tx_pdos[0].entries[1] == EsiPdoEntry(0, 0, 7, "", "")
+    assert a.alternative_sm_mappings[0].assignments == ((0, (0x1A00,)),)
+    (mode,) = a.dc_op_modes
+    assert (mode.assign_activate, mode.shift_time_sync0_ns, mode.cycle_time_sync1_factor) == (
+        0x300,
+        100,
+        -2,
+    )
+    assert a.eeprom is not None and a.eeprom.categories[0].data == b"\xab\xcd"
+    assert esi.devices[1].eeprom is None and esi.group_name("G") == "Group G"
+
+
+@pytest.mark.parametrize(
+    ("text", "message"),
+    [
+        (MULTI[:400], r"line \d+: not well-formed XML"),
+        (b"<Other/>", r"line 1: <Other>: the root element"),
+        (MULTI.replace(b"<Id>2</Id>", b""), r"line 3: <Vendor>: missing <Id>"),
+        (MULTI.replace(b"<Id>2</Id>", b"<Id>#xG</Id>"), r"line 3: <Id>: '#xG' is not a number"),
+        (
+            MULTI.replace(b">Inputs</Sm>", b">Input</Sm>"),
+            r"line 9: <Sm>: 'Input' is not a SyncManager type",
+        ),
+        (MULTI.replace(b'StartAddress="#x1000" ', b""), r"line 9: <Sm>: missing attribute"),
+        (MULTI.replace(b"<BitLen>1</BitLen>", b""), r"line 12: <Entry>: missing <BitLen>"),
+        (MULTI.replace(b"<Data>ABCD", b"<Data>ABC"), r"line 2\d: <Data>: 'ABC' is not hex"),
+        (MULTI.replace(b">Inputs</Fmmu>", b">Out</Fmmu>"), r"line 10: <Fmmu>"),
+        (MULTI.replace(b'Default="1"', b'Default="yes"'), r"<AlternativeSmMapping>: Default="),
+        (
+            MULTI.replace(b'<Type ProductCode="#x20" RevisionNo="2">B-2</Type>', b""),
+            r"line 22: <Device>: missing <Type>",
+        ),
+    ],
+)
+def test_bad_input_names_the_element_and_line(text: bytes, message: str) -> None:
+    with pytest.raises(EsiFormatError, match=message) as info:
+        parse_esi(text, source="x.xml")
+    assert isinstance(info.value, DecodeError) and str(info.value).startswith("x.xml: line ")
+
+
+def test_empty_and_binary_input() -> None:
+    for data in (b"", b"\x00\xff" * 10, "<a>é</a>".encode("latin-1")):
+        with pytest.raises(EsiFormatError):
+            parse_esi(data)
+
+
+def _big_esi(shared_esi: Path, target_bytes: int) -> bytes:
+    src = (shared_esi / "soes_rtl_xmc4_dynpdo.xml").read_bytes()
+    i = src.index(b"<Objects>") + len(b"<Objects>")
+    j = src.index(b"</Objects>")
+    copies = target_bytes // (j - i) + 1
+    return src[:i] + src[i:j] * copies + src[j:]
+
+
+def test_a_10_mb_esi_reads_in_seconds_with_little_memory(shared_esi: Path) -> None:
+    data = _big_esi(shared_esi, 10_000_000)
+    start = time.perf_counter()
+    esi = parse_esi(data)
+    elapsed = time.perf_counter() - start
+    dictionary = esi.device().dictionary
+    assert dictionary is not None and len(dictionary.objects) > 5000
+    assert elapsed < 8, f"{elapsed:.1f} s for {len(data)} bytes"
+    small = _big_esi(shared_esi, 2_000_000)
+    peak = traced_peak(lambda: parse_esi(small))
+    assert peak < 10 * len(small), f"peak {peak} bytes for a {len(small)}-byte file"
