@@ -684,11 +684,11 @@ class EscDevice:
         :meth:`finish_frame` would."""
         resets: list[EscDevice] = []
         for dev in devices:
-            if dev._reset_written is not None:
-                if dev._finish_unless_reset():
+            if dev._completed or dev._reset_written is not None or dev._reset_progress:
+                if dev._reset_written is None:
+                    dev.finish_frame()
+                elif dev._finish_unless_reset():
                     resets.append(dev)
-            elif dev._completed or dev._reset_progress:
-                dev.finish_frame()
             elif dev._mailbox_due:
                 dev._mailbox_due = False
                 if dev._mailbox_hook is not None:
