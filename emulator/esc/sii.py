@@ -1,38 +1,44 @@
-"""The Slave Information Interface (SII) EEPROM image of an emulated EtherCAT slave.
+"""The Slave Information Interface (SII) of an emulated EtherCAT slave: what goes into it.
 
-Layout: ETG.1000.6 clause 5.4 / ETG.2010 (SII specification) as the Beckhoff ESC datasheet
-section I, 11.1 (Tables 42 and 43) summarises it. The EEPROM is word addressed, little-endian:
+The image's bytes are :mod:`skinframes.sii`'s (ETG.1000.6 clause 5.4 / ETG.2010, the one SII
+encoder and decoder); this module decides what an emulated slave puts there. A
+:class:`SlaveInfo` is the small description an image is built from (:func:`build_sii`);
+:meth:`SlaveInfo.skin_patch` describes one tactile patch whose TxPDO carries its taxel bytes.
 
-* words 0-7: ESC configuration area A (PDI control and configuration, SYNC pulse length,
-  extended PDI configuration, configured station alias, two reserved words) and word 7, the
-  checksum: the low byte is the CRC-8 of bytes 0-13 with polynomial x^8 + x^2 + x + 1 (0x07),
-  initial value 0xFF, no reflection, no final XOR (datasheet I, Table 42);
-* words 8-15: vendor ID, product code, revision number, serial number (u32 each);
-* words 0x14-0x1C: bootstrap and standard mailbox offsets/sizes and the mailbox protocols
-  (ETG.2010 Table 2): the standard receive mailbox (master -> slave, SM0) at words 0x18/0x19,
-  the standard send mailbox (SM1) at 0x1A/0x1B, the protocols at 0x1C (bit 2 = CoE); all 0
-  for a slave without a mailbox;
-* word 0x3E: EEPROM size in Kibit minus 1; word 0x3F: version (1);
-* from word 0x40: categories ``{type u16, size in words u16, data}``, ended by type 0xFFFF.
-
-The categories written here: STRINGS (10), GENERAL (30), FMMU (40), SYNCM (41), TXPDO (50) and
+The categories written: STRINGS (10), GENERAL (30), FMMU (40), SYNCM (41), TXPDO (50) and
 RXPDO (51) when the slave has outputs (ETG.2010 Tables 4-13). GENERAL byte 5 carries the CoE
 details (bit 0 SDO, 1 SDO information, 2 PDO assign, 3 PDO configuration, 4 upload at start-up,
-5 SDO complete access; ETG.2010 Table 6), which SOEM reads to choose complete access. A :class:`SlaveInfo` is the small
-description they are built from; :meth:`SlaveInfo.skin_patch` describes one tactile patch whose
-TxPDO carries its taxel bytes.
+5 SDO complete access; ETG.2010 Table 6), which SOEM reads to choose complete access. The
+standard mailbox words 0x18-0x1B hold SM0 (receive, master -> slave) and SM1 (send); all 0 for a
+slave without a mailbox. The image is padded with 0xFF to the smallest power-of-two EEPROM
+(>= 2 Kibit) that holds it.
 """
 
 from __future__ import annotations
 
-import functools
-import struct
 from dataclasses import dataclass
 from enum import IntEnum
 from typing import Final
 
 from emulator.errors import TopologyError
 from skinframes import taxel
+from skinframes.sii import (
+    CHECKSUM_BYPASS,
+    CONFIG_AREA_BYTES,
+    FIRST_CATEGORY_WORD,
+    Category,
+    FmmuUsage,
+    SiiGeneral,
+    SiiImage,
+    SiiPdo,
+    SiiPdoEntry,
+    SiiSyncManager,
+    SyncManagerType,
+    crc8,
+    encode_sii,
+    fit_eeprom,
+)
+from skinframes.sii import standard_eeprom_kibit as eeprom_kibit
 
 __all__ = [
     "CHECKSUM_BYPASS",
@@ -51,25 +57,11 @@ __all__ = [
     "build_sii",
     "crc8",
     "eeprom_kibit",
+    "sii_image",
 ]
 
-# --- constants (ETG.2010 Table 2; datasheet I, Tables 42/43) ---------------------------------
-CONFIG_AREA_WORDS: Final = 7  # words 0-6 are covered by the checksum in word 7
-CHECKSUM_WORD: Final = 7
-CHECKSUM_BYPASS: Final = 0x88A4  # datasheet I, Table 42: "disable the checksum validation"
-WORD_VENDOR: Final = 0x08
-WORD_PRODUCT: Final = 0x0A
-WORD_REVISION: Final = 0x0C
-WORD_SERIAL: Final = 0x0E
-WORD_STD_RX_MAILBOX: Final = 0x18  # receive mailbox offset, size (SM0, master -> slave)
-WORD_STD_TX_MAILBOX: Final = 0x1A  # send mailbox offset, size (SM1, slave -> master)
-WORD_MAILBOX_PROTOCOL: Final = 0x1C
-WORD_SIZE: Final = 0x3E
-WORD_VERSION: Final = 0x3F
-FIRST_CATEGORY_WORD: Final = 0x40
-SII_VERSION: Final = 1
+CONFIG_AREA_WORDS: Final = CONFIG_AREA_BYTES // 2  # words 0-6 are covered by the checksum
 MIN_EEPROM_KIBIT: Final = 2  # datasheet I, 11: words 0-63 plus General need at least 2 Kibit
-
 PDI_SPI_SLAVE: Final = 0x05  # 0x0140 PDI control: SPI slave (datasheet II, 2.6.1)
 PHYSICAL_PORT_MII: Final = 0x1  # GENERAL byte 16: 4 bits per port, 1 = MII
 
@@ -95,40 +87,6 @@ MAILBOX_OUT_START: Final = 0x1000
 MAILBOX_IN_START: Final = 0x1080
 
 
-class Category(IntEnum):
-    """SII category types (ETG.2010 Table 3)."""
-
-    NOP = 0
-    STRINGS = 10
-    DATATYPES = 20
-    GENERAL = 30
-    FMMU = 40
-    SYNCM = 41
-    TXPDO = 50
-    RXPDO = 51
-    DC = 60
-    END = 0xFFFF
-
-
-class FmmuUsage(IntEnum):
-    """FMMU category: what each FMMU is meant for (ETG.2010 Table 8)."""
-
-    UNUSED = 0x00
-    OUTPUTS = 0x01
-    INPUTS = 0x02
-    SYNCM_STATUS = 0x03
-
-
-class SyncManagerType(IntEnum):
-    """SYNCM category byte 7 (ETG.2010 Table 9)."""
-
-    UNUSED = 0x00
-    MAILBOX_OUT = 0x01  # master -> slave mailbox
-    MAILBOX_IN = 0x02  # slave -> master mailbox
-    OUTPUTS = 0x03  # process data, master -> slave (RxPDO)
-    INPUTS = 0x04  # process data, slave -> master (TxPDO)
-
-
 class DataType(IntEnum):
     """CoE basic data types used in PDO entries (ETG.1000.6 Table 64; SOEM's ECT_* values)."""
 
@@ -152,30 +110,6 @@ SM_CONTROL_OUTPUTS: Final = 0x64
 # mailbox mode (bits 1:0 = 10) with the PDI interrupt (bit 5): SOEM's EC_DEFAULTMBXSM0/1
 SM_CONTROL_MAILBOX_OUT: Final = 0x26
 SM_CONTROL_MAILBOX_IN: Final = 0x22
-
-
-@functools.lru_cache(maxsize=256)
-def crc8(data: bytes) -> int:
-    """CRC-8 of the ESC configuration area: polynomial 0x07, initial value 0xFF, MSB first.
-
-    Datasheet I, Table 42 (word 7): "remainder of division of word 0 to word 6 as unsigned
-    number divided by the polynomial x^8+x^2+x+1 (initial value 0xFF)". Remembered for the
-    last 256 areas: a broadcast EEPROM reload checks the same 14 bytes at every ESC.
-    """
-    crc = 0xFF
-    for byte in data:
-        crc ^= byte
-        for _ in range(8):
-            crc = ((crc << 1) ^ 0x07) & 0xFF if crc & 0x80 else (crc << 1) & 0xFF
-    return crc
-
-
-def eeprom_kibit(image_bytes: int) -> int:
-    """The smallest standard EEPROM (a power of two, at least 2 Kibit) that holds the image."""
-    kibit = MIN_EEPROM_KIBIT
-    while kibit * 128 < image_bytes:
-        kibit *= 2
-    return kibit
 
 
 @dataclass(frozen=True, slots=True)
@@ -447,26 +381,12 @@ def _outputs_pdo(output_bytes: int, sync_manager: int) -> Pdo:
 
 
 # --- the image ---------------------------------------------------------------------------------
-def _category(kind: int, data: bytes) -> bytes:
-    if len(data) % 2:
-        data += b"\x00"  # categories are whole words
-    return struct.pack("<HH", kind, len(data) // 2) + data
+def sii_image(info: SlaveInfo) -> SiiImage:
+    """``info`` as an SII image model (:class:`skinframes.sii.SiiImage`), fitted to the
+    smallest standard EEPROM (>= 2 Kibit) that holds it.
 
-
-def _strings(strings: list[str]) -> bytes:
-    out = bytearray([len(strings)])
-    for s in strings:
-        raw = s.encode("ascii")
-        if len(raw) > 0xFF:
-            raise TopologyError(f"SII: string {s!r} longer than 255 bytes")
-        out += bytes([len(raw)]) + raw
-    return bytes(out)
-
-
-def build_sii(info: SlaveInfo) -> bytes:
-    """The EEPROM image of ``info`` (ETG.2010), padded with 0xFF to the EEPROM's size.
-
-    The size in word 0x3E is the smallest power-of-two EEPROM (>= 2 Kibit) holding the image.
+    Strings: the name first (SOEM reads the device name from index 1), then group, order and
+    the PDO names. GENERAL carries the CoE details and two MII ports.
     """
     strings: list[str] = []
 
@@ -480,87 +400,73 @@ def build_sii(info: SlaveInfo) -> bytes:
     name_idx = string_index(info.name)  # string 1: SOEM reads the device name from index 1
     group_idx = string_index(info.group)
     order_idx = string_index(info.order)
-
-    words = [0] * FIRST_CATEGORY_WORD
-    words[0] = info.pdi_control | info.esc_configuration << 8
-    words[4] = info.alias
-    head = bytearray(struct.pack(f"<{FIRST_CATEGORY_WORD}H", *words))
-    struct.pack_into("<H", head, 2 * CHECKSUM_WORD, crc8(bytes(head[: 2 * CONFIG_AREA_WORDS])))
-    struct.pack_into(
-        "<IIII",
-        head,
-        2 * WORD_VENDOR,
-        info.vendor_id,
-        info.product_code,
-        info.revision,
-        info.serial,
-    )
-    struct.pack_into("<H", head, 2 * WORD_VERSION, SII_VERSION)
+    config = bytearray(CONFIG_AREA_BYTES)
+    config[0:2] = (info.pdi_control | info.esc_configuration << 8).to_bytes(2, "little")
+    config[8:10] = info.alias.to_bytes(2, "little")  # word 4: configured station alias
     rx_mbx = info.sm_of_type(SyncManagerType.MAILBOX_OUT)
     tx_mbx = info.sm_of_type(SyncManagerType.MAILBOX_IN)
+    mailboxes: dict[str, object] = {}
     if rx_mbx is not None and tx_mbx is not None:
         rx_sm, tx_sm = info.sync_managers[rx_mbx], info.sync_managers[tx_mbx]
-        struct.pack_into(
-            "<HHHHH",
-            head,
-            2 * WORD_STD_RX_MAILBOX,
-            rx_sm.start,
-            rx_sm.length,
-            tx_sm.start,
-            tx_sm.length,
-            info.mailbox_protocols,
+        mailboxes = {
+            "standard_rx_mailbox": (rx_sm.start, rx_sm.length),
+            "standard_tx_mailbox": (tx_sm.start, tx_sm.length),
+            "mailbox_protocols": info.mailbox_protocols,
+        }
+
+    def pdos(items: tuple[Pdo, ...]) -> tuple[SiiPdo, ...]:
+        return tuple(
+            SiiPdo(
+                index=p.index,
+                sync_manager=p.sync_manager,
+                entries=tuple(
+                    SiiPdoEntry(
+                        e.index, e.subindex, e.bit_length, e.data_type & 0xFF, e.name_index, e.flags
+                    )
+                    for e in p.entries
+                ),
+                synchronization=p.synchronization,
+                name_index=string_index(p.name),
+                flags=p.flags,
+            )
+            for p in items
         )
 
-    general = bytearray(32)  # ETG.2010 Table 6
-    general[0] = group_idx
-    general[2] = order_idx
-    general[3] = name_idx
-    general[5] = info.coe_details
-    general[14] = group_idx  # duplicate of GroupIdx "for compatibility"
-    struct.pack_into("<H", general, 16, PHYSICAL_PORT_MII | PHYSICAL_PORT_MII << 4)
-
-    fmmu = bytes(int(u) for u in info.fmmus)
-    syncm = b"".join(
-        struct.pack("<HHBBBB", s.start, s.length, s.control, 0, s.enable, s.type)
-        for s in info.sync_managers
-    )
-
-    def pdos(items: tuple[Pdo, ...]) -> bytes:
-        out = bytearray()
-        for p in items:
-            out += struct.pack(
-                "<HBBBBH",
-                p.index,
-                len(p.entries),
-                p.sync_manager,
-                p.synchronization,
-                string_index(p.name),
-                p.flags,
-            )
-            for e in p.entries:
-                out += struct.pack(
-                    "<HBBBBH",
-                    e.index,
-                    e.subindex,
-                    e.name_index,
-                    e.data_type & 0xFF,
-                    e.bit_length,
-                    e.flags,
-                )
-        return bytes(out)
-
     tx, rx = pdos(info.tx_pdos), pdos(info.rx_pdos)  # PDO names join the string table
-    body = _category(Category.STRINGS, _strings(strings))
-    body += _category(Category.GENERAL, bytes(general))
-    body += _category(Category.FMMU, fmmu)
-    body += _category(Category.SYNCM, syncm)
-    if tx:
-        body += _category(Category.TXPDO, tx)
-    if rx:
-        body += _category(Category.RXPDO, rx)
-    body += struct.pack("<H", Category.END)
-    used = len(head) + len(body)
-    kibit = eeprom_kibit(used)
-    image = head + body + b"\xff" * (kibit * 128 - used)
-    struct.pack_into("<H", image, 2 * WORD_SIZE, kibit - 1)
-    return bytes(image)
+    for s in strings:
+        if len(s.encode("utf-8")) > 0xFF:
+            raise TopologyError(f"SII: string {s!r} longer than 255 bytes")
+    image = SiiImage(
+        config_data=bytes(config),
+        vendor_id=info.vendor_id,
+        product_code=info.product_code,
+        revision=info.revision,
+        serial=info.serial,
+        eeprom_bytes=MIN_EEPROM_KIBIT * 128,
+        strings=tuple(strings),
+        general=SiiGeneral(
+            group_index=group_idx,
+            order_index=order_idx,
+            name_index=name_idx,
+            coe_details=info.coe_details,
+            physical_ports=PHYSICAL_PORT_MII | PHYSICAL_PORT_MII << 4,
+        ),
+        fmmus=tuple(int(u) for u in info.fmmus),
+        sync_managers=tuple(
+            SiiSyncManager(s.start, s.length, s.control, s.enable, s.type)
+            for s in info.sync_managers
+        ),
+        tx_pdos=tx,
+        rx_pdos=rx,
+        **mailboxes,  # type: ignore[arg-type]
+    )
+    return fit_eeprom(image)
+
+
+def build_sii(info: SlaveInfo) -> bytes:
+    """The EEPROM image of ``info`` (ETG.2010), padded with 0xFF to the EEPROM's size.
+
+    The size in word 0x3E is the smallest power-of-two EEPROM (>= 2 Kibit) holding the image;
+    the bytes come from the one SII encoder, :func:`skinframes.sii.encode_sii`.
+    """
+    return encode_sii(sii_image(info))
