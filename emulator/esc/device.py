@@ -950,9 +950,7 @@ class EscDevice:
                 sm.full = False
                 sm.latest = None
                 self.mem[st] &= ~SM_MAILBOX_FULL
-        sm.buf = None
-        if sm.control & SM_ECAT_INTERRUPT:  # (else its event stayed clear since it started)
-            self._sm_event(sm.index)
+        sm.buf = None  # (the interrupt for ECAT, 0x0210, is as it was: _sm_event)
 
     # --- logical access through the FMMUs ------------------------------------------------------
     def read_buffered(self, lad: int, buf: bytearray, off: int, n: int, cmd: int = LRD) -> bool:
