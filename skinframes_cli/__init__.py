@@ -42,6 +42,7 @@ COMMAND_MODULES: Final = (
     "serve",
     "wireshark_plugin",
     "vectors",
+    "sii",
 )
 
 

@@ -52,6 +52,7 @@ BASE: dict[str, list[str]] = {
     "analyze": ["analyze", "missing.pcap"],
     "vectors": ["vectors", "--out", "missing-folder"],
     "wireshark-plugin": ["wireshark-plugin", "--out", "missing-folder/skin.lua"],
+    "sii": ["sii", "missing.xml", "--out", "o.bin"],
 }
 
 # (command, option): why only the empty value is tried

@@ -160,6 +160,16 @@ def test_can_json_keys_are_documented(capsys: pytest.CaptureFixture[str], can_tr
     assert_documented("compare", keys(run_json(capsys, "compare", str(can_trace), "--json")))
 
 
+def test_sii_json_keys_are_documented(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    from emulator.esc.sii import SlaveInfo, build_sii
+
+    image = tmp_path / "slave.bin"
+    image.write_bytes(build_sii(SlaveInfo.skin_patch(16, mailbox=True, output_bytes=2)))
+    found = keys(run_json(capsys, "sii", str(image), "--json"))
+    assert {"syncmanagers", "txpdos", "rxpdos", "entries", "bits"} <= found
+    assert_documented("sii", found)
+
+
 def test_serve_json_keys_are_documented() -> None:
     # serve needs a live link; its document is these four plus the library's summary
     assert_documented("serve", {"protocol", "iface", "nodes", "bytes", *ServeStats().summary()})

@@ -1,7 +1,7 @@
 """Every ``skinframes`` command line and the Python block of the README run as shown.
 
 Input files the README names (``capture.pcapng``, ``trace.asc``, ``trace.blf``, ``old.log``,
-``skin.pcap``) are made first, from the demo's CAN trace and an emulated capture; then each
+``skin.pcap``, the ESI file ``slave.xml``) are made first, from the demo's CAN trace and an emulated capture; then each
 command runs in process in that directory. ``serve`` needs a live interface and root: its line is
 parsed here, and tests/emulator/test_live_soem.py runs it against real masters.
 """
@@ -36,6 +36,29 @@ EXIT_STATUS = dict(re.findall(r"(\d) ([^,]+)", README.split("Exit status:", 1)[1
 EXIT = {"check": 0}
 
 
+# A small ESI file of our own (ETG.2000) for the README's `sii` line
+SLAVE_ESI = """<?xml version="1.0"?>
+<EtherCATInfo>
+  <Vendor><Id>#x534B494E</Id><Name>skinframes</Name></Vendor>
+  <Descriptions>
+    <Devices>
+      <Device Physics="YY">
+        <Type ProductCode="#x100C0" RevisionNo="#x10000">SKIN-192</Type>
+        <Name>SkinPatch192</Name>
+        <Fmmu>Inputs</Fmmu>
+        <Sm StartAddress="#x1000" DefaultSize="192" ControlByte="#x20" Enable="1">Inputs</Sm>
+        <TxPdo Fixed="1" Mandatory="1" Sm="0"><Index>#x1a00</Index><Name>Taxels</Name>
+          <Entry><Index>#x6000</Index><SubIndex>1</SubIndex><BitLen>96</BitLen>
+            <Name>Triangle 0</Name><DataType>OCTET_STRING</DataType></Entry>
+        </TxPdo>
+        <Eeprom><ByteSize>2048</ByteSize><ConfigData>0500</ConfigData></Eeprom>
+      </Device>
+    </Devices>
+  </Descriptions>
+</EtherCATInfo>
+"""
+
+
 @pytest.fixture(scope="module")
 def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     d = tmp_path_factory.mktemp("readme")
@@ -46,6 +69,7 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
         frames = read_can_log("out/skin_can.asc").frames
         for name in ("trace.asc", "trace.blf", "old.log", "skin.pcap"):
             write_can_log(name, frames)
+        Path("slave.xml").write_text(SLAVE_ESI)
         assert (
             main(["simulate", "epl", "--nodes", "4", "--bytes", "192", "--pcap", "capture.pcapng"])
             == 0
@@ -53,6 +77,21 @@ def workdir(tmp_path_factory: pytest.TempPathFactory) -> Path:
     finally:
         os.chdir(old)
     return d
+
+
+def test_the_readme_sii_line_writes_an_image_that_decodes(workdir: Path) -> None:
+    from skinframes.sii import decode_sii
+
+    assert "skinframes sii slave.xml --out slave.bin" in COMMANDS
+    old = Path.cwd()
+    os.chdir(workdir)
+    try:
+        assert main(["sii", "slave.xml", "--out", "slave.bin"]) == 0
+        image = decode_sii(Path("slave.bin").read_bytes()).image
+    finally:
+        os.chdir(old)
+    assert (image.vendor_id, image.product_code, image.revision) == (0x534B494E, 0x100C0, 0x10000)
+    assert [(p.index, p.sync_manager) for p in image.tx_pdos] == [(0x1A00, 0)]
 
 
 def test_the_readme_names_commands() -> None:

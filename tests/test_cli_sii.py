@@ -1,0 +1,124 @@
+"""``skinframes sii``: build from ESI files, decode images, and one error line for bad input."""
+
+from __future__ import annotations
+
+import json
+import os
+from pathlib import Path
+
+import pytest
+
+from skinframes_cli import main
+
+MULTI = b"""<?xml version="1.0"?>
+<EtherCATInfo>
+  <Vendor><Id>2</Id><Name>Two</Name></Vendor>
+  <Descriptions>
+    <Devices>
+      <Device>
+        <Type ProductCode="#x10" RevisionNo="1">A-1</Type><Name>first</Name>
+        <Sm StartAddress="#x1000" ControlByte="#x20" Enable="1">Inputs</Sm>
+        <Eeprom><ByteSize>256</ByteSize><ConfigData>0500</ConfigData></Eeprom>
+      </Device>
+      <Device><Type ProductCode="#x20" RevisionNo="2">B-2</Type><Name>second</Name></Device>
+    </Devices>
+  </Descriptions>
+</EtherCATInfo>
+"""
+
+
+def _run(capsys: pytest.CaptureFixture[str], *argv: str) -> tuple[int, str, str]:
+    code = main(list(argv))
+    out, err = capsys.readouterr()
+    return code, out, err
+
+
+def test_build_then_decode_a_shipped_esi(
+    shared_esi: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    out = tmp_path / "k2g.bin"
+    code, _, err = _run(capsys, "sii", str(shared_esi / "soes_tiesc_k2gice.xml"), "--out", str(out))
+    assert code == 0 and "wrote" in err
+    shipped = (shared_esi / "soes_tiesc_k2gice.bin").read_bytes()
+    assert out.read_bytes()[:0x80] == shipped[:0x80]
+    code, text, _ = _run(capsys, "sii", str(shared_esi / "soes_tiesc_k2gice.bin"), "--json")
+    doc = json.loads(text)
+    assert code == 0
+    assert (doc["vendor_id"], doc["product_code"], doc["revision"]) == (0x1337, 0x4291CE, 0)
+    assert doc["mailbox_protocols"] == ["coe"] and doc["fmmus"] == [
+        "outputs",
+        "inputs",
+        "syncm_status",
+    ]
+    assert doc["syncmanagers"][0] == {
+        "start": 0x1000,
+        "length": 512,
+        "control": 0x26,
+        "enable": 1,
+        "type": "mailbox_out",
+    }
+    code, text, _ = _run(capsys, "sii", str(out))
+    assert code == 0 and "SM3: start 0x1a00" in text and "TxPDO 0x1a00 SM3" in text
+    code, text, _ = _run(capsys, "sii", str(out), "--json")
+    # the XML: TxPdo #x1A00 on Sm 3, Entry #x6000 SubIndex #x0, BitLen 32, UDINT, "BUTTON"
+    assert json.loads(text)["txpdos"][0]["entries"][0] == {
+        "index": 0x6000,
+        "subindex": 0,
+        "bits": 32,
+        "data_type": 0x07,
+        "name": "BUTTON",
+    }
+
+
+def test_several_devices(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    esi = tmp_path / "multi.xml"
+    esi.write_bytes(MULTI)
+    out = tmp_path / "a.bin"
+    code, _, err = _run(capsys, "sii", str(esi), "--out", str(out))
+    assert code == 2 and err.count("\n") == 1 and "A-1" in err and "B-2" in err
+    assert _run(capsys, "sii", str(esi), "--device", "#x10", "--out", str(out))[0] == 0
+    code, _, err = _run(capsys, "sii", str(esi), "--device", "B-2", "--out", str(out))
+    assert code == 2 and "no <Eeprom>" in err
+
+
+def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    (tmp_path / "trunc.xml").write_bytes(MULTI[:300])
+    (tmp_path / "short.bin").write_bytes(bytes(64))
+    (tmp_path / "notsii.txt").write_text("hello\n")
+    esi = tmp_path / "m.xml"
+    esi.write_bytes(MULTI)
+    link = tmp_path / "link.bin"
+    link.symlink_to(tmp_path / "target.bin")
+    for argv in (
+        [str(tmp_path / "trunc.xml"), "--out", str(tmp_path / "x.bin")],
+        [str(tmp_path / "short.bin")],
+        [str(tmp_path / "missing.xml")],
+        [str(tmp_path)],
+        [str(esi)],
+        [str(esi), "--device", "A-1", "--out", str(tmp_path / "notsii.txt")],
+        [str(esi), "--device", "A-1", "--out", str(link)],
+        [str(esi), "--device", "A-1", "--out", str(tmp_path / "no" / "x.bin")],
+        [str(tmp_path / "short.bin"), "--out", str(tmp_path / "x.bin")],
+        [""],
+    ):
+        code, _, err = _run(capsys, "sii", *argv)
+        assert code == 2, argv
+        assert err.startswith("skinframes: error:") and err.count("\n") == 1, (argv, err)
+    assert (tmp_path / "notsii.txt").read_text() == "hello\n" and not os.path.lexists(
+        tmp_path / "target.bin"
+    )
+    args = [str(esi), "--device", "A-1", "--out", str(tmp_path / "notsii.txt"), "--force"]
+    assert _run(capsys, "sii", *args)[0] == 0
+
+
+def test_a_bad_checksum_is_reported_not_refused(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from emulator.esc.sii import SlaveInfo, build_sii
+
+    raw = bytearray(build_sii(SlaveInfo.skin_patch(16)))
+    raw[14] ^= 0xFF
+    path = tmp_path / "bad.bin"
+    path.write_bytes(bytes(raw))
+    code, text, _ = _run(capsys, "sii", str(path), "--json")
+    assert code == 0 and [f["code"] for f in json.loads(text)["findings"]] == ["sii.checksum"]
