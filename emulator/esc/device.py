@@ -207,6 +207,7 @@ class _Sm:
         "buf",
         "complete",
         "control",
+        "ecat_interrupt",
         "ecat_writes",
         "end",
         "full",
@@ -238,6 +239,7 @@ class _Sm:
         self.shared = shared
         self.mailbox = control & 0x03 == 0x02  # control bits 0-1: mode
         self.ecat_writes = control & 0x0C == 0x04  # bits 2-3: direction
+        self.ecat_interrupt = control & SM_ECAT_INTERRUPT != 0  # bit 4: into 0x0210
         self.locked = locked  # deactivated by the PDI: the whole area is protected
         # ECAT side opened the buffer (accessed the start address); accessed the end address
         # in this frame; the mailbox is full (mailbox mode)
@@ -604,7 +606,7 @@ class EscDevice:
                     last = (self.mem[st] >> 4) & 0x03
                     self.mem[st] = (self.mem[st] & 0xCD) | ((last + 1) % 3 if last < 3 else 0) << 4
                 self.mem[st] = (self.mem[st] | SM_IRQ_WRITE) & ~SM_IRQ_READ
-                if sm.control & SM_ECAT_INTERRUPT:
+                if sm.ecat_interrupt:
                     self._sm_event(sm.index)
 
     def pdi_read(self, addr: int, length: int) -> bytes:
@@ -619,7 +621,7 @@ class EscDevice:
                     if sm.full:  # (a shared one is as new, empty: nothing to change)
                         sm.full = False
                     self.mem[st] &= ~SM_MAILBOX_FULL
-                if sm.control & SM_ECAT_INTERRUPT:
+                if sm.ecat_interrupt:
                     self._sm_event(sm.index)
         return bytes(self.mem[addr : addr + length])
 
@@ -848,7 +850,7 @@ class EscDevice:
                 else bytes(self.mem[sm.start : sm.end])
             )
             self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
-            if sm.control & SM_ECAT_INTERRUPT:
+            if sm.ecat_interrupt:
                 self._sm_event(sm.index)
         elif not sm.open:
             return  # "a buffer has to be accessed beginning with the start address"
@@ -910,7 +912,7 @@ class EscDevice:
             sm.open = True
             sm.buf = bytearray(self.mem[sm.start : sm.end])
             self.mem[st] = (self.mem[st] & ~SM_IRQ_READ) | SM_WRITE_OPEN
-            if sm.control & SM_ECAT_INTERRUPT:
+            if sm.ecat_interrupt:
                 self._sm_event(sm.index)
         elif not sm.open:
             return 0
@@ -1265,7 +1267,7 @@ class EscDevice:
         data = sm.latest if sm.latest is not None else bytearray(mem[sm.start : sm.end])
         sm.buf = data
         mem[st] = (mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
-        if sm.control & SM_ECAT_INTERRUPT:
+        if sm.ecat_interrupt:
             self._sm_event(sm.index)
         buf[at : at + sm.length] = data
         if not sm.complete:
