@@ -17,6 +17,7 @@ from collections.abc import Iterator, Sequence
 from types import FrameType, ModuleType
 from typing import TYPE_CHECKING, Any, Final
 
+from skinframes import __version__
 from skinframes.errors import SkinframesError
 from skinframes.text import escape
 
@@ -107,6 +108,12 @@ def build_parser(modules: Sequence[str] = COMMAND_MODULES) -> argparse.ArgumentP
         description="Build, check and time the EPL, EtherCAT and CAN frames of a robot skin.",
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    parser.add_argument(
+        "--version",
+        action="version",
+        version=f"skinframes {__version__}",
+        help="print 'skinframes VERSION' on stdout and exit 0",
+    )
     sub = parser.add_subparsers(
         dest="command", required=True, metavar="COMMAND", parser_class=_Parser
     )

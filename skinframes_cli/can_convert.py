@@ -7,6 +7,8 @@ import sys
 from typing import Any
 
 from emulator.model.params import PRESETS
+from skinframes.protocols import PROTOCOLS
+from skinframes_cli.options import protocol_arg
 
 
 def add_convert(sub: Any) -> None:
@@ -24,7 +26,7 @@ def add_convert(sub: Any) -> None:
     p.add_argument(
         "trace", metavar="LOG", help="CAN log (.log .asc .blf .trc .csv, or a SocketCAN pcap)"
     )
-    p.add_argument("--to", choices=["epl", "ecat"], required=True, dest="target")
+    protocol_arg(p, "--to", choices=PROTOCOLS, required=True, dest="target")
     p.add_argument("--pcap", required=True, help="output pcap")
     p.add_argument("--preset", choices=list(PRESETS), default="wire")
     p.add_argument(

@@ -11,8 +11,9 @@ from __future__ import annotations
 import argparse
 import math
 from collections.abc import Callable
-from typing import Final
+from typing import Any, Final
 
+from skinframes.protocols import PROTOCOL_ALIASES, protocol_name
 from skinframes.text import escape
 
 __all__ = [
@@ -24,6 +25,7 @@ __all__ = [
     "int_list_in",
     "int_up_to",
     "out_path",
+    "protocol_arg",
 ]
 
 MAX_LIST_VALUES: Final = 10_000  # values one start:stop:step or comma list may select
@@ -97,6 +99,24 @@ def out_path(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty file name")
     return text
+
+
+def protocol_arg(
+    p: argparse.ArgumentParser, *flags: str, choices: tuple[str, ...], help: str = "", **kw: Any
+) -> None:
+    """Add a protocol argument (``simulate {epl,ecat}``, ``can convert --to``): ``choices`` and
+    their aliases (``ethercat`` for ``ecat``), which argparse turns into the name before it
+    checks the choice; ``kw`` goes to ``add_argument`` (``dest``, ``required``)."""
+    aliases = [a for a, name in PROTOCOL_ALIASES.items() if name in choices]
+    note = ", ".join(f"{a}: alias of {PROTOCOL_ALIASES[a]}" for a in aliases)
+    p.add_argument(
+        *flags,
+        type=protocol_name,
+        choices=choices,
+        metavar="{" + ",".join((*choices, *aliases)) + "}",
+        help="; ".join(t for t in (help, note) if t) or None,
+        **kw,
+    )
 
 
 def int_list(text: str, lo: int = 0, hi: int = 1 << 32) -> list[int]:

@@ -16,7 +16,7 @@ from emulator.esc import compiled
 from emulator.esc.dc import DEFAULT_DRIFT_PPM
 from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
-from skinframes_cli.options import bounded_int, finite_float, int_up_to
+from skinframes_cli.options import bounded_int, finite_float, int_up_to, protocol_arg
 
 MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
 MAX_INT_ARG = 1 << 31  # --nodes/--bytes: larger is refused at parse; the range is checked in run
@@ -32,7 +32,7 @@ def add_parser(sub: Any) -> None:
         "of the link, e.g. a veth pair in a network namespace (see the README). Needs root or "
         "CAP_NET_RAW. Runs until SIGINT or SIGTERM, then prints what it served.",
     )
-    p.add_argument("protocol", choices=["ecat"])
+    protocol_arg(p, "protocol", choices=("ecat",))
     p.add_argument("--iface", required=True, help="network interface the master is wired to")
     p.add_argument(
         "--nodes",

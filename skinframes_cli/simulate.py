@@ -11,8 +11,9 @@ from emulator.model.limits import MAX_SLAVES
 from emulator.model.params import PRESETS
 from emulator.net.ecat import LAYOUTS
 from skinframes.errors import SkinframesError
+from skinframes.protocols import PROTOCOLS
 from skinframes.text import escape
-from skinframes_cli.options import bounded_float, bounded_int, out_path
+from skinframes_cli.options import bounded_float, bounded_int, out_path, protocol_arg
 from skinframes_cli.progress import progress_bar
 
 MAX_CYCLES = 1_000_000  # --cycles: 1..MAX_CYCLES
@@ -51,7 +52,7 @@ def add_parser(sub: Any) -> None:
         "EtherCAT (master + ESC slaves, open or closed ring). Cycle time is measured from the "
         "emulated frames' timestamps at the master's port.",
     )
-    p.add_argument("protocol", choices=["epl", "ecat"])
+    protocol_arg(p, "protocol", choices=PROTOCOLS)
     p.add_argument(
         "--nodes",
         type=bounded_int(1, MAX_SLAVES),
