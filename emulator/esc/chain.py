@@ -723,19 +723,25 @@ class EcatChain:
         if alone:
             return None
         readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(self._addresses(reach), adp)
-        total, changed, first = 0, False, 0
-        for p in [*(q for q in readers if q < reach), reach]:
-            between = {  # the writers before the next reader
-                key: [q for q in rows if first <= q < p] for key, rows in groups.items()
-            }
-            data = np.frombuffer(buf, np.uint8, end - ado, at)  # as it arrives there
+        reading = {q for q in readers if q < reach}
+        key_of = {p: key for key, rows in groups.items() for p in rows}
+        total, changed = 0, False
+        between: _Groups = {}  # the writers since the last reader, by group
+        for p in range(reach):
+            if p not in reading:
+                between.setdefault(key_of[p], []).append(p)
+                continue
+            if between:  # they write the data as it arrives there, before this ESC reads
+                data = np.frombuffer(buf, np.uint8, end - ado, at)
+                total += self._write_rows(between, holes, ado, end, data)
+                between = {}
+            dev = line[p]  # the addressed ESC reads
+            before = dev.irq
+            total += dev.process(cmd, 0 if cmd == ARMW else adp, ado, buf, at, n)[1]
+            changed = changed or dev.irq != before
+        if between:
+            data = np.frombuffer(buf, np.uint8, end - ado, at)
             total += self._write_rows(between, holes, ado, end, data)
-            if p < reach:  # the addressed ESC reads
-                dev = line[p]
-                before = dev.irq
-                total += dev.process(cmd, 0 if cmd == ARMW else adp, ado, buf, at, n)[1]
-                changed = changed or dev.irq != before
-                first = p + 1
         return total, changed
 
     def _write_rows(
