@@ -36,14 +36,18 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
   work per frame is bounded by the frame, not by what the configuration asks for.
 
 The FMMU and SyncManager tables are decoded and logical accesses planned in
-:mod:`emulator.esc.mapping`; register writes are cut into their parts in
-:mod:`emulator.esc.write_plans`; what a register read does besides the bytes is
-:func:`emulator.esc.registers.reads_dc` and :func:`~emulator.esc.registers.cleared_events`.
+:mod:`emulator.esc.mapping`; register writes are cut into their parts, and what a write of the
+registers with side effects does is said once, in :mod:`emulator.esc.write_plans`; what a
+register read does besides the bytes is :func:`emulator.esc.registers.reads_dc` and
+:func:`~emulator.esc.registers.cleared_events`. What a frame's register writes set off at its
+end (SyncManager and FMMU tables, DL status, DC, EEPROM commands, AL control) and power-on are
+written once, over rows of ESCs (:func:`commit_together`, :func:`power_on_together`): an ESC
+on its own is a line of one.
 
 Not modelled: watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
-circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI is a
-:class:`emulator.esc.state_machine.PdiApplication`; the skin patch's is
-:class:`SkinPatchApplication`.
+circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI
+(:class:`emulator.esc.pdi.Pdi`) is a :class:`emulator.esc.state_machine.PdiApplication`; the
+skin patch's is :class:`SkinPatchApplication`.
 """
 
 from __future__ import annotations

@@ -1,24 +1,9 @@
-"""What one frame does at many ESCs at once: the commit of equal register writes, as numpy rows.
+"""What one frame does at many ESCs at once: logical datagrams over numpy rows.
 
-A broadcast write (BWR, and the writing side of ARMW/FRMW) leaves the same (address, data) in
-the shadow registers of every ESC it reaches; at the end of the frame each of them commits it
-(datasheet I 3.4). :func:`commit_together` does what :meth:`EscDevice.end_frame` does to the
-registers, for all of them in one pass over the rows of the chain's memory
-(:attr:`emulator.esc.chain.EcatChain.memory`, one ESC a row): each write is cut and masked once
-(the cut every ESC of a configuration shares), and what differs between the ESCs
-(the SyncManagers enabled before the frame, who owns the EEPROM interface, whose FMMU or
-SyncManager table changed) is a mask of rows. DL status after a write of DL control, the event
-request and the DC system time compare (:func:`emulator.esc.dc.compare_together`) are worked out
-over the rows too, and so are changed SyncManager tables: decoded, and what they change worked
-out, once per distinct table before and after (:func:`emulator.esc.mapping.sm_change`), each
-ESC then only changing its SyncManager objects. What else follows a commit
-(:meth:`EscDevice.take_effect`) goes step by step over all the ESCs: changed FMMU tables decoded
-once per distinct bytes, DC configuration, the event request over the rows, an EEPROM command
-where ECAT owns the interface, AL control; and the end of the frame
-(:func:`finish_together`) asks only the ESCs with a buffer or reset to finish. The work thus
-grows with the bytes written and the ESCs whose state the write changes, not with one Python
-pass per ESC and byte range. Tests hold the result equal to the ESC-by-ESC commit under
-hostile frames.
+The commit of a frame's register writes, at one ESC or many, is
+:func:`emulator.esc.device.commit_together` (over the rows of the ESCs' memory; a single ESC
+commits as a line of one); it and :func:`~emulator.esc.device.finish_together` are re-exported
+here under their old names.
 
 A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan cut map onto plain memory
 (:meth:`EscDevice.row_access`) is done for all of them at once by :func:`logical_together`:
