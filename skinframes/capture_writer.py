@@ -296,8 +296,13 @@ class CaptureWriter:
     Block (draft-ietf-opsawg-pcapng 4.2, 4.3). ``fmt=None`` takes pcapng for a ``.pcapng``
     suffix, classic pcap otherwise.
 
+    ``path`` may also be an open binary stream (``sys.stdout.buffer``, a pipe, a socket file):
+    a pipe is not a file, so the records are written to it as they come, nothing is renamed,
+    :meth:`close` flushes it and leaves it open, and an exception leaves what was written
+    (``fmt=None`` is classic pcap there: a stream has no suffix).
+
     Args:
-        path: the capture file to create or replace.
+        path: the capture file to create or replace, or a binary stream to write to.
         fmt: ``"pcap"``, ``"pcapng"`` or None (from the suffix).
         ports: interfaces the records come from (pcapng interface ids 0 .. ports-1).
         port_names: one ``if_name`` per port (pcapng).
@@ -313,7 +318,7 @@ class CaptureWriter:
 
     def __init__(
         self,
-        path: str | os.PathLike[str],
+        path: str | os.PathLike[str] | BinaryIO,
         *,
         fmt: str | None = None,
         ports: int = 1,
@@ -322,9 +327,14 @@ class CaptureWriter:
     ) -> None:
         self._file: BinaryIO | None = None
         self._tmp: Path | None = None
-        target = Path(os.fspath(path))
+        if isinstance(path, str | os.PathLike):
+            stream: BinaryIO | None = None
+            target = Path(os.fspath(path))
+        else:
+            stream = path
+            target = Path(str(getattr(stream, "name", "-")))
         if fmt is None:
-            fmt = "pcapng" if target.suffix.lower() == ".pcapng" else "pcap"
+            fmt = "pcapng" if stream is None and target.suffix.lower() == ".pcapng" else "pcap"
         if fmt not in FORMATS:
             raise CaptureError(f"capture format {fmt!r}: expected one of {', '.join(FORMATS)}")
         ports = operator.index(ports)
@@ -341,8 +351,10 @@ class CaptureWriter:
             header = _shb() + b"".join(
                 _idb(LINKTYPE_ETHERNET, CAPTURE_SNAPLEN, n, if_speed_bps) for n in names
             )
-        check_target(target)
+        if stream is None:
+            check_target(target)
         self._path = target
+        self._stream = stream
         self._fmt = fmt
         self._ports = ports
         self._records = 0
@@ -350,6 +362,11 @@ class CaptureWriter:
         self._layout: _Layout | None = None
         # what the image's frame bytes hold after write_repeated: (layout, template, fill places)
         self._image_holds: tuple[_Layout, bytes, tuple[tuple[int, int], ...]] | None = None
+        if stream is not None:  # a pipe is not a file: the records stream as they come
+            self._file = stream
+            self._file.write(header)
+            self._bytes = len(header)
+            return
         self._tmp, fd = create_temp(target)
         try:
             self._file = open(fd, "wb", buffering=_BUFFER_BYTES)  # noqa: SIM115  # closed in close()
@@ -362,7 +379,8 @@ class CaptureWriter:
     # --- properties ---
     @property
     def path(self) -> Path:
-        """The file that appears on a successful :meth:`close`."""
+        """The file that appears on a successful :meth:`close` (a stream: its ``name``, e.g.
+        ``<stdout>``, or ``-``)."""
         return self._path
 
     @property
@@ -558,6 +576,9 @@ class CaptureWriter:
         f, self._file = self._file, None
         if f is None:
             return
+        if self._stream is not None:  # the stream stays open: its owner closes it
+            f.flush()
+            return
         try:
             f.close()
             assert self._tmp is not None
@@ -592,6 +613,8 @@ class CaptureWriter:
 
     def _abort(self) -> None:
         f, self._file = self._file, None
+        if self._stream is not None:  # what reached the stream cannot be taken back
+            return
         if f is not None:
             with contextlib.suppress(OSError):
                 f.close()

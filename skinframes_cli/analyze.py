@@ -16,12 +16,13 @@ from pathlib import Path
 from typing import Any, Final
 
 from emulator import WIRE, EmulatorError, simulate_ecat, simulate_epl
-from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_file
+from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_capture, analyze_file
 from skinframes.analysis.ecat import EcatAnalysis
 from skinframes.analysis.epl import EplAnalysis
 from skinframes.atomic_file import atomic_output
 from skinframes.errors import SkinframesError
 from skinframes.powerlink import NmtState
+from skinframes_cli.decode import open_capture
 from skinframes_cli.figure import save_figure
 from skinframes_cli.progress import progress_bar
 
@@ -40,7 +41,7 @@ def add_parser(sub: Any) -> None:
         "datagram pattern, period, round trip, working-counter deviations, AL states. Both: the "
         "network the capture shows and the emulator's cycle time for it (wire preset).",
     )
-    p.add_argument("path", help="capture file (pcap, pcapng, gzip)")
+    p.add_argument("path", help="capture file (pcap, pcapng, gzip); - for standard input")
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.add_argument("--csv", metavar="DIR", help="write one CSV file per table into DIR")
     p.add_argument("--plot", metavar="FILE", help="histograms and state timeline (.png or .svg)")
@@ -94,9 +95,20 @@ def run(args: argparse.Namespace) -> int:
     timeout_ns = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1000)
     # a counter of the frames read, on a terminal (a total would cost a pass over the file)
     with progress_bar(None, "frames") as advance:
-        analysis = analyze_file(
-            args.path, expected_wkc=args.expected_wkc, pres_timeout_ns=timeout_ns, progress=advance
-        )
+        if args.path == "-":  # standard input, streamed as decode and check read it
+            analysis = analyze_capture(
+                open_capture("-"),
+                expected_wkc=args.expected_wkc,
+                pres_timeout_ns=timeout_ns,
+                progress=advance,
+            )
+        else:
+            analysis = analyze_file(
+                args.path,
+                expected_wkc=args.expected_wkc,
+                pres_timeout_ns=timeout_ns,
+                progress=advance,
+            )
     models = {c.protocol: model_cycle_us(c) for c in analysis.config}
     doc = analysis.to_json()
     doc["path"] = str(args.path)

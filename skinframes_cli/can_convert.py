@@ -27,7 +27,9 @@ def add_convert(sub: Any) -> None:
         "trace", metavar="LOG", help="CAN log (.log .asc .blf .trc .csv, or a SocketCAN pcap)"
     )
     protocol_arg(p, "--to", choices=PROTOCOLS, required=True, dest="target")
-    p.add_argument("--pcap", required=True, help="output pcap")
+    p.add_argument(
+        "--pcap", required=True, help="output pcap; - streams a pcapng to stdout (report: stderr)"
+    )
     p.add_argument("--preset", choices=list(PRESETS), default="wire")
     p.add_argument(
         "--closed-ring",
@@ -46,6 +48,7 @@ def run_convert(args: argparse.Namespace) -> int:
     from emulator.skin_samples import SkinLog
     from skinframes.errors import SkinframesError
     from skinframes_cli.progress import progress_bar
+    from skinframes_cli.simulate import STDOUT, pcap_target
 
     if args.target == "epl" and args.redundant:
         raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
@@ -53,11 +56,15 @@ def run_convert(args: argparse.Namespace) -> int:
         log = SkinLog.open(args.trace, progress=seen)
     params = preset(args.preset)
     n, size, cycles = len(log.boards), log.data_bytes, log.samples
-    with progress_bar(cycles, "cycles") as bar:
+    ports = 2 if args.target == "ecat" and args.redundant else 1
+    with (
+        progress_bar(cycles, "cycles") as bar,
+        pcap_target(args.pcap, ports, params.link_rate_bps) as target,
+    ):
         payloads = log.taxel_chunks()  # the second pass, as the cycles need them
         if args.target == "epl":
             r = simulate_epl(
-                n, size, params, cycles=cycles, payloads=payloads, pcap=args.pcap, progress=bar
+                n, size, params, cycles=cycles, payloads=payloads, progress=bar, **target
             )
         else:
             r = simulate_ecat(
@@ -67,13 +74,14 @@ def run_convert(args: argparse.Namespace) -> int:
                 closed_ring=args.redundant,
                 cycles=cycles,
                 payloads=payloads,
-                pcap=args.pcap,
                 progress=bar,
+                **target,
             )
     print(
         f"{cycles} samples of {n} boards ({', '.join(map(str, log.boards))}) x {size} bytes -> "
         f"{r.frames} frames, {r.protocol} {r.topology}, cycle {r.cycle_us()['median']:.2f} us "
-        f"({args.preset} preset): {args.pcap}"
+        f"({args.preset} preset): {args.pcap}",
+        file=sys.stderr if args.pcap == STDOUT else sys.stdout,  # stdout carries the capture
     )
     if log.left_out.anything:
         print(f"skinframes: {log.left_out.text()}", file=sys.stderr)

@@ -15,9 +15,12 @@ from typing import Any
 from emulator.esc import compiled
 from emulator.esc.dc import DEFAULT_DRIFT_PPM
 from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
+from skinframes.capture_writer import CaptureWriter
+from skinframes.errors import CaptureError
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
 from skinframes_cli.options import bounded_int, finite_float, int_up_to, protocol_arg
 
+STDOUT = "-"  # --pcap -: the capture on standard output
 MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
 MAX_INT_ARG = 1 << 31  # --nodes/--bytes: larger is refused at parse; the range is checked in run
 
@@ -81,10 +84,19 @@ def add_parser(sub: Any) -> None:
         metavar="FILE",
         help="record every frame received and sent, with this host's timestamps (pcapng for a "
         ".pcapng name: direction per frame; else classic pcap); the file appears complete "
-        "when serving stops",
+        "when serving stops; - streams a pcapng to stdout (the summary goes to stderr)",
     )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
     p.set_defaults(run=run)
+
+
+def _capture(path: str) -> CaptureWriter:
+    """``--pcap FILE``, atomically; ``-``: a pcapng (directions) streamed to stdout."""
+    if path != STDOUT:
+        return CaptureWriter(path)
+    if sys.stdout.isatty():
+        raise CaptureError("--pcap -: standard output is a terminal; pipe it or redirect it")
+    return CaptureWriter(sys.stdout.buffer, fmt="pcapng")
 
 
 def run(args: argparse.Namespace) -> int:
@@ -92,8 +104,6 @@ def run(args: argparse.Namespace) -> int:
     from emulator.esc.chain import EcatChain
     from emulator.esc.dc import seed_clocks
     from emulator.live import RawSocket, TaxelFeed, serve
-    from skinframes.capture_writer import CaptureWriter
-    from skinframes.errors import CaptureError
 
     period_s = args.period_ms / 1000.0
     check_served_ecat(args.nodes, args.bytes, args.samples, period_s)
@@ -122,7 +132,7 @@ def run(args: argparse.Namespace) -> int:
     try:
         with contextlib.ExitStack() as stack:
             sock = stack.enter_context(RawSocket(args.iface))
-            capture = None if args.pcap is None else stack.enter_context(CaptureWriter(args.pcap))
+            capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
             how = "compiled" if compiled.in_use() else "as Python (make compiles them)"
             print(
                 f"serving {args.nodes} EtherCAT slaves x {args.bytes} bytes on {args.iface}, "
@@ -146,8 +156,9 @@ def run(args: argparse.Namespace) -> int:
     }
     if args.pcap is not None:
         summary["pcap"] = args.pcap
+    out = sys.stderr if args.pcap == STDOUT else sys.stdout  # stdout carries the capture
     if args.json:
-        print(json.dumps(summary))
+        print(json.dumps(summary), file=out)
     else:
         print(
             f"served {summary['frames_out']} of {summary['frames_in']} frames "
@@ -158,8 +169,9 @@ def run(args: argparse.Namespace) -> int:
             f"CPU median {summary['cpu_us_median']} us, p99 {summary['cpu_us_p99']} us, "
             f"max {summary['cpu_us_max']} us per frame, "
             f"then the firmware max {summary['firmware_us_max']} us; "
-            f"the ESCs {'compiled' if summary['compiled'] else 'as Python'}"
+            f"the ESCs {'compiled' if summary['compiled'] else 'as Python'}",
+            file=out,
         )
         for message in stats.error_messages:
-            print(f"  not processed: {message}")
+            print(f"  not processed: {message}", file=out)
     return 0

@@ -3,9 +3,12 @@
 from __future__ import annotations
 
 import argparse
+import contextlib
 import json
 import math
-from typing import Any
+import sys
+from collections.abc import Iterator
+from typing import Any, Final
 
 from emulator.model.limits import MAX_SLAVES
 from emulator.model.params import PRESETS
@@ -41,6 +44,34 @@ def fault_spec(text: str) -> str:
             f"fault {escape(text)!r}: {fault.value:g} is not a finite value up to {MAX_LATE_US:g}"
         )
     return text
+
+
+STDOUT: Final = "-"  # --pcap -: the capture on standard output, as tshark -w - writes it
+PORT_NAMES: Final = ("master port 0", "master port 1")  # emulator.net.api names them so too
+
+
+@contextlib.contextmanager
+def pcap_target(path: str | None, ports: int, if_speed_bps: int) -> Iterator[dict[str, Any]]:
+    """The ``pcap``/``sink`` arguments of ``simulate_epl``/``simulate_ecat`` for ``--pcap``:
+    a file name as it is, ``-`` a pcapng streamed to standard output (the same bytes the
+    file would hold; a test compares them), refused on a terminal as tshark refuses it."""
+    if path != STDOUT:
+        yield {"pcap": path}
+        return
+    from emulator.net.api import CaptureSink
+    from skinframes.capture_writer import CaptureWriter
+
+    if sys.stdout.isatty():
+        raise SkinframesError("--pcap -: standard output is a terminal; pipe it or redirect it")
+    sys.stdout.flush()
+    with CaptureWriter(
+        sys.stdout.buffer,
+        fmt="pcapng",
+        ports=ports,
+        port_names=PORT_NAMES[:ports],
+        if_speed_bps=if_speed_bps,
+    ) as writer:
+        yield {"pcap": None, "sink": CaptureSink(writer)}
 
 
 def add_parser(sub: Any) -> None:
@@ -101,7 +132,8 @@ def add_parser(sub: Any) -> None:
         "--pcap",
         type=out_path,
         help="write the frames at the master's port to this pcap "
-        "(.pcapng: with direction flags, and marks on deliberately corrupted frames)",
+        "(.pcapng: with direction flags, and marks on deliberately corrupted frames); "
+        "- streams a pcapng to stdout (the report goes to stderr)",
     )
     p.add_argument(
         "--fault",
@@ -157,7 +189,11 @@ def run(args: argparse.Namespace) -> int:
         timeout = round(args.pres_timeout_us * 1e6)
     if args.pcap == "":
         raise SkinframesError("--pcap: an empty file name")
-    with progress_bar(args.cycles, "cycles") as bar:
+    ports = 2 if args.protocol == "ecat" and args.redundant else 1
+    with (
+        progress_bar(args.cycles, "cycles") as bar,
+        pcap_target(args.pcap, ports, params.link_rate_bps) as target,
+    ):
         if args.protocol == "epl":
             result = simulate_epl(
                 args.nodes,
@@ -168,9 +204,9 @@ def run(args: argparse.Namespace) -> int:
                 asnd=args.asnd,
                 pres_timeout_ps=timeout,
                 faults=faults,
-                pcap=args.pcap,
                 progress=bar,
                 vlan=args.vlan,
+                **target,
             )
         else:
             result = simulate_ecat(
@@ -182,32 +218,35 @@ def run(args: argparse.Namespace) -> int:
                 cycles=args.cycles,
                 seed=args.seed,
                 faults=faults,
-                pcap=args.pcap,
                 progress=bar,
                 startup=args.startup,
                 vlan=args.vlan,
+                **target,
             )
+    if args.pcap == STDOUT:
+        result.pcap = STDOUT
+    out = sys.stderr if args.pcap == STDOUT else sys.stdout  # stdout carries the capture
     if args.json:
-        print(json.dumps(result.to_json(), indent=2))
+        print(json.dumps(result.to_json(), indent=2), file=out)
         return 0
     c = result.cycle_us()
-    print(
+    lines = [
         f"{result.protocol} {result.topology}: {result.nodes} nodes x {result.bytes} bytes, "
-        f"preset {result.preset}, layout {result.layout}"
-    )
-    print(f"  cycles {result.cycles}, frames {result.frames}")
+        f"preset {result.preset}, layout {result.layout}",
+        f"  cycles {result.cycles}, frames {result.frames}",
+    ]
     if result.startup_us is not None:
-        print(f"  start-up: {result.startup_frames} frames, {result.startup_us:.3f} us")
-    print(
+        lines.append(f"  start-up: {result.startup_frames} frames, {result.startup_us:.3f} us")
+    lines.append(
         f"  cycle time: min {c['min']:.3f} us, median {c['median']:.3f} us, max {c['max']:.3f} us"
     )
     if faults:
         wkc = ", ".join(f"{d.cycle}: {d.wkc}/{d.expected_wkc}" for d in result.details)
-        print(f"  working counter (got/expected) from cycle on: {wkc}")
+        lines.append(f"  working counter (got/expected) from cycle on: {wkc}")
         if result.recovery_us is not None:
-            print(f"  recovery: {result.recovery_us:g} us")
-        for line in result.diagnosis:
-            print(f"  diagnosis: {line}")
+            lines.append(f"  recovery: {result.recovery_us:g} us")
+        lines += [f"  diagnosis: {line}" for line in result.diagnosis]
     if result.pcap:
-        print(f"  pcap: {escape(result.pcap)}")
+        lines.append(f"  pcap: {escape(result.pcap)}")
+    print("\n".join(lines), file=out)
     return 0

@@ -73,3 +73,179 @@ def test_other_protocol_names_stay_usage_errors(name: str) -> None:
     assert result.returncode == 2 and result.stdout == b""
     (line,) = result.stderr.decode().splitlines()
     assert line.startswith("skinframes: error: ")
+
+
+# --- `-` is standard output for a capture ----------------------------------------------------------
+SIM = ["simulate", "ecat", "--nodes", "3", "--bytes", "8", "--closed-ring", "--cycles", "3"]
+PCAPNG_SHB = b"\x0a\x0d\x0d\x0a"  # draft-ietf-opsawg-pcapng 4.1: Section Header Block type
+
+
+def test_simulate_pcap_dash_streams_the_file_bytes_to_stdout(tmp_path: Path) -> None:
+    """The stream is byte for byte the .pcapng the same run writes to a file, and nothing else
+    (the report moves to stderr)."""
+    piped = skinframes(*SIM, "--pcap", "-", "--json")
+    assert piped.returncode == 0, piped.stderr
+    path = tmp_path / "same.pcapng"
+    filed = skinframes(*SIM, "--pcap", str(path), "--json")
+    assert filed.returncode == 0, filed.stderr
+    assert piped.stdout[:4] == PCAPNG_SHB
+    assert piped.stdout == path.read_bytes()
+    report = json.loads(piped.stderr)
+    assert report["pcap"] == "-"
+    assert {k: v for k, v in report.items() if k != "pcap"} == {
+        k: v for k, v in json.loads(filed.stdout).items() if k != "pcap"
+    }
+    assert not (ROOT / "-").exists() and not (tmp_path / "-").exists()
+
+
+def test_tshark_reads_the_stream_from_a_pipe(tshark: str) -> None:
+    """``skinframes simulate ... --pcap - | tshark -r -``: every frame, no warning, both ports."""
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "skinframes", *SIM, "--pcap", "-", "--json"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    shark = subprocess.run(
+        [tshark, "-n", "-r", "-", "-T", "fields", "-e", "frame.interface_name", "-e", "_ws.malformed",
+         "-e", "_ws.expert.severity"],
+        stdin=sim.stdout,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )  # fmt: skip
+    assert sim.stdout is not None
+    sim.stdout.close()
+    assert sim.wait(timeout=300) == 0
+    frames = json.loads(sim.stderr.read())["frames"]  # type: ignore[union-attr]
+    assert shark.returncode == 0, shark.stderr
+    rows = [line.split("\t") for line in shark.stdout.splitlines()]
+    assert len(rows) == frames == 2 * 3 * 2  # 2 ports x 3 cycles x (sent, arrived at the other)
+    assert {r[0] for r in rows} == {"master port 0", "master port 1"}
+    assert all(r[1] == "" and r[2] == "" for r in rows)  # not malformed, no expert item
+
+
+def test_a_reader_that_leaves_ends_the_stream_quietly() -> None:
+    """``--pcap - | head -c 100``: exit 0 (docs/interface.md: a reader that goes away), no
+    traceback, no error line, and no file named ``-``."""
+    sim = subprocess.Popen(
+        [sys.executable, "-m", "skinframes", *SIM[:-1], "200000", "--pcap", "-"],
+        cwd=ROOT,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+    )
+    assert sim.stdout is not None and sim.stderr is not None
+    head = sim.stdout.read(100)
+    sim.stdout.close()
+    assert sim.wait(timeout=300) == 0
+    assert head[:4] == PCAPNG_SHB
+    assert sim.stderr.read() == b""
+    assert not (ROOT / "-").exists()
+
+
+def test_a_capture_is_not_written_to_a_terminal() -> None:
+    import os
+    import pty
+
+    leader, follower = pty.openpty()
+    try:
+        result = subprocess.run(
+            [sys.executable, "-m", "skinframes", *SIM, "--pcap", "-"],
+            cwd=ROOT,
+            stdout=follower,
+            stderr=subprocess.PIPE,
+            timeout=300,
+            check=False,
+        )
+    finally:
+        os.close(follower)
+        os.close(leader)
+    assert result.returncode == 2
+    (line,) = result.stderr.decode().splitlines()
+    assert line.startswith("skinframes: error: --pcap -: standard output is a terminal")
+
+
+def test_can_convert_pcap_dash_streams_the_file_bytes(tmp_path: Path) -> None:
+    from skinframes.canbus import TimedSample, TriangleSample, sample_frames
+    from skinframes.canbus.log import write_can_log
+
+    log = tmp_path / "skin.asc"
+    samples = [TimedSample(i * 50_000_000, TriangleSample(14, t, (t,) * 12), i * 50_000_000 + 130_000)
+               for i in range(3) for t in range(16)]  # fmt: skip
+    write_can_log(log, sorted(sample_frames(samples), key=lambda f: f.time_ns))
+    path = tmp_path / "same.pcapng"
+    argv = ["can", "convert", str(log), "--to", "ethercat"]
+    filed = skinframes(*argv, "--pcap", str(path))
+    piped = skinframes(*argv, "--pcap", "-")
+    assert filed.returncode == piped.returncode == 0, piped.stderr
+    assert piped.stdout == path.read_bytes()
+    assert piped.stderr.decode().startswith("3 samples of 1 boards")
+
+
+def test_analyze_reads_standard_input(tmp_path: Path) -> None:
+    path = tmp_path / "x.pcapng"
+    assert skinframes(*SIM, "--pcap", str(path)).returncode == 0
+    piped = skinframes("analyze", "-", "--json", stdin=path.read_bytes())
+    filed = skinframes("analyze", str(path), "--json")
+    assert piped.returncode == filed.returncode == 0, piped.stderr
+    a, b = json.loads(piped.stdout), json.loads(filed.stdout)
+    assert a.pop("path") == "-" and b.pop("path") == str(path)
+    assert a == b
+
+
+def test_serve_pcap_dash_streams_every_frame_and_reports_on_stderr(
+    monkeypatch: pytest.MonkeyPatch, capsysbinary: pytest.CaptureFixture[bytes], tshark: str,
+    tmp_path: Path,
+) -> None:  # fmt: skip
+    """``serve ecat --pcap -``: the frames in and out as a pcapng on stdout (tshark reads it:
+    two BRDs in, two answers out), the summary on stderr; a stand-in socket, no root needed."""
+    import signal
+    import socket
+
+    import emulator.live
+    from skinframes import ethercat
+    from skinframes.ethercat import Command, Datagram, EcatFrame
+    from skinframes_cli import main
+
+    brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
+
+    class Fake:  # emulator.live.RawSocket's interface; SIGINT once every frame was read
+        def __init__(self, iface: str) -> None:
+            self.inbox = [brd, brd]
+            self.r, self.w = socket.socketpair()
+            self.w.send(b"x")
+
+        def __enter__(self) -> Fake:
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            self.r.close()
+            self.w.close()
+
+        def fileno(self) -> int:
+            return self.r.fileno()
+
+        def recv(self) -> bytes | None:
+            if not self.inbox:
+                signal.raise_signal(signal.SIGINT)  # serve's own handler: stop serving
+                return None
+            return self.inbox.pop(0)
+
+        def send(self, frame: bytes) -> None:
+            pass
+
+    monkeypatch.setattr(emulator.live, "RawSocket", Fake)
+    argv = ["serve", "ethercat", "--iface", "fake0", "--nodes", "2", "--bytes", "4"]
+    assert main([*argv, "--pcap", "-", "--json"]) == 0
+    out, err = capsysbinary.readouterr()
+    summary = json.loads(err.splitlines()[-1])  # after the "serving ..." line
+    assert summary["frames_in"] == 2 and summary["pcap"] == "-"
+    path = tmp_path / "served.pcapng"
+    path.write_bytes(out)
+    from tshark_util import fields
+
+    rows = fields(tshark, path, ["ecat.cmd", "frame.p2p_dir", "ecat.cnt"])
+    got = [tuple(int(r[n][0], 0) for n in ("ecat.cmd", "frame.p2p_dir", "ecat.cnt")) for r in rows]
+    # BRD 0x07 in (p2p_dir 1: received) with WKC 0, out (0: sent) with 1 per slave
+    assert got == [(0x07, 1, 0), (0x07, 0, 2)] * 2
