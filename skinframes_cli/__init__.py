@@ -47,6 +47,9 @@ COMMAND_MODULES: Final = (
 )
 
 
+GLOBAL_FLAGS: Final = ("--debug", "-q", "--quiet")  # options before the command, taking no value
+
+
 def _command_module(name: str) -> ModuleType:
     return importlib.import_module(f"{__name__}.{name}")
 
@@ -92,6 +95,19 @@ def _sigterm_raises() -> Iterator[None]:
         signal.signal(signal.SIGTERM, previous)
 
 
+@contextlib.contextmanager
+def _information(quiet: bool) -> Iterator[None]:
+    """``-q``: what a command prints on stderr while it runs is information (errors are raised
+    and printed by :func:`main` afterwards, as one ``skinframes: error:`` line): drop it."""
+    if not quiet:
+        yield
+        return
+    import os
+
+    with open(os.devnull, "w") as devnull, contextlib.redirect_stderr(devnull):
+        yield
+
+
 def _quiet_stdout() -> None:
     """The reader of stdout left (``| head``): send the rest to /dev/null, print nothing more."""
     import os
@@ -108,6 +124,12 @@ def build_parser(modules: Sequence[str] = COMMAND_MODULES) -> argparse.ArgumentP
         description="Build, check and time the EPL, EtherCAT and CAN frames of a robot skin.",
     )
     parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
+    parser.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        help="print no information on stderr (counts, summaries, progress); errors still print",
+    )
     parser.add_argument(
         "--version",
         action="version",
@@ -127,7 +149,7 @@ def _modules_for(argv: Sequence[str]) -> Sequence[str]:
     (``--help``, an abbreviated option, a misspelt command: argparse then says what it always
     says)."""
     for arg in argv:
-        if arg == "--debug":
+        if arg in GLOBAL_FLAGS:
             continue
         name = arg.replace("-", "_")  # the command wireshark-plugin lives in wireshark_plugin
         if name in COMMAND_MODULES and arg == name.replace("_", "-"):
@@ -146,7 +168,7 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # usage errors (exit 2) and --help (exit 0), as a return code
         return exc.code if isinstance(exc.code, int) else 2
     try:
-        with _sigterm_raises():
+        with _sigterm_raises(), _information(args.quiet):
             code: int = args.run(args)
         return code
     except SkinframesError as exc:

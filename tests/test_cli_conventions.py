@@ -249,3 +249,38 @@ def test_serve_pcap_dash_streams_every_frame_and_reports_on_stderr(
     got = [tuple(int(r[n][0], 0) for n in ("ecat.cmd", "frame.p2p_dir", "ecat.cnt")) for r in rows]
     # BRD 0x07 in (p2p_dir 1: received) with WKC 0, out (0: sent) with 1 per slave
     assert got == [(0x07, 1, 0), (0x07, 0, 2)] * 2
+
+
+# --- -q/--quiet: information off, errors on ------------------------------------------------------
+def _skin_log(tmp_path: Path) -> Path:
+    from skinframes.canbus import TimedSample, TriangleSample, sample_frames
+    from skinframes.canbus.log import write_can_log
+
+    log = tmp_path / "skin.asc"
+    samples = [TimedSample(i * 50_000_000, TriangleSample(14, t, (t,) * 12), i * 50_000_000 + 130_000)
+               for i in range(3) for t in range(16)]  # fmt: skip
+    write_can_log(log, sorted(sample_frames(samples), key=lambda f: f.time_ns))
+    return log
+
+
+@pytest.mark.parametrize("flag", ["-q", "--quiet"])
+def test_quiet_drops_the_information_and_keeps_the_results(tmp_path: Path, flag: str) -> None:
+    log = _skin_log(tmp_path)
+    capture = tmp_path / "x.pcap"
+    assert (
+        skinframes(*SIM[:2], "--nodes", "2", "--bytes", "4", "--pcap", str(capture)).returncode == 0
+    )
+    for argv in (["can", "decode", str(log)], ["decode", str(capture)], ["check", str(capture)]):
+        loud, quiet = skinframes(*argv), skinframes(flag, *argv)
+        assert loud.returncode == quiet.returncode == 0, quiet.stderr
+        assert quiet.stdout == loud.stdout
+        info = loud.stderr.decode().splitlines()
+        assert info and not any(line.startswith("skinframes: error:") for line in info)
+        assert quiet.stderr == b""
+
+
+def test_quiet_keeps_the_error_line() -> None:
+    result = skinframes("-q", "decode", str(ROOT / "no-such.pcap"))
+    assert result.returncode == 2 and result.stdout == b""
+    (line,) = result.stderr.decode().splitlines()
+    assert line.startswith("skinframes: error: ")
