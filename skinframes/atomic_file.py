@@ -22,7 +22,7 @@ from typing import IO, Literal, overload
 
 from skinframes.errors import CaptureError
 
-__all__ = ["atomic_output", "atomic_path", "check_target", "create_temp"]
+__all__ = ["atomic_output", "atomic_path", "check_target", "create_temp", "output_folder"]
 
 _TEMP_ATTEMPTS = 100
 
@@ -37,6 +37,28 @@ def check_target(target: Path) -> None:
         raise CaptureError(f"{target}: exists and is not a regular file")
     if not target.parent.is_dir():
         raise CaptureError(f"{target}: directory {target.parent} does not exist")
+
+
+def output_folder(path: str | os.PathLike[str]) -> Path:
+    """The folder a command writes its files into, created when missing if its parent exists
+    (one level, never ``mkdir -p``: a mistyped parent is named, not built).
+
+    Raises:
+        CaptureError: ``path`` exists and is not a folder, its parent does not exist, or it
+            cannot be created.
+    """
+    out = Path(os.fspath(path))
+    if out.is_dir():
+        return out
+    if out.exists() or out.is_symlink():
+        raise CaptureError(f"{out}: exists and is not a directory")
+    if not out.parent.is_dir():
+        raise CaptureError(f"{out}: directory {out.parent} does not exist")
+    try:
+        out.mkdir()
+    except OSError as exc:
+        raise CaptureError(f"{out}: cannot create ({exc.strerror or exc})") from exc
+    return out
 
 
 def create_temp(target: Path) -> tuple[Path, int]:

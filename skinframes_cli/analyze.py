@@ -19,7 +19,7 @@ from emulator import WIRE, EmulatorError, simulate_ecat, simulate_epl
 from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_capture, analyze_file
 from skinframes.analysis.ecat import EcatAnalysis
 from skinframes.analysis.epl import EplAnalysis
-from skinframes.atomic_file import atomic_output
+from skinframes.atomic_file import atomic_output, output_folder
 from skinframes.errors import SkinframesError
 from skinframes.powerlink import NmtState
 from skinframes_cli.decode import open_capture
@@ -88,8 +88,8 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError(f"--expected-wkc {args.expected_wkc}: a working counter is 0..65535")
     if args.pres_timeout_us is not None and not 0 <= args.pres_timeout_us < math.inf:
         raise SkinframesError(f"--pres-timeout-us {args.pres_timeout_us}: must be >= 0, finite")
-    if args.csv is not None and not Path(args.csv).is_dir():
-        raise SkinframesError(f"{args.csv}: directory does not exist")
+    if args.csv is not None:
+        output_folder(args.csv)  # created if its parent exists, as every output folder
     if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".svg"):
         raise SkinframesError(f"{args.plot}: the plot is written as .png or .svg")
     timeout_ns = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1000)

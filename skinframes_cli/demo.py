@@ -8,7 +8,7 @@ from typing import Any, Final
 
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, old_name
 from skinframes import golden, taxel
-from skinframes.atomic_file import atomic_output
+from skinframes.atomic_file import atomic_output, output_folder
 from skinframes.check import check_capture
 from skinframes.errors import CaptureError
 from skinframes.pcap import read_capture, write_pcap
@@ -99,15 +99,7 @@ def prepare_out(out: Path, names: list[str], force: bool) -> None:
     """
     if out.is_symlink() and not force:
         raise CaptureError(f"{out}: is a symbolic link; demo does not write through it (--force)")
-    if out.exists() and not out.is_dir():
-        raise CaptureError(f"{out}: exists and is not a directory")
-    if not out.exists():
-        if not out.parent.is_dir():
-            raise CaptureError(f"{out}: directory {out.parent} does not exist")
-        try:
-            out.mkdir()
-        except OSError as exc:
-            raise CaptureError(f"{out}: cannot create ({exc.strerror or exc})") from exc
+    output_folder(out)  # created if its parent exists, as every output folder
     ours = _manifest(out)
     for name in names:
         path = out / name

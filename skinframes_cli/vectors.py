@@ -3,11 +3,10 @@
 from __future__ import annotations
 
 import argparse
-from pathlib import Path
 from typing import Any
 
 from skinframes import vectors
-from skinframes.errors import SkinframesError
+from skinframes.atomic_file import output_folder
 
 
 def add_parser(sub: Any) -> None:
@@ -20,15 +19,13 @@ def add_parser(sub: Any) -> None:
         "the malformed cases check knows; line N of the JSON Lines states frame N's expected "
         "fields (Wireshark's names) and findings.",
     )
-    p.add_argument("--out", required=True, help="an existing directory")
+    p.add_argument("--out", required=True, help="output directory; created if its parent exists")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Write and report."""
-    out = Path(args.out)
-    if not out.is_dir():
-        raise SkinframesError(f"--out {args.out}: not an existing directory")
+    out = output_folder(args.out)  # created if its parent exists
     for path in vectors.write(out):
         print(path)
     return 0

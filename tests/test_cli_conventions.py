@@ -284,3 +284,56 @@ def test_quiet_keeps_the_error_line() -> None:
     assert result.returncode == 2 and result.stdout == b""
     (line,) = result.stderr.decode().splitlines()
     assert line.startswith("skinframes: error: ")
+
+
+# --- output folders: one rule ---------------------------------------------------------------------
+def _folder_argv(command: str, folder: Path, capture: Path) -> list[str]:
+    return {
+        "vectors": ["vectors", "--out", str(folder)],
+        "analyze": ["analyze", str(capture), "--csv", str(folder)],
+        "demo": ["demo", "--out", str(folder), "--no-plot"],
+    }[command]
+
+
+@pytest.fixture(scope="module")
+def epl_capture(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    path = tmp_path_factory.mktemp("cap") / "epl.pcap"
+    assert (
+        skinframes(
+            "simulate", "epl", "--nodes", "2", "--bytes", "4", "--pcap", str(path)
+        ).returncode
+        == 0
+    )
+    return path
+
+
+@pytest.mark.parametrize("command", ["vectors", "analyze"])
+def test_a_missing_output_folder_is_created_when_its_parent_exists(
+    tmp_path: Path, command: str, epl_capture: Path
+) -> None:
+    folder = tmp_path / "new"
+    result = skinframes(*_folder_argv(command, folder, epl_capture))
+    assert result.returncode == 0, result.stderr
+    written = {p.name for p in folder.iterdir()}
+    assert written >= ({"vectors.pcap", "vectors.jsonl"} if command == "vectors" else
+                       {"config.csv", "epl_soc_period.csv", "epl_nodes.csv"})  # fmt: skip
+
+
+@pytest.mark.parametrize("command", ["vectors", "analyze", "demo"])
+@pytest.mark.parametrize("case", ["missing-parent", "a-file"])
+def test_output_folders_are_refused_alike(
+    tmp_path: Path, command: str, case: str, epl_capture: Path
+) -> None:
+    if case == "missing-parent":
+        folder = tmp_path / "no" / "such"
+        expected = f"skinframes: error: {folder}: directory {folder.parent} does not exist"
+    else:
+        folder = tmp_path / "plain"
+        folder.write_text("mine")
+        expected = f"skinframes: error: {folder}: exists and is not a directory"
+    result = skinframes(*_folder_argv(command, folder, epl_capture))
+    assert result.returncode == 2 and result.stdout == b""
+    assert result.stderr.decode().splitlines() == [expected]
+    assert not (tmp_path / "no").exists()
+    if case == "a-file":
+        assert folder.read_text() == "mine"
