@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import json
 import math
 import sys
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from typing import Any, Final
 
 from emulator.model.limits import MAX_SLAVES
@@ -48,6 +49,48 @@ def fault_spec(text: str) -> str:
 
 STDOUT: Final = "-"  # --pcap -: the capture on standard output, as tshark -w - writes it
 PORT_NAMES: Final = ("master port 0", "master port 1")  # emulator.net.api names them so too
+LARGE_PCAP_BYTES: Final = 4_000_000_000  # a pcap file estimated larger needs --allow-large-pcap
+
+
+class _Counter:
+    """A binary stream that keeps only the number of bytes written to it."""
+
+    name = "-"
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def write(self, data: bytes | memoryview) -> int:
+        self.count += len(data)
+        return len(data)
+
+    def flush(self) -> None:
+        pass
+
+
+def check_pcap_size(
+    path: str | None, cycles: int, allow: bool, ports: int, one_cycle: Callable[..., Any]
+) -> None:
+    """Refuse (before anything is written) a pcap file estimated above
+    :data:`LARGE_PCAP_BYTES` unless ``allow``: ``one_cycle(cycles=1, sink=...)`` runs the same
+    network for one cycle into a byte counter, the estimate is that times ``cycles``. A stream
+    (``-``) is the reader's to stop and is not checked."""
+    from emulator.net.api import CaptureSink
+    from skinframes.capture_writer import CaptureWriter
+
+    if path is None or path == STDOUT or allow or cycles <= 1:
+        return
+    counter = _Counter()
+    fmt = "pcapng" if path.lower().endswith(".pcapng") else "pcap"
+    with CaptureWriter(counter, fmt=fmt, ports=ports) as writer:  # type: ignore[arg-type]
+        one_cycle(cycles=1, sink=CaptureSink(writer))
+    estimate = counter.count * cycles
+    if estimate > LARGE_PCAP_BYTES:
+        raise SkinframesError(
+            f"--pcap {escape(path)}: about {estimate / 1e9:.1f} GB ({cycles} cycles of "
+            f"{counter.count} bytes), more than {LARGE_PCAP_BYTES / 1e9:g} GB; "
+            "--allow-large-pcap writes it"
+        )
 
 
 @contextlib.contextmanager
@@ -136,6 +179,12 @@ def add_parser(sub: Any) -> None:
         "- streams a pcapng to stdout (the report goes to stderr)",
     )
     p.add_argument(
+        "--allow-large-pcap",
+        action="store_true",
+        help=f"write a --pcap file estimated above {LARGE_PCAP_BYTES / 1e9:g} GB "
+        "(refused without it, before anything is written)",
+    )
+    p.add_argument(
         "--fault",
         type=fault_spec,
         action="append",
@@ -190,6 +239,18 @@ def run(args: argparse.Namespace) -> int:
     if args.pcap == "":
         raise SkinframesError("--pcap: an empty file name")
     ports = 2 if args.protocol == "ecat" and args.redundant else 1
+    if args.protocol == "epl":
+        run_one: Callable[..., Any] = functools.partial(
+            simulate_epl, args.nodes, args.bytes, params, seed=args.seed, asnd=args.asnd,
+            pres_timeout_ps=timeout, faults=faults, vlan=args.vlan,
+        )  # fmt: skip
+    else:
+        run_one = functools.partial(
+            simulate_ecat, args.nodes, args.bytes, params, closed_ring=args.redundant,
+            layout=args.layout, seed=args.seed, faults=faults, startup=args.startup,
+            vlan=args.vlan,
+        )  # fmt: skip
+    check_pcap_size(args.pcap, args.cycles, args.allow_large_pcap, ports, run_one)
     with (
         progress_bar(args.cycles, "cycles") as bar,
         pcap_target(args.pcap, ports, params.link_rate_bps) as target,

@@ -337,3 +337,34 @@ def test_output_folders_are_refused_alike(
     assert not (tmp_path / "no").exists()
     if case == "a-file":
         assert folder.read_text() == "mine"
+
+
+# --- a huge pcap is refused before it is written ---------------------------------------------------
+BIG = ["simulate", "ecat", "--nodes", "160", "--bytes", "192", "--closed-ring"]
+
+
+def test_a_pcap_estimated_above_4_gb_needs_allow_large_pcap(tmp_path: Path) -> None:
+    one = tmp_path / "one.pcap"
+    assert skinframes(*BIG, "--cycles", "1", "--pcap", str(one)).returncode == 0
+    big = tmp_path / "big.pcap"
+    result = skinframes(*BIG, "--cycles", "1000000", "--pcap", str(big))
+    assert result.returncode == 2 and result.stdout == b""
+    (line,) = result.stderr.decode().splitlines()
+    gb = one.stat().st_size * 1_000_000 / 1e9  # what a million of these cycles would take
+    assert line == (
+        f"skinframes: error: --pcap {big}: about {gb:.1f} GB (1000000 cycles of "
+        f"{one.stat().st_size} bytes), more than 4 GB; --allow-large-pcap writes it"
+    )
+    assert list(tmp_path.iterdir()) == [one]  # nothing written, no temporary file
+
+
+def test_allow_large_pcap_and_a_stream_skip_the_estimate() -> None:
+    from skinframes_cli.simulate import check_pcap_size
+
+    def must_not_run(**kw: object) -> None:
+        raise AssertionError("estimated although it need not be")
+
+    check_pcap_size("x.pcap", 10**6, True, 2, must_not_run)  # --allow-large-pcap
+    check_pcap_size("-", 10**6, False, 2, must_not_run)  # a pipe: the reader stops it
+    argv = ["simulate", "epl", "--nodes", "1", "--bytes", "1", "--allow-large-pcap"]
+    assert build_parser().parse_args(argv).allow_large_pcap is True
