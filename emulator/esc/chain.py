@@ -220,6 +220,9 @@ class EcatChain:
         # events), run once it has passed (run_firmware), as a slave's firmware reacts to the
         # events its ESC signals
         self.firmware: list[tuple[EscDevice, int]] = []
+        # the positions by configured address (_addressed), and the register bytes it is of
+        self._address_key = b""
+        self._address_index: dict[int, list[int]] = {}
         for dev in self.devices:
             dev.firmware_queue = self.firmware
 
@@ -394,7 +397,6 @@ class EcatChain:
         irq_all = 0  # the ESCs' event requests ORed into every IRQ field (datasheet I Table 3)
         for dev in line:
             irq_all |= dev.irq
-        stations: tuple[npt.NDArray[np.int64], ...] | None = None
         spans: npt.NDArray[np.int64] | None = None
         for k, (cmd, _, ado, data_at, n, irq_at) in enumerate(layout):
             adp = adps[k]
@@ -409,9 +411,7 @@ class EcatChain:
                         targets.append(pos)
                         adp = 0
                 elif cmd in CONFIGURED:
-                    if stations is None:
-                        stations = self._addresses(reach)
-                    targets = self._addressed(stations, adp)
+                    targets = self._addressed(reach, adp)
                 elif cmd in LOGICAL and n:
                     if spans is None:
                         spans = self.fmmu_spans[: len(line)]
@@ -722,7 +722,7 @@ class EcatChain:
         groups, holes, alone = _by_table(line, ado, end, True)
         if alone:
             return None
-        readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(self._addresses(reach), adp)
+        readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(reach, adp)
         reading = {q for q in readers if q < reach}
         key_of = {p: key for key, rows in groups.items() for p in rows}
         total, changed = 0, False
@@ -1010,8 +1010,7 @@ class EcatChain:
         (each in turn, with whatever side effects their read has), every other ESC puts the
         data as it arrives among its shadow writes (datasheet I Table 7)."""
         reach = len(line)
-        addressed = self._addressed
-        readers = [-adp & 0xFFFF] if cmd == ARMW else addressed(self._addresses(reach), adp)
+        readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(reach, adp)
         plain = _plain_read(ado, ado + n)
         entry = (ado, bytes(buf[at : at + n]))
         first, total, changed = 0, 0, False
@@ -1114,19 +1113,25 @@ class EcatChain:
         commit_together(together, self.memory, rows, alike=alike)
         finish_together(together, self.memory, rows)
 
-    def _addresses(self, reach: int) -> tuple[npt.NDArray[np.int64], ...]:
-        """Station address, alias, and whether DL control enables the alias, of the ESCs the
-        frame reaches (the registers as the frame found them: shadowed, datasheet I 3.4)."""
-        regs = self.memory[:reach, REG_STATION : REG_ALIAS + 2].astype(np.int64)
-        station = regs[:, 0] | regs[:, 1] << 8
-        alias = regs[:, REG_ALIAS - REG_STATION] | regs[:, REG_ALIAS - REG_STATION + 1] << 8
-        return station, alias, self.memory[:reach, REG_DL_CONTROL + 3] & 0x01
-
-    @staticmethod
-    def _addressed(addresses: tuple[npt.NDArray[np.int64], ...], adp: int) -> list[int]:
-        """Positions whose station address is ``adp``, or their alias where it is enabled."""
-        station, alias, alias_on = addresses
-        return np.flatnonzero((station == adp) | ((alias_on != 0) & (alias == adp))).tolist()
+    def _addressed(self, reach: int, adp: int) -> list[int]:
+        """Positions among the first ``reach`` whose station address 0x0010 is ``adp``, or
+        their alias 0x0012 where DL control bit 24 enables it (datasheet I 2.3; the registers
+        as the frame found them: shadowed, I 3.4). The index of addresses is the chain's own,
+        made again only when those registers changed (one compare of their bytes a frame)."""
+        memory = self.memory
+        regs = memory[:reach, REG_STATION : REG_ALIAS + 2]
+        key = regs.tobytes() + memory[:reach, REG_DL_CONTROL + 3].tobytes()
+        if key != self._address_key:
+            index: dict[int, list[int]] = {}
+            for p, (s0, s1, _, _) in enumerate(regs.tolist()):
+                index.setdefault(s0 | s1 << 8, []).append(p)
+            for p in np.flatnonzero(memory[:reach, REG_DL_CONTROL + 3] & 0x01).tolist():
+                found = index.setdefault(int(regs[p, 2]) | int(regs[p, 3]) << 8, [])
+                if p not in found:
+                    found.append(p)
+                    found.sort()
+            self._address_key, self._address_index = key, index
+        return list(self._address_index.get(adp, ()))  # (the caller's to change)
 
     @staticmethod
     def _or_irq(buf: bytearray, at: int, irq: int) -> None:
