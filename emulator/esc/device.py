@@ -1518,10 +1518,8 @@ class EscDevice:
 
     def update_irq(self) -> None:
         """The ECAT event request 0x0210 under the mask 0x0200 (datasheet I Table 3), kept in
-        :attr:`irq` for the IRQ field of every datagram."""
-        mem = self.mem
-        events = mem[REG_ECAT_EVENT] | mem[REG_ECAT_EVENT + 1] << 8
-        self.irq = events & (mem[REG_ECAT_EVENT_MASK] | mem[REG_ECAT_EVENT_MASK + 1] << 8)
+        :attr:`irq` for the IRQ field of every datagram: :func:`_event_requests` of this ESC."""
+        _event_requests([self], *self._rows)
 
     def count_frame_error(self) -> None:
         """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""
