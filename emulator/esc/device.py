@@ -284,7 +284,7 @@ def latches(ado: int, n: int) -> bool:
     """Whether a BWR or FPWR of ``n`` bytes at ``ado`` writes the receive time register
     0x0900-0x0903, and so latches the receive times (datasheet II 0x0900: "a write access with
     BWR or FPWR")."""
-    return ado < REG_DC_RECEIVE + 4 and ado + n > REG_DC_RECEIVE
+    return n > 0 and ado < REG_DC_RECEIVE + 4 and ado + n > REG_DC_RECEIVE
 
 
 def port1_forwarding(setting: int, link: bool) -> bool | None:

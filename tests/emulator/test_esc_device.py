@@ -1287,6 +1287,10 @@ def test_dc_only_bwr_and_fpwr_latch_the_receive_times() -> None:
     now[0] = 1_000_000
     send(chain, Datagram(C.APWR, 0, 0x0900, bytes(4)), Datagram(C.ARMW, 0, 0x0900, bytes(4)))
     assert u32(one(chain, Datagram(C.APRD, 0, 0x0900, bytes(4)))) == 0  # nothing latched
+    # a BWR of no bytes writes nothing, so it latches nothing, now or with a later write
+    send(chain, Datagram(C.BWR, 0, 0x0901, b""))
+    send(chain, Datagram(C.APWR, 0, 0x0900, bytes(4)))
+    assert u32(one(chain, Datagram(C.APRD, 0, 0x0900, bytes(4)))) == 0
     send(chain, Datagram(C.FPWR, 0x1001, 0x0900, bytes(4)))
     assert u32(one(chain, Datagram(C.FPRD, 0x1001, 0x0900, bytes(4)))) == 1_005_000
     assert u32(one(chain, Datagram(C.FPRD, 0x1002, 0x0900, bytes(4)))) == 0  # not addressed
