@@ -52,43 +52,24 @@ PORT_NAMES: Final = ("master port 0", "master port 1")  # emulator.net.api names
 LARGE_PCAP_BYTES: Final = 4_000_000_000  # a pcap file estimated larger needs --allow-large-pcap
 
 
-class _Counter:
-    """A binary stream that keeps only the number of bytes written to it."""
-
-    name = "-"
-
-    def __init__(self) -> None:
-        self.count = 0
-
-    def write(self, data: bytes | memoryview) -> int:
-        self.count += len(data)
-        return len(data)
-
-    def flush(self) -> None:
-        pass
-
-
 def check_pcap_size(
     path: str | None, cycles: int, allow: bool, ports: int, one_cycle: Callable[..., Any]
 ) -> None:
     """Refuse (before anything is written) a pcap file estimated above
     :data:`LARGE_PCAP_BYTES` unless ``allow``: ``one_cycle(cycles=1, sink=...)`` runs the same
-    network for one cycle into a byte counter, the estimate is that times ``cycles``. A stream
-    (``-``) is the reader's to stop and is not checked."""
-    from emulator.net.api import CaptureSink
-    from skinframes.capture_writer import CaptureWriter
+    network for one cycle into a byte counter (:func:`emulator.net.api.estimated_capture_bytes`),
+    the estimate is that times ``cycles``. A stream (``-``) is the reader's to stop and is not
+    checked."""
+    from emulator.net.api import estimated_capture_bytes
 
     if path is None or path == STDOUT or allow or cycles <= 1:
         return
-    counter = _Counter()
     fmt = "pcapng" if path.lower().endswith(".pcapng") else "pcap"
-    with CaptureWriter(counter, fmt=fmt, ports=ports) as writer:  # type: ignore[arg-type]
-        one_cycle(cycles=1, sink=CaptureSink(writer))
-    estimate = counter.count * cycles
+    estimate, one = estimated_capture_bytes(one_cycle, cycles, fmt=fmt, ports=ports)
     if estimate > LARGE_PCAP_BYTES:
         raise SkinframesError(
             f"--pcap {escape(path)}: about {estimate / 1e9:.1f} GB ({cycles} cycles of "
-            f"{counter.count} bytes), more than {LARGE_PCAP_BYTES / 1e9:g} GB; "
+            f"{one} bytes), more than {LARGE_PCAP_BYTES / 1e9:g} GB; "
             "--allow-large-pcap writes it"
         )
 

@@ -22,7 +22,7 @@ from emulator.net.startup import StartupRecord
 from skinframes.pcap import CaptureWriter
 from skinframes.vlan import VlanTag
 
-__all__ = ["CaptureSink", "simulate_ecat", "simulate_epl"]
+__all__ = ["CaptureSink", "estimated_capture_bytes", "simulate_ecat", "simulate_epl"]
 
 
 class CaptureSink:
@@ -56,6 +56,36 @@ class CaptureSink:
         self.writer.write_repeated(
             times_ps // PS_PER_NS, lengths, template, ports=ports, outbound=outbound, fills=fills
         )
+
+
+class _ByteCounter:
+    """A binary stream that keeps only the number of bytes written to it."""
+
+    name = "-"
+
+    def __init__(self) -> None:
+        self.count = 0
+
+    def write(self, data: bytes | memoryview) -> int:
+        self.count += len(data)
+        return len(data)
+
+    def flush(self) -> None:
+        pass
+
+
+def estimated_capture_bytes(
+    one_cycle: Callable[..., object], cycles: int, *, fmt: str, ports: int
+) -> tuple[int, int]:
+    """The size of the capture a run of ``cycles`` cycles writes, estimated before it runs:
+    ``one_cycle(cycles=1, sink=...)`` (a ``simulate_ecat``/``simulate_epl`` with its arguments
+    bound) writes one cycle into a byte counter, as ``fmt`` with ``ports`` interfaces. Returns
+    (the estimate, the bytes of the one cycle). A run with a start-up sequence carries it
+    once, so the estimate overstates it."""
+    counter = _ByteCounter()
+    with CaptureWriter(counter, fmt=fmt, ports=ports) as writer:  # type: ignore[arg-type]
+        one_cycle(cycles=1, sink=CaptureSink(writer))
+    return counter.count * cycles, counter.count
 
 
 def _execute(
