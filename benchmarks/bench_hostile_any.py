@@ -17,8 +17,8 @@ taken around :meth:`EcatChain.answer`, the slaves' firmware runs afterwards
 it. Every exception is counted by type and place (the innermost frame of its traceback); the
 first few tracebacks are printed, with the seed and frame index that reproduce them.
 
-The same frames go through ``--runs`` fresh chains (the ESCs' shared caches emptied before
-each, :func:`emulator.esc.mapping.forget`); each frame's least CPU time is what it needs (on a
+The same frames go through ``--runs`` fresh chains (each with caches of its own, empty:
+``EcatChain.caches``); each frame's least CPU time is what it needs (on a
 shared machine a frame now and then gains a few ms it does not need in the next run). Printed:
 median, p99, maximum and how many frames took more than 2 ms and 10 ms (the hostile frames;
 the master's own apart), the costliest frames' datagrams, and whether an LRD of the image
@@ -46,7 +46,7 @@ sys.path.append(str(ROOT / "tests"))  # tests/hostile_any.py
 
 import hostile_any  # noqa: E402
 
-from emulator.esc import compiled, mapping  # noqa: E402
+from emulator.esc import compiled  # noqa: E402
 from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
 from emulator.esc.dc import DEFAULT_DRIFT_PPM, seed_clocks  # noqa: E402
 from emulator.esc.hostile import eeprom_repair_frames, master_reset_frames  # noqa: E402
@@ -150,7 +150,6 @@ def run_once(
     tracebacks: int,
 ) -> Run:
     """The frames through a fresh configured chain; CPU per frame, exceptions by place."""
-    mapping.forget()  # nothing the ESCs worked out in an earlier run helps this one
     chain = serve_chain(nodes, size, seed)
     for frame in master_frames(nodes, size):
         chain.process_frame(frame)
@@ -266,7 +265,6 @@ def reproducer(
     frames = 1
     while True:
         start = max(first, i + 1 - frames) if frames <= i - first + 1 else 0
-        mapping.forget()
         chain = serve_chain(nodes, size, seed)
         for frame in master_frames(nodes, size):
             chain.process_frame(frame)

@@ -102,10 +102,11 @@ def ordinary_frames(
 
 
 def forget_caches() -> None:
-    """Empty the checkout's caches shared by every ESC: :func:`emulator.esc.mapping.forget`
+    """Empty an older checkout's caches shared by every ESC: :func:`emulator.esc.mapping.forget`
     where the checkout has it, and every module-level dict named ``*_CACHE`` in
     ``emulator.esc`` (checkouts older than ``forget``): each run pays what a process that has
-    seen none of the frames pays, as serve does."""
+    seen none of the frames pays, as serve does. (Since issue 39 the caches are each chain's
+    own, ``EcatChain.caches``: a fresh chain starts with none, and ``forget`` does nothing.)"""
     forget = getattr(sys.modules.get("emulator.esc.mapping"), "forget", None)
     if forget is not None:
         forget()

@@ -9,9 +9,9 @@
    until its answer (:meth:`EcatChain.answer`), and apart the slaves' firmware reacting to it
    afterwards (:meth:`EcatChain.run_firmware`), with garbage collected between frames, as serve
    does (:class:`emulator.live.BetweenFrames`).
-   The frames go through ``--runs`` fresh chains (default 2), each run with the caches the
-   ESCs share emptied first (:func:`emulator.esc.mapping.forget`), so that no run is helped by
-   plans an earlier run worked out (serve meets each frame once). On a shared machine a
+   The frames go through ``--runs`` fresh chains (default 2), each with caches of its own
+   (``EcatChain.caches``), so that no run is helped by plans an earlier run worked out (serve
+   meets each frame once). On a shared machine a
    frame's CPU time now and then gains a few ms that the same frame does not need in the next
    run (seen here: 225 us in one run, 2,444 us in the other), so each frame's least time is
    what it needs. Printed for the first run and for the least: median, p99 and maximum, frames above
@@ -68,7 +68,6 @@ import numpy.typing as npt
 ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
-from emulator.esc import mapping  # noqa: E402
 from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
 from emulator.esc.hostile import hostile_frames, master_reset_frames  # noqa: E402
 from emulator.esc.sii import SlaveInfo  # noqa: E402
@@ -241,7 +240,6 @@ def print_startup(nodes: int, size: int, mailbox: bool, runs: int) -> None:
     least: dict[int, list[float]] = {}
     cpu = time.thread_time_ns
     for _ in range(runs):
-        mapping.forget()
         chain = EcatChain.skin(nodes, size, mailbox=mailbox)
         for i, frame in enumerate(frames):
             c0 = cpu()
@@ -282,7 +280,6 @@ def in_process(
     reset = np.array(masters, np.bool_)
     per_run, ref_us, firmware_runs = [], [], []
     for _ in range(runs):  # the same frames through a fresh chain each time
-        mapping.forget()  # and nothing remembered from the run before
         chain = configured_chain(nodes, size, mailbox)
         with BetweenFrames() as collector:  # as serve does: garbage is collected between frames
             ref = lrd_frame(nodes, size)

@@ -50,7 +50,7 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import EscConfig, EscDevice, FirstBuffer, TraceCopy, latches
-from emulator.esc.mapping import Access, LogicalOp, LogicalPlan, SmTable, outside
+from emulator.esc.mapping import Access, Caches, LogicalOp, LogicalPlan, SmTable, outside
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     PROCESS_RAM,
@@ -201,6 +201,10 @@ class EcatChain:
         self.memory = np.zeros((len(self.devices), ADDRESS_SPACE), np.uint8)
         for p, (row, dev) in enumerate(zip(self.memory, self.devices, strict=True)):
             dev.use_memory(row.data, line=self.memory, index=p)
+        # what the ESCs decode and plan once, this chain's own (no other chain sees it)
+        self.caches = Caches()
+        for dev in self.devices:
+            dev.use_caches(self.caches)
         # every ESC's EscDevice.fmmu_span, one a row, which it keeps up to date: the ESCs a
         # logical datagram may concern are found at once
         self.fmmu_spans = np.zeros((len(self.devices), 2), np.int64)

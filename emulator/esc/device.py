@@ -78,9 +78,9 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcClock, configure_together, registers_power_on
 from emulator.esc.mapping import (
-    AS_NEW_CACHE,
     PLAN_CACHE_ENTRIES,
     Access,
+    Caches,
     FmmuTable,
     LogicalOp,
     LogicalPlan,
@@ -347,6 +347,7 @@ class EscDevice:
     __slots__ = (
         "__dict__",
         "_active",
+        "_caches",
         "_completed",
         "_fmmus",
         "_logical_plans",
@@ -397,7 +398,9 @@ class EscDevice:
         self._sii_image = sii if sii is not None else build_sii(info)
         if len(self._sii_image) % 2 or len(self._sii_image) < 2 * 0x40:
             raise TopologyError(f"SII image of {len(self._sii_image)} bytes (even, >= 128)")
-        self.write_plans = WritePlans.of(self.config)  # how register writes are cut (shared)
+        # what this ESC decodes and plans once, its chain's when in one (use_caches)
+        self._caches = Caches()
+        self.write_plans = WritePlans.of(self._caches, self.config)  # how register writes are cut
         self.dc = DcClock()  # distributed clocks (dc.py); the chain shares its timebase
         self.position = 0  # set by the chain; used in traces
         self.port1_link = False  # set by the chain: a neighbour on port 1
@@ -547,6 +550,12 @@ class EscDevice:
         ESC's span as one array, to find the ESCs a logical datagram may concern at once."""
         row[0], row[1] = self.fmmu_span
         self._span_row = row
+
+    def use_caches(self, caches: Caches) -> None:
+        """Decode and plan in ``caches`` from now on: its chain's, shared by the ESCs of that
+        chain alone (what it decoded before stays its own)."""
+        self._caches = caches
+        self.write_plans = WritePlans.of(caches, self.config)
 
     def registers(self, addr: int, length: int) -> bytes:
         """The committed register/memory bytes (no side effects; for tests and tools)."""
@@ -1003,7 +1012,7 @@ class EscDevice:
         write plans last asked about (ESCs configured alike ask alike)."""
         found = self._logical_plans.get((cmd, lad, n))
         if found is None:
-            found = table_access(self.fmmu_decoded, cmd, lad, n)
+            found = table_access(self._caches, self.fmmu_decoded, cmd, lad, n)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         found.rows(self.sm_areas, top, self.write_plans)
         return found
@@ -1365,31 +1374,20 @@ class EscDevice:
         row = self._span_row
         row[0], row[1] = span
 
-    def _rebuild_sms(self, enabled_before: bytes | None = None) -> None:
-        """Cache the SyncManagers that control memory: enabled, length >= 2, not PDI-locked.
-
-        A SyncManager disabled by ECAT or of length 0/1 does not interfere with accesses; one
-        deactivated by the PDI locks its whole area (datasheet I 8.5, 8.7). The register table
-        is decoded once per distinct bytes (:func:`sm_table`). When it decodes to the
-        SyncManagers the ESC has (bytes changed that set none of them: a disabled one's
-        configuration, the repeat or latch bits), nothing changes: they were enabled before
-        the frame too, and keep their buffers.
-        """
-        found = sm_table(bytes(self.mem[REG_SM : REG_SM + SM_BYTES * self.config.syncmanagers]))
-        if found[0] == self.sm_areas:
-            return  # the same SyncManagers (bytes that set none of them changed): as they are
-        change = sm_change(self.sm_areas, enabled_before, found)
-        mem = self.mem
-        for st in change[0]:
-            mem[st] = SM_NO_BUFFER
-            self._sm_event((st - REG_SM) // SM_BYTES)
-        self.change_syncmanagers(change, found[0])
+    def _rebuild_sms(self) -> None:
+        """The SyncManagers after the PDI locked or released some (0x0807 bit 0; one it locks
+        protects its whole area, datasheet I 8.7): what the commit does after a frame wrote
+        SyncManager registers (:func:`_syncmanagers`), at this ESC alone, with the activate
+        bytes as they are (the PDI toggled none) and no mailbox handler to run for it."""
+        memory, rows = self._rows
+        enabled = memory[rows, REG_SM + 6 : REG_SM + SM_BYTES * self.config.syncmanagers : SM_BYTES]
+        _syncmanagers([self], memory, rows, [0], enabled, frame=False)
+        self.update_irq()
 
     def change_syncmanagers(self, change: SmChange, decoded: SmTable) -> None:
         """The SyncManagers after their table changed to ``decoded`` (:func:`sm_change`): the ones
         that start anew lose their state, the others keep it (their status registers are the
-        caller's: :meth:`_rebuild_sms`, or the rows of many ESCs in
-        :func:`emulator.esc.together.commit_together`).
+        caller's: :func:`_syncmanagers`, over the rows of the ESCs a commit changes).
 
         The SyncManagers are changed once first needed (:meth:`_make_sms`), after all the
         changes since they last were: one that started anew in any of them is new, one kept
@@ -1447,15 +1445,16 @@ class EscDevice:
     def _as_new(self, decoded: SmTable) -> list[_Sm | None]:
         """The SyncManagers of the decoded table ``decoded`` as new, by index (None where
         none), in a list of the ESC's own: objects shared by every ESC that makes them
-        (:data:`emulator.esc.mapping.AS_NEW_CACHE`), each until the ESC changes its state
+        (:attr:`emulator.esc.mapping.Caches.as_new`), each until the ESC changes its state
         (:meth:`_own`); making them at 160 ESCs had taken up to 600 us in a frame."""
         key = (decoded, len(self._sms))
-        found: list[_Sm | None] | None = AS_NEW_CACHE.get(key)
+        cache = self._caches.as_new
+        found: list[_Sm | None] | None = cache.get(key)
         if found is None:
             found = [None] * len(self._sms)
             for y, start, length, control, locked in decoded:
                 found[y] = _Sm(y, start, length, control, locked != 0, shared=True)
-            remember(AS_NEW_CACHE, key, found)
+            remember(cache, key, found)
         return list(found)
 
     def _own(self, sm: _Sm) -> _Sm:
@@ -1867,8 +1866,9 @@ def _fmmus(
         return
     width = end - REG_FMMU
     tables = memory[rows[list(which)], REG_FMMU:end].tobytes()
+    caches = devices[0]._caches  # (the ESCs of one chain)
     for k, i in enumerate(which):
-        devices[i].use_fmmus(fmmu_table(tables[k * width : (k + 1) * width]))
+        devices[i].use_fmmus(fmmu_table(caches, tables[k * width : (k + 1) * width]))
 
 
 def _syncmanagers(
@@ -1877,6 +1877,8 @@ def _syncmanagers(
     rows: _Rows,
     which: Sequence[int],
     enabled: npt.NDArray[np.uint8],
+    *,
+    frame: bool = True,
 ) -> None:
     """What a commit does first to the ESCs ``devices[i]`` for ``i`` in
     ``which`` after a frame changed their SyncManager registers (the rest of it, which an FMMU,
@@ -1885,7 +1887,8 @@ def _syncmanagers(
     per distinct table before, table after and activate bytes before the frame (``enabled``, a
     row each), each change's status registers set over the rows at once, and each ESC's
     SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers_together`); the
-    mailbox handler runs once the frame has passed. An ESC whose table and activate bytes equal
+    mailbox handler runs once the frame has passed (not without a ``frame``: the PDI changed
+    them, :meth:`EscDevice._rebuild_sms`). An ESC whose table and activate bytes equal
     those of the ESC before it (compared over the rows), with the same table before, joins its
     group without a key of its own."""
     if not which:
@@ -1907,22 +1910,29 @@ def _syncmanagers(
     stride = width + count
     data = block.tobytes()
     groups: dict[tuple[int, bytes], list[int]] = {}
+    caches = devices[0]._caches  # (the ESCs of one chain)
     for k, end in zip(starts, [*starts[1:], len(at)], strict=True):
         groups.setdefault((id(held[k]), data[k * stride : (k + 1) * stride]), []).extend(at[k:end])
     for (_, key), members in groups.items():
         table, before = key[:width], key[width:]
         areas = devices[members[0]].sm_areas  # the same object at each of them
-        found = sm_table(table)
+        found = sm_table(caches, table)
         if found[0] != areas:
-            change = sm_change(areas, before, found)
+            change = sm_change(caches, areas, before, found)
             if change[0]:
                 memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
                 for st in change[0]:  # no buffer: no interrupt for ECAT (0x0210 bits 4-11)
                     bit = 4 + (st - REG_SM) // SM_BYTES
                     if bit < 12:
                         memory[rows[members], REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
-            EscDevice.change_syncmanagers_together([devices[i] for i in members], change, found[0])
-        else:
+            if frame:
+                EscDevice.change_syncmanagers_together(
+                    [devices[i] for i in members], change, found[0]
+                )
+            else:
+                for i in members:
+                    devices[i].change_syncmanagers(change, found[0])
+        elif frame:
             EscDevice.sm_registers_written_together([devices[i] for i in members])
 
 

@@ -2,8 +2,9 @@
 accesses planned through the FMMUs (datasheet I 7, 8; II 2.13, 2.14).
 
 Functions of register bytes only: a table is decoded once per distinct bytes, a plan worked out
-once per access and the FMMUs it meets, in caches of bounded size (:func:`remember`), shared by
-every ESC configured alike. :class:`emulator.esc.device.EscDevice` carries the plans out.
+once per access and the FMMUs it meets, in caches of bounded size (:func:`remember`) that belong
+to one chain (:class:`Caches`) and are shared by its ESCs configured alike; two chains never see
+each other's. :class:`emulator.esc.device.EscDevice` carries the plans out.
 """
 
 from __future__ import annotations
@@ -25,17 +26,10 @@ from emulator.esc.registers import (
 )
 
 __all__ = [
-    "ACCESS_CACHE",
-    "AS_NEW_CACHE",
-    "FMMU_CACHE",
     "FMMU_ENTRY",
-    "FMMU_PARTS_CACHE",
-    "JOINED_CACHE",
-    "PARTS_CACHE",
-    "SM_CACHE",
-    "SM_CHANGE_CACHE",
     "SM_ENTRY",
     "Access",
+    "Caches",
     "Holes",
     "LogicalPlan",
     "Mailboxes",
@@ -102,24 +96,11 @@ SmTable = tuple[tuple[int, int, int, int, int], ...]
 # mailboxes an access meets where ECAT accesses them: (SyncManager index, side 0 read / 1 write)
 # (esc_row_access)
 Mailboxes = tuple[tuple[int, int], ...]
-FMMU_CACHE: dict[bytes, FmmuTable] = {}
-# FMMU 0's registers and the others', decoded, with the plans of accesses through them
-# (decode_fmmus, table_access)
-FMMU_PARTS_CACHE: dict[bytes, FmmuTable] = {}
 _K = TypeVar("_K")
 _V = TypeVar("_V")
-# logical accesses by the FMMUs they meet (shared_access)
-ACCESS_CACHE: dict[tuple[object, ...], Access] = {}
-# the accesses of an access's first FMMU and of the FMMUs after it, by the FMMUs they meet
-# (Access.rows)
-PARTS_CACHE: dict[tuple[object, ...], Access] = {}
-# accesses through FMMU 0 and other FMMUs, by the accesses through each part, or by FMMU 0's
-# access moved along (moved_along: access, frame offset) and the others' (table_access)
-JOINED_CACHE: dict[tuple[object, ...], Access] = {}
 # a decoded SyncManager table, the order of its entries by start (PDI-locked last), and the
 # status registers (0x0805 + 8 y) of the SyncManagers without a buffer (sm_table)
 SmFound = tuple[SmTable, tuple[int, ...], tuple[int, ...]]
-SM_CACHE: dict[bytes, SmFound] = {}
 # what a change of the decoded SyncManager table does (sm_change): the status registers set to
 # "no buffer"; the indices of the SyncManagers without a buffer; (index, start, length, control,
 # locked) of those that start anew and of those that keep their state; the indices of the
@@ -131,24 +112,55 @@ SmChange = tuple[
     tuple[tuple[int, int, int, int, bool], ...],
     tuple[int, ...],
 ]
-SM_CHANGE_CACHE: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
-# per decoded SyncManager table and SyncManager count, its SyncManagers as new, by index (None
-# where none): shared by the ESCs that make them until one changes one
-# (emulator.esc.device.EscDevice; the objects are its own)
-AS_NEW_CACHE: dict[tuple[SmTable, int], list[Any]] = {}
+
+
+class Caches:
+    """What one chain's ESCs decode and plan once and share (issue 39: no process-wide state):
+    each dict bounded by :func:`remember`. A chain makes one for its ESCs
+    (:meth:`emulator.esc.device.EscDevice.use_caches`); an ESC on its own has its own."""
+
+    __slots__ = (
+        "access",
+        "as_new",
+        "fmmu",
+        "fmmu_parts",
+        "joined",
+        "parts",
+        "sm",
+        "sm_change",
+        "write_plans",
+    )
+
+    def __init__(self) -> None:
+        # FMMU register bytes decoded, with the plans of accesses through them (fmmu_table)
+        self.fmmu: dict[bytes, FmmuTable] = {}
+        # FMMU 0's registers and the others', decoded, with the plans of accesses through them
+        # (decode_fmmus, table_access)
+        self.fmmu_parts: dict[bytes, FmmuTable] = {}
+        # logical accesses by the FMMUs they meet (shared_access)
+        self.access: dict[tuple[object, ...], Access] = {}
+        # the accesses of an access's first FMMU and of the FMMUs after it, by the FMMUs they
+        # meet (Access.rows)
+        self.parts: dict[tuple[object, ...], Access] = {}
+        # accesses through FMMU 0 and other FMMUs, by the accesses through each part, or by
+        # FMMU 0's access moved along (moved_along: access, frame offset) and the others'
+        # (table_access)
+        self.joined: dict[tuple[object, ...], Access] = {}
+        self.sm: dict[bytes, SmFound] = {}  # decoded SyncManager tables (sm_table)
+        # changes of the decoded SyncManager table (sm_change)
+        self.sm_change: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
+        # per decoded SyncManager table and SyncManager count, its SyncManagers as new, by
+        # index (None where none): shared by the ESCs that make them until one changes one
+        # (emulator.esc.device.EscDevice; the objects are its own)
+        self.as_new: dict[tuple[SmTable, int], list[Any]] = {}
+        # how register writes are cut, per ESC configuration
+        # (emulator.esc.write_plans.WritePlans)
+        self.write_plans: dict[object, Any] = {}
 
 
 def forget() -> None:
-    """Empty the caches shared by every ESC (tables, accesses): a run that starts with them
-    empty pays what a process that has seen nothing pays (benchmarks)."""
-    FMMU_CACHE.clear()
-    FMMU_PARTS_CACHE.clear()
-    ACCESS_CACHE.clear()
-    PARTS_CACHE.clear()
-    JOINED_CACHE.clear()
-    SM_CACHE.clear()
-    SM_CHANGE_CACHE.clear()
-    AS_NEW_CACHE.clear()
+    """Nothing: kept for scripts written when the caches were the process's. They belong to
+    each chain now (:class:`Caches`), so a chain made anew starts with none."""
 
 
 def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_ENTRIES) -> _V:
@@ -161,23 +173,25 @@ def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_
     return value
 
 
-def decode_fmmus(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
+def decode_fmmus(
+    caches: Caches, table: bytes
+) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
     """The active FMMUs of the registers 0x0600+ (datasheet II 2.13) in register order, clipped,
     and the logical span they map (:func:`decode_entries`): FMMU 0 and the others decoded
-    apart, each once per distinct bytes (:data:`FMMU_PARTS_CACHE`), since a broadcast to the
+    apart, each once per distinct bytes (:attr:`Caches.fmmu_parts`), since a broadcast to the
     FMMUs of a configured line leaves every ESC's FMMUs differing in FMMU 0 alone (its own
     logical bytes)."""
-    parts = _fmmu_parts(table)
+    parts = _fmmu_parts(caches, table)
     return decode_entries(table) if parts is None else _joined(*parts)
 
 
-def _fmmu_parts(table: bytes) -> tuple[FmmuTable, FmmuTable] | None:
+def _fmmu_parts(caches: Caches, table: bytes) -> tuple[FmmuTable, FmmuTable] | None:
     """FMMU 0 and the others of the registers ``table`` decoded, each once per distinct bytes
-    (:data:`FMMU_PARTS_CACHE`); None for a table of one FMMU."""
+    (:attr:`Caches.fmmu_parts`); None for a table of one FMMU."""
     size = FMMU_ENTRY.size
     if len(table) <= size:
         return None
-    parts = FMMU_PARTS_CACHE
+    parts = caches.fmmu_parts
     head, rest = table[:size], table[size:]
     first = parts.get(head)
     if first is None:
@@ -238,28 +252,28 @@ def decode_sms(table: bytes) -> SmTable:
     return tuple(out)
 
 
-def fmmu_table(table: bytes) -> FmmuTable:
+def fmmu_table(caches: Caches, table: bytes) -> FmmuTable:
     """The FMMU register bytes ``table`` (0x0600 on, 16 bytes an FMMU) decoded
     (:func:`decode_fmmus`), with empty :class:`Plans` for the accesses through them, which
-    keep the table's two parts: once per distinct bytes (:data:`FMMU_CACHE`), so that ESCs
+    keep the table's two parts: once per distinct bytes (:attr:`Caches.fmmu`), so that ESCs
     whose FMMUs hold the same bytes share it."""
-    found = FMMU_CACHE.get(table)
+    found = caches.fmmu.get(table)
     if found is not None:
         return found
     plans = Plans()
-    parts = _fmmu_parts(table)
+    parts = _fmmu_parts(caches, table)
     if parts is None:
-        return remember(FMMU_CACHE, table, (*decode_entries(table), plans))
+        return remember(caches.fmmu, table, (*decode_entries(table), plans))
     plans.parts = parts
     fmmus, span = _joined(*parts)
-    return remember(FMMU_CACHE, table, (fmmus, span, plans))
+    return remember(caches.fmmu, table, (fmmus, span, plans))
 
 
-def sm_table(table: bytes) -> SmFound:
+def sm_table(caches: Caches, table: bytes) -> SmFound:
     """The SyncManager register bytes ``table`` (0x0800 on, 8 bytes a SyncManager) decoded
     (:func:`decode_sms`), with the order of its entries and the status registers of the
-    SyncManagers without a buffer: once per distinct bytes (:data:`SM_CACHE`)."""
-    found = SM_CACHE.get(table)
+    SyncManagers without a buffer: once per distinct bytes (:attr:`Caches.sm`)."""
+    found = caches.sm.get(table)
     if found is None:
         entries = decode_sms(table)
         by_start = sorted(range(len(entries)), key=lambda i: (entries[i][1], entries[i][4] != 0))
@@ -267,20 +281,22 @@ def sm_table(table: bytes) -> SmFound:
         idle = tuple(
             REG_SM + SM_BYTES * z + 5 for z in range(len(table) // SM_BYTES) if z not in enabled
         )
-        found = remember(SM_CACHE, table, (entries, tuple(by_start), idle))
+        found = remember(caches.sm, table, (entries, tuple(by_start), idle))
     return found
 
 
-def sm_change(before: SmTable, enabled_before: bytes | None, found: SmFound) -> SmChange:
+def sm_change(
+    caches: Caches, before: SmTable, enabled_before: bytes | None, found: SmFound
+) -> SmChange:
     """What an ESC's SyncManagers go through when their decoded table turns from ``before`` into
     ``found`` (:func:`sm_table`), with ``enabled_before`` the activate bytes before the frame
     (None: not written by a frame): one that was not controlling memory, was disabled before the
     frame (toggled) or moved or changed its length starts anew, without a buffer; the others
     keep their state (datasheet I 8.1, II 2.14.1); those left out have no buffer. It follows
-    from the tables alone, so it is worked out once (:data:`SM_CHANGE_CACHE`) and shared by
+    from the tables alone, so it is worked out once (:attr:`Caches.sm_change`) and shared by
     every ESC that makes the same change."""
     key = (before, enabled_before, found)
-    change = SM_CHANGE_CACHE.get(key)
+    change = caches.sm_change.get(key)
     if change is not None:
         return change
     after, order, idle = found
@@ -301,7 +317,7 @@ def sm_change(before: SmTable, enabled_before: bytes | None, found: SmFound) -> 
     no_buffer = idle + tuple(REG_SM + SM_BYTES * e[0] + 5 for e in fresh)
     gone = tuple((st - REG_SM) // SM_BYTES for st in idle)
     by_start = tuple(after[i][0] for i in order)
-    return remember(SM_CHANGE_CACHE, key, (no_buffer, gone, tuple(fresh), tuple(kept), by_start))
+    return remember(caches.sm_change, key, (no_buffer, gone, tuple(fresh), tuple(kept), by_start))
 
 
 def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> LogicalPlan:
@@ -377,6 +393,7 @@ class Access:
     __slots__ = (
         "_along",
         "_at",
+        "_caches",
         "_first",
         "_moved",
         "_others",
@@ -398,13 +415,16 @@ class Access:
         "writes",
     )
 
-    def __init__(self, hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> None:
+    def __init__(
+        self, caches: Caches, hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
+    ) -> None:
+        self._caches = caches  # the chain's, where its parts are kept
         self.hit, self.cmd, self.lad, self.n = hit, cmd, lad, n
         self._plan: LogicalPlan | None = None
         self._registers: tuple[bool, bool] | None = None
-        self._first: Access | None = None  # the first FMMU's access (PARTS_CACHE)
+        self._first: Access | None = None  # the first FMMU's access (Caches.parts)
         self._at: tuple[Access, int] | None = None  # or that access moved along (moved)
-        self._others: Access | None = None  # the others' (PARTS_CACHE)
+        self._others: Access | None = None  # the others' (Caches.parts)
         self._along: tuple[object, ...] | None = None  # _apart_along's shared work, last tables
         self._moved: object = _UNASKED  # (the FMMU's access at logical 0, frame offset) or None
         self.areas: SmTable | None = None
@@ -422,7 +442,7 @@ class Access:
     def joined(cls, first: Access, others: Access) -> Access:
         """The access through FMMU 0 and others that ``first`` and ``others`` (accesses alike
         through each, meeting some) are: its :meth:`rows` work from theirs (:meth:`_apart`)."""
-        found = cls(first.hit + others.hit, first.cmd, first.lad, first.n)
+        found = cls(first._caches, first.hit + others.hit, first.cmd, first.lad, first.n)
         found._first, found._others = first, others
         return found
 
@@ -432,7 +452,7 @@ class Access:
         access is ``at`` (:func:`moved_along`): worked out from that one moved along, without
         an access of its own (after hostile writes to the others, each ESC of a configured
         line, mapping its own logical bytes with FMMU 0, joins anew)."""
-        found = cls((fmmu, *others.hit), others.cmd, others.lad, others.n)
+        found = cls(others._caches, (fmmu, *others.hit), others.cmd, others.lad, others.n)
         found._at, found._others = at, others
         return found
 
@@ -449,7 +469,7 @@ class Access:
 
     def moved(self) -> tuple[Access, int] | None:
         """When the access meets one FMMU and all its bytes: the access of that FMMU moved to
-        logical 0 through exactly its bytes (:data:`PARTS_CACHE`), and how many bytes further on
+        logical 0 through exactly its bytes (:attr:`Caches.parts`), and how many bytes further on
         in the frame this access has them. Its plan is that one's with frame offsets that much
         further on (:func:`along`), since :func:`plan_logical` places a part by its logical
         offset from the datagram's start alone; its holes, events, mailboxes and DC registers
@@ -458,7 +478,11 @@ class Access:
         itself)."""
         if self._moved is _UNASKED:
             hit = self.hit
-            self._moved = moved_along(hit[0], self.cmd, self.lad, self.n) if len(hit) == 1 else None
+            self._moved = (
+                moved_along(self._caches, hit[0], self.cmd, self.lad, self.n)
+                if len(hit) == 1
+                else None
+            )
         return self._moved  # type: ignore[return-value]
 
     @property
@@ -485,7 +509,7 @@ class Access:
         ``writes`` (:func:`esc_row_access`), unless they were the last asked.
 
         When the access meets several FMMUs, the first FMMU's part and the others' (accesses of
-        their own, :data:`PARTS_CACHE`, shared by every access they are part of) are worked out
+        their own, :attr:`Caches.parts`, shared by every access they are part of) are worked out
         apart: after a broadcast to the FMMUs of ESCs that each map their own logical bytes
         with FMMU 0, every ESC's FMMUs differ in the first alone, and the others' cut is worked
         out once. The first FMMU claims its logical bytes from the others (datasheet I 7), so
@@ -528,7 +552,7 @@ class Access:
 
     def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
         """:meth:`rows` from the first FMMU's part and the others' cut, when another access met
-        the others before (:data:`PARTS_CACHE`; else each ESC would work out the others as
+        the others before (:attr:`Caches.parts`; else each ESC would work out the others as
         well as the whole plan), and the others are plain, clear no event, read no DC register
         and write no register to the shadow (the first's part is the whole plan's, theirs may
         be narrower, which would refresh or write other registers), read no register
@@ -541,9 +565,10 @@ class Access:
         others = self._others
         if others is None:
             key = (self.hit[1:], cmd, lad, n)
-            others = PARTS_CACHE.get(key)
+            parts = self._caches.parts
+            others = parts.get(key)
             if others is None:  # met for the first time: shared by no other access (yet)
-                remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+                remember(parts, key, Access(self._caches, *key), PLAN_CACHE_ENTRIES)
                 return False
             self._others = others
         reads_registers, writes_registers = others.registers
@@ -553,9 +578,10 @@ class Access:
         first = self._first
         if first is None:  # an ESC's own FMMU 0 outlives the others' changes: remembered
             key = (self.hit[:1], cmd, lad, n)
-            first = PARTS_CACHE.get(key)
+            parts = self._caches.parts
+            first = parts.get(key)
             if first is None:
-                first = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+                first = remember(parts, key, Access(self._caches, *key), PLAN_CACHE_ENTRIES)
             self._first = first
         first.rows(areas, top, writes)
         if first.cut is None or (first.events and reads_registers):
@@ -695,18 +721,20 @@ def _merged(first: Mailboxes, others: Mailboxes) -> Mailboxes:
     return first + tuple([m for m in others if m not in first])
 
 
-def moved_along(f: tuple[int, ...], cmd: int, lad: int, n: int) -> tuple[Access, int] | None:
+def moved_along(
+    caches: Caches, f: tuple[int, ...], cmd: int, lad: int, n: int
+) -> tuple[Access, int] | None:
     """When the FMMU ``f`` lies wholly inside a logical access (``cmd``, ``n`` bytes at
     ``lad``) and not at logical 0 with it: the access of ``f`` alone moved to logical 0
-    through exactly its bytes (:data:`PARTS_CACHE`), and how many bytes into the frame the
+    through exactly its bytes (:attr:`Caches.parts`), and how many bytes into the frame the
     access has them (:meth:`Access.moved`); else None."""
     start, end = f[0], f[1]
     if not (lad <= start and end <= lad + n and (start or lad)):
         return None
     key = (((0, end - start, *f[2:]),), cmd, 0, end - start)
-    at = PARTS_CACHE.get(key)
+    at = caches.parts.get(key)
     if at is None:
-        at = remember(PARTS_CACHE, key, Access(*key), PLAN_CACHE_ENTRIES)
+        at = remember(caches.parts, key, Access(caches, *key), PLAN_CACHE_ENTRIES)
     return at, start - lad
 
 
@@ -770,16 +798,17 @@ def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tupl
     return tuple(out)
 
 
-def _access(hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
+def _access(caches: Caches, hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
     key = (hit, cmd, lad, n)
-    found = ACCESS_CACHE.get(key)
+    found = caches.access.get(key)
     if found is None:
-        found = Access(hit, cmd, lad, n)
-        remember(ACCESS_CACHE, key, found, PLAN_CACHE_ENTRIES)
+        found = Access(caches, hit, cmd, lad, n)
+        remember(caches.access, key, found, PLAN_CACHE_ENTRIES)
     return found
 
 
 def shared_access(
+    caches: Caches,
     fmmus: tuple[tuple[int, ...], ...],
     cmd: int,
     lad: int,
@@ -787,21 +816,21 @@ def shared_access(
     span: tuple[int, int] | None = None,
 ) -> Access:
     """The :class:`Access` of a logical access through ``fmmus`` (active FMMUs in register
-    order): one per FMMUs the access meets, in order, and access (:data:`ACCESS_CACHE`), since
+    order): one per FMMUs the access meets, in order, and access (:attr:`Caches.access`), since
     the others do not change its plan; FMMU tables that differ only elsewhere share it.
     ``span``, the logical bytes the FMMUs map (:func:`decode_fmmus`), spares looking at each
     when the access holds it all: then it meets them all."""
     lo, hi = lad, lad + n
     if span is not None and lo <= span[0] and span[1] <= hi:
-        return _access(fmmus, cmd, lad, n)
-    return _access(tuple([f for f in fmmus if f[1] > lo and f[0] < hi]), cmd, lad, n)
+        return _access(caches, fmmus, cmd, lad, n)
+    return _access(caches, tuple([f for f in fmmus if f[1] > lo and f[0] < hi]), cmd, lad, n)
 
 
-def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
+def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
     """The :class:`Access` of a logical access through the FMMU ``table`` (:func:`fmmu_table`),
     worked out once per table and access (its :class:`Plans`). A table decoded in two parts
     joins the accesses through each (:meth:`Access.joined`, once per pair of them,
-    :data:`JOINED_CACHE`, so that tables whose FMMUs the access does not meet differ share it;
+    :attr:`Caches.joined`, so that tables whose FMMUs the access does not meet differ share it;
     the others' part's worked out once per part and shared by the ESCs of a configured line,
     whose tables differ in FMMU 0 alone; FMMU 0's by :func:`shared_access`): an access FMMU 0
     does not meet is the others' part's, one the others' span does not meet FMMU 0's.
@@ -813,34 +842,36 @@ def table_access(table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
         return found
     parts = plans.parts
     if parts is None:
-        found = shared_access(table[0], cmd, lad, n, table[1])
+        found = shared_access(caches, table[0], cmd, lad, n, table[1])
     else:
         head, rest = parts
         f, span = head[0], rest[1]
         if not (f and f[0][1] > lad and f[0][0] < lad + n):  # FMMU 0 does not meet it
-            found = _part_access(rest, key)
+            found = _part_access(caches, rest, key)
         elif not (rest[0] and span[0] < lad + n and span[1] > lad):  # FMMU 0 alone does
-            found = shared_access(f, cmd, lad, n, head[1])
+            found = shared_access(caches, f, cmd, lad, n, head[1])
         else:  # joined once per pair of parts' accesses, whatever else differs
-            others = _part_access(rest, key)
-            at = None if not others.hit or len(f) > 1 else _moved_along(head, key)
+            others = _part_access(caches, rest, key)
+            at = None if not others.hit or len(f) > 1 else _moved_along(caches, head, key)
             if not others.hit:  # the others' span meets it, but none of them does
-                found = shared_access(f, cmd, lad, n, head[1])
+                found = shared_access(caches, f, cmd, lad, n, head[1])
             elif at is not None:  # FMMU 0 inside the access: moved along, no access of its own
                 joint = (at[0], at[1], others)
-                found = JOINED_CACHE.get(joint)
+                found = caches.joined.get(joint)
                 if found is None:
                     found = Access.joined_along(f[0], at, others)
-                    remember(JOINED_CACHE, joint, found, PLAN_CACHE_ENTRIES)
+                    remember(caches.joined, joint, found, PLAN_CACHE_ENTRIES)
             else:
-                pair = (shared_access(f, cmd, lad, n, head[1]), others)
-                found = JOINED_CACHE.get(pair)
+                pair = (shared_access(caches, f, cmd, lad, n, head[1]), others)
+                found = caches.joined.get(pair)
                 if found is None:
-                    found = remember(JOINED_CACHE, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
+                    found = remember(caches.joined, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
     return remember(plans, key, found, PLAN_CACHE_ENTRIES)
 
 
-def _moved_along(head: FmmuTable, key: tuple[int, int, int]) -> tuple[Access, int] | None:
+def _moved_along(
+    caches: Caches, head: FmmuTable, key: tuple[int, int, int]
+) -> tuple[Access, int] | None:
     """:func:`moved_along` of the one FMMU of FMMU 0's part ``head``, once per part and access
     (its :attr:`Plans.moved`): an ESC's own FMMU 0 outlives the others' changes."""
     plans = head[2]
@@ -849,13 +880,13 @@ def _moved_along(head: FmmuTable, key: tuple[int, int, int]) -> tuple[Access, in
         moved = plans.moved = {}
     elif key in moved:
         return moved[key]
-    return remember(moved, key, moved_along(head[0][0], *key), PLAN_CACHE_ENTRIES)
+    return remember(moved, key, moved_along(caches, head[0][0], *key), PLAN_CACHE_ENTRIES)
 
 
-def _part_access(part: FmmuTable, key: tuple[int, int, int]) -> Access:
+def _part_access(caches: Caches, part: FmmuTable, key: tuple[int, int, int]) -> Access:
     found = part[2].get(key)
     if found is None:
-        found = shared_access(part[0], *key, part[1])
+        found = shared_access(caches, part[0], *key, part[1])
         remember(part[2], key, found, PLAN_CACHE_ENTRIES)
     return found
 

@@ -7,13 +7,13 @@ reads for every ESC."""
 from __future__ import annotations
 
 from collections.abc import Sequence
-from typing import ClassVar, Final, Protocol
+from typing import Final, Protocol
 
 import numpy as np
 import numpy.typing as npt
 
 from emulator.esc.dc import DcClock, compare_together
-from emulator.esc.mapping import PLAN_CACHE_ENTRIES, remember
+from emulator.esc.mapping import PLAN_CACHE_ENTRIES, Caches, remember
 from emulator.esc.registers import (
     FMMU_BYTES,
     REG_AL_CONTROL,
@@ -87,13 +87,13 @@ class WritePlans:
     ESC a broadcast reaches.
     """
 
-    _by_config: ClassVar[dict[EscConfig, WritePlans]] = {}
-
     @classmethod
-    def of(cls, config: EscConfig) -> WritePlans:
-        plans = cls._by_config.get(config)
+    def of(cls, caches: Caches, config: EscConfig) -> WritePlans:
+        """The plans for ``config`` kept in a chain's ``caches``: one object for its ESCs of
+        that configuration."""
+        plans: WritePlans | None = caches.write_plans.get(config)
         if plans is None:
-            plans = cls._by_config[config] = cls(config)
+            plans = caches.write_plans[config] = cls(config)
         return plans
 
     def __init__(self, config: EscConfig) -> None:

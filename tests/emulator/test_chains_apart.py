@@ -4,15 +4,19 @@ frames in turn, each returns exactly the frames and leaves exactly the memory it
 The chains differ in what the ESCs share when configured alike (issue: process-wide caches of
 decoded FMMU and SyncManager tables, plans and as-new SyncManager objects): different slave
 counts, input sizes, mailboxes and clocks, hostile frames of two seeds aimed at their registers.
+And no container at module level in ``emulator`` (nor at class level) grows while frames run:
+what a chain decodes and plans is its own (``EcatChain.caches``).
 """
 
 from __future__ import annotations
 
+import collections
 import itertools
+import sys
+from types import ModuleType
 
 import numpy as np
 
-from emulator.esc import mapping
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.hostile import hostile_frames, master_reset_frames
 from skinframes import taxel
@@ -50,13 +54,10 @@ def test_two_chains_fed_in_turn_answer_as_each_does_alone() -> None:
     a_spec, b_spec = (8, 8, False), (5, 16, True)
     a_frames = frames_of(a_spec[0], a_spec[1], seed=21, count=900)
     b_frames = frames_of(b_spec[0], b_spec[1], seed=22, count=900)
-    mapping.forget()
     a_alone = made(a_spec[0], a_spec[1], mailbox=a_spec[2])
     a_back = run(a_alone, a_frames)
-    mapping.forget()
     b_alone = made(b_spec[0], b_spec[1], mailbox=b_spec[2])
     b_back = run(b_alone, b_frames)
-    mapping.forget()
     a = made(a_spec[0], a_spec[1], mailbox=a_spec[2])
     b = made(b_spec[0], b_spec[1], mailbox=b_spec[2])
     a_turns: list[bytes | None] = []
@@ -73,3 +74,47 @@ def test_two_chains_fed_in_turn_answer_as_each_does_alone() -> None:
         assert alone == turns, f"chain B, frame {k}"
     assert np.array_equal(a.memory, a_alone.memory)
     assert np.array_equal(b.memory, b_alone.memory)
+
+
+def containers(module: ModuleType) -> dict[str, int]:
+    """The size of every container at ``module``'s level and at the level of its classes:
+    dicts, lists, sets, deques, byte arrays, and functools caches (their entries)."""
+    sizes: dict[str, int] = {}
+    for name, value in list(vars(module).items()):
+        places = [(name, value)]
+        if isinstance(value, type) and value.__module__ == module.__name__:
+            places += [(f"{name}.{attr}", v) for attr, v in vars(value).items()]
+        for place, held in places:
+            if isinstance(held, dict | list | set | bytearray | collections.deque):
+                sizes[f"{module.__name__}.{place}"] = len(held)
+            elif callable(getattr(held, "cache_info", None)):
+                sizes[f"{module.__name__}.{place}"] = held.cache_info().currsize
+    return sizes
+
+
+def emulator_containers() -> dict[str, int]:
+    every: dict[str, int] = {}
+    for name, module in list(sys.modules.items()):
+        if (name == "emulator" or name.startswith("emulator.")) and isinstance(module, ModuleType):
+            every.update(containers(module))
+    return every
+
+
+def test_no_module_level_container_grows_while_frames_run() -> None:
+    """Hostile frames (FMMU and SyncManager tables, logical accesses, EEPROM, AL control) and a
+    master's set-up, through two chains of different configuration: every container at module
+    or class level in ``emulator`` keeps its size (the caches are the chains' own)."""
+    a, b = made(8, 8, mailbox=False), made(5, 16, mailbox=True)
+    frames = {
+        id(a): frames_of(8, 8, seed=23, count=600),
+        id(b): frames_of(5, 16, seed=24, count=600),
+    }
+    before = emulator_containers()
+    assert any(key.startswith("emulator.esc.") for key in before)  # the modules are looked at
+    for chain in (a, b):
+        run(chain, frames[id(chain)])
+    grown = {
+        k: (before.get(k, 0), n) for k, n in emulator_containers().items() if n > before.get(k, 0)
+    }
+    assert grown == {}
+    assert len(a.caches.fmmu) > 1 and len(b.caches.sm) > 1  # the chains' own did fill

@@ -20,7 +20,7 @@ from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice, _Sm
 from emulator.esc.hostile import hostile_frames, master_reset_frames
-from emulator.esc.mapping import AS_NEW_CACHE, decode_sms
+from emulator.esc.mapping import decode_sms
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_NO_BUFFER
 from emulator.esc.sii import SyncManagerType, crc8
 from skinframes import ethercat, taxel
@@ -380,7 +380,7 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     latch bits) change nothing: the ESC keeps its SyncManagers. Under hostile frames, which
     write SyncManager registers at every ESC, the chain leaves the bytes and SyncManager states
     of a chain whose ESCs rebuild them every time, one by one, and the SyncManagers the ESCs
-    share while they are as new (``mapping.AS_NEW_CACHE``) stay as new."""
+    share while they are as new (``mapping.Caches.as_new``, the chain's) stay as new."""
     fast, reference = EcatChain.configured(NODES, SIZE), OneByOne.configured(NODES, SIZE)
     references = {id(dev) for dev in reference.devices}
     rebuild, change = EscDevice._rebuild_sms, EscDevice._change_sms
@@ -388,11 +388,11 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     change_all = EscDevice.change_syncmanagers_together
     calls = {"written": 0, "changed": 0, "by rows": 0}
 
-    def either(self: EscDevice, enabled_before: bytes | None = None) -> None:
+    def either(self: EscDevice) -> None:  # (the PDI locks or releases SyncManagers)
         if id(self) in references:
-            rebuild_one_by_one(self, enabled_before)
+            rebuild_one_by_one(self)
         else:
-            rebuild(self, enabled_before)
+            rebuild(self)
 
     def changed(self: EscDevice, *args: Any) -> None:
         calls["changed"] += id(self) not in references
@@ -407,9 +407,9 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
         calls["written"] += sum(id(dev) not in references for dev in devices)
         change_all(devices, *args)
 
-    def rows(devices: Any, memory: Any, at: Any, which: Any, *args: Any) -> None:
-        calls["by rows"] += len(which)
-        by_rows(devices, memory, at, which, *args)
+    def rows(devices: Any, memory: Any, at: Any, which: Any, *args: Any, **kw: Any) -> None:
+        calls["by rows"] += len(which) if kw.get("frame", True) else 0  # (a frame's commit)
+        by_rows(devices, memory, at, which, *args, **kw)
 
     monkeypatch.setattr(esc_device, "_syncmanagers", rows)
     monkeypatch.setattr(EscDevice, "_rebuild_sms", either)
@@ -435,7 +435,7 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     assert calls["changed"] > 1_000  # changes happened
     assert calls["by rows"] > 1_000  # many of them over the rows of several ESCs
     assert calls["written"] - calls["changed"] > 500  # and bytes that set none, often
-    shared = [sm for made in AS_NEW_CACHE.values() for sm in made if sm is not None]
+    shared = [sm for made in fast.caches.as_new.values() for sm in made if sm is not None]
     assert len(shared) > 100  # ESCs shared SyncManagers as new, and none of them changed
     assert {(sm.open, sm.complete, sm.full, sm.latest, sm.buf) for sm in shared} == {
         (False, False, False, None, None)

@@ -449,13 +449,14 @@ def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
     """The plan of a logical access depends on the FMMUs it meets, in order, alone: tables that
     differ in another FMMU share one (and its plain parts); one that differs in a met FMMU
     does not."""
+    caches = mapping.Caches()  # a chain's
     met = (0x100, 0x110, 0x1200, 0, 7, 0, 1, 1, True, 0)  # logical 0x100-0x10F onto 0x1200
     other = (0x8000, 0x8004, 0x1400, 0, 7, 0, 1, 0, True, 0)
     moved = (*other[:2], 0x1500, *other[3:])  # physical start 0x1500
     lrw = int(Command.LRW)
-    a = mapping.shared_access((met, other), lrw, 0x100, 8)
-    b = mapping.shared_access((met, moved), lrw, 0x100, 8)
-    c = mapping.shared_access(((*met[:2], 0x1300, *met[3:]),), lrw, 0x100, 8)
+    a = mapping.shared_access(caches, (met, other), lrw, 0x100, 8)
+    b = mapping.shared_access(caches, (met, moved), lrw, 0x100, 8)
+    c = mapping.shared_access(caches, ((*met[:2], 0x1300, *met[3:]),), lrw, 0x100, 8)
     assert a is b and a is not c
     assert a.plan == ((((True, 0x1200, 0, 8, 0, 0, 0),), ((True, 0x1200, 0, 8, 0, 0, 0),)))
 
@@ -618,15 +619,16 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     """An access through several FMMUs, the first worked out apart from the others
     (:meth:`mapping.Access.rows`), maps what the whole plan maps (:func:`assert_maps_as_whole`)
     and is as plain."""
+    caches = mapping.Caches()  # a chain's
     table = b"".join(
         struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
         for log, length, bits, phys, kind in (first, *others)
     )
-    decoded, _ = mapping.decode_fmmus(table)
+    decoded, _ = mapping.decode_fmmus(caches, table)
     hit = tuple(f for f in decoded if not (f[1] <= lad or f[0] >= lad + n))
-    mapping.forget()
-    mapping.Access(hit, int(cmd), lad, n).rows(areas, top, Inert())  # meets the others first
-    access = mapping.Access(hit, int(cmd), lad, n)  # another ESC's, alike
+    # meets the others first
+    mapping.Access(caches, hit, int(cmd), lad, n).rows(areas, top, Inert())
+    access = mapping.Access(caches, hit, int(cmd), lad, n)  # another ESC's, alike
     access.rows(areas, top, Inert())
     whole = assert_maps_as_whole(access, hit, areas, top)
     if whole is not None:
@@ -664,24 +666,24 @@ def test_first_fmmus_moved_along_take_what_the_others_leave_them(
     (:meth:`mapping.Access.joined_along`, what they share kept with the others' access for
     the SyncManager table and memory top last asked), each asked at one table and top after
     another and back, map what each whole plan maps."""
+    caches = mapping.Caches()  # a chain's
     log, length, bits, phys, kind = first
     rows = [(log + k * step, length + k // 2, bits, phys, kind) for k in range(3)]  # 2 sizes
     table = b"".join(
         struct.pack("<IHBBHBBB3x", log_, length_, bits_[0], bits_[1], phys_, bits_[2], kind_, 1)
         for log_, length_, bits_, phys_, kind_ in (*rows, *others)
     )
-    decoded, _ = mapping.decode_fmmus(table)
+    decoded, _ = mapping.decode_fmmus(caches, table)
     assume(len(decoded) == len(rows) + len(others))  # none clipped away
     mine, theirs = decoded[: len(rows)], decoded[len(rows) :]
     n = max(f[1] for f in mine) - lad + 2
     hit = tuple(f for f in theirs if not (f[1] <= lad or f[0] >= lad + n))
     assume(hit and all(lad < f[0] for f in mine))
-    mapping.forget()
-    shared, inert = mapping.Access(hit, int(cmd), lad, n), Inert()  # (one write plan)
+    shared, inert = mapping.Access(caches, hit, int(cmd), lad, n), Inert()  # (one write plan)
     tops = (0x10000, 0x1008, 0x10000)  # each change alone: the tables, the top, FMMU 0's size
     asked = [(areas, top) for top in tops for areas in (*tables, tables[0])]
     for f in mine:
-        at = mapping.moved_along(f, int(cmd), lad, n)
+        at = mapping.moved_along(caches, f, int(cmd), lad, n)
         assert at is not None
         for areas, top in asked:
             access = mapping.Access.joined_along(f, at, shared)
@@ -709,16 +711,16 @@ def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
     datagram's start and ``after`` bytes before its end, worked out as that FMMU's access at
     logical 0 moved along the frame (:meth:`mapping.Access.moved`): the plan is plan_logical's,
     and the cut, events and mailboxes are those of esc_row_access of it."""
+    caches = mapping.Caches()  # a chain's
     log, length, bits, phys, kind = fmmu_
     table = struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
-    hit, _ = mapping.decode_fmmus(table)
+    hit, _ = mapping.decode_fmmus(caches, table)
     assert len(hit) == 1  # (clipped at the end of the address space, perhaps)
     lad, n = hit[0][0] - before, hit[0][1] - hit[0][0] + before + after
     assume(lad >= 0)
     plan = mapping.plan_logical(hit, int(cmd), lad, n)
     whole = mapping.esc_row_access(plan, areas, top, Inert().inert)
-    mapping.forget()
-    access = mapping.Access(hit, int(cmd), lad, n)
+    access = mapping.Access(caches, hit, int(cmd), lad, n)
     access.rows(areas, top, Inert())
     assert (access.moved() is not None) == bool(hit[0][0] or lad)
     assert access.plan == plan
@@ -740,6 +742,7 @@ def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
     writes all 4 bytes (FMMU 0 claims nothing among the writes) into physical bits 4-35.
     Once another ESC's access met FMMU 1, neither the plan of both FMMUs nor their holes are
     worked out: the first FMMU's plan and the others' cut are."""
+    caches = mapping.Caches()  # a chain's
     first = (0x10, 0x12, 0x0130, 0, 7, 0, 1, 0, True, 8 * (0x10000 - 0x0130))
     other = (0x10, 0x14, 0x1100, 0, 7, 4, 1, 1, False, 8 * (0x10000 - 0x1100) - 4)
     whole: list[object] = []
@@ -751,12 +754,11 @@ def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
         return planned(fmmus, cmd, lad, n)
 
     monkeypatch.setattr(mapping, "plan_logical", plan)
-    mapping.forget()
     lrw = int(Command.LRW)
     elsewhere = (0x100, 0x102, *first[2:])  # another ESC's FMMU 0, not in the datagram
-    mapping.Access((elsewhere, other), lrw, 0x10, 4).rows((), 0x10000, Inert())
+    mapping.Access(caches, (elsewhere, other), lrw, 0x10, 4).rows((), 0x10000, Inert())
     whole.clear()  # that first access of FMMU 1 worked out the whole plan
-    access = mapping.Access((first, other), lrw, 0x10, 4)
+    access = mapping.Access(caches, (first, other), lrw, 0x10, 4)
     access.rows((), 0x10000, Inert())
     assert access.cut == (
         ((True, 0x0130, 0, 2, 0, 0, 0), (False, 0x1100, 5, 4, 0xFFFF_0000, 0, 4)),
@@ -772,14 +774,14 @@ def test_a_write_of_inert_registers_counts_whatever_the_claims_leave() -> None:
     into a buffer the PDI locked. An LWR of 0x10-0x13 writes no byte, but FMMU 1 writes the
     registers (a part that writes no byte, and counts in the working counter), however the
     others' part is worked out."""
+    caches = mapping.Caches()  # a chain's
     first = (0x12, 0x14, 0x2000, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x2000))
     other = (0x10, 0x14, 0x0F7E, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x0F7E))
     locked = ((0, 0x2000, 2, 0x04, 1),)
     lwr = int(Command.LWR)
-    mapping.forget()
     elsewhere = (0x100, 0x102, *first[2:])  # another ESC's FMMU 0, not in the datagram
-    mapping.Access((elsewhere, other), lwr, 0x10, 4).rows(locked, 0x10000, Inert())
-    access = mapping.Access((first, other), lwr, 0x10, 4)
+    mapping.Access(caches, (elsewhere, other), lwr, 0x10, 4).rows(locked, 0x10000, Inert())
+    access = mapping.Access(caches, (first, other), lwr, 0x10, 4)
     access.rows(locked, 0x10000, Inert())
     assert access.cut == ((), ((True, 0x0F7E, 0, 0, 0, 0, 0),))
 
@@ -809,10 +811,10 @@ def test_fmmu_tables_decoded_in_parts_are_decoded_whole(tables: list[list[bytes]
     """FMMU 0 and the others decoded apart, each once (decode_fmmus), give the FMMUs and the
     span of the whole table decoded at once (decode_entries), tables after tables that share
     their parts."""
-    mapping.forget()
+    caches = mapping.Caches()  # a chain's
     for entries in tables:
         table = b"".join(entries)
-        assert mapping.decode_fmmus(table) == mapping.decode_entries(table)
+        assert mapping.decode_fmmus(caches, table) == mapping.decode_entries(table)
 
 
 @given(
@@ -835,6 +837,7 @@ def test_an_access_through_a_table_in_parts_is_the_access_of_the_fmmus_it_meets(
     FMMU) meets the FMMUs the whole table meets, in register order, plans what plan_logical
     plans through them, and works out over the rows what an access through them alone works
     out; twice asked, it is one object."""
+    caches = mapping.Caches()  # a chain's
 
     def entry(f: tuple[int, ...] | None) -> bytes:
         if f is None:
@@ -843,14 +846,13 @@ def test_an_access_through_a_table_in_parts_is_the_access_of_the_fmmus_it_meets(
         return struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
 
     raw = b"".join(entry(f) for f in (first, *others, None))  # two parts, at least
-    mapping.forget()
-    table = mapping.fmmu_table(raw)
+    table = mapping.fmmu_table(caches, raw)
     decoded, _ = mapping.decode_entries(raw)
     hit = tuple(f for f in decoded if f[1] > lad and f[0] < lad + n)
-    found = mapping.table_access(table, int(cmd), lad, n)
+    found = mapping.table_access(caches, table, int(cmd), lad, n)
     assert found.hit == hit
     assert found.plan == mapping.plan_logical(hit, int(cmd), lad, n)
-    alone = mapping.Access(hit, int(cmd), lad, n)
+    alone = mapping.Access(caches, hit, int(cmd), lad, n)
     for access in (alone, found):
         access.rows(areas, 0x10000, Inert())
     assert (found.cut is None) == (alone.cut is None)
@@ -858,7 +860,7 @@ def test_an_access_through_a_table_in_parts_is_the_access_of_the_fmmus_it_meets(
         assert bit_pairs(found.cut) == bit_pairs(alone.cut)
         assert (found.events, found.dc, found.shadow) == (alone.events, alone.dc, alone.shadow)
         assert set(alone.mailboxes) <= set(found.mailboxes)
-    assert mapping.table_access(table, int(cmd), lad, n) is found
+    assert mapping.table_access(caches, table, int(cmd), lad, n) is found
 
 
 def test_tables_that_differ_in_fmmu_0_share_the_access_fmmu_0_does_not_meet() -> None:
@@ -866,16 +868,19 @@ def test_tables_that_differ_in_fmmu_0_share_the_access_fmmu_0_does_not_meet() ->
     FMMU 0 (at 0 and at 8, onto 0x1100) and logical 0x100-0x103 alike with FMMU 1 (onto
     0x1000). An LWR of 0x100-0x103 meets FMMU 1 alone at both: one access. An LRD of 0-15
     meets each ESC's FMMU 0: an access of each, their reads 8 bytes apart in the frame."""
+    caches = mapping.Caches()  # a chain's
     fmmu1 = struct.pack("<IHBBHBBB3x", 0x100, 4, 0, 7, 0x1000, 0, 2, 1)
     tables = [
-        mapping.fmmu_table(struct.pack("<IHBBHBBB3x", log, 8, 0, 7, 0x1100, 0, 1, 1) + fmmu1)
+        mapping.fmmu_table(
+            caches, struct.pack("<IHBBHBBB3x", log, 8, 0, 7, 0x1100, 0, 1, 1) + fmmu1
+        )
         for log in (0, 8)
     ]
     lwr, lrd = int(Command.LWR), int(Command.LRD)
-    a, b = (mapping.table_access(t, lwr, 0x100, 4) for t in tables)
+    a, b = (mapping.table_access(caches, t, lwr, 0x100, 4) for t in tables)
     assert a is b
     assert a.plan == ((), ((True, 0x1000, 0, 4, 0, 0, 0),))
-    a, b = (mapping.table_access(t, lrd, 0, 16) for t in tables)
+    a, b = (mapping.table_access(caches, t, lrd, 0, 16) for t in tables)
     assert a.plan == (((True, 0x1100, 0, 8, 0, 0, 0),), ())
     assert b.plan == (((True, 0x1100, 8, 8, 0, 0, 0),), ())
 
@@ -885,14 +890,17 @@ def test_tables_that_differ_in_an_fmmu_an_access_does_not_meet_share_it() -> Non
     8-11 onto 0x1000, FMMU 2 mapping logical 0x100-0x103 onto 0x1200 in one and onto 0x1300 in
     the other. An LRD of 0-11 meets FMMUs 0 and 1 alone: one access (joined once), which reads
     0x1100 into frame bytes 0-7 and 0x1000 into 8-11."""
+    caches = mapping.Caches()  # a chain's
     head = struct.pack("<IHBBHBBB3x", 0, 8, 0, 7, 0x1100, 0, 1, 1)
     fmmu1 = struct.pack("<IHBBHBBB3x", 8, 4, 0, 7, 0x1000, 0, 1, 1)
     tables = [
-        mapping.fmmu_table(head + fmmu1 + struct.pack("<IHBBHBBB3x", 0x100, 4, 0, 7, phys, 0, 1, 1))
+        mapping.fmmu_table(
+            caches, head + fmmu1 + struct.pack("<IHBBHBBB3x", 0x100, 4, 0, 7, phys, 0, 1, 1)
+        )
         for phys in (0x1200, 0x1300)
     ]
     lrd = int(Command.LRD)
-    a, b = (mapping.table_access(t, lrd, 0, 12) for t in tables)
+    a, b = (mapping.table_access(caches, t, lrd, 0, 12) for t in tables)
     assert a is b
     assert a.plan == (((True, 0x1100, 0, 8, 0, 0, 0), (True, 0x1000, 8, 4, 0, 0, 0)), ())
 
