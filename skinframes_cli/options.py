@@ -9,15 +9,20 @@ exit status 2.
 from __future__ import annotations
 
 import argparse
+import decimal
 import math
 from collections.abc import Callable
-from typing import Any, Final
+from typing import TYPE_CHECKING, Any, Final
 
 from skinframes.protocols import PROTOCOL_ALIASES, protocol_name
 from skinframes.text import escape
 
+if TYPE_CHECKING:
+    from emulator.model.params import TimingParams
+
 __all__ = [
     "MAX_LIST_VALUES",
+    "add_cn_response",
     "bounded_float",
     "bounded_int",
     "finite_float",
@@ -26,6 +31,7 @@ __all__ = [
     "int_up_to",
     "out_path",
     "protocol_arg",
+    "timing",
 ]
 
 MAX_LIST_VALUES: Final = 10_000  # values one start:stop:step or comma list may select
@@ -186,3 +192,49 @@ def int_list_in(lo: int, hi: int) -> Callable[[str], list[int]]:
 
     parse.__name__ = "list"
     return parse
+
+
+CN_RESPONSE_MAX_US: Final = 1_000_000  # emulator.model.params.MAX_CN_RESPONSE_PS, in us
+
+
+def cn_response_ps(text: str) -> int:
+    """An argparse ``type``: a CN response time in us (``90``, ``92.5``), as integer ps; more
+    than 0 and at most 1 s, to the ps."""
+    t = text.strip()
+    if len(t) > MAX_INT_DIGITS:
+        raise argparse.ArgumentTypeError(f"{escape(text)!r}: too long to be sensible")
+    try:
+        us = decimal.Decimal(t)
+    except decimal.InvalidOperation:
+        raise argparse.ArgumentTypeError(f"{escape(text)!r}: expected a time in us") from None
+    if not us.is_finite() or not 0 < us <= CN_RESPONSE_MAX_US:
+        raise argparse.ArgumentTypeError(
+            f"{escape(text)!r}: a CN response time in us, above 0 and at most {CN_RESPONSE_MAX_US}"
+        )
+    ps = us * 1_000_000
+    if ps != ps.to_integral_value():
+        raise argparse.ArgumentTypeError(f"{escape(text)!r}: at most 6 decimals (whole ps)")
+    return int(ps)
+
+
+def add_cn_response(p: argparse.ArgumentParser) -> None:
+    """``--cn-response-us US``: a measured EPL CN response time in place of the preset's D_CN
+    (:func:`emulator.model.params.with_cn_response`); read with :func:`timing`."""
+    p.add_argument(
+        "--cn-response-us",
+        dest="cn_response_ps",
+        type=cn_response_ps,
+        metavar="US",
+        default=None,
+        help="EPL: each CN answers its PReq this many us after it (D_CN) instead of the "
+        "preset's 1 us of a hardware CN; a software CN is far slower (the openPOWERLINK CN on "
+        "Linux: about 100 us median, up to 600 us on veth)",
+    )
+
+
+def timing(args: argparse.Namespace) -> TimingParams:
+    """The timing constants the options choose: ``--preset``, and ``--cn-response-us`` where
+    the command has it."""
+    from emulator.model.params import preset, with_cn_response
+
+    return with_cn_response(preset(args.preset), getattr(args, "cn_response_ps", None))

@@ -7,9 +7,9 @@ import json
 from typing import Any
 
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, JSON_KEYS_HELP
-from emulator.model.params import PRESETS, preset
+from emulator.model.params import PRESETS
 from emulator.model.plan import plan
-from skinframes_cli.options import bounded_int
+from skinframes_cli.options import add_cn_response, bounded_int, timing
 
 NAMES = {EPL: "EPL", ECAT: "EtherCAT open ring", ECAT_CLOSED_RING: "EtherCAT closed ring"}
 
@@ -32,18 +32,20 @@ def add_parser(sub: Any) -> None:
         default="wire",
         help="timing constants (default: wire)",
     )
+    add_cn_response(p)
     p.add_argument("--json", action="store_true", help=f"one JSON document; {JSON_KEYS_HELP}")
     p.set_defaults(run=run)
 
 
 def run(args: argparse.Namespace) -> int:
     """Print the plan."""
-    result = plan(args.nodes, args.bytes, preset(args.preset))
+    params = timing(args)
+    result = plan(args.nodes, args.bytes, params)
     if args.json:
         print(json.dumps(result.to_json(), indent=2))
         return 0
     print(
-        f"{args.nodes} nodes x {args.bytes} bytes, preset {args.preset}: physical limit "
+        f"{args.nodes} nodes x {args.bytes} bytes, preset {params.label}: physical limit "
         f"{result.limit_us:.2f} us (N x B bytes at 100 Mbit/s)"
     )
     for table, network in result.networks.items():

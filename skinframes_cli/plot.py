@@ -9,13 +9,13 @@ from typing import Any
 
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, is_closed_ring
 from emulator.model.paper_tables import FIGURE_MAX_NODES
-from emulator.model.params import PRESETS
+from emulator.model.params import PRESETS, TimingParams
 from skinframes import taxel
 from skinframes.atomic_file import check_target
 from skinframes.errors import SkinframesError
 from skinframes.text import escape
 from skinframes_cli.figure import save_figure
-from skinframes_cli.options import bounded_int, out_path
+from skinframes_cli.options import add_cn_response, bounded_int, out_path, timing
 
 PAYLOADS = (2, 32, 128, 192, 256)
 PANELS = (
@@ -42,6 +42,7 @@ def add_parser(sub: Any) -> None:
         help="output file, .png or .svg (default cycle_time.png, with --map map.png)",
     )
     p.add_argument("--preset", choices=list(PRESETS), default="paper")
+    add_cn_response(p)
     p.add_argument(
         "--step",
         type=bounded_int(1, max(FIGURE_MAX_NODES.values())),
@@ -70,8 +71,11 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(run=run)
 
 
-def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
-    """Draw the figure into ``out``."""
+def make_plot(
+    out: Path, preset_name: str, step: int = 20, *, params: TimingParams | None = None
+) -> Path:
+    """Draw the figure into ``out``; ``params`` (``--cn-response-us``) in place of the
+    preset's, when given."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -81,7 +85,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
 
     from emulator import analytic
     from emulator.model.paper_tables import BYTES, NODES, paper_value
-    from emulator.model.params import preset
+    from emulator.model.params import PAPER, preset
     from emulator.model.units import PS_PER_US
     from emulator.net.sweep import cycle_ps_row
 
@@ -90,7 +94,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
     if step < 1:
         raise SkinframesError("--step must be >= 1")
     check_target(out)  # a refused path or a missing folder fails now, not after the work
-    params = preset(preset_name)
+    params = preset(preset_name) if params is None else params
     fig, axes = plt.subplots(1, 3, figsize=(16, 5.2), constrained_layout=True)
     rows = [(t, n) for t, _ in PANELS for n in range(step, FIGURE_MAX_NODES[t] + 1, step)]
     emulated: dict[tuple[str, int], list[tuple[int, float]]] = {}
@@ -112,7 +116,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
             if points_tb:
                 en, ey = zip(*points_tb, strict=True)
                 ax.plot(en, np.asarray(ey) / 1000, "o", color=color, ms=4, mfc="none")
-        if preset_name == "paper":
+        if params == PAPER or (params.name == "paper" and table != EPL):  # (D_CN 1 us)
             px = [(n, paper_value(table, n, b)) for n in NODES for b in BYTES]
             ax.plot(
                 [n for n, _ in px],
@@ -130,7 +134,7 @@ def make_plot(out: Path, preset_name: str, step: int = 20) -> Path:
         ax.grid(alpha=0.3)
     axes[0].legend(fontsize=8, title="o = emulated", title_fontsize=8)
     fig.suptitle(
-        f"Cycle time vs nodes, preset '{preset_name}' (dotted: 1 ms, dashed: 5 ms; "
+        f"Cycle time vs nodes, preset '{params.label}' (dotted: 1 ms, dashed: 5 ms; "
         f"red: {taxel.BODY_PATCHES} patches)"
     )
     save_figure(fig, out)
@@ -143,9 +147,11 @@ def run(args: argparse.Namespace) -> int:
         from skinframes_cli.plot_map import make_map
 
         out = Path("map.png" if args.out is None else args.out)
-        make_map(out, args.preset, args.nodes, args.bytes)
+        make_map(out, args.preset, args.nodes, args.bytes, params=timing(args))
         print(f"wrote {escape(out)}")
         return 0
-    path = make_plot(Path(args.out or "cycle_time.png"), args.preset, args.step)
+    path = make_plot(
+        Path(args.out or "cycle_time.png"), args.preset, args.step, params=timing(args)
+    )
     print(f"wrote {escape(path)}")
     return 0

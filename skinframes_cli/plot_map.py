@@ -11,7 +11,7 @@ import numpy.typing as npt
 
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL
 from emulator.model.paper_tables import BYTES, FIGURE_MAX_NODES, NODES
-from emulator.model.params import preset
+from emulator.model.params import TimingParams, preset
 from emulator.model.sweep import analytic_grid, cell_reason
 from skinframes import ethercat
 from skinframes.errors import SkinframesError
@@ -45,8 +45,16 @@ class MapPanel:
     contours: dict[float, list[npt.NDArray[np.float64]]] = field(default_factory=dict)
 
 
-def make_map(out: Path, preset_name: str, nodes: int, data_bytes: int) -> dict[str, MapPanel]:
-    """Draw the map into ``out`` (.png or .svg); returns what was drawn, per table."""
+def make_map(
+    out: Path,
+    preset_name: str,
+    nodes: int,
+    data_bytes: int,
+    *,
+    params: TimingParams | None = None,
+) -> dict[str, MapPanel]:
+    """Draw the map into ``out`` (.png or .svg); returns what was drawn, per table. ``params``
+    (``--cn-response-us``) in place of the preset's, when given."""
     import matplotlib
 
     matplotlib.use("Agg")
@@ -58,7 +66,7 @@ def make_map(out: Path, preset_name: str, nodes: int, data_bytes: int) -> dict[s
         raise SkinframesError(f"{out}: the map is written as .png or .svg")
     if nodes < 1 or data_bytes < 0:
         raise SkinframesError(f"--nodes {nodes} --bytes {data_bytes}: no network")
-    params = preset(preset_name)
+    params = preset(preset_name) if params is None else params
     sizes = np.arange(1, MAX_BYTES + 1, dtype=np.int64)
     panels: dict[str, MapPanel] = {}
     for table, _ in PANELS:
@@ -129,6 +137,6 @@ def make_map(out: Path, preset_name: str, nodes: int, data_bytes: int) -> dict[s
     fig.legend(
         handles=handles, loc="outside lower center", ncol=len(handles), fontsize=10, facecolor="0.7"
     )
-    fig.suptitle(f"Cycle time over nodes x bytes per node, preset '{preset_name}'")
+    fig.suptitle(f"Cycle time over nodes x bytes per node, preset '{params.label}'")
     save_figure(fig, out, dpi=DPI)
     return panels

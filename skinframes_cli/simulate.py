@@ -17,7 +17,14 @@ from emulator.net.ecat import LAYOUTS
 from skinframes.errors import SkinframesError
 from skinframes.protocols import PROTOCOLS
 from skinframes.text import escape
-from skinframes_cli.options import bounded_float, bounded_int, out_path, protocol_arg
+from skinframes_cli.options import (
+    add_cn_response,
+    bounded_float,
+    bounded_int,
+    out_path,
+    protocol_arg,
+    timing,
+)
 from skinframes_cli.progress import progress_bar
 
 MAX_CYCLES = 1_000_000  # --cycles: 1..MAX_CYCLES
@@ -128,6 +135,7 @@ def add_parser(sub: Any) -> None:
         help="EtherCAT closed ring, Table III (--redundant: its old name)",
     )
     p.add_argument("--preset", choices=list(PRESETS), default="paper")
+    add_cn_response(p)
     p.add_argument(
         "--layout",
         choices=list(LAYOUTS),
@@ -197,7 +205,6 @@ def add_parser(sub: Any) -> None:
 
 def run(args: argparse.Namespace) -> int:
     """Emulate and report."""
-    from emulator.model.params import preset
     from emulator.net import simulate_ecat, simulate_epl
     from emulator.net.faults import FAULT_HELP, parse_fault
 
@@ -209,9 +216,11 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
     if args.startup and (args.protocol != "ecat" or args.redundant or faults):
         raise SkinframesError("--startup: EtherCAT on an open ring without --fault only")
-    if args.protocol == "ecat" and (args.asnd or args.pres_timeout_us is not None):
-        raise SkinframesError("--asnd and --pres-timeout-us apply to EPL only")
-    params = preset(args.preset)
+    if args.protocol == "ecat" and (
+        args.asnd or args.pres_timeout_us is not None or args.cn_response_ps is not None
+    ):
+        raise SkinframesError("--asnd, --pres-timeout-us and --cn-response-us apply to EPL only")
+    params = timing(args)
     timeout = None
     if args.pres_timeout_us is not None:
         if not math.isfinite(args.pres_timeout_us) or not 0 <= args.pres_timeout_us <= 1e9:
@@ -269,12 +278,14 @@ def run(args: argparse.Namespace) -> int:
         result.pcap = STDOUT
     out = sys.stderr if args.pcap == STDOUT else sys.stdout  # stdout carries the capture
     if args.json:
-        print(json.dumps(result.to_json(), indent=2), file=out)
+        doc = result.to_json()
+        doc["epl_cn_response_us"] = params.epl_cn_response_us
+        print(json.dumps(doc, indent=2), file=out)
         return 0
     c = result.cycle_us()
     lines = [
         f"{result.protocol} {result.topology}: {result.nodes} nodes x {result.bytes} bytes, "
-        f"preset {result.preset}, layout {result.layout}",
+        f"preset {params.label}, layout {result.layout}",
         f"  cycles {result.cycles}, frames {result.frames}",
     ]
     if result.startup_us is not None:

@@ -13,12 +13,12 @@ import numpy as np
 from emulator.model.cycle_time import MODELS
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, JSON_KEYS_HELP
 from emulator.model.paper_tables import paper_value
-from emulator.model.params import PRESETS, preset
+from emulator.model.params import PAPER, PRESETS, TimingParams
 from emulator.model.sweep import rows
 from emulator.model.tables import DECIMALS, iter_csv, iter_json, not_applicable
 from skinframes.atomic_file import atomic_output
 from skinframes.errors import SkinframesError
-from skinframes_cli.options import bounded_int, int_list, int_list_in
+from skinframes_cli.options import add_cn_response, bounded_int, int_list, int_list_in, timing
 from skinframes_cli.progress import progress_bar
 
 MAX_NODES = 65535  # the largest EtherCAT chain (16-bit position address); EPL stops at 239
@@ -53,6 +53,7 @@ def add_parser(sub: Any) -> None:
         default="paper",
         help="timing constants (default: paper)",
     )
+    add_cn_response(p)
     p.add_argument(
         "--nodes",
         type=int_list_in(1, MAX_NODES),
@@ -96,7 +97,7 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError(f"--jobs {args.jobs}: at least 1")
     if args.json and args.csv == "-":
         raise SkinframesError("--json and --csv both on stdout: give --csv a FILE")
-    params = preset(args.preset)
+    params = timing(args)
     cells = 3 * len(args.nodes) * len(args.bytes)
     kw = {"jobs": args.jobs}
     if args.csv not in (None, "-"):
@@ -116,13 +117,14 @@ def run(args: argparse.Namespace) -> int:
                 sys.stdout,
             )
             return 0
-        _text(args, rows(args.model, params, args.nodes, args.bytes, progress=step, **kw))
+        _text(args, params, rows(args.model, params, args.nodes, args.bytes, progress=step, **kw))
     return 0
 
 
-def _text(args: argparse.Namespace, source: Iterable[Any]) -> None:
-    """The human-readable tables, with the paper's printed cells compared."""
-    print(f"model {args.model}, preset {args.preset}")
+def _text(args: argparse.Namespace, params: TimingParams, source: Iterable[Any]) -> None:
+    """The human-readable tables, with the paper's printed cells compared (not EPL's with a
+    CN response time of its own: the paper's are for 1 us)."""
+    print(f"model {args.model}, preset {params.label}")
     na = not_applicable(args.model, args.nodes, args.bytes)
     current = None
     deltas: list[float] = []
@@ -149,7 +151,7 @@ def _text(args: argparse.Namespace, source: Iterable[Any]) -> None:
         print(
             f"{n:>5} " + "".join("         n/a" if math.isnan(v) else f"{v:>12.2f}" for v in values)
         )
-        if args.preset == "paper":
+        if params == PAPER or (params.name == "paper" and table != EPL):
             for b, v in zip(args.bytes, values, strict=True):
                 printed = paper_value(table, n, b)
                 if printed is not None and not math.isnan(v):

@@ -16,12 +16,22 @@ from dataclasses import dataclass, replace
 from typing import Final
 
 from emulator.errors import PresetError, TopologyError
-from emulator.model.units import byte_time_ps
+from emulator.model.units import PS_PER_US, byte_time_ps
 from skinframes import ethernet
 
-__all__ = ["PAPER", "PRESETS", "WIRE", "TimingParams", "preset"]
+__all__ = [
+    "MAX_CN_RESPONSE_PS",
+    "PAPER",
+    "PRESETS",
+    "WIRE",
+    "TimingParams",
+    "preset",
+    "with_cn_response",
+]
 
 UM_PER_M: Final = 1_000_000
+# a CN's response time the model takes (--cn-response-us): up to 1 s, well beyond any cycle
+MAX_CN_RESPONSE_PS: Final = 1_000_000 * PS_PER_US
 
 
 @dataclass(frozen=True, slots=True)
@@ -96,6 +106,20 @@ class TimingParams:
         """A copy with some constants changed (for what-if studies)."""
         return replace(self, **changes)  # type: ignore[arg-type]
 
+    @property
+    def epl_cn_response_us(self) -> float:
+        """D_CN in us (the JSON key ``epl_cn_response_us`` beside ``preset``)."""
+        return self.epl_cn_delay_ps / PS_PER_US
+
+    @property
+    def label(self) -> str:
+        """The preset's name, and the CN response time where it is not the preset's
+        (:func:`with_cn_response`): what a table or figure says it shows."""
+        base = PRESETS.get(self.name)
+        if base is None or base.epl_cn_delay_ps == self.epl_cn_delay_ps:
+            return self.name
+        return f"{self.name}, EPL CN response {self.epl_cn_delay_ps / PS_PER_US:g} us"
+
 
 PAPER: Final = TimingParams(
     name="paper",
@@ -146,6 +170,19 @@ WIRE: Final = TimingParams(
 )
 
 PRESETS: Final = {"paper": PAPER, "wire": WIRE}
+
+
+def with_cn_response(params: TimingParams, response_ps: int | None) -> TimingParams:
+    """``params`` with a CN's PReq -> PRes response time ``response_ps`` as D_CN (None: as it
+    is). The presets take a hardware CN (1 us); a CN in software answers far later: the
+    openPOWERLINK V2.7.2 console CN on Linux answered a PReq in about 100 us median and up to
+    about 600 us over veth (../shared/tools/openpowerlink/README.md, "Known limits"; issue 40),
+    so a measured value shows what such a CN costs a cycle (``--cn-response-us``)."""
+    if response_ps is None:
+        return params
+    if not 0 < response_ps <= MAX_CN_RESPONSE_PS:
+        raise TopologyError(f"CN response {response_ps} ps: 1 ps .. {MAX_CN_RESPONSE_PS} ps")
+    return params.with_changes(epl_cn_delay_ps=response_ps)
 
 
 def preset(name: str) -> TimingParams:

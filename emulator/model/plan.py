@@ -92,6 +92,7 @@ class Plan:
     preset: str
     limit_us: float
     networks: dict[str, NetworkPlan]
+    epl_cn_response_us: float = 1.0  # D_CN of the timing constants (TimingParams)
 
     def to_json(self) -> dict[str, Any]:
         """The ``skinframes plan --json`` document (docs/interface.md); the closed ring also
@@ -100,6 +101,7 @@ class Plan:
             "nodes": self.nodes,
             "bytes": self.data_bytes,
             "preset": self.preset,
+            "epl_cn_response_us": self.epl_cn_response_us,
             "limit_us": self.limit_us,
             **with_old_keys({table: n.to_json() for table, n in self.networks.items()}),
         }
@@ -132,7 +134,7 @@ def plan(nodes: int, data_bytes: int, params: TimingParams = WIRE) -> Plan:
             alternatives=options,
             analytic_us=round(float(analytic_grid(table, [nodes], [data_bytes], params)[0, 0]), 6),
         )
-    return Plan(nodes, data_bytes, params.name, limit, networks)
+    return Plan(nodes, data_bytes, params.name, limit, networks, params.epl_cn_response_us)
 
 
 def _emulate(

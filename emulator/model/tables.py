@@ -54,7 +54,8 @@ def cycle_tables(
     """The ``skinframes tables --json`` document as a dict (for small tables; see
     :func:`iter_json` for large ones).
 
-    ``{"model", "preset", "unit": "us", "epl": {"<nodes>": {"<bytes>": us | None}}, "ecat": ...,
+    ``{"model", "preset", "unit": "us", "epl_cn_response_us" (D_CN), "epl": {"<nodes>":
+    {"<bytes>": us | None}}, "ecat": ...,
     "ecat_closed_ring": ..., "ecat_redundant": ...}`` (the last the old name of the closed ring,
     the same value), keys as strings in the order given, and ``not_applicable`` (per table, the
     reasons) when some cells are outside a protocol's limits.
@@ -68,6 +69,7 @@ def cycle_tables(
         TopologyError: nonsense values (fewer than 1 node, negative bytes), or an unknown model.
     """
     doc: dict[str, Any] = {"model": model, "preset": params.name, "unit": "us"}
+    doc["epl_cn_response_us"] = params.epl_cn_response_us
     for table in TABLES:
         doc[table] = {}
     keys = [str(b) for b in sizes]
@@ -104,7 +106,8 @@ def iter_json(
     temporary file (memory up to :data:`SPOOL_BYTES`), so that no cell is computed twice.
     """
     na = not_applicable(model, nodes, sizes)  # refuses unknown tables before any output
-    head = {"model": model, "preset": params.name, "unit": "us"}
+    head: dict[str, Any] = {"model": model, "preset": params.name, "unit": "us"}
+    head["epl_cn_response_us"] = params.epl_cn_response_us
     source = rows(model, params, nodes, sizes, jobs=jobs, progress=progress)
     yield json.dumps(head, indent=2)[:-2]
     prefixes = [f'      "{b}": ' for b in sizes]

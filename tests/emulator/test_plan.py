@@ -46,6 +46,7 @@ def test_json_document(small: Plan) -> None:
         "nodes",
         "bytes",
         "preset",
+        "epl_cn_response_us",
         "limit_us",
         "epl",
         "ecat",

@@ -11,9 +11,11 @@ from emulator.model.tables import cycle_tables
 
 def test_analytic_paper_preset_is_the_papers_tables() -> None:
     doc = cycle_tables("analytic", PAPER, NODES, BYTES)
-    keys = ["model", "preset", "unit", "epl", "ecat", "ecat_closed_ring", "ecat_redundant"]
+    keys = ["model", "preset", "unit", "epl_cn_response_us", "epl", "ecat", "ecat_closed_ring"]
+    keys.append("ecat_redundant")
     assert list(doc) == keys
     assert (doc["model"], doc["preset"], doc["unit"]) == ("analytic", "paper", "us")
+    assert doc["epl_cn_response_us"] == 1.0  # the paper's D_cn (after its eq. 7)
     tables = {**PAPER_TABLES, **{old: PAPER_TABLES[new] for old, new in OLD_NAMES.items()}}
     for table, rows in tables.items():
         assert list(doc[table]) == [str(n) for n in NODES]
