@@ -24,6 +24,13 @@ median, p99, maximum and how many frames took more than 2 ms and 10 ms (the host
 the master's own apart), the costliest frames' datagrams, and whether an LRD of the image
 answers correctly at the end.
 
+``--live`` (root): the same frames to ``skinframes serve ecat --nodes N`` over a veth pair in a
+private network namespace instead, one at a time (the next after the answer, or after
+``--timeout-ms`` for a frame the chain drops), as ``bench_serve_hostile.py --live`` sends its
+own: how many were answered, each answer's time after the send (median, p99, maximum, how many
+later than 20 ms: issue 39's bound), whether serve is alive and a configured LRD answers
+correctly afterwards, and serve's own summary.
+
     python benchmarks/bench_hostile_any.py [--nodes 160] [--frames 20000] [--runs 3] [--seed 0]
         [--bytes 8] [--reset-every 1000] [--tracebacks 3] [--costliest 10]
 """
@@ -311,6 +318,18 @@ def main() -> None:
         default=1000,
         help="hostile frames between a master's reset and configuration (0: never)",
     )
+    ap.add_argument(
+        "--live",
+        action="store_true",
+        help="send the frames to skinframes serve ecat over veth instead (root): answers, "
+        "their times after the send, serve's own summary",
+    )
+    ap.add_argument(
+        "--timeout-ms",
+        type=bounded_int(1, 10_000),
+        default=25,
+        help="--live: wait this long for an answer (default 25 ms: later than 20 ms is late)",
+    )
     ap.add_argument("--tracebacks", type=bounded_int(0, 100), default=3)
     ap.add_argument("--costliest", type=bounded_int(0, 1000), default=10)
     args = ap.parse_args()
@@ -322,6 +341,13 @@ def main() -> None:
         )
     t0 = time.monotonic()
     sent = stream(args.frames, nodes, size, seed, args.reset_every)
+    if args.live:
+        from bench_serve_hostile import live
+
+        frames = [(frame, h is None) for frame, h in sent]
+        live(nodes, size, args.frames, seed, args.timeout_ms, 0, True, source=frames,
+             what="frames of tests/hostile_any.py with a master's reset")  # fmt: skip
+        return
     hostile = np.array([h is not None for _, h in sent], np.bool_)
     how = "compiled" if compiled.in_use() else "as Python"
     print(

@@ -59,7 +59,7 @@ import signal
 import subprocess
 import sys
 import time
-from collections.abc import Iterator
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -79,6 +79,7 @@ from skinframes.errors import DecodeError  # noqa: E402
 from skinframes.ethercat import Command, Datagram, EcatFrame  # noqa: E402
 
 SEED, SAMPLES = 11, 16
+LATE_MS = 20.0  # issue 39: live, no reply to a hostile frame later than this
 
 
 def lrd_frame(nodes: int, size: int, idx: int = 0) -> bytes:
@@ -351,7 +352,13 @@ def live(
     every: int,
     mailbox: bool,
     ordinary: bool = False,
+    source: Iterable[tuple[bytes, bool]] | None = None,
+    what: str = "hostile frames",
 ) -> None:
+    """The live run (module docstring, 2.); ``source`` the frames to send (each with whether
+    it is a master's), else :func:`with_resets`' of ``seed``. Each answer's time from the send
+    (on this side of the veth pair) is printed as median, p99, maximum and how many came later
+    than :data:`LATE_MS` (issue 39: "no reply later than 20 ms")."""
     from emulator.live import netns_socket, veth_netns
 
     with veth_netns(prefix="skf-bench") as net:
@@ -369,18 +376,26 @@ def live(
             assert proc.stderr is not None
             proc.stderr.readline()  # "serving ..."
             answered = lost = 0
+            reply_ms: list[float] = []
+            unsendable: list[int] = []  # lengths of frames the kernel would not send
             t0 = time.monotonic()
             with netns_socket(net.master, net.netns) as sock:
 
                 def exchange(
                     frame: bytes, wait_ms: float = timeout_ms, exact: bool = False
                 ) -> bytes | None:
-                    sock.send(frame)
-                    deadline = time.monotonic() + wait_ms / 1000
+                    try:
+                        sock.send(frame)
+                    except OSError:  # shorter than a header or longer than the MTU
+                        unsendable.append(len(frame))
+                        return None
+                    sent_at = time.monotonic()
+                    deadline = sent_at + wait_ms / 1000
                     while (left := deadline - time.monotonic()) > 0:
                         if select.select([sock.fileno()], [], [], left)[0]:
                             while (back := sock.recv()) is not None:
                                 if is_answer(frame, back) if exact else len(back) == len(frame):
+                                    reply_ms.append(1000 * (time.monotonic() - sent_at))
                                     return back
                     return None
 
@@ -389,8 +404,11 @@ def live(
                 if ordinary:  # the null run: configured, then nothing but LRDs of the image
                     unanswered = sum(exchange(frame, 2000, exact=True) is None for frame in setup)
                     sent = ((with_index(lrd, i & 0xFF), False) for i in range(frames))
+                elif source is not None:
+                    sent = iter(source)
                 else:
                     sent = with_resets(frames, nodes, size, seed, every)
+                reply_ms.clear()  # (the null run's set-up is not among them)
                 for i, (frame, _) in enumerate(sent):
                     if exchange(frame) is None:
                         lost += 1
@@ -398,6 +416,7 @@ def live(
                         answered += 1
                     if i % 10_000 == 9_999:
                         print(f"  {i + 1} frames, {time.monotonic() - t0:.0f} s", file=sys.stderr)
+                replies = np.array(reply_ms)
                 while select.select([sock.fileno()], [], [], 2.0)[0]:  # late answers
                     while sock.recv() is not None:
                         pass
@@ -419,9 +438,20 @@ def live(
             proc.send_signal(signal.SIGINT)
             out, err = proc.communicate(timeout=120)
     summary = json.loads(out) if proc.returncode == 0 else {"rc": proc.returncode, "stderr": err}
-    what = "ordinary LRDs of the image" if ordinary else "hostile frames"
-    print(f"live: {frames} {what} to serve ecat --nodes {nodes} over veth")
+    what = "ordinary LRDs of the image" if ordinary else what
+    print(f"live: {answered + lost} {what} to serve ecat --nodes {nodes} over veth")
     print(f"  answered {answered}, not answered {lost}, {time.monotonic() - t0:.0f} s")
+    if unsendable:
+        print(
+            f"  not sent ({len(unsendable)}, among the not answered): the kernel refused "
+            f"frames of {min(unsendable)}..{max(unsendable)} bytes"
+        )
+    if len(replies):
+        print(
+            f"  answer after the send: median {np.median(replies):.2f} ms, p99 "
+            f"{np.percentile(replies, 99):.2f} ms, max {replies.max():.2f} ms; "
+            f"{int((replies > LATE_MS).sum())} later than {LATE_MS:g} ms"
+        )
     print(f"  reset and configuration: {len(setup)} frames, {unanswered} not answered")
     print(f"  afterwards a configured LRD answers correctly: {ok}")
     keys: tuple[str, ...] = ("frames_in", "frames_out", "dropped", "errors", "cpu_us_median")

@@ -3,6 +3,11 @@
 What it measures (EPSG DS 301 V1.4.0 section 4.2.4, the isochronous cycle):
 
 - the SoC period: the time from one SoC's timestamp to the next;
+- the phases of each cycle (SoC to the next SoC), where the paper's model (eqs. 3-10) predicts
+  them: the isochronous phase, from the SoC to the SoA (the polls); the asynchronous phase, from
+  the SoA to the next SoC (ASnd, then idle); and the headroom, from the last frame of the cycle
+  to the next SoC (the part of the configured cycle length nothing used). Timestamps are the
+  capture's, so each is measured from frame to frame as the capture stamped them;
 - per CN, the response time: from a PReq's timestamp to the timestamp of the PRes from the
   node it polled. A PReq whose node sends no PRes before the MN's next frame (any message type
   from node 240) is a *missing* response; a PRes that comes after the PRes timeout (when the
@@ -149,6 +154,9 @@ class EplAnalysis:
     asnd_invites: int
     soas: int
     pres_timeout_ns: int | None
+    isochronous: Summary  # SoC to SoA, each whole cycle
+    asynchronous: Summary  # SoA to the next SoC
+    headroom: Summary  # the cycle's last frame to the next SoC
 
     def to_json(self) -> dict[str, Any]:
         """The ``epl`` object of ``analyze --json`` (docs/interface.md)."""
@@ -156,6 +164,11 @@ class EplAnalysis:
             "frames": self.frames,
             "message_counts": self.message_counts,
             "soc_period": self.soc_period.to_json(),
+            "phases": {
+                "isochronous": self.isochronous.to_json(),
+                "asynchronous": self.asynchronous.to_json(),
+                "headroom": self.headroom.to_json(),
+            },
             "pres_timeout_ns": self.pres_timeout_ns,
             "nodes": [
                 {
@@ -225,6 +238,12 @@ class EplAnalyzer:
         self.events: list[EplEvent] = []
         self.soas = 0
         self.invites = 0
+        # the cycle under way: its SoA's time (None before it), the last frame's time
+        self.soa_ns: int | None = None
+        self.last_ns: int | None = None
+        self.isochronous = Series()
+        self.asynchronous = Series()
+        self.headroom = Series()
 
     def _node(self, node: int) -> _Node:
         n = self.nodes.get(node)
@@ -256,6 +275,7 @@ class EplAnalyzer:
         mtype = epl[0] & _MTYPE_MASK
         src = epl[SRC_OFFSET]
         self.mtypes[mtype] += 1
+        last_ns, self.last_ns = self.last_ns, time_ns
         if src == MN and self.pending is not None:
             node, f, t = self.pending
             self.pending = None
@@ -283,13 +303,20 @@ class EplAnalyzer:
         elif mtype == _SOC:
             if self.last_soc_ns is not None:
                 self.soc_period.append(time_ns - self.last_soc_ns)
+                if self.soa_ns is not None and last_ns is not None:  # a whole cycle
+                    self.isochronous.append(self.soa_ns - self.last_soc_ns)
+                    self.asynchronous.append(time_ns - self.soa_ns)
+                    self.headroom.append(time_ns - last_ns)
             self.last_soc_ns = time_ns
+            self.soa_ns = None
         elif mtype == _PREQ:
             dest = epl[_DEST_OFFSET]
             (self.nodes.get(dest) or self._node(dest)).polled += 1
             self.pending = (dest, frame, time_ns)
         elif mtype == _SOA:
             self.soas += 1
+            if self.last_soc_ns is not None and self.soa_ns is None:
+                self.soa_ns = time_ns  # the cycle's (a reduced cycle has no SoC: none)
             if self.state.get(src) != epl[_NMT_STATUS_OFFSET]:
                 self._observe(src, epl[_NMT_STATUS_OFFSET], frame, time_ns, "SoA")
             if len(epl) > _SOA_SERVICE_OFFSET and epl[_SOA_SERVICE_OFFSET] not in (
@@ -371,4 +398,7 @@ class EplAnalyzer:
             asnd_invites=self.invites,
             soas=self.soas,
             pres_timeout_ns=self.pres_timeout_ns,
+            isochronous=Summary.of(self.isochronous.array()),
+            asynchronous=Summary.of(self.asynchronous.array()),
+            headroom=Summary.of(self.headroom.array()),
         )

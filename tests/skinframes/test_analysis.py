@@ -87,9 +87,22 @@ def test_epl_statistics_equal_tshark_fields(
     responses: dict[int, list[int]] = defaultdict(list)
     missing: list[tuple[int, int]] = []
     pending: tuple[int, int, int] | None = None  # (node, frame, time)
+    # the phases of each whole cycle: SoC -> its first SoA, that SoA -> the next SoC, the
+    # cycle's last EPL frame -> the next SoC
+    phases: dict[str, list[int]] = {"iso": [], "async": [], "headroom": []}
+    soc = soa = last = None
     for r in rows:
         frame, t = int(r["frame.number"][0]), epoch_ns(r["frame.time_epoch"][0])
         mtyp, src = int(r["epl.mtyp"][0]), int(r["epl.src"][0])
+        if mtyp == 1:
+            if soc is not None and soa is not None and last is not None:
+                phases["iso"].append(soa - soc)
+                phases["async"].append(t - soa)
+                phases["headroom"].append(t - last)
+            soc, soa = t, None
+        elif mtyp == 5 and soc is not None and soa is None:
+            soa = t
+        last = t
         if src == 240 and pending is not None:
             missing.append((pending[0], pending[1]))
             pending = None
@@ -102,6 +115,10 @@ def test_epl_statistics_equal_tshark_fields(
     analysis = analyze_capture(read_capture(path))
     assert analysis.epl is not None
     assert_summary(analysis.epl.soc_period, periods)
+    assert_summary(analysis.epl.isochronous, phases["iso"])
+    assert_summary(analysis.epl.asynchronous, phases["async"])
+    assert_summary(analysis.epl.headroom, phases["headroom"])
+    assert len(phases["iso"]) == len(periods)  # (every cycle of these has its SoA)
     for node, values in responses.items():
         assert_summary(analysis.epl.responses[node], values)
     assert {n for n, s in analysis.epl.responses.items() if s.count} == set(responses)
