@@ -1379,10 +1379,13 @@ class EscDevice:
         protects its whole area, datasheet I 8.7): what the commit does after a frame wrote
         SyncManager registers (:func:`_syncmanagers`), at this ESC alone, with the activate
         bytes as they are (the PDI toggled none) and no mailbox handler to run for it."""
-        memory, rows = self._rows
-        enabled = memory[rows, REG_SM + 6 : REG_SM + SM_BYTES * self.config.syncmanagers : SM_BYTES]
-        _syncmanagers([self], memory, rows, [0], enabled, frame=False)
-        self.update_irq()
+        mem = self.mem
+        activate = bytes(mem[REG_SM + 6 : REG_SM + SM_BYTES * self.config.syncmanagers : SM_BYTES])
+        events = bytes(mem[REG_ECAT_EVENT : REG_ECAT_EVENT + 2])
+        enabled = np.frombuffer(activate, np.uint8).reshape(1, -1)
+        _syncmanagers([self], *self._rows, [0], enabled, frame=False)
+        if bytes(mem[REG_ECAT_EVENT : REG_ECAT_EVENT + 2]) != events:  # an SM interrupt went
+            self.update_irq()
 
     def change_syncmanagers(self, change: SmChange, decoded: SmTable) -> None:
         """The SyncManagers after their table changed to ``decoded`` (:func:`sm_change`): the ones
@@ -1895,35 +1898,48 @@ def _syncmanagers(
         return
     count = enabled.shape[1]
     width = SM_BYTES * count
-    at = list(which)
-    block = np.concatenate((memory[rows[at], REG_SM : REG_SM + width], enabled[at]), axis=1)
-    differs = np.ones(len(at), np.bool_)
-    differs[1:] = (block[1:] != block[:-1]).any(axis=1)
-    held = [devices[i].sm_areas for i in at]
-    starts = [  # where a run of ESCs with equal bytes and the same table before starts
-        k
-        for k, (new, mine, last) in enumerate(
-            zip(differs.tolist(), held, [None, *held[:-1]], strict=True)
-        )
-        if new or mine is not last
-    ]
-    stride = width + count
-    data = block.tobytes()
     groups: dict[tuple[int, bytes], list[int]] = {}
+    if len(which) == 1:  # (the PDI's, and many a frame's: nothing to compare)
+        i = which[0]
+        key = bytes(devices[i].mem[REG_SM : REG_SM + width]) + enabled[i].tobytes()
+        groups[0, key] = [i]
+    else:
+        at = list(which)
+        block = np.concatenate((memory[rows[at], REG_SM : REG_SM + width], enabled[at]), axis=1)
+        differs = np.ones(len(at), np.bool_)
+        differs[1:] = (block[1:] != block[:-1]).any(axis=1)
+        held = [devices[i].sm_areas for i in at]
+        starts = [  # where a run of ESCs with equal bytes and the same table before starts
+            k
+            for k, (new, mine, last) in enumerate(
+                zip(differs.tolist(), held, [None, *held[:-1]], strict=True)
+            )
+            if new or mine is not last
+        ]
+        stride = width + count
+        data = block.tobytes()
+        for k, end in zip(starts, [*starts[1:], len(at)], strict=True):
+            key = data[k * stride : (k + 1) * stride]
+            groups.setdefault((id(held[k]), key), []).extend(at[k:end])
     caches = devices[0]._caches  # (the ESCs of one chain)
-    for k, end in zip(starts, [*starts[1:], len(at)], strict=True):
-        groups.setdefault((id(held[k]), data[k * stride : (k + 1) * stride]), []).extend(at[k:end])
     for (_, key), members in groups.items():
         table, before = key[:width], key[width:]
         areas = devices[members[0]].sm_areas  # the same object at each of them
         found = sm_table(caches, table)
         if found[0] != areas:
             change = sm_change(caches, areas, before, found)
-            if change[0]:
-                memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
-                for st in change[0]:  # no buffer: no interrupt for ECAT (0x0210 bits 4-11)
-                    bit = 4 + (st - REG_SM) // SM_BYTES
-                    if bit < 12:
+            if change[0]:  # no buffer, and no interrupt for ECAT (0x0210 bits 4-11)
+                bits = [b for b in (4 + (st - REG_SM) // SM_BYTES for st in change[0]) if b < 12]
+                if len(members) < TOGETHER_MIN:  # (written at once over the rows below)
+                    for i in members:
+                        mem = devices[i].mem
+                        for st in change[0]:
+                            mem[st] = SM_NO_BUFFER
+                        for bit in bits:
+                            mem[REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
+                else:
+                    memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
+                    for bit in bits:
                         memory[rows[members], REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
             if frame:
                 EscDevice.change_syncmanagers_together(
