@@ -278,7 +278,7 @@ class CoeServer:
         return (
             mb.sdo_info_header(SdoInfoOpcode.OBJECT_DESCRIPTION_RESPONSE)
             + struct.pack("<HHBB", index, obj.data_type, obj.max_subindex, obj.code)
-            + obj.name.encode("ascii")
+            + obj.name.encode("utf-8")
         )
 
     def _entry_description(self, index: int, subindex: int, value_info: int) -> bytes:
@@ -292,5 +292,5 @@ class CoeServer:
             + struct.pack(
                 "<HBBHHH", index, subindex, value_info & 0x07, e.data_type, e.bit_length, e.access
             )
-            + e.name.encode("ascii")
+            + e.name.encode("utf-8")
         )

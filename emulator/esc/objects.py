@@ -132,7 +132,12 @@ def _u32(v: int) -> bytes:
 
 
 class ObjectDictionary:
-    """Objects by index, with the access rules of an SDO server (ETG.1000.6 5.6.2)."""
+    """Objects by index, with the access rules of an SDO server (ETG.1000.6 5.6.2).
+
+    ``error_register`` is the value of 0x1001 (CiA 301 7.5.2.2) the application keeps.
+    """
+
+    error_register: int = 0
 
     def __init__(self, objects: list[OdObject]) -> None:
         self.objects = {o.index: o for o in sorted(objects, key=lambda o: o.index)}

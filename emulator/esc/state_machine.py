@@ -38,7 +38,7 @@ from skinframes.ecat_mailbox import MailboxType
 
 if TYPE_CHECKING:
     from emulator.esc.mailbox import Mailbox
-    from emulator.esc.objects import SkinDictionary
+    from emulator.esc.objects import ObjectDictionary, SkinDictionary
 
 __all__ = [
     "ACK",
@@ -47,6 +47,7 @@ __all__ = [
     "AlStatusCode",
     "PdiApplication",
     "SkinPatchApplication",
+    "SlaveApplication",
     "transition_code",
 ]
 
@@ -135,17 +136,19 @@ class PdiApplication(Protocol):
         """Called at the end of a frame that wrote AL control (0x0120) with ``value``."""
 
 
-class SkinPatchApplication:
-    """The firmware of a skin patch: the ESM, SyncManager checks, taxels published by the PDI.
+class SlaveApplication:
+    """A slave's firmware behind the PDI: the ESM, the mailbox, the SyncManager checks, inputs.
 
     It behaves as the Beckhoff slave stack does: at power-on it deactivates every SyncManager
     through the PDI (0x0807 bit 0); a slave with a mailbox checks SM0/SM1 in INIT->PREOP (else
     0x0016) and releases them, and serves CoE from PREOP on (:mod:`emulator.esc.mailbox`,
-    :mod:`emulator.esc.coe`, :mod:`emulator.esc.objects`); in PREOP->SAFEOP it checks that the
-    master programmed each process-data SyncManager with the SII's start address, the length of
-    the PDOs assigned to it (0x1C12/0x1C13 when the slave has CoE, else the SII's), mode and
+    :mod:`emulator.esc.coe`, with the object dictionary :meth:`dictionary` gives); in
+    PREOP->SAFEOP it checks that the master programmed each process-data SyncManager with the
+    SII's start address, the length of the PDOs assigned to it (:meth:`sm_bytes`), mode and
     direction and enabled it (else 0x001E for inputs, 0x001D for outputs), then activates them
-    and writes its inputs once; leaving SAFEOP deactivates them again.
+    and writes its inputs once; leaving SAFEOP deactivates them again. What a kind of slave adds
+    (its dictionary, how its inputs are laid out) is in its subclass:
+    :class:`SkinPatchApplication`, :class:`emulator.esc.esi_slave.EsiApplication`.
     """
 
     def __init__(self, info: SlaveInfo) -> None:
@@ -162,17 +165,21 @@ class SkinPatchApplication:
             None if self._input_sm is None else info.sync_managers[self._input_sm].start
         )
         self._image: list[tuple[int, int]] | None = None  # (offset, bytes) of assigned PDOs
-        self.objects: SkinDictionary | None = None
+        self.objects: ObjectDictionary | None = None
         self.mailbox: Mailbox | None = None
         if info.has_mailbox:
             from emulator.esc.coe import CoeServer
             from emulator.esc.mailbox import Mailbox
-            from emulator.esc.objects import skin_dictionary
 
-            self.objects = skin_dictionary(info, lambda: self.inputs, lambda: self.outputs)
+            self.objects = self.dictionary()
             tx = info.sync_managers[info.sm_of_type(SyncManagerType.MAILBOX_IN) or 0]
-            self.mailbox = Mailbox(info, CoeServer(self.objects, tx.length))
+            coe = None if self.objects is None else CoeServer(self.objects, tx.length)
+            self.mailbox = Mailbox(info, coe)
         self.outputs = bytes(info.output_bytes)
+
+    def dictionary(self) -> ObjectDictionary | None:
+        """The CoE object dictionary of a slave with a mailbox (None: no CoE)."""
+        return None
 
     # --- the PDI application protocol ------------------------------------------------------
     def power_on(self, device: Pdi) -> None:
@@ -246,13 +253,6 @@ class SkinPatchApplication:
         if not device.dc_sampling:
             self._write_inputs(device)
 
-    def sync0(self, device: Pdi, pulse_ns: int) -> None:
-        """A SYNC0 pulse at system time ``pulse_ns``: sample the taxels, stamp the sample
-        (user RAM 0x0F80, emulator.esc.dc.REG_SAMPLE_TIME)."""
-        if self._input_start is not None:
-            device.pdi_write(REG_SAMPLE_TIME, pulse_ns.to_bytes(8, "little"))
-            self._write_inputs(device)
-
     def _write_inputs(self, device: Pdi) -> None:
         """The held inputs into the input buffer, as the assigned PDOs map them."""
         assert self._input_start is not None
@@ -274,8 +274,7 @@ class SkinPatchApplication:
             if code != AlStatusCode.NO_ERROR:
                 return code
             device.pdi_deactivate_sms((i for i, _ in self._pd_sms), False)
-            if self._input_start is not None:  # valid inputs before acknowledging SAFEOP
-                device.pdi_write(self._input_start, self.inputs)
+            self._first_inputs(device)  # valid inputs before acknowledging SAFEOP
         elif requested in (AlState.PREOP, AlState.INIT):
             mailbox = self.mailbox if requested == AlState.INIT else None
             locked = [i for i, _ in self._pd_sms]
@@ -285,6 +284,60 @@ class SkinPatchApplication:
             if mailbox is not None:
                 mailbox.stop(device)
         return AlStatusCode.NO_ERROR
+
+    def _first_inputs(self, device: Pdi) -> None:
+        """The inputs held, written once while entering SAFEOP."""
+        if self._input_start is not None:
+            device.pdi_write(self._input_start, self.inputs)
+
+    def sm_bytes(self, index: int) -> int:
+        """Bytes of the PDOs assigned to SyncManager ``index`` (here: the SII's PDOs)."""
+        return self.info.sm_bytes(index)
+
+    def _assigned_image(self) -> list[tuple[int, int]] | None:
+        """Where each assigned TxPDO's bytes lie in the inputs; None: the inputs are the image."""
+        return None
+
+    def _check_process_data_sms(self, device: Pdi) -> AlStatusCode:
+        for i, spec in self._pd_sms:
+            start, length, control, activate = device.sm_registers(i)
+            expected_length = self.sm_bytes(i)
+            if expected_length == 0:  # nothing assigned: the SyncManager must not run
+                if activate & 1 and length:
+                    return AlStatusCode.INVALID_OUTPUT_CONFIGURATION
+                continue
+            ok = (
+                start == spec.start
+                and length == expected_length
+                and control & 0x0F == spec.control & 0x0F  # mode and direction bits
+                and (activate & 1 or expected_length == 0)
+            )
+            if not ok:
+                if spec.type == SyncManagerType.INPUTS:
+                    return AlStatusCode.INVALID_INPUT_CONFIGURATION
+                return AlStatusCode.INVALID_OUTPUT_CONFIGURATION
+        return AlStatusCode.NO_ERROR
+
+
+class SkinPatchApplication(SlaveApplication):
+    """The firmware of a skin patch: :class:`SlaveApplication` with the skin's dictionary
+    (:mod:`emulator.esc.objects`), TxPDOs selected by assignment (0x1C13), and taxels sampled
+    at SYNC0 pulses with the pulse's time stamped in user RAM 0x0F80."""
+
+    objects: SkinDictionary | None
+
+    def dictionary(self) -> SkinDictionary:
+        """The skin patch's dictionary; taxels and outputs read live."""
+        from emulator.esc.objects import skin_dictionary
+
+        return skin_dictionary(self.info, lambda: self.inputs, lambda: self.outputs)
+
+    def sync0(self, device: Pdi, pulse_ns: int) -> None:
+        """A SYNC0 pulse at system time ``pulse_ns``: sample the taxels, stamp the sample
+        (user RAM 0x0F80, emulator.esc.dc.REG_SAMPLE_TIME)."""
+        if self._input_start is not None:
+            device.pdi_write(REG_SAMPLE_TIME, pulse_ns.to_bytes(8, "little"))
+            self._write_inputs(device)
 
     def sm_bytes(self, index: int) -> int:
         """Bytes of the PDOs assigned to SyncManager ``index``: 0x1C12/0x1C13 with CoE (SM2
@@ -314,23 +367,3 @@ class SkinPatchApplication:
             ranges[p.index] = (at, p.bit_length // 8)
             at += p.bit_length // 8
         return [ranges[i] for i in assigned]
-
-    def _check_process_data_sms(self, device: Pdi) -> AlStatusCode:
-        for i, spec in self._pd_sms:
-            start, length, control, activate = device.sm_registers(i)
-            expected_length = self.sm_bytes(i)
-            if expected_length == 0:  # nothing assigned: the SyncManager must not run
-                if activate & 1 and length:
-                    return AlStatusCode.INVALID_OUTPUT_CONFIGURATION
-                continue
-            ok = (
-                start == spec.start
-                and length == expected_length
-                and control & 0x0F == spec.control & 0x0F  # mode and direction bits
-                and (activate & 1 or expected_length == 0)
-            )
-            if not ok:
-                if spec.type == SyncManagerType.INPUTS:
-                    return AlStatusCode.INVALID_INPUT_CONFIGURATION
-                return AlStatusCode.INVALID_OUTPUT_CONFIGURATION
-        return AlStatusCode.NO_ERROR
