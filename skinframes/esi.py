@@ -210,7 +210,12 @@ class EsiEeprom:
 
 @dataclass(frozen=True, slots=True)
 class EsiDataTypeSubItem:
-    """``DataType/SubItem``: one member of a record type, with its place and access."""
+    """``DataType/SubItem``: one member of a record type, with its place and access.
+
+    ``access`` is the ``Flags/Access`` text (``ro``, ``rw``, ``wo``); its ``ReadRestrictions``
+    and ``WriteRestrictions`` attributes (``PreOP``, ``PreOP_SafeOP``, ``SafeOP_OP``, ...)
+    name the states it applies in; ``pdo_mapping`` is ``Flags/PdoMapping`` (``R``, ``T``).
+    """
 
     subindex: int | None
     name: str
@@ -218,6 +223,9 @@ class EsiDataTypeSubItem:
     bit_size: int
     bit_offset: int
     access: str | None = None
+    read_restrictions: str | None = None
+    write_restrictions: str | None = None
+    pdo_mapping: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -239,6 +247,7 @@ class EsiObjectSubItem:
     name: str
     default_value: str | None = None
     default_data: bytes | None = None
+    default_string: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -246,9 +255,11 @@ class EsiObject:
     """``Objects/Object``: one entry of the CoE object dictionary.
 
     ``default_value`` is the text of ``Info/DefaultValue`` as written (``#x00001389``, a
-    string); ``default_data`` the bytes of ``Info/DefaultData``. ``access`` (``ro``, ``rw``,
+    string); ``default_data`` the bytes of ``Info/DefaultData``, ``default_string`` the text of
+    ``Info/DefaultString`` (a STRING object's value). ``access`` (``ro``, ``rw``,
     ...), ``category`` (``m``, ``o``) and ``pdo_mapping`` (``R``, ``T``, ``RT``) are the
-    ``Flags``; the access of a record's sub items is in its data type's sub items.
+    ``Flags``, with the access's ``ReadRestrictions``/``WriteRestrictions``; the access of a
+    record's sub items is in its data type's sub items.
     """
 
     index: int
@@ -261,6 +272,9 @@ class EsiObject:
     default_value: str | None = None
     default_data: bytes | None = None
     sub_items: tuple[EsiObjectSubItem, ...] = ()
+    default_string: str | None = None
+    read_restrictions: str | None = None
+    write_restrictions: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -705,6 +719,9 @@ class _Context:
                             bit_size=self.child_number(s, "BitSize"),
                             bit_offset=self.child_number(s, "BitOffs"),
                             access=_flag_text(s, "Flags/Access"),
+                            read_restrictions=_attribute(s, "Flags/Access", "ReadRestrictions"),
+                            write_restrictions=_attribute(s, "Flags/Access", "WriteRestrictions"),
+                            pdo_mapping=_flag_text(s, "Flags/PdoMapping"),
                         )
                         for s in t.iterfind("SubItem")
                     ),
@@ -728,6 +745,9 @@ class _Context:
                     sub_items=()
                     if info is None
                     else tuple(self.object_sub(s) for s in info.iterfind("SubItem")),
+                    default_string=None if info is None else _flag_text(info, "DefaultString"),
+                    read_restrictions=_attribute(o, "Flags/Access", "ReadRestrictions"),
+                    write_restrictions=_attribute(o, "Flags/Access", "WriteRestrictions"),
                 )
             )
         return EsiDictionary(tuple(types), tuple(objects))
@@ -739,9 +759,15 @@ class _Context:
             name=_names(s)[0][1] if _names(s) else "",
             default_value=None if info is None else _flag_text(info, "DefaultValue"),
             default_data=None if data is None else self.hex_bytes(data),
+            default_string=None if info is None else _flag_text(info, "DefaultString"),
         )
 
 
 def _flag_text(el: ET.Element, path: str) -> str | None:
     found = el.find(path)
     return None if found is None else (found.text or "").strip()
+
+
+def _attribute(el: ET.Element, path: str, name: str) -> str | None:
+    found = el.find(path)
+    return None if found is None else found.get(name)

@@ -140,7 +140,11 @@ COE_PDO_CONFIG: Final = 0x08
 COE_UPLOAD_AT_STARTUP: Final = 0x10
 COE_COMPLETE_ACCESS: Final = 0x20
 GENERAL_FLAG_MBOX_DATA_LINK_LAYER: Final = 0x04  # GENERAL byte 11, bit 2
-PDO_MANDATORY: Final = 0x0001  # PDO flags (ETG.2010 Table 11)
+# PDO flags (ETG.2010 Table 11): PdoMandatory from the ESI's Mandatory, PdoDefault from its Sm
+# (assigned by default), PdoFixedContent from Fixed; checked against two independent SII tools'
+# tables (synapticon's siitool decoder, ethercrab's PdoFlags), which agree on these values
+PDO_MANDATORY: Final = 0x0001
+PDO_DEFAULT: Final = 0x0002
 PDO_FIXED_CONTENT: Final = 0x0010
 PDO_NOT_ASSIGNED: Final = 0xFF  # the PDO's SyncManager byte when no SM is assigned
 PORT_TYPES: Final = {"Y": 0x1, "H": 0x1, "K": 0x3}  # ESI Physics letter -> GENERAL port nibble
@@ -820,9 +824,9 @@ def image_from_esi(
     ByteSize. Strings: the Type text (order), the group's name and the device's name first,
     then PDO, PDO entry and DC op-mode names while the table has room (255). GENERAL: CoE
     details from the CoE attributes, FoE/EoE 1 when present, the mailbox data link layer flag,
-    the ports from ``Physics``. FMMU, SYNCM (DefaultSize 0 where absent), TXPDO, RXPDO (flags
-    mandatory 0x01 and fixed 0x10; SM 0xFF where none is assigned), DC (the op modes), then
-    any ``Eeprom/Category`` the ESI gives ready-made.
+    the ports from ``Physics``. FMMU, SYNCM (DefaultSize 0 where absent), TXPDO, RXPDO
+    (flags mandatory 0x01, default 0x02 (an Sm given) and fixed 0x10; SM 0xFF where none is
+    assigned), DC (the op modes), then any ``Eeprom/Category`` the ESI gives ready-made.
 
     Raises:
         FieldRangeError: the device has no ``Eeprom`` element, ConfigData longer than 14
@@ -889,6 +893,7 @@ def image_from_esi(
 
     def pdo(p: EsiPdo) -> SiiPdo:
         flags = (PDO_MANDATORY if p.mandatory else 0) | (PDO_FIXED_CONTENT if p.fixed else 0)
+        flags |= PDO_DEFAULT if p.sync_manager is not None else 0
         return SiiPdo(
             index=p.index,
             sync_manager=PDO_NOT_ASSIGNED if p.sync_manager is None else p.sync_manager,

@@ -229,3 +229,19 @@ def test_a_10_mb_esi_reads_in_seconds_with_little_memory(shared_esi: Path) -> No
     small = _big_esi(shared_esi, 2_000_000)
     peak = traced_peak(lambda: parse_esi(small))
     assert peak < 10 * len(small), f"peak {peak} bytes for a {len(small)}-byte file"
+
+
+def test_strings_and_access_restrictions(shared_esi: Path) -> None:
+    d = read_esi(shared_esi / "soes_rtl_xmc4_dynpdo.xml").device()
+    assert d.dictionary is not None
+    name = d.dictionary.object(0x1008)
+    assert name is not None and name.default_string == "xmc48relax"  # <DefaultString>
+    by_name = {t.name: t for t in d.dictionary.data_types}
+    count, elements = by_name["DT1C12"].sub_items  # <Access WriteRestrictions="PreOP">rw
+    assert (count.access, count.write_restrictions, count.read_restrictions) == (
+        "rw",
+        "PreOP",
+        None,
+    )
+    assert (elements.type_name, elements.write_restrictions) == ("DT1C12ARR", "PreOP")
+    assert by_name["DT1018"].sub_items[1].write_restrictions is None  # <Access>ro</Access>

@@ -187,7 +187,7 @@ def test_a_device_without_coe_keeps_its_pdos(shared_esi: Path) -> None:
             (SiiPdoEntry(0x7000, 1, 8, 0x05, img.rx_pdos[0].entries[0].name_index),),
             0,
             img.rx_pdos[0].name_index,
-            0x10,  # Fixed="1": fixed content; not Mandatory
+            0x12,  # Fixed="1": fixed content 0x10; Sm="0": default 0x02; not Mandatory
         ),
     )
     assert img.string(img.rx_pdos[0].name_index) == "DOut(0-2)"
