@@ -8,7 +8,9 @@
 * :func:`netns_socket`: open a :class:`RawSocket` inside a named namespace from this thread.
 * :class:`TaxelFeed` and :func:`serve`: answer every EtherCAT frame with the chain's processed
   frame and, between frames, let the patches publish new taxel samples (seeded contact
-  patterns from :func:`skinframes.taxel.sample_payloads`), until a stop event is set.
+  patterns from :func:`skinframes.taxel.sample_payloads`), until a stop event is set; in a line
+  that also holds slaves described by ESI files (:func:`mixed_chain`), those count their
+  inputs one up at each publication (:class:`emulator.esc.esi_slave.EsiApplication`).
 
 The recipe it automates, by hand::
 
@@ -32,13 +34,20 @@ import socket
 import subprocess
 import threading
 import time
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from types import FrameType
 from typing import Final
 
+import numpy as np
+import numpy.typing as npt
+
 from emulator.errors import LinkError
 from emulator.esc.chain import EcatChain
+from emulator.esc.device import EscDevice
+from emulator.esc.registers import EscConfig
+from emulator.esc.sii import SlaveInfo
+from emulator.esc.state_machine import SkinPatchApplication
 from skinframes import taxel
 from skinframes.capture_writer import CaptureWriter
 
@@ -50,6 +59,7 @@ __all__ = [
     "ServeStats",
     "TaxelFeed",
     "VethPair",
+    "mixed_chain",
     "netns_socket",
     "serve",
     "veth_netns",
@@ -284,7 +294,9 @@ class TaxelFeed:
     """Changing taxel patterns: sample ``k`` of ``taxel.sample_payloads(nodes, samples, B, seed)``.
 
     Every ``period_s`` the next sample (cycling through ``samples``) is published to all patches
-    at once, between two frames.
+    at once, between two frames. In a mixed line (:func:`mixed_chain`) the patches are the
+    ESCs whose application is a skin patch's, in line order (``nodes`` of them, maybe 0), and
+    every other application with a ``count(device)`` (an ESI slave's) counts one up.
     """
 
     def __init__(
@@ -296,7 +308,11 @@ class TaxelFeed:
         seed: int = 0,
         period_s: float = 0.001,
     ) -> None:
-        self.payloads = taxel.sample_payloads(nodes, samples, input_bytes, seed=seed)
+        self.payloads = (
+            taxel.sample_payloads(nodes, samples, input_bytes, seed=seed)
+            if nodes
+            else np.zeros((samples, 0, 0), np.uint8)
+        )
         self.period_s = period_s
         self.published = 0  # how many samples were published so far
         self._next = 0.0
@@ -310,10 +326,48 @@ class TaxelFeed:
         """Publish the next sample if the period has passed; True if it did."""
         if now < self._next:
             return False
-        chain.publish(self.payloads[self.published % len(self.payloads)])
+        rows = self.payloads[self.published % len(self.payloads)]
+        if all(type(d.app) is SkinPatchApplication for d in chain.devices):
+            chain.publish(rows)
+        else:
+            _publish_line(chain.devices, rows)
         self.published += 1
         self._next = now + self.period_s
         return True
+
+
+def _publish_line(devices: Sequence[EscDevice], rows: npt.NDArray[np.uint8]) -> None:
+    """Each patch its row (in line order), each other slave its next count, between frames."""
+    patch = 0
+    for dev in devices:
+        app = dev.app
+        if isinstance(app, SkinPatchApplication):
+            app.publish(dev, rows[patch].tobytes())
+            patch += 1
+        else:
+            count = getattr(app, "count", None)
+            if count is not None:
+                count(dev)
+
+
+def mixed_chain(
+    nodes: int,
+    input_bytes: int,
+    others: Sequence[Callable[[], EscDevice]],
+    *,
+    mailbox: bool = True,
+    config: EscConfig | None = None,
+) -> EcatChain:
+    """``nodes`` skin patches first (serial numbers 1..nodes, as :meth:`EcatChain.skin`), then
+    one ESC from each of ``others`` (an ESI slave: :func:`emulator.esc.esi_slave.esi_device`),
+    powered on and in INIT; a line of patches only is :meth:`EcatChain.skin`'s."""
+    if not others:
+        return EcatChain.skin(nodes, input_bytes, mailbox=mailbox, config=config)
+    patches = [
+        EscDevice(SlaveInfo.skin_patch(input_bytes, serial=i + 1, mailbox=mailbox), config=config)
+        for i in range(nodes)
+    ]
+    return EcatChain([*patches, *(make() for make in others)])
 
 
 @dataclass

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import functools
 import json
 import signal
 import sys
@@ -31,7 +32,8 @@ def add_parser(sub: Any) -> None:
         "serve",
         help="serve emulated EtherCAT slaves on a network interface until SIGINT/SIGTERM",
         description="Answer EtherCAT frames on IFACE as a line of emulated skin patches (ESCs "
-        "with SII, AL state machine, SyncManagers, FMMUs and a CoE mailbox). Point any master at the other end "
+        "with SII, AL state machine, SyncManagers, FMMUs and a CoE mailbox), followed by the "
+        "slaves ESI files describe (--esi). Point any master at the other end "
         "of the link, e.g. a veth pair in a network namespace (see the README). Needs root or "
         "CAP_NET_RAW. Runs until SIGINT or SIGTERM, then prints what it served.",
     )
@@ -41,13 +43,21 @@ def add_parser(sub: Any) -> None:
         "--nodes",
         type=int_up_to(MAX_INT_ARG),
         required=True,
-        help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}",
+        help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}; 0 with --esi",
     )
     p.add_argument(
         "--bytes",
         type=int_up_to(MAX_INT_ARG),
-        required=True,
-        help=f"taxel bytes per slave, 1..{MAX_DATAGRAM_DATA_BYTES}",
+        help=f"taxel bytes per slave, 1..{MAX_DATAGRAM_DATA_BYTES} (needed unless --nodes 0)",
+    )
+    p.add_argument(
+        "--esi",
+        action="append",
+        default=[],
+        metavar="ESI.xml[#TYPE]",
+        help="after the patches, a slave as the ESI file describes it (device TYPE, by Type "
+        "or product code, when the file has several): its SII image, CoE dictionary, PDO "
+        "assignment and mapping, DC; inputs count up at each --period-ms; repeatable",
     )
     p.add_argument(
         "--seed",
@@ -101,17 +111,33 @@ def _capture(path: str) -> CaptureWriter:
 
 def run(args: argparse.Namespace) -> int:
     """Serve until a signal arrives."""
-    from emulator.esc.chain import EcatChain
+    from emulator.errors import TopologyError
     from emulator.esc.dc import seed_clocks
-    from emulator.live import RawSocket, TaxelFeed, serve
+    from emulator.esc.esi_slave import check_esi_slave, esi_device
+    from emulator.live import RawSocket, TaxelFeed, mixed_chain, serve
 
     period_s = args.period_ms / 1000.0
-    check_served_ecat(args.nodes, args.bytes, args.samples, period_s)
-    chain = EcatChain.skin(args.nodes, args.bytes, mailbox=not args.no_mailbox)
+    esi = [check_esi_slave(spec) for spec in args.esi]
+    if args.nodes or not esi:
+        if args.bytes is None and args.nodes:
+            raise TopologyError("serve ecat: --bytes is required with --nodes > 0")
+        check_served_ecat(args.nodes, args.bytes or 1, args.samples, period_s)
+    else:
+        check_served_ecat(1, 1, args.samples, period_s)  # the feed's limits; no patch
+    total = args.nodes + len(esi)
+    if total > MAX_SERVED_SLAVES:
+        raise TopologyError(f"served EtherCAT chain: {total} slaves (1..{MAX_SERVED_SLAVES})")
+    size = args.bytes or 0
+    chain = mixed_chain(
+        args.nodes,
+        size,
+        [functools.partial(esi_device, slave) for slave in esi],
+        mailbox=not args.no_mailbox,
+    )
     seed_clocks([dev.dc for dev in chain.devices], args.drift_ppm, args.seed)
     feed = TaxelFeed(
         args.nodes,
-        args.bytes,
+        size,
         samples=args.samples,
         seed=args.seed,
         period_s=period_s,
@@ -134,9 +160,11 @@ def run(args: argparse.Namespace) -> int:
             sock = stack.enter_context(RawSocket(args.iface))
             capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
             how = "compiled" if compiled.in_use() else "as Python (make compiles them)"
+            what = f"{args.nodes} EtherCAT slaves x {size} bytes"
+            if esi:
+                what += " and " + ", ".join(s.device.type_name for s in esi)
             print(
-                f"serving {args.nodes} EtherCAT slaves x {args.bytes} bytes on {args.iface}, "
-                f"the ESCs {how}; SIGINT/SIGTERM to stop",
+                f"serving {what} on {args.iface}, the ESCs {how}; SIGINT/SIGTERM to stop",
                 file=sys.stderr,
                 flush=True,
             )
@@ -148,8 +176,19 @@ def run(args: argparse.Namespace) -> int:
         "protocol": "ecat",
         "iface": args.iface,
         "nodes": args.nodes,
-        "bytes": args.bytes,
+        "bytes": size,
         "mailbox": not args.no_mailbox,
+        "esi": [
+            {
+                "file": s.source,
+                "type": s.device.type_name,
+                "name": s.device.name,
+                "vendor_id": s.esi.vendor.vendor_id,
+                "product_code": s.device.product_code,
+                "revision": s.device.revision,
+            }
+            for s in esi
+        ],
         **stats.summary(),
         "compiled": compiled.in_use(),
         "error_messages": stats.error_messages,

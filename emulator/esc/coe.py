@@ -282,7 +282,7 @@ class CoeServer:
         )
 
     def _entry_description(self, index: int, subindex: int, value_info: int) -> bytes:
-        e = self.od.entry(index, subindex)
+        e = self.od.description(index, subindex)
         if isinstance(e, int):
             return self._info_error(e)
         # access rights, object category and PDO mapping are always in the access word; unit,

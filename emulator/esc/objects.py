@@ -158,6 +158,11 @@ class ObjectDictionary:
             return SdoAbort.NO_SUBINDEX
         return obj.entries[subindex]
 
+    def description(self, index: int, subindex: int) -> Entry | int:
+        """The entry an SDO information entry description shows (ETG.1000.6 5.6.3.6), or the
+        abort code: :meth:`entry` unless a subclass describes more."""
+        return self.entry(index, subindex)
+
     # --- single subindex ----------------------------------------------------------------------
     def read(self, index: int, subindex: int, state: int) -> bytes | int:
         """Upload one entry: its bytes, or an abort code."""

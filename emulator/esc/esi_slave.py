@@ -1,0 +1,280 @@
+"""A slave described by an ESI file (ETG.2000), served by the emulated ESC.
+
+The ESC is the same :class:`~emulator.esc.device.EscDevice` a skin patch has; behind its PDI runs
+:class:`EsiApplication`, a :class:`~emulator.esc.state_machine.SlaveApplication` (the ESM,
+the mailbox and CoE server, the SyncManager checks) with what the ESI describes:
+
+* the SII image :func:`skinframes.sii.sii_from_esi` builds (what ``skinframes sii ESI.xml``
+  writes, serial number 0), so a master reads the ESI's identity, mailbox, SyncManagers, FMMUs
+  and PDOs from the EEPROM;
+* the CoE dictionary of :mod:`emulator.esc.esi_objects` when the ESI has CoE (SDO upload and
+  download, complete access, SDO information listing the ESI's objects);
+* the PDO assignment and mapping a master sets in PRE-OP, checked in PRE-OP -> SAFE-OP against
+  the SyncManagers' lengths (ETG.1000.6 6.4, AL status codes 0x001D/0x001E);
+* inputs that change: every entry the assigned TxPDOs map holds the number of publications so
+  far (:meth:`EsiApplication.count`), cut to its bit length (a bit toggles, a UDINT counts),
+  packed as the mapping lays the entries out (ETG.1000.6 5.6.7); gaps (index 0) stay 0;
+* distributed clocks (the ESC's feature bits 0x0008) only when the ESI has ``Dc`` op modes;
+  then, once SYNC0 runs, inputs are sampled at its pulses.
+
+Outputs are taken by the ESC as any master writes them; the application does not act on them.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from pathlib import Path
+from typing import Final
+
+from emulator.errors import TopologyError
+from emulator.esc.dc import DC_FEATURES
+from emulator.esc.device import EscDevice
+from emulator.esc.esi_objects import EsiDictionary, esi_dictionary
+from emulator.esc.objects import ObjectDictionary
+from emulator.esc.pdi import Pdi
+from emulator.esc.registers import EscConfig
+from emulator.esc.sii import Pdo, PdoEntry, SlaveInfo, SyncManagerSpec
+from emulator.esc.state_machine import SlaveApplication
+from skinframes.errors import EsiFormatError, SkinframesError
+from skinframes.esi import EsiDevice, EsiFile, EsiPdo, read_esi
+from skinframes.sii import (
+    DATA_TYPE_CODES,
+    FmmuUsage,
+    SyncManagerType,
+    encode_sii,
+    sii_from_esi,
+)
+
+__all__ = [
+    "EsiApplication",
+    "EsiSlave",
+    "check_esi_slave",
+    "esi_device",
+    "load_esi_slave",
+    "parse_esi_spec",
+    "slave_info",
+]
+
+ESC_SYNCMANAGERS: Final = 8  # the emulated ESC's default register set (EscConfig)
+ESC_FMMUS: Final = 8
+_SM_TYPES: Final = {
+    "MBoxOut": SyncManagerType.MAILBOX_OUT,
+    "MBoxIn": SyncManagerType.MAILBOX_IN,
+    "Outputs": SyncManagerType.OUTPUTS,
+    "Inputs": SyncManagerType.INPUTS,
+    "": SyncManagerType.UNUSED,
+}
+_FMMU_USES: Final = {
+    "Outputs": FmmuUsage.OUTPUTS,
+    "Inputs": FmmuUsage.INPUTS,
+    "MBoxState": FmmuUsage.SYNCM_STATUS,
+    "": FmmuUsage.UNUSED,
+}
+
+
+@dataclasses.dataclass(frozen=True, slots=True)
+class EsiSlave:
+    """One device of an ESI file, ready to serve: the file, the device and its SII image."""
+
+    esi: EsiFile
+    device: EsiDevice
+    sii: bytes
+    source: str = ""
+
+    @property
+    def label(self) -> str:
+        """``FILE#TYPE`` as a user names it."""
+        return f"{self.source}#{self.device.type_name}"
+
+
+def parse_esi_spec(spec: str) -> tuple[str, str | None]:
+    """``ESI.xml[#TYPE]`` -> (path, TYPE or None)."""
+    path, sep, selector = spec.rpartition("#")
+    if not sep:
+        return spec, None
+    return path, selector or None
+
+
+def load_esi_slave(spec: str) -> EsiSlave:
+    """Read ``ESI.xml[#TYPE]`` and build the device's SII image.
+
+    Raises:
+        EsiFormatError: the file is no usable ESI, or TYPE names no device of it.
+        SkinframesError: the image cannot be built (no Eeprom element, too large).
+        OSError: the file cannot be read.
+    """
+    path, selector = parse_esi_spec(spec)
+    esi = read_esi(Path(path))
+    device = esi.device(selector)
+    image = sii_from_esi(esi, device).image
+    return EsiSlave(esi, device, encode_sii(image), source=path)
+
+
+def _pdo(p: EsiPdo) -> Pdo:
+    entries = tuple(
+        PdoEntry(e.index, e.subindex, e.bit_length, DATA_TYPE_CODES.get(e.data_type.upper(), 0))
+        for e in p.entries
+    )
+    assert p.sync_manager is not None
+    return Pdo(p.index, p.sync_manager, entries, name=p.name)
+
+
+def slave_info(esi: EsiFile, device: EsiDevice, *, serial: int = 0) -> SlaveInfo:
+    """The small description the ESC's firmware works from (SyncManagers, FMMUs, the PDOs the
+    ESI assigns by default).
+
+    Raises:
+        TopologyError: a PDO assigned to a SyncManager the device does not have, or one of the
+            other direction; more SyncManagers or FMMUs than an ESC has (16).
+    """
+    sms = tuple(
+        SyncManagerSpec(
+            s.start_address, s.default_size_bytes or 0, s.control_byte, s.enable, _SM_TYPES[s.kind]
+        )
+        for s in device.sync_managers
+    )
+    where = f"ESI device {device.type_name} (line {device.line})"
+    for kind, pdos, expected in (
+        ("RxPdo", device.rx_pdos, SyncManagerType.OUTPUTS),
+        ("TxPdo", device.tx_pdos, SyncManagerType.INPUTS),
+    ):
+        for p in pdos:
+            if p.sync_manager is None:
+                continue
+            if not 0 <= p.sync_manager < len(sms):
+                raise TopologyError(
+                    f"{where}: {kind} {p.index:#06x} is assigned to Sm {p.sync_manager}, the "
+                    f"device has {len(sms)} SyncManagers"
+                )
+            if sms[p.sync_manager].type != expected:
+                raise TopologyError(
+                    f"{where}: {kind} {p.index:#06x} is assigned to Sm {p.sync_manager}, a "
+                    f"SyncManager of type {sms[p.sync_manager].type.name}"
+                )
+    if len(sms) > 16 or len(device.fmmus) > 16:
+        raise TopologyError(f"{where}: more than 16 SyncManagers or FMMUs")
+    mbx = device.mailbox
+    return SlaveInfo(
+        vendor_id=esi.vendor.vendor_id,
+        product_code=device.product_code,
+        revision=device.revision,
+        serial=serial,
+        name=device.name,
+        sync_managers=sms,
+        fmmus=tuple(_FMMU_USES[f.kind] for f in device.fmmus),
+        tx_pdos=tuple(_pdo(p) for p in device.tx_pdos if p.sync_manager is not None),
+        rx_pdos=tuple(_pdo(p) for p in device.rx_pdos if p.sync_manager is not None),
+        mailbox_protocols=0 if mbx is None else 0x0004 * (mbx.coe is not None),
+    )
+
+
+class EsiApplication(SlaveApplication):
+    """The firmware of an ESI-described slave (see the module docstring)."""
+
+    objects: EsiDictionary | None
+
+    def __init__(self, esi: EsiFile, device: EsiDevice, info: SlaveInfo) -> None:
+        self.esi, self.esi_device = esi, device
+        self.counter = 0  # publications so far: what every input entry holds
+        super().__init__(info)
+        self._input_sms = [
+            (i, sm.start)
+            for i, sm in enumerate(info.sync_managers)
+            if sm.type == SyncManagerType.INPUTS
+        ]
+
+    def dictionary(self) -> ObjectDictionary | None:
+        """The ESI's dictionary when it has CoE, else None."""
+        mbx = self.esi_device.mailbox
+        if mbx is None or mbx.coe is None:
+            return None
+        return esi_dictionary(
+            self.esi, self.esi_device, serial=self.info.serial, input_value=self.input_value
+        )
+
+    # --- inputs ----------------------------------------------------------------------------
+    def input_value(self, index: int, subindex: int, bits: int) -> bytes:
+        """An input entry's bytes now: the counter cut to ``bits``."""
+        return (self.counter % (1 << bits)).to_bytes((bits + 7) // 8, "little")
+
+    def count(self, device: Pdi) -> None:
+        """The next publication: every input entry counts one up (written unless SYNC0
+        samples them)."""
+        self.counter += 1
+        if not device.dc_sampling:
+            self._write_inputs(device)
+
+    def sync0(self, device: Pdi, pulse_ns: int) -> None:
+        """A SYNC0 pulse: the inputs are sampled (written into their buffers)."""
+        self._write_inputs(device)
+
+    def _layout(self, sync_manager: int) -> list[tuple[int, int, int]]:
+        """(index, subindex, bits) of the entries SyncManager ``sync_manager`` carries, in
+        order: the assigned PDOs' mappings (CoE), else the SII's default PDOs."""
+        if self.objects is not None and sync_manager in self.objects.assignments:
+            return [e for pdo in self.objects.assigned(sync_manager) for e in self._mapped(pdo)]
+        return [
+            (e.index, e.subindex, e.bit_length)
+            for p in self.info.tx_pdos + self.info.rx_pdos
+            if p.sync_manager == sync_manager
+            for e in p.entries
+        ]
+
+    def _mapped(self, pdo: int) -> list[tuple[int, int, int]]:
+        assert self.objects is not None
+        if pdo in self.objects.mappings:
+            return self.objects.mapped(pdo)
+        found = next((p for p in self.info.tx_pdos + self.info.rx_pdos if p.index == pdo), None)
+        return [] if found is None else [(e.index, e.subindex, e.bit_length) for e in found.entries]
+
+    def image(self, sync_manager: int) -> bytes:
+        """The bytes of input SyncManager ``sync_manager`` now (ETG.1000.6 5.6.7: entries
+        packed bit by bit, in mapping order, the first at bit 0)."""
+        value, at = 0, 0
+        for index, _, bits in self._layout(sync_manager):
+            if index:
+                value |= (self.counter % (1 << bits)) << at
+            at += bits
+        return value.to_bytes((at + 7) // 8, "little")
+
+    def _write_inputs(self, device: Pdi) -> None:
+        for index, start in self._input_sms:
+            data = self.image(index)
+            if data:
+                device.pdi_write(start, data)
+
+    def _first_inputs(self, device: Pdi) -> None:
+        self._write_inputs(device)
+
+    def sm_bytes(self, index: int) -> int:
+        """Bytes of the entries assigned to SyncManager ``index`` now."""
+        return (sum(bits for _, _, bits in self._layout(index)) + 7) // 8
+
+
+def esi_device(slave: EsiSlave) -> EscDevice:
+    """An ESC with ``slave``'s SII image and its application, powered on (INIT).
+
+    Raises:
+        TopologyError: what :func:`slave_info` refuses.
+    """
+    info = slave_info(slave.esi, slave.device)
+    config = EscConfig(
+        fmmus=max(ESC_FMMUS, len(slave.device.fmmus)),
+        syncmanagers=max(ESC_SYNCMANAGERS, len(slave.device.sync_managers)),
+        features=DC_FEATURES if slave.device.dc_op_modes else 0,
+    )
+    app = EsiApplication(slave.esi, slave.device, info)
+    return EscDevice(info, config=config, sii=slave.sii, app=app)
+
+
+def check_esi_slave(spec: str) -> EsiSlave:
+    """:func:`load_esi_slave` with every failure as one :class:`SkinframesError` or
+    :class:`TopologyError` naming the file (for the command line)."""
+    try:
+        slave = load_esi_slave(spec)
+        esi_device(slave)  # what the emulator cannot serve fails here, before serving
+    except OSError as exc:
+        raise EsiFormatError(f"--esi {spec}: {exc.strerror or exc}") from exc
+    except (SkinframesError, TopologyError) as exc:
+        raise type(exc)(f"--esi {spec}: {exc}") from exc
+    return slave

@@ -1,0 +1,234 @@
+"""Live: pysoem drives ``serve ecat --esi`` (slaves described by third-party ESI files) over veth.
+
+Expected values come from the ESI XML (read here with ElementTree, not with skinframes.esi)
+and from the SII images their makers shipped beside them (../shared/esi, SOURCES.md):
+
+* ``serve ecat --nodes 0 --esi lan9252 --esi dynpdo``: ``config_init`` finds both with the
+  ESI's vendor, product code and revision; SOEM's EEPROM reads return the image ``skinframes
+  sii`` writes, which equals the shipped one on the words SOURCES.md lists; ``slave.od`` lists
+  exactly the ESI's objects; ``sdo_read(0x1018, 1)`` is the vendor id; ``config_map`` gives each
+  the bytes of its default PDO assignment (the PDOs with an ``Sm``); both reach OP and their
+  inputs count up;
+* 20 skin patches and one ESI slave in one line: SOEM reaches OP, every cycle's working
+  counter is the expected one.
+
+Root (or CAP_NET_RAW, CAP_NET_ADMIN, CAP_SYS_ADMIN), iproute2 and pysoem are needed: without
+them the tests skip with the reason, under CI=true they fail.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import itertools
+import json
+import signal
+import subprocess
+import sys
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator
+from pathlib import Path
+from typing import Any
+
+import pytest
+from live_util import ENV, IN_CI, ROOT, TESTS, missing_requirement, read_line
+
+from emulator.live import VethPair, veth_netns
+
+LAN9252, DYNPDO = "soes_linux_lan9252demo", "soes_rtl_xmc4_dynpdo"
+PATCHES, PATCH_BYTES = 20, 192
+
+
+@pytest.fixture(scope="module")
+def net() -> Iterator[VethPair]:
+    reason = missing_requirement()
+    if reason is not None:
+        if IN_CI:
+            pytest.fail("CI=true: " + reason)
+        pytest.skip(reason)
+    with veth_netns(prefix="esi") as pair:
+        yield pair
+
+
+def xml_number(text: str | None) -> int:
+    s = (text or "").strip()
+    return int(s[2:], 16) if s.startswith("#x") else int(s)
+
+
+def from_xml(path: Path) -> dict[str, Any]:
+    """What the ESI says, read with ElementTree: identity, Type text, objects, the bits of the
+    default PDO assignment (PDOs with an Sm attribute) per direction."""
+    root = ET.parse(path).getroot()
+    device = root.find("Descriptions/Devices/Device")
+    assert device is not None
+    type_el = device.find("Type")
+    assert type_el is not None
+
+    def bits(tag: str) -> int:
+        return sum(
+            xml_number(e.findtext("BitLen"))
+            for p in device.iterfind(tag)
+            if p.get("Sm") is not None
+            for e in p.iterfind("Entry")
+        )
+
+    return {
+        "vendor_id": xml_number(root.findtext("Vendor/Id")),
+        "product_code": xml_number(type_el.get("ProductCode")),
+        "revision": xml_number(type_el.get("RevisionNo")),
+        "type": type_el.text,
+        "objects": {
+            xml_number(o.findtext("Index"))
+            for o in device.iterfind("Profile/Dictionary/Objects/Object")
+        },
+        "output_bytes": (bits("RxPdo") + 7) // 8,
+        "input_bytes": (bits("TxPdo") + 7) // 8,
+        "byte_size": xml_number(device.findtext("Eeprom/ByteSize")),
+    }
+
+
+@contextlib.contextmanager
+def serving(net: VethPair, *args: str) -> Iterator[dict[str, Any]]:
+    """``skinframes serve ecat ARGS --json`` on the slave end, stopped with SIGINT."""
+    cmd = [
+        *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve", "ecat"),
+        *("--iface", net.slave, "--json", "--period-ms", "2", *args),
+    ]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    result: dict[str, Any] = {}
+    try:
+        read_line(proc.stderr, "serving", 60)
+        yield result
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+        result["rc"], result["stderr"] = proc.returncode, err
+        if proc.returncode == 0:
+            result["summary"] = json.loads(out)
+
+
+def run_master(net: VethPair, *args: str) -> dict[str, Any]:
+    done = subprocess.run(
+        [
+            *("ip", "netns", "exec", net.netns, sys.executable, str(TESTS / "soem_esi_master.py")),
+            net.master,
+            *args,
+        ],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr[-3000:]
+    doc: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
+    return doc
+
+
+def sii_image(shared_esi: Path, name: str, tmp_path: Path) -> bytes:
+    """The image ``skinframes sii`` writes for the ESI (the command as users run it)."""
+    out = tmp_path / f"{name}.bin"
+    subprocess.run(
+        [sys.executable, "-m", "skinframes", "sii", str(shared_esi / f"{name}.xml"), "--out", out],
+        cwd=ROOT,
+        env=ENV,
+        check=True,
+        capture_output=True,
+    )
+    return out.read_bytes()
+
+
+# the words SOURCES.md lists as agreeing between each shipped image and its ESI: words 0-7
+# (ConfigData, checksum), vendor/product/revision (8-13), bootstrap and standard mailboxes and
+# the protocols (0x14-0x1C), size and version (0x3E-0x3F); the serial (14-15) is the maker's
+AGREED_BYTE_RANGES = ((0, 16), (16, 28), (0x28, 0x3A), (0x7C, 0x80))
+
+
+def counts_up(values: list[int], modulo: int) -> bool:
+    """Each value the one before or later (modulo), and not all equal."""
+    steps = [(b - a) % modulo for a, b in itertools.pairwise(values)]
+    return all(s < modulo // 2 for s in steps) and any(steps)
+
+
+def test_pysoem_brings_two_esi_slaves_to_op(
+    net: VethPair, shared_esi: Path, tmp_path: Path
+) -> None:
+    names = (LAN9252, DYNPDO)
+    xml = [from_xml(shared_esi / f"{n}.xml") for n in names]
+    images = [sii_image(shared_esi, n, tmp_path) for n in names]
+    for image, n in zip(images, names, strict=True):
+        shipped = (shared_esi / f"{n}.bin").read_bytes()
+        for lo, hi in AGREED_BYTE_RANGES:
+            assert image[lo:hi] == shipped[lo:hi], (n, lo, hi)
+    specs = [a for n in names for a in ("--esi", str(shared_esi / f"{n}.xml"))]
+    with serving(net, "--nodes", "0", *specs) as server:
+        doc = run_master(net, "--image-bytes", *(str(len(i)) for i in images))
+    assert server["rc"] == 0, server["stderr"]
+    assert doc["config_init"] == 2
+    for found, x in zip(doc["slaves"], xml, strict=True):
+        assert (found["man"], found["id"], found["rev"]) == (
+            x["vendor_id"],
+            x["product_code"],
+            x["revision"],
+        )
+        # SOEM names a slave by SII string 1, which holds the Type text in our images and in
+        # both shipped ones (theirs: 'evb9252_dig', 'xmc48relax')
+        assert found["name"] == x["type"]
+    assert [bytes.fromhex(i) for i in doc["images"]] == images  # SOEM's EEPROM reads
+    for coe, x in zip(doc["coe"], xml, strict=True):
+        assert coe["vendor_id"] == x["vendor_id"]  # sdo_read(0x1018, 1)
+        assert {o[0] for o in coe["od"]} == x["objects"]  # slave.od: the ESI's objects
+    assert doc["io_bytes"] == [[x["output_bytes"], x["input_bytes"]] for x in xml]
+    assert doc["iomap_bytes"] == sum(x["output_bytes"] + x["input_bytes"] for x in xml)
+    # one LRW: outputs count 2 at each slave with outputs, inputs 1 (ETG.1000.4 Table 14)
+    expected_wkc = sum(2 * bool(x["output_bytes"]) + bool(x["input_bytes"]) for x in xml)
+    assert doc["expected_wkc"] == expected_wkc
+    assert (doc["safeop"], doc["op"], doc["states"]) == (4, 8, [8, 8])
+    assert doc["al_status_codes"] == [0, 0]
+    assert doc["wkc"] == [expected_wkc] * len(doc["wkc"])
+    for k in range(2):  # one input byte each: the publication counter, cut to 8 bits
+        assert counts_up([int(row[k], 16) for row in doc["inputs"]], 256)
+    assert doc["init"] == 1
+    summary = server["summary"]
+    assert [(e["vendor_id"], e["product_code"]) for e in summary["esi"]] == [
+        (x["vendor_id"], x["product_code"]) for x in xml
+    ]
+    assert (summary["nodes"], summary["dropped"], summary["errors"]) == (0, 0, 0)
+    print(
+        f"\n{names}: {[s['name'] for s in doc['slaves']]}, io {doc['io_bytes']}, wkc "
+        f"{expected_wkc}, objects {[len(c['od']) for c in doc['coe']]}, inputs "
+        f"{doc['inputs'][0]}..{doc['inputs'][-1]}, {summary['frames_in']} frames"
+    )
+
+
+def test_pysoem_brings_patches_and_an_esi_slave_to_op(net: VethPair, shared_esi: Path) -> None:
+    x = from_xml(shared_esi / f"{LAN9252}.xml")
+    with serving(
+        net,
+        *("--nodes", str(PATCHES), "--bytes", str(PATCH_BYTES)),
+        *("--esi", str(shared_esi / f"{LAN9252}.xml")),
+    ) as server:
+        doc = run_master(net, "--image-bytes", str(x["byte_size"]))
+    assert server["rc"] == 0, server["stderr"]
+    assert doc["config_init"] == PATCHES + 1
+    last = doc["slaves"][-1]
+    assert (last["man"], last["id"], last["rev"]) == (
+        x["vendor_id"],
+        x["product_code"],
+        x["revision"],
+    )
+    assert doc["iomap_bytes"] == PATCHES * PATCH_BYTES + x["output_bytes"] + x["input_bytes"]
+    expected_wkc = PATCHES + 2 * bool(x["output_bytes"]) + bool(x["input_bytes"])
+    assert doc["expected_wkc"] == expected_wkc
+    assert (doc["safeop"], doc["op"]) == (4, 8)
+    assert doc["states"] == [8] * (PATCHES + 1)
+    assert doc["wkc"] == [expected_wkc] * len(doc["wkc"])
+    assert counts_up([int(row[0], 16) for row in doc["inputs"]], 256)
+    assert server["summary"]["errors"] == 0
+    print(
+        f"\n{PATCHES} x {PATCH_BYTES} B + {last['name']}: iomap {doc['iomap_bytes']} B, wkc "
+        f"{expected_wkc}, states {sorted(set(doc['states']))}, "
+        f"{server['summary']['frames_in']} frames"
+    )
