@@ -4,7 +4,9 @@ application), :mod:`.device` (one ESC) and :mod:`.chain` (a line of ESCs process
 for the live transport and the timing engine alike).
 
 A patch with a mailbox adds :mod:`.mailbox` (SM0/SM1, counter, repeat request), :mod:`.coe`
-(SDO, SDO information, emergencies) and :mod:`.objects` (its object dictionary).
+(SDO, SDO information, emergencies) and :mod:`.objects` (its object dictionary). A slave an ESI
+file describes is a second application behind the same ESC: :mod:`.esi_slave` (the application,
+its SII image) and :mod:`.esi_objects` (the ESI's dictionary, PDO assignment and mapping).
 
 This file imports nothing but :mod:`.compiled`, so that importing one module does not load the
 others; where :mod:`.compiled` built them, the busiest modules are C extensions of the same sources.

@@ -244,3 +244,15 @@ def test_bad_esi_is_one_error_line(
     err = capsys.readouterr().err
     assert err.startswith(f"skinframes: error: {message.format(esi=shared_esi)}")
     assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize(
+    "name", [LAN9252, DYNPDO, "soes_rtl_lwip_eoe", "soes_tiesc_k2gice", "soes_xmc4300_slavedemo"]
+)
+def test_distributed_clocks_only_where_the_esi_has_them(shared_esi: Path, name: str) -> None:
+    has_dc = xml_device(shared_esi / f"{name}.xml").find("Dc/OpMode") is not None
+    m = Master(EcatChain([esi_device(load_esi_slave(str(shared_esi / f"{name}.xml")))]))
+    # ESC features 0x0008: bit 2 distributed clocks, bit 3 64-bit (datasheet II 2.1), what
+    # SOEM's config_init reads to decide whether a slave has DC
+    features = m.one(Datagram(C.APRD, 0, 0x0008, bytes(2))).data
+    assert int.from_bytes(features, "little") & 0x0C == (0x0C if has_dc else 0)
