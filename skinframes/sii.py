@@ -43,6 +43,8 @@ from skinframes.findings import Finding, error, warning
 __all__ = [
     "CHECKSUM_BYPASS",
     "CONFIG_AREA_BYTES",
+    "ESI_FMMU_USES",
+    "ESI_SM_TYPES",
     "FIRST_CATEGORY_WORD",
     "HEADER_BYTES",
     "Category",
@@ -723,14 +725,15 @@ _DECODERS: Final[dict[int, tuple[str, Callable[[bytes, int], object]]]] = {
 
 
 # --- from an ESI device ------------------------------------------------------------------------
-_SM_TYPES: Final = {
+# an ESI's Sm and Fmmu texts (ETG.2000) as the SII's SyncManager types and FMMU uses (ETG.2010)
+ESI_SM_TYPES: Final = {
     "MBoxOut": SyncManagerType.MAILBOX_OUT,
     "MBoxIn": SyncManagerType.MAILBOX_IN,
     "Outputs": SyncManagerType.OUTPUTS,
     "Inputs": SyncManagerType.INPUTS,
     "": SyncManagerType.UNUSED,
 }
-_FMMU_USES: Final = {
+ESI_FMMU_USES: Final = {
     "Outputs": FmmuUsage.OUTPUTS,
     "Inputs": FmmuUsage.INPUTS,
     "MBoxState": FmmuUsage.SYNCM_STATUS,
@@ -940,14 +943,14 @@ def image_from_esi(
         mailbox_protocols=protocols,
         strings=tuple(strings.items),
         general=general,
-        fmmus=tuple(_FMMU_USES[f.kind] for f in device.fmmus),
+        fmmus=tuple(ESI_FMMU_USES[f.kind] for f in device.fmmus),
         sync_managers=tuple(
             SiiSyncManager(
                 sm.start_address,
                 sm.default_size_bytes or 0,
                 sm.control_byte,
                 sm.enable,
-                _SM_TYPES[sm.kind],
+                ESI_SM_TYPES[sm.kind],
             )
             for sm in device.sync_managers
         ),

@@ -198,6 +198,41 @@ class EsiDictionary(ObjectDictionary):
         return [] if m is None else m.entries()
 
 
+def _while_unused(obj: OdObject, e: Entry) -> Callable[[bytes], int | None]:
+    """The writer of entry ``e`` of a PDO assignment or mapping ``obj``: an entry changes only
+    while subindex 0 is 0 (ETG.1000.6 5.6.7.4: the object is not in use)."""
+
+    def write(data: bytes) -> int | None:
+        if obj.count():
+            return SdoAbort.SUBINDEX0_NOT_ZERO
+        e.value = bytes(data)
+        return None
+
+    return write
+
+
+def _list_object(
+    obj: OdObject,
+    values: list[int],
+    dtype: int,
+    access: int,
+    write_count: Callable[[bytes], int | None],
+) -> None:
+    """Subindex 1 on of a PDO assignment (UNSIGNED16 ``dtype`` 0x0006) or mapping (UNSIGNED32,
+    0x0007) ``obj`` hold ``values`` and then 0, each changed only while subindex 0 is 0;
+    subindex 0 holds their count and is written through ``write_count``."""
+    bits, fmt = (16, "<H") if dtype == 0x0006 else (32, "<I")
+    for k in range(1, max(len(values), obj.max_subindex) + 1):
+        if k > obj.max_subindex:
+            obj.entries.append(Entry(f"SubIndex {k:03d}", dtype, bits, access, b""))
+        e = obj.entries[k]
+        e.value = struct.pack(fmt, values[k - 1] if k <= len(values) else 0)
+        e.access, e.writer, e.reader = access, _while_unused(obj, e), None
+    count = obj.entries[0]
+    count.value, count.access, count.reader = bytes([len(values)]), access, None
+    count.writer = write_count
+
+
 class PdoAssignment:
     """0x1C10 + n: the PDOs of SyncManager n, writable in PRE-OP as the ESI allows."""
 
@@ -212,16 +247,7 @@ class PdoAssignment:
         self.obj = obj
         self.valid = {p.index: p for p in valid}
         self.mandatory = [p.index for p in valid if p.mandatory and p.index in default]
-        access = _pdo_access(obj, writable)
-        for k in range(1, max(len(default), obj.max_subindex) + 1):
-            if k > obj.max_subindex:
-                obj.entries.append(Entry(f"SubIndex {k:03d}", 0x0006, 16, access, b""))
-            e = obj.entries[k]
-            e.value = struct.pack("<H", default[k - 1] if k <= len(default) else 0)
-            e.access, e.writer, e.reader = access, self._writer(e), None
-        count = obj.entries[0]
-        count.value, count.access, count.reader = bytes([len(default)]), access, None
-        count.writer = self._write_count
+        _list_object(obj, default, 0x0006, _pdo_access(obj, writable), self._write_count)
 
     def _write_count(self, data: bytes) -> int | None:
         n = data[0]
@@ -237,15 +263,6 @@ class PdoAssignment:
                 return SdoAbort.INCOMPATIBLE_PARAMETER  # Exclude (ETG.2000)
         self.obj.entries[0].value = bytes(data)
         return None
-
-    def _writer(self, e: Entry) -> Callable[[bytes], int | None]:
-        def write(data: bytes) -> int | None:
-            if self.obj.count():
-                return SdoAbort.SUBINDEX0_NOT_ZERO
-            e.value = bytes(data)
-            return None
-
-        return write
 
     def _pdo(self, sub: int) -> int:
         return int(struct.unpack("<H", self.obj.entries[sub].value[:2].ljust(2, b"\0"))[0])
@@ -268,17 +285,8 @@ class PdoMapping:
     ) -> None:
         self.obj = obj
         self.mappable = mappable
-        access = _pdo_access(obj, writable)
         words = [e.index << 16 | e.subindex << 8 | e.bit_length for e in pdo.entries]
-        for k in range(1, max(len(words), obj.max_subindex) + 1):
-            if k > obj.max_subindex:
-                obj.entries.append(Entry(f"SubIndex {k:03d}", 0x0007, 32, access, b""))
-            e = obj.entries[k]
-            e.value = struct.pack("<I", words[k - 1] if k <= len(words) else 0)
-            e.access, e.writer, e.reader = access, self._writer(e), None
-        count = obj.entries[0]
-        count.value, count.access, count.reader = bytes([len(words)]), access, None
-        count.writer = self._write_count
+        _list_object(obj, words, 0x0007, _pdo_access(obj, writable), self._write_count)
 
     def _write_count(self, data: bytes) -> int | None:
         n = data[0]
@@ -289,15 +297,6 @@ class PdoMapping:
                 return SdoAbort.NOT_MAPPABLE
         self.obj.entries[0].value = bytes(data)
         return None
-
-    def _writer(self, e: Entry) -> Callable[[bytes], int | None]:
-        def write(data: bytes) -> int | None:
-            if self.obj.count():
-                return SdoAbort.SUBINDEX0_NOT_ZERO
-            e.value = bytes(data)
-            return None
-
-        return write
 
     def _words(self, n: int) -> list[tuple[int, int, int]]:
         out = []

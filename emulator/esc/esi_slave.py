@@ -39,7 +39,8 @@ from skinframes.errors import EsiFormatError, SkinframesError
 from skinframes.esi import EsiDevice, EsiFile, EsiPdo, read_esi
 from skinframes.sii import (
     DATA_TYPE_CODES,
-    FmmuUsage,
+    ESI_FMMU_USES,
+    ESI_SM_TYPES,
     SyncManagerType,
     encode_sii,
     sii_from_esi,
@@ -57,19 +58,6 @@ __all__ = [
 
 ESC_SYNCMANAGERS: Final = 8  # the emulated ESC's default register set (EscConfig)
 ESC_FMMUS: Final = 8
-_SM_TYPES: Final = {
-    "MBoxOut": SyncManagerType.MAILBOX_OUT,
-    "MBoxIn": SyncManagerType.MAILBOX_IN,
-    "Outputs": SyncManagerType.OUTPUTS,
-    "Inputs": SyncManagerType.INPUTS,
-    "": SyncManagerType.UNUSED,
-}
-_FMMU_USES: Final = {
-    "Outputs": FmmuUsage.OUTPUTS,
-    "Inputs": FmmuUsage.INPUTS,
-    "MBoxState": FmmuUsage.SYNCM_STATUS,
-    "": FmmuUsage.UNUSED,
-}
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -129,7 +117,11 @@ def slave_info(esi: EsiFile, device: EsiDevice, *, serial: int = 0) -> SlaveInfo
     """
     sms = tuple(
         SyncManagerSpec(
-            s.start_address, s.default_size_bytes or 0, s.control_byte, s.enable, _SM_TYPES[s.kind]
+            s.start_address,
+            s.default_size_bytes or 0,
+            s.control_byte,
+            s.enable,
+            ESI_SM_TYPES[s.kind],
         )
         for s in device.sync_managers
     )
@@ -161,7 +153,7 @@ def slave_info(esi: EsiFile, device: EsiDevice, *, serial: int = 0) -> SlaveInfo
         serial=serial,
         name=device.name,
         sync_managers=sms,
-        fmmus=tuple(_FMMU_USES[f.kind] for f in device.fmmus),
+        fmmus=tuple(ESI_FMMU_USES[f.kind] for f in device.fmmus),
         tx_pdos=tuple(_pdo(p) for p in device.tx_pdos if p.sync_manager is not None),
         rx_pdos=tuple(_pdo(p) for p in device.rx_pdos if p.sync_manager is not None),
         mailbox_protocols=0 if mbx is None else 0x0004 * (mbx.coe is not None),
