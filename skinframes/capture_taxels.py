@@ -129,6 +129,11 @@ def save_taxels(stream: TaxelStream, out: str | Path) -> TaxelSummary:
     The taxels go to a scratch file beside ``out`` as their chunks come, then behind the
     header once their number is known: memory holds a chunk, the times (8 bytes a sample) and
     the presence (a byte per node and sample). ``out`` appears whole or not at all.
+
+    Raises:
+        FieldRangeError: not one node sample is present (no samples, or every one missing):
+            nothing is written.
+        CaptureError: ``out`` is refused (see :mod:`skinframes.atomic_file`).
     """
     target = Path(out)
     check_target(target)
@@ -146,6 +151,13 @@ def save_taxels(stream: TaxelStream, out: str | Path) -> TaxelSummary:
         shape = (samples, stream.nodes, taxel.TRIANGLES_PER_PATCH, taxel.TAXELS_PER_TRIANGLE)
         header = {"descr": "|u1", "fortran_order": False, "shape": shape}
         seen = np.concatenate(present) if present else np.zeros((0, stream.nodes), dtype=bool)
+        if not seen.any():  # an array of nothing but missing samples is no result: say so
+            raise FieldRangeError(
+                f"{stream.name}: no skin taxels: {samples} samples of {stream.nodes} nodes x "
+                f"{stream.bytes_per_node} bytes ({stream.protocol}, {stream.layout}), not one "
+                "node sample present; nothing written (--nodes, --bytes, --layout say where "
+                "the taxels are)"
+            )
         with atomic_output(target) as f, open(scratch, "rb") as raw:
             if target.suffix == ".npz":
                 with zipfile.ZipFile(f, "w", zipfile.ZIP_STORED, allowZip64=True) as z:
@@ -203,6 +215,7 @@ class TaxelStream:
             if protocol in (None, "ecat"):
                 ecat.see(rec, payload, ethertype)
         self._name = f"capture of {records} records"
+        self.name = self._name  # how messages name the capture
         if protocol is None:
             protocol = "epl" if epl.frames >= ecat.frames else "ecat"
         self.protocol = protocol

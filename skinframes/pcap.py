@@ -240,10 +240,10 @@ class Capture:
         source = self._opener()
         try:
             yield from source.records(tally)
-        finally:
+        finally:  # also when the reader stops early (closes the iterator): what was read
             source.close()
-        tally.skipped.sort(key=lambda s: s.index)
-        self._tally = tally
+            tally.skipped.sort(key=lambda s: s.index)
+            self._tally = tally
 
     def _done(self) -> _Tally:
         if self._tally is None:
@@ -271,7 +271,8 @@ class Capture:
 
     @property
     def total(self) -> int:
-        """Records found in the file: decoded + skipped."""
+        """Records found in the file: decoded + skipped (after an iteration that was stopped
+        early, those read until then)."""
         t = self._done()
         return t.records + len(t.skipped)
 

@@ -34,7 +34,8 @@ from skinframes.canbus.log import (
 from skinframes.errors import CanLogFormatError
 from skinframes.pcap import Skipped
 from skinframes_cli.can_convert import add_convert
-from skinframes_cli.options import int_list
+from skinframes_cli.options import add_can_log, can_log_suffix, int_list
+from skinframes_cli.streams import input_path
 
 __all__ = ["SUBCOMMANDS", "add_decode", "add_parser", "board_text", "report"]
 
@@ -62,9 +63,7 @@ def add_decode(sub: Any) -> None:
         description="Reassemble the skin samples (head + tail frame per triangle) of a CAN log. "
         "Frames that are not skin data are counted on stderr, not errors.",
     )
-    p.add_argument(
-        "trace", metavar="LOG", help="CAN log (.log .asc .blf .trc .csv .db, .pcap; text .gz too)"
-    )
+    add_can_log(p, "CAN log (.log .asc .blf .trc .csv .db, .pcap; text .gz too)")
     p.add_argument(
         "--json", action="store_true", help="JSON Lines: one object per (board, triangle) sample"
     )
@@ -90,7 +89,11 @@ def run_decode(args: argparse.Namespace) -> int:
     Raises:
         CanLogFormatError: the log holds no CAN frame at all (exit 2).
     """
-    reader = CanLogReader(args.trace)
+    with input_path(args.trace, can_log_suffix(args)) as path:
+        return _decode(args, CanLogReader(path))
+
+
+def _decode(args: argparse.Namespace, reader: CanLogReader) -> int:
     r = Reassembler(boards=args.boards, skin_classes=(args.skin_class,))
     line = sample_json if args.json else sample_text
     write = sys.stdout.write
@@ -146,7 +149,7 @@ def report(
     """The accounting of a decoded CAN log on stderr: frames, records, boards."""
     err = sys.stderr
     print(
-        f"skinframes: {c.frames + records.damaged} frames: {c.samples} skin samples "
+        f"{c.frames + records.damaged} frames: {c.samples} skin samples "
         f"({c.sample_frames} frames), {c.other} not skin data, {c.error_frames} error frames, "
         f"{c.orphan_heads} orphan heads, {c.orphan_tails} orphan tails, {c.malformed} "
         f"malformed, {records.damaged} skipped",
@@ -159,24 +162,23 @@ def report(
         )
         more = len(c.other_ids) - MAX_LISTED
         print(
-            f"skinframes: not skin data by id: {shown}"
-            + (f", ... {more} more" if more > 0 else ""),
+            f"not skin data by id: {shown}" + (f", ... {more} more" if more > 0 else ""),
             file=err,
         )
     for m in malformed[:MAX_LISTED]:
         print(
-            f"skinframes: malformed skin frame {m.index} ({m.arbitration_id:#05x}): {m.reason}",
+            f"malformed skin frame {m.index} ({m.arbitration_id:#05x}): {m.reason}",
             file=err,
         )
     if c.malformed > MAX_LISTED:
-        print(f"skinframes: ... {c.malformed - MAX_LISTED} more malformed", file=err)
+        print(f"... {c.malformed - MAX_LISTED} more malformed", file=err)
     for s in damaged[:MAX_LISTED]:
-        print(f"skinframes: skipped record {s.index}: {s.reason}", file=err)
+        print(f"skipped record {s.index}: {s.reason}", file=err)
     if records.damaged > MAX_LISTED:
-        print(f"skinframes: ... {records.damaged - MAX_LISTED} more skipped records", file=err)
-    print(f"skinframes: {_records_text(records)}", file=err)
+        print(f"... {records.damaged - MAX_LISTED} more skipped records", file=err)
+    print(f"{_records_text(records)}", file=err)
     for b in c.boards:
-        print(f"skinframes: {board_text(b, c.triangles)}", file=err)
+        print(f"{board_text(b, c.triangles)}", file=err)
 
 
 def board_text(b: BoardCounts, triangles: int) -> str:

@@ -12,7 +12,9 @@ from emulator.model.params import PRESETS
 from skinframes import taxel
 from skinframes.errors import SkinframesError
 from skinframes_cli.figure import save_figure
+from skinframes_cli.options import add_can_log, can_log_suffix
 from skinframes_cli.progress import progress_bar
+from skinframes_cli.streams import input_path
 
 ROWS = (
     ("can", "CAN as recorded"),
@@ -32,9 +34,7 @@ def add_parser(sub: Any) -> None:
         "CAN bus (as recorded and as re-emulated), EPL and EtherCAT, and how many "
         f"{taxel.PATCH_BYTES}-byte patches each bus serves within 1 ms and 5 ms.",
     )
-    p.add_argument(
-        "trace", metavar="LOG", help="CAN log (.log .asc .blf .trc .csv, or a SocketCAN pcap)"
-    )
+    add_can_log(p, "CAN log (.log .asc .blf .trc .csv, or a SocketCAN pcap)")
     p.add_argument(
         "--preset",
         choices=list(PRESETS),
@@ -118,12 +118,13 @@ def run(args: argparse.Namespace) -> int:
     from emulator.compare import SkinLog, compare
     from emulator.model.params import preset
 
-    with progress_bar(None, "frames") as seen:  # read twice, never held (emulator.skin_samples)
-        samples = SkinLog.open(args.trace, progress=seen)
-    with progress_bar(samples.samples, "cycles") as done:
-        doc = compare(samples, preset(args.preset), progress=done)
+    with input_path(args.trace, can_log_suffix(args)) as trace:
+        with progress_bar(None, "frames") as seen:  # read twice, never held (skin_samples)
+            samples = SkinLog.open(trace, progress=seen)
+        with progress_bar(samples.samples, "cycles") as done:
+            doc = compare(samples, preset(args.preset), progress=done)
     if samples.left_out.anything:
-        print(f"skinframes: {samples.left_out.text()}", file=sys.stderr)
+        print(samples.left_out.text(), file=sys.stderr)
     if args.plot:
         plot(doc, Path(args.plot))
     if args.json:

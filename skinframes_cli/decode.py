@@ -8,10 +8,12 @@ import json
 import sys
 from typing import Any
 
-from skinframes.errors import PcapFormatError
+from skinframes.errors import SkinframesError
 from skinframes.pcap import Capture, read_capture
+from skinframes.selection import FrameSelection
 from skinframes.text import escape
-from skinframes_cli.options import add_skin_layout
+from skinframes_cli.options import add_skin_layout, bounded_int, frame_ranges, protocol_arg
+from skinframes_cli.streams import input_path
 
 
 def open_capture(path: str) -> Capture:
@@ -39,41 +41,99 @@ def add_parser(sub: Any) -> None:
         "holds time_ns and present",
     )
     add_skin_layout(p, "(with --taxels)")
+    sel = p.add_argument_group("selection (as a display filter; not with --taxels)")
+    protocol_arg(
+        sel,
+        "--protocol",
+        choices=("epl", "ecat", "can", "other"),
+        action="append",
+        help="only frames of this protocol (repeat for several)",
+    )
+    sel.add_argument(
+        "--node",
+        type=bounded_int(0, 65535),
+        action="append",
+        metavar="N",
+        help="only frames of node N (repeat for several): EPL src or dest N; EtherCAT a "
+        "datagram addressed by position to slave N (0: next to the master)",
+    )
+    sel.add_argument(
+        "--frames",
+        type=frame_ranges,
+        metavar="LIST",
+        help="only these frame numbers (from 1, as Wireshark counts): N, A:B, A:, comma list",
+    )
+    sel.add_argument(
+        "-c",
+        "--count",
+        type=bounded_int(1, 2**62),
+        metavar="N",
+        help="stop after N frames shown",
+    )
     p.set_defaults(run=run)
+
+
+def selection(args: argparse.Namespace) -> FrameSelection:
+    """The display filter of ``--protocol``, ``--node`` and ``--frames``."""
+    return FrameSelection(
+        protocols=None if not args.protocol else frozenset(args.protocol),
+        nodes=None if not args.node else frozenset(args.node),
+        frames=args.frames,
+    )
 
 
 def run(args: argparse.Namespace) -> int:
     """Decode and print, record by record as the capture is read."""
+    chosen = selection(args)
     if args.taxels:
+        if chosen.active or args.count is not None:
+            raise SkinframesError("--taxels: every frame is read; --protocol, --node, "
+                                  "--frames and -c select frames to show")  # fmt: skip
         return _taxels(args)
     from skinframes.describe import JsonDescriber, describe_record  # here: check needs none
 
     capture = open_capture(args.path)
     out = sys.stdout
-    decoded = 0
-    if args.json:
-        dumps = json.JSONEncoder(check_circular=False).encode
-        describe = JsonDescriber()  # repeated frames: fields computed once
-        for rec in capture:
-            decoded += 1
-            out.write(dumps(describe(rec)) + "\n")
-    else:
-        for rec in capture:
-            decoded += 1
-            _, text = describe_record(rec)
+    decoded = shown = 0
+    limit = args.count
+    dumps = json.JSONEncoder(check_circular=False).encode
+    describe = JsonDescriber()  # repeated frames: fields computed once
+    records = iter(capture)
+    for rec in records:
+        decoded += 1
+        if chosen.frames is not None:
+            if chosen.past_last(rec.frame):
+                break
+            if not chosen.frame_wanted(rec.frame):
+                continue
+        if args.json:
+            obj = describe(rec)
+            if chosen.active and not chosen.matches(obj):
+                continue
+            out.write(dumps(obj) + "\n")
+        else:
+            obj, text = describe_record(rec)
+            if chosen.active and not chosen.matches(obj):
+                continue
             sec, ns = divmod(rec.time_ns, 1_000_000_000)  # exact: a float has no room for ns
             out.write(
                 f"frame {rec.frame:<6} {f'{sec}.{ns:09d}':>20} {len(rec.data):>5}  {escape(text)}\n"
             )
+        shown += 1
+        if limit is not None and shown >= limit:
+            break
+    close = getattr(records, "close", None)
+    if close is not None:  # a stop before the end: the counts are of the records read
+        close()
     for s in capture.skipped:
-        print(f"skinframes: skipped frame {s.frame}: {escape(s.reason)}", file=sys.stderr)
+        print(f"skipped frame {s.frame}: {escape(s.reason)}", file=sys.stderr)
     for f in capture.findings:
         where = f"frame {f.frame}" if f.index >= 0 else "file"
-        print(f"skinframes: {where}: {escape(f.finding.message)}", file=sys.stderr)
-    print(
-        f"skinframes: {capture.total} records: {decoded} decoded, {len(capture.skipped)} skipped",
-        file=sys.stderr,
-    )
+        print(f"{where}: {escape(f.finding.message)}", file=sys.stderr)
+    line = f"{capture.total} records: {decoded} decoded, {len(capture.skipped)} skipped"
+    if chosen.active or limit is not None:
+        line += f"; {shown} shown"
+    print(line, file=sys.stderr)
     return 0
 
 
@@ -82,12 +142,11 @@ def _taxels(args: argparse.Namespace) -> int:
     stderr."""
     from skinframes.capture_taxels import TaxelStream, save_taxels
 
-    if args.path == "-":
-        raise PcapFormatError("decode --taxels reads a capture file, not standard input")
-    stream = TaxelStream(args.path, nodes=args.nodes, bytes_per_node=args.bytes, layout=args.layout)
-    done = save_taxels(stream, args.taxels)
+    with input_path(args.path) as path:  # read twice: standard input is copied to a file first
+        stream = TaxelStream(path, nodes=args.nodes, bytes_per_node=args.bytes, layout=args.layout)
+        done = save_taxels(stream, args.taxels)
     print(
-        f"skinframes: {escape(args.taxels)}: {done.samples} samples x {done.nodes} nodes x 16 x "
+        f"{escape(args.taxels)}: {done.samples} samples x {done.nodes} nodes x 16 x "
         f"12 taxels ({done.missing} node samples missing)",
         file=sys.stderr,
     )

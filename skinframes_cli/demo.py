@@ -73,17 +73,27 @@ def output_names(plots: bool) -> list[str]:
     return names
 
 
-def _manifest(out: Path) -> set[str]:
+def _manifest(out: Path, force: bool) -> set[str]:
+    """The names an earlier demo listed in ``out/.skinframes-demo``; a file of that name that
+    does not start with demo's first line is not demo's: refused unless ``force`` (which
+    replaces it and trusts no name on it)."""
     path = out / MANIFEST
     if path.is_symlink() or (path.exists() and not path.is_file()):
         raise CaptureError(f"{path}: not a regular file; demo keeps its list of files there")
     if not path.exists():
         return set()
     try:
-        lines = path.read_text(encoding="utf-8", errors="replace").splitlines()
+        text = path.read_text(encoding="utf-8", errors="replace")
     except OSError as exc:
         raise CaptureError(f"{path}: cannot read ({exc.strerror or exc})") from exc
-    return {line for line in lines if line and not line.startswith("#")}
+    if not text.startswith(_MANIFEST_HEAD):
+        if force:
+            return set()
+        raise CaptureError(
+            f"{path}: exists and was not written by demo (its first line is not demo's); "
+            "move it away or use --force"
+        )
+    return {line for line in text.splitlines() if line and not line.startswith("#")}
 
 
 def prepare_out(out: Path, names: list[str], force: bool) -> None:
@@ -100,7 +110,7 @@ def prepare_out(out: Path, names: list[str], force: bool) -> None:
     if out.is_symlink() and not force:
         raise CaptureError(f"{out}: is a symbolic link; demo does not write through it (--force)")
     output_folder(out)  # created if its parent exists, as every output folder
-    ours = _manifest(out)
+    ours = _manifest(out, force)
     for name in names:
         path = out / name
         if path.is_symlink():

@@ -184,6 +184,66 @@ def add_skin_layout(p: argparse.ArgumentParser, what: str) -> None:
     )
 
 
+def add_can_log(p: argparse.ArgumentParser, help: str) -> None:
+    """``LOG`` (a CAN log file, or ``-`` for standard input) and ``--log-format FMT``, the format
+    of standard input, which has no suffix to tell it."""
+    from skinframes.canbus.log import PCAP_SUFFIXES, PYTHON_CAN_SUFFIXES
+
+    p.add_argument("trace", metavar="LOG", help=f"{help}; - for standard input (--log-format)")
+    known = [s.lstrip(".") for s in (*PYTHON_CAN_SUFFIXES, *PCAP_SUFFIXES)]
+    p.add_argument(
+        "--log-format",
+        metavar="FMT",
+        help=f"the format of a log read from standard input (LOG -): {', '.join(known)} "
+        "(text formats and pcap also FMT.gz)",
+    )
+
+
+def can_log_suffix(args: argparse.Namespace) -> str:
+    """The suffix the copy of standard input gets (``LOG -``), from ``--log-format``.
+
+    Raises:
+        SkinframesError: ``-`` without ``--log-format``, or ``--log-format`` with a file.
+    """
+    from skinframes.errors import SkinframesError
+
+    if args.trace == "-":
+        if args.log_format is None:
+            raise SkinframesError("LOG -: standard input has no suffix; --log-format FMT names it")
+        from skinframes.canbus.log import can_log_format
+
+        suffix = "." + str(args.log_format).lstrip(".")
+        can_log_format(f"--log-format {suffix}")  # one error line naming the known formats
+        return suffix
+    if args.log_format is not None:
+        raise SkinframesError(
+            f"--log-format: for standard input (LOG -); {escape(args.trace)} has its suffix"
+        )
+    return ""
+
+
+def frame_ranges(text: str) -> tuple[tuple[int, int | None], ...]:
+    """An argparse ``type``: frame numbers (Wireshark's, from 1) as a comma list of ``N``,
+    ``A:B`` (inclusive) and ``A:`` (from A on), e.g. ``1:10,15,100:``."""
+    ranges: list[tuple[int, int | None]] = []
+    parts = text.split(",")
+    if len(parts) > MAX_LIST_VALUES:
+        raise argparse.ArgumentTypeError(f"more than {MAX_LIST_VALUES} ranges")
+    for part in parts:
+        lo_text, colon, hi_text = part.partition(":")
+        lo = _int(lo_text, "a frame number") if lo_text.strip() or not colon else 1
+        hi = (_int(hi_text, "a frame number") if hi_text.strip() else None) if colon else lo
+        if lo < 1 or (hi is not None and hi < lo):
+            raise argparse.ArgumentTypeError(
+                f"{escape(part)!r}: expected N, A:B or A: with 1 <= A <= B (frames count from 1)"
+            )
+        ranges.append((lo, hi))
+    return tuple(ranges)
+
+
+frame_ranges.__name__ = "frame list"
+
+
 def int_list_in(lo: int, hi: int) -> Callable[[str], list[int]]:
     """An argparse ``type``: :func:`int_list` with every value in ``lo..hi``."""
 

@@ -8,7 +8,7 @@ import sys
 from pathlib import Path
 from typing import Any
 
-from skinframes.atomic_file import atomic_output, check_target
+from skinframes.atomic_file import check_target
 from skinframes.errors import DecodeError, SkinframesError
 from skinframes.esi import parse_esi
 from skinframes.sii import (
@@ -22,6 +22,7 @@ from skinframes.sii import (
     sii_from_esi,
 )
 from skinframes.text import escape
+from skinframes_cli.streams import STDIO, input_bytes, output
 
 
 def add_parser(sub: Any) -> None:
@@ -32,9 +33,13 @@ def add_parser(sub: Any) -> None:
         description="With an ESI XML file (ETG.2000): write the SII EEPROM image (ETG.2010) of "
         "one of its devices to --out. With an image: print what it holds (--json for JSON).",
     )
-    p.add_argument("path", metavar="FILE", help="an ESI .xml file, or an SII image to decode")
+    p.add_argument(
+        "path", metavar="FILE", help="an ESI .xml file, or an SII image to decode; - for stdin"
+    )
     p.add_argument("--device", metavar="TYPE", help="the device: its Type text or product code")
-    p.add_argument("--out", metavar="FILE", help="the image file to write (ESI input)")
+    p.add_argument(
+        "--out", metavar="FILE", help="the image file to write (ESI input); - for stdout"
+    )
     p.add_argument(
         "--force", action="store_true", help="replace an --out file that is not an SII image"
     )
@@ -50,7 +55,7 @@ def run(args: argparse.Namespace) -> int:
     """Build or decode."""
     if not args.path:
         raise SkinframesError("FILE: an empty name")
-    data = Path(args.path).read_bytes()
+    data = input_bytes(args.path)
     if _is_xml(data):
         if args.out is None:
             raise SkinframesError(f"{args.path}: an ESI file; --out FILE names the image to write")
@@ -72,8 +77,9 @@ def _build(args: argparse.Namespace, data: bytes) -> int:
     if not args.out:
         raise SkinframesError("--out: an empty name")
     out = Path(args.out)
-    check_target(out)
-    if out.exists() and not args.force:
+    if args.out != STDIO:
+        check_target(out)
+    if args.out != STDIO and out.exists() and not args.force:
         try:
             decode_sii(out.read_bytes())
         except DecodeError:
@@ -84,7 +90,7 @@ def _build(args: argparse.Namespace, data: bytes) -> int:
     device = esi.device(args.device)
     built = sii_from_esi(esi, device)
     raw = encode_sii(built.image)
-    with atomic_output(out) as f:
+    with output(args.out, "wb", what="--out") as f:
         f.write(raw)
     for what in built.omitted:
         print(f"left out to fit ByteSize {built.image.eeprom_bytes}: {what}", file=sys.stderr)

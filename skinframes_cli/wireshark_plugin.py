@@ -6,9 +6,10 @@ import argparse
 import sys
 from typing import Any
 
-from skinframes.atomic_file import atomic_output
+from skinframes.text import escape
 from skinframes.wireshark_lua import lua_plugin
 from skinframes_cli.options import add_skin_layout
+from skinframes_cli.streams import STDIO, output
 
 
 def add_parser(sub: Any) -> None:
@@ -22,7 +23,7 @@ def add_parser(sub: Any) -> None:
         "skin.taxel, skin.contact). Load it with tshark -X lua_script:FILE or copy it into "
         "Wireshark's personal Lua plugins folder.",
     )
-    p.add_argument("--out", required=True, help="the .lua file to write")
+    p.add_argument("--out", required=True, help="the .lua file to write; - for stdout")
     add_skin_layout(p, "in the capture")
     p.add_argument(
         "--base", type=int, default=0, help="EtherCAT logical address of node 0 (default 0)"
@@ -38,7 +39,8 @@ def run(args: argparse.Namespace) -> int:
         layout=args.layout or "logical",
         base=args.base,
     )
-    with atomic_output(args.out, "w") as f:
+    with output(args.out, "w", what="--out") as f:
         f.write(text)
-    print(f"wrote {args.out}", file=sys.stderr)
+    if args.out != STDIO:
+        print(f"wrote {escape(args.out)}", file=sys.stderr)
     return 0

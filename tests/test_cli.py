@@ -95,9 +95,7 @@ def test_decode_text(name: str, capsys: pytest.CaptureFixture[str]) -> None:
         assert (word, int(frame)) == ("frame", i + 1)  # Wireshark's frame.number, from 1
         assert float(seconds) == pytest.approx(stamp_ns(name, i) * 1e-9, abs=1e-9)
         assert int(length) >= 60
-    assert err.splitlines() == [
-        f"skinframes: {GOLDEN[name]} records: {GOLDEN[name]} decoded, 0 skipped"
-    ]
+    assert err.splitlines() == [f"{GOLDEN[name]} records: {GOLDEN[name]} decoded, 0 skipped"]
 
 
 def test_decode_text_names_the_messages(capsys: pytest.CaptureFixture[str]) -> None:
@@ -188,7 +186,7 @@ def test_decode_damaged_capture_prints_the_good_records(
     assert [o["index"] for o in _json_lines(out)] == list(range(9))
     assert [o["frame"] for o in _json_lines(out)] == list(range(1, 10))
     assert "skipped frame 10" in err
-    assert err.splitlines()[-1] == "skinframes: 10 records: 9 decoded, 1 skipped"
+    assert err.splitlines()[-1] == "10 records: 9 decoded, 1 skipped"
     assert "Traceback" not in err
     # check calls the lost record an error
     code, _, _ = run(["check", str(path)], capsys)
@@ -360,7 +358,7 @@ def test_module_entry_point() -> None:
     )
     assert result.returncode == 0, result.stderr
     assert len(result.stdout.splitlines()) == 10
-    assert result.stderr.splitlines() == ["skinframes: 10 records: 10 decoded, 0 skipped"]
+    assert result.stderr.splitlines() == ["10 records: 10 decoded, 0 skipped"]
     result = subprocess.run(
         [sys.executable, "-m", "skinframes", "check", str(ROOT / "no-such.pcap")],
         capture_output=True,
@@ -555,3 +553,22 @@ def test_special_inputs_end_with_one_error_line(
         assert "\x1b" not in err
     if kind == "newline-name":
         assert "x\\nskinframes: error: forged\\x1b[31m.pcap" in err
+
+
+def test_demo_refuses_a_list_of_files_it_did_not_write(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from skinframes_cli.demo import MANIFEST, prepare_out
+
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / MANIFEST).write_text("my own notes\nepl_160x192_paper.pcap\n")
+    (out / "epl_160x192_paper.pcap").write_text("mine")
+    code, stdout, err = run(["demo", "--out", str(out), "--no-plot"], capsys)
+    assert code == 2 and stdout == ""
+    assert_one_error_line(err)
+    assert f"{out / MANIFEST}: exists and was not written by demo" in err
+    assert (out / MANIFEST).read_text().startswith("my own notes")
+    assert (out / "epl_160x192_paper.pcap").read_text() == "mine"
+    prepare_out(out, ["a.pcap"], force=True)  # --force replaces it and trusts no name on it
+    assert (out / MANIFEST).read_text().splitlines()[1:] == ["a.pcap"]

@@ -75,10 +75,10 @@ def test_can_decode_json_lines(
     ]
     lines = err.splitlines()
     assert lines[0] == (
-        "skinframes: 8 frames: 3 skin samples (6 frames), 2 not skin data, 0 error frames, "
+        "8 frames: 3 skin samples (6 frames), 2 not skin data, 0 error frames, "
         "0 orphan heads, 0 orphan tails, 0 malformed, 0 skipped"
     )
-    assert lines[1] == "skinframes: not skin data by id: 0x64: 2"
+    assert lines[1] == "not skin data by id: 0x64: 2"
 
 
 def test_can_decode_text(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -97,10 +97,10 @@ def test_can_decode_third_party_log(
     code, out, err = run(["can", "decode", "--json", str(path)], capsys)
     assert code == 0 and out == ""
     lines = err.splitlines()
-    assert lines[0].startswith("skinframes: 12 frames: 0 skin samples (0 frames), 9 not skin data")
+    assert lines[0].startswith("12 frames: 0 skin samples (0 frames), 9 not skin data")
     assert "3 error frames" in lines[0]
     assert lines[1] == (
-        "skinframes: not skin data by id: 0x18ebff00x: 6, 0x200: 1, 0x300: 1, 0x6f8: 1"
+        "not skin data by id: 0x18ebff00x: 6, 0x200: 1, 0x300: 1, 0x6f8: 1"
     )
 
 
@@ -138,7 +138,7 @@ def test_can_decode_reports_malformed_and_orphans(
     lines = err.splitlines()
     assert "1 orphan heads, 1 orphan tails, 1 malformed" in lines[0]
     assert lines[1] == (
-        "skinframes: malformed skin frame 1 (0x4e0): DLC 2, skin frames have 8 data bytes"
+        "malformed skin frame 1 (0x4e0): DLC 2, skin frames have 8 data bytes"
     )
 
 
@@ -240,12 +240,12 @@ def test_can_decode_reports_records_and_boards(
     assert code == 0 and len(out.splitlines()) == 25
     lines = err.splitlines()
     header = 5 + 1  # date, base, internal events, Begin/End Triggerblock; Start of measurement
-    assert f"skinframes: {51 + header} records: 51 decoded, {header} skipped (" in err
+    assert f"{51 + header} records: 51 decoded, {header} skipped (" in err
     assert lines[-3:] == [
-        "skinframes: board 10: 0 complete samples (4 triangles), 1 incomplete, 0 stray frames",
-        "skinframes: board 13: 2 complete samples (4 triangles), 1 incomplete, 1 stray frames"
+        "board 10: 0 complete samples (4 triangles), 1 incomplete, 0 stray frames",
+        "board 13: 2 complete samples (4 triangles), 1 incomplete, 1 stray frames"
         " (0x4d2: 1)",
-        "skinframes: board 14: 3 complete samples (4 triangles), 0 incomplete, 2 stray frames"
+        "board 14: 3 complete samples (4 triangles), 0 incomplete, 2 stray frames"
         " (0x4e1: 2)",
     ]
 

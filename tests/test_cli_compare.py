@@ -126,7 +126,7 @@ def test_convert_and_compare_keep_every_complete_sample_and_say_what_they_left_o
     captured = capsys.readouterr()
     assert captured.out.startswith("3 samples of 2 boards (13, 14)")
     (left,) = captured.err.splitlines()
-    assert left.startswith("skinframes: left out: 2 incomplete board samples; 3 stray skin frames")
+    assert left.startswith("left out: 2 incomplete board samples; 3 stray skin frames")
     assert "board 10: 1 incomplete, 0 stray" in left and "0x4e1: 2" in left
     assert "not carried: 10" in left and "board 13: 1" in left
     got = [
@@ -154,7 +154,7 @@ def test_convert_and_compare_keep_every_complete_sample_and_say_what_they_left_o
     assert lo["boards_without_sample"] == [10]
     assert lo["cycles_missing_board"] == {"13": 1}
     assert [b["board"] for b in lo["boards"]] == [10, 13, 14]
-    assert captured.err.startswith("skinframes: left out:")
+    assert captured.err.startswith("left out:")
 
 
 def test_the_most_patches_within_a_budget_are_where_simulate_crosses_it(

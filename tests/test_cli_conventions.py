@@ -368,3 +368,137 @@ def test_allow_large_pcap_and_a_stream_skip_the_estimate() -> None:
     check_pcap_size("-", 10**6, False, 2, must_not_run)  # a pipe: the reader stops it
     argv = ["simulate", "epl", "--nodes", "1", "--bytes", "1", "--allow-large-pcap"]
     assert build_parser().parse_args(argv).allow_large_pcap is True
+
+
+# --- information is not prefixed like an error ----------------------------------------------------
+ESI = b"""<?xml version="1.0"?>
+<EtherCATInfo><Vendor><Id>2</Id><Name>Two</Name></Vendor><Descriptions><Devices>
+<Device><Type ProductCode="#x10" RevisionNo="1">A-1</Type><Name>first</Name>
+<Eeprom><ByteSize>256</ByteSize></Eeprom></Device></Devices></Descriptions></EtherCATInfo>
+"""
+
+
+def test_no_information_line_starts_like_an_error(tmp_path: Path) -> None:
+    log = _skin_log(tmp_path)
+    capture = tmp_path / "x.pcap"
+    esi = tmp_path / "a.xml"
+    esi.write_bytes(ESI)
+    runs = [
+        [*SIM[:2], "--nodes", "2", "--bytes", "192", "--pcap", str(capture)],
+        ["decode", str(capture)],
+        ["decode", str(capture), "--taxels", str(tmp_path / "t.npy")],
+        ["check", str(capture)],
+        ["analyze", str(capture)],
+        ["can", "decode", str(log)],
+        ["can", "convert", str(log), "--to", "ecat", "--pcap", str(tmp_path / "c.pcap")],
+        ["compare", str(log)],
+        ["wireshark-plugin", "--out", str(tmp_path / "s.lua")],
+        ["sii", str(esi), "--out", str(tmp_path / "a.bin")],
+        ["vectors", "--out", str(tmp_path / "v")],
+    ]
+    for argv in runs:
+        result = skinframes(*argv)
+        assert result.returncode == 0, (argv, result.stderr)
+        lines = result.stderr.decode().splitlines()
+        assert not [line for line in lines if line.startswith("skinframes")], (argv, lines)
+    # the lines a script matched keep their words after the prefix (docs/interface.md)
+    decoded = skinframes("decode", str(capture))
+    n = _pcap_records(capture.read_bytes())
+    assert decoded.stderr.decode().splitlines()[-1] == f"{n} records: {n} decoded, 0 skipped"
+
+
+def _pcap_records(data: bytes) -> int:
+    """Records of a classic pcap, walked by its headers (24-byte file header, 16-byte record
+    header whose third word is the captured length; little-endian here)."""
+    import struct
+
+    at, n = 24, 0
+    while at < len(data):
+        (incl,) = struct.unpack_from("<I", data, at + 8)
+        at, n = at + 16 + incl, n + 1
+    return n
+
+
+# --- - is stdout for every output a pipe carries, stdin for every input ---------------------------
+def test_wireshark_plugin_and_sii_out_dash_write_to_stdout(tmp_path: Path) -> None:
+    lua = tmp_path / "s.lua"
+    assert skinframes("wireshark-plugin", "--out", str(lua)).returncode == 0
+    piped = skinframes("wireshark-plugin", "--out", "-")
+    assert piped.returncode == 0 and piped.stdout == lua.read_bytes() and piped.stderr == b""
+    esi = tmp_path / "a.xml"
+    esi.write_bytes(ESI)
+    image = tmp_path / "a.bin"
+    assert skinframes("sii", str(esi), "--out", str(image)).returncode == 0
+    piped = skinframes("sii", "-", "--out", "-", stdin=ESI)  # ESI from stdin, image to stdout
+    assert piped.returncode == 0, piped.stderr
+    assert piped.stdout == image.read_bytes()
+    decoded_file = skinframes("sii", str(image), "--json")
+    decoded_pipe = skinframes("sii", "-", "--json", stdin=image.read_bytes())
+    assert decoded_pipe.returncode == 0 and decoded_pipe.stdout == decoded_file.stdout
+    assert not (ROOT / "-").exists()
+
+
+def test_can_logs_and_taxels_read_standard_input(tmp_path: Path) -> None:
+    log = _skin_log(tmp_path)
+    from_file = skinframes("can", "decode", str(log), "--json")
+    from_pipe = skinframes("can", "decode", "-", "--log-format", "asc", "--json",
+                           stdin=log.read_bytes())  # fmt: skip
+    assert from_pipe.returncode == 0, from_pipe.stderr
+    assert from_pipe.stdout == from_file.stdout and from_pipe.stderr == from_file.stderr
+    cmp_file = skinframes("compare", str(log), "--json")
+    cmp_pipe = skinframes("compare", "-", "--log-format", "asc", "--json", stdin=log.read_bytes())
+    assert cmp_pipe.returncode == 0 and cmp_pipe.stdout == cmp_file.stdout
+    bare = skinframes("can", "decode", "-", stdin=log.read_bytes())
+    assert bare.returncode == 2
+    assert bare.stderr.decode().splitlines() == [
+        "skinframes: error: LOG -: standard input has no suffix; --log-format FMT names it"
+    ]
+    capture = tmp_path / "x.pcap"
+    assert (
+        skinframes(*SIM[:2], "--nodes", "2", "--bytes", "192", "--pcap", str(capture)).returncode
+        == 0
+    )
+    a, b = tmp_path / "a.npy", tmp_path / "b.npy"
+    assert skinframes("decode", str(capture), "--taxels", str(a)).returncode == 0
+    piped = skinframes("decode", "-", "--taxels", str(b), stdin=capture.read_bytes())
+    assert piped.returncode == 0, piped.stderr
+    assert a.read_bytes() == b.read_bytes()
+
+
+def test_decode_taxels_of_a_capture_without_skin_data_is_an_error(
+    tmp_path: Path, shared_captures: Path
+) -> None:
+    # real terminals' start-up and cyclic data (SOURCES.md): no 16 x 12 taxels anywhere; it
+    # used to give 255 samples, every one missing, and exit 0
+    capture = shared_captures / "ethercrab_replay-ek1100-el2828-el2889.pcapng"
+    out = tmp_path / "t.npy"
+    result = skinframes("decode", str(capture), "--taxels", str(out))
+    assert result.returncode == 2
+    (line,) = result.stderr.decode().splitlines()
+    assert line.startswith("skinframes: error: capture of 3578 records: no skin taxels: "), line
+    assert "nothing written" in line
+    assert list(tmp_path.iterdir()) == []
+
+
+# --- can convert: the size estimate of simulate --------------------------------------------------
+def test_can_convert_refuses_a_pcap_over_the_limit_before_writing(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    from skinframes_cli import main, simulate
+
+    log = _skin_log(tmp_path)  # 3 samples of one board
+    one = tmp_path / "one.pcap"  # one cycle of the same network, written by simulate
+    assert skinframes("simulate", "ecat", "--nodes", "1", "--bytes", "192", "--cycles", "1",
+                      "--pcap", str(one)).returncode == 0  # fmt: skip
+    monkeypatch.setattr(simulate, "LARGE_PCAP_BYTES", 2 * one.stat().st_size)
+    out = tmp_path / "c.pcap"
+    assert main(["can", "convert", str(log), "--to", "ecat", "--pcap", str(out)]) == 2
+    (line,) = capsys.readouterr().err.splitlines()
+    gb = 3 * one.stat().st_size / 1e9
+    assert line == (
+        f"skinframes: error: --pcap {out}: about {gb:.1f} GB (3 cycles of {one.stat().st_size} "
+        f"bytes), more than {2 * one.stat().st_size / 1e9:g} GB; --allow-large-pcap writes it"
+    )
+    assert not out.exists()
+    argv = ["can", "convert", str(log), "--to", "ecat", "--pcap", str(out), "--allow-large-pcap"]
+    assert main(argv) == 0 and out.exists()
