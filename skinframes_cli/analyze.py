@@ -12,6 +12,7 @@ import csv
 import json
 import math
 import sys
+from collections import Counter
 from pathlib import Path
 from typing import Any, Final
 
@@ -212,13 +213,33 @@ def _epl_text(e: EplAnalysis) -> list[str]:
     return out
 
 
+def pattern_order(e: EcatAnalysis) -> tuple[list[int], list[int], list[int]]:
+    """The patterns' numbers (as in JSON, CSV and the plot) in the order the text lists them:
+    the cyclic ones (process data), then the others sent more than once, each busiest first;
+    and apart, the patterns of one frame, which the text summarises in one line."""
+
+    def busiest(i: int) -> tuple[int, int]:
+        return (-e.patterns[i].frames, i)
+
+    cyclic = sorted((i for i, p in enumerate(e.patterns) if p.cyclic), key=busiest)
+    repeated = sorted(
+        (i for i, p in enumerate(e.patterns) if not p.cyclic and p.frames > 1), key=busiest
+    )
+    once = [i for i, p in enumerate(e.patterns) if not p.cyclic and p.frames <= 1]
+    return cyclic, repeated, once
+
+
 def _ecat_text(e: EcatAnalysis) -> list[str]:
+    cyclic, repeated, once = pattern_order(e)
     out = [
         f"EtherCAT: {e.frames} frames ({e.undecodable} undecodable), master ports "
         + ", ".join(e.ports)
+        + f"; {len(e.patterns)} patterns: {len(cyclic)} cyclic, {len(repeated)} repeated, "
+        f"{len(once)} of one frame"
     ]
-    shown = [(i, p) for i, p in enumerate(e.patterns) if p.cyclic or p.frames > 1]
-    for i, p in shown[:TEXT_LIST_LIMIT]:
+    shown = [*cyclic, *repeated]
+    for i in shown[:TEXT_LIST_LIMIT]:
+        p = e.patterns[i]
         out.append(
             f"  pattern {i}{' (cyclic)' if p.cyclic else ''} from {p.port}: {p.frames} sent, "
             f"{p.returned} returned, {len(p.unanswered)} unanswered: {p.text}"
@@ -228,7 +249,19 @@ def _ecat_text(e: EcatAnalysis) -> list[str]:
             out.append(f"    round trip: {_stats_line(p.round_trip)}")
         out.append(f"    expected wkc: {list(p.expected_wkc)}")
     if len(shown) > TEXT_LIST_LIMIT:
-        out.append(f"  ... {len(shown) - TEXT_LIST_LIMIT} more patterns (--json or --csv)")
+        out.append(
+            f"  ... {len(shown) - TEXT_LIST_LIMIT} more repeated patterns, "
+            f"{sum(e.patterns[i].frames for i in shown[TEXT_LIST_LIMIT:])} frames "
+            "(--json or --csv)"
+        )
+    if once:
+        commands = Counter(e.patterns[i].text.split(" ", 1)[0] for i in once)
+        kinds = ", ".join(f"{cmd} {n}" for cmd, n in commands.most_common())
+        answered = sum(e.patterns[i].returned for i in once)
+        out.append(
+            f"  {len(once)} patterns of one frame each (first datagram {kinds}), {answered} "
+            f"returned: patterns {_ranges(once)} (--json or --csv)"
+        )
     _limited(
         [
             f"  wkc: frame {d.frame} pattern {d.pattern} datagram {d.datagram}: "
@@ -245,6 +278,17 @@ def _ecat_text(e: EcatAnalysis) -> list[str]:
         out,
     )
     return out
+
+
+def _ranges(numbers: list[int]) -> str:
+    """``3..5, 9, 12..40``: sorted numbers as runs."""
+    runs: list[list[int]] = []
+    for n in sorted(numbers):
+        if runs and n == runs[-1][1] + 1:
+            runs[-1][1] = n
+        else:
+            runs.append([n, n])
+    return ", ".join(f"{a}..{b}" if b > a else f"{a}" for a, b in runs)
 
 
 # --- CSV ------------------------------------------------------------------------------------------
@@ -313,67 +357,166 @@ def _write_csv(folder: Path, a: Analysis, doc: dict[str, Any]) -> None:
 
 
 # --- picture --------------------------------------------------------------------------------------
+LEGEND_MAX: Final = 10  # curves drawn one per node/pattern up to this many; beyond, a summary
+
+
 def _plot(out: Path, a: Analysis) -> None:
-    """Period and response-time histograms and a state timeline, one row of three panels."""
+    """Period and response-time panels and, when the capture shows states, a state timeline.
+
+    Readable at 160 nodes: up to :data:`LEGEND_MAX` nodes one curve each, more as a summary (the
+    response time per node as median and quartiles, the number of nodes in each state over
+    time); legends beside the axes, never over them; plain time axes (no offset), integer
+    counts; patterns named by their numbers in the JSON.
+    """
     import matplotlib
 
     matplotlib.use("Agg")
     import matplotlib.pyplot as plt
+    from matplotlib.ticker import MaxNLocator
 
-    fig, (ax_period, ax_response, ax_state) = plt.subplots(1, 3, figsize=(16, 4.5))
+    states = _state_series(a)
+    panels = 3 if states else 2
+    fig, axes = plt.subplots(1, panels, figsize=(6 * panels, 4.5), layout="constrained")
+    ax_period, ax_response = axes[0], axes[1]
     if a.epl is not None and len(a.epl.soc_period_ns):
         ax_period.hist(a.epl.soc_period_ns / _NS_PER_US, bins=50)
         ax_period.set_title("EPL SoC period")
-        for n in sorted(a.epl.response_ns):
-            if len(a.epl.response_ns[n]):
+        nodes = [n for n in sorted(a.epl.response_ns) if len(a.epl.response_ns[n])]
+        if len(nodes) <= LEGEND_MAX:
+            for n in nodes:
                 ax_response.hist(
                     a.epl.response_ns[n] / _NS_PER_US, bins=50, alpha=0.6, label=f"CN {n}"
                 )
+            _counts(ax_response, "frames")
+            _legend_beside(ax_response)
+        else:
+            _per_node(ax_response, nodes, [a.epl.response_ns[n] / _NS_PER_US for n in nodes])
         ax_response.set_title("PReq -> PRes response time")
-        if len(a.epl.response_ns) <= 10:
-            ax_response.legend(fontsize="small")
-        nodes = sorted({s.node for s in a.epl.states})
-        order = {name: i for i, name in enumerate(NmtState.__members__)}  # DS 301 order
-        names = sorted({s.after for s in a.epl.states}, key=lambda n: (order.get(n, 99), n))
-        for node in nodes:
-            points = [(s.time_ns, names.index(s.after)) for s in a.epl.states if s.node == node]
-            xs = [(t - a.epl.states[0].time_ns) / 1e9 for t, _ in points]
-            ax_state.step(xs, [v for _, v in points], where="post", label=f"node {node}")
-        ax_state.set_yticks(range(len(names)), names, fontsize="small")
-        ax_state.set_title("NMT state (step at each change)")
-        ax_state.set_xlabel("s from the first state seen")
     elif a.ecat is not None:
-        cyclic = [p for p in a.ecat.patterns if p.cyclic and len(p.period_ns)] or [
-            p for p in a.ecat.patterns if len(p.period_ns)
+        cyclic, repeated, _ = pattern_order(a.ecat)
+        numbers = [i for i in cyclic if len(a.ecat.patterns[i].period_ns)] or [
+            i for i in repeated if len(a.ecat.patterns[i].period_ns)
         ]
-        for i, p in enumerate(cyclic[:5]):
+        for i in numbers[:5]:
+            p = a.ecat.patterns[i]
             ax_period.hist(p.period_ns / _NS_PER_US, bins=50, alpha=0.6, label=f"pattern {i}")
             if len(p.round_trip_ns):
-                ax_response.hist(p.round_trip_ns / _NS_PER_US, bins=50, alpha=0.6)
-        ax_period.set_title("EtherCAT cyclic-frame period")
-        if cyclic:
-            ax_period.legend(fontsize="small")
+                ax_response.hist(
+                    p.round_trip_ns / _NS_PER_US, bins=50, alpha=0.6, label=f"pattern {i}"
+                )
+        kind = "cyclic" if cyclic else "repeated"
+        drawn = f" ({min(len(numbers), 5)} of {len(numbers)} patterns)" if len(numbers) > 5 else ""
+        ax_period.set_title(f"EtherCAT {kind}-frame period{drawn}")
         ax_response.set_title("EtherCAT round trip")
-        states = [s for s in a.ecat.al_states if s.kind == "reported"]
-        by_value = {s.state: s.value for s in states}  # INIT < PREOP < SAFEOP < OP, errors after
-        names = sorted(by_value, key=lambda n: (by_value[n] & 0x0F, by_value[n]))
-        targets = sorted({s.target for s in states})
-        t0 = states[0].time_ns if states else 0
-        for target in targets:
-            points = [(s.time_ns, names.index(s.state)) for s in states if s.target == target]
-            ax_state.step(
-                [(t - t0) / 1e9 for t, _ in points],
-                [v for _, v in points],
-                where="post",
-                label=target,
-            )
-        ax_state.set_yticks(range(len(names)), names, fontsize="small")
-        ax_state.set_title("AL state reported")
+        for ax in (ax_period, ax_response):
+            _counts(ax, "frames")
+            _legend_beside(ax)
+    if ax_period.has_data():
+        _counts(ax_period, "frames")
+    if states:
+        title, series = states
+        ax_state = axes[2]
+        names = sorted({v for _, pts in series for _, v in pts}, key=lambda n: _state_order(a, n))
+        t0 = min(t for _, pts in series for t, _ in pts)
+        if len(series) <= LEGEND_MAX:
+            for label, pts in series:
+                ax_state.step(
+                    [(t - t0) / 1e9 for t, _ in pts],
+                    [names.index(v) for _, v in pts],
+                    where="post",
+                    label=label,
+                )
+            ax_state.set_yticks(range(len(names)), names, fontsize="small")
+            ax_state.set_title(title)
+        else:  # one curve per state: how many nodes are in it, over time
+            times, counts = _nodes_in_states(series, names)
+            for name in names:
+                ax_state.step([(t - t0) / 1e9 for t in times], counts[name], where="post",
+                              label=name)  # fmt: skip
+            ax_state.yaxis.set_major_locator(MaxNLocator(integer=True))
+            ax_state.set_ylabel("nodes")
+            ax_state.set_title(f"{title}: nodes in each state ({len(series)} nodes)")
         ax_state.set_xlabel("s from the first state seen")
-    for ax in (ax_period, ax_response):
-        ax.set_xlabel("us")
-        ax.set_ylabel("frames")
-    if ax_state.get_legend_handles_labels()[0]:
-        ax_state.legend(fontsize="small")
-    fig.tight_layout()
+        ax_state.ticklabel_format(axis="x", useOffset=False, style="plain")
+        _legend_beside(ax_state)
     save_figure(fig, out, dpi=100)
+
+
+def _counts(ax: Any, what: str) -> None:
+    """A histogram's axes: plain microseconds (no offset), integer counts."""
+    from matplotlib.ticker import MaxNLocator
+
+    ax.set_xlabel("us")
+    ax.set_ylabel(what)
+    ax.ticklabel_format(axis="x", useOffset=False, style="plain")
+    ax.yaxis.set_major_locator(MaxNLocator(integer=True))
+
+
+def _legend_beside(ax: Any) -> None:
+    """A legend below the axes (never over the data), when there is something to name."""
+    handles, labels = ax.get_legend_handles_labels()
+    if handles:
+        ax.legend(
+            handles, labels, fontsize="small", loc="upper center", bbox_to_anchor=(0.5, -0.18),
+            ncols=min(len(labels), 3), frameon=False,
+        )  # fmt: skip
+
+
+def _per_node(ax: Any, nodes: list[int], values_us: list[Any]) -> None:
+    """Median and quartiles of each node's times, against the node (many nodes)."""
+    import numpy as np
+
+    q1, med, q3 = (np.array([np.percentile(v, q) for v in values_us]) for q in (25, 50, 75))
+    ax.errorbar(nodes, med, yerr=[med - q1, q3 - med], fmt=".", markersize=3, elinewidth=0.8)
+    ax.set_xlabel("CN node id")
+    ax.set_ylabel("us (median, quartiles)")
+    ax.ticklabel_format(axis="y", useOffset=False, style="plain")
+
+
+def _state_order(a: Analysis, name: str) -> tuple[int, str]:
+    """EPL: DS 301's order of NMT states; EtherCAT: INIT < PREOP < SAFEOP < OP, errors after."""
+    if a.epl is not None and a.epl.states:
+        order = {n: i for i, n in enumerate(NmtState.__members__)}
+        return (order.get(name, 99), name)
+    values = {s.state: s.value for s in a.ecat.al_states} if a.ecat is not None else {}
+    v = values.get(name, 0xFF)
+    return (v & 0x0F, name) if v != 0xFF else (99, name)
+
+
+def _state_series(a: Analysis) -> tuple[str, list[tuple[str, list[tuple[int, str]]]]] | None:
+    """(title, [(node label, [(time_ns, state)])]) of the states the capture shows, or None."""
+    if a.epl is not None and a.epl.states:
+        nodes = sorted({s.node for s in a.epl.states})
+        return "NMT state", [
+            (f"node {n}", [(s.time_ns, s.after) for s in a.epl.states if s.node == n])
+            for n in nodes
+        ]
+    if a.epl is None and a.ecat is not None:
+        reported = [s for s in a.ecat.al_states if s.kind == "reported"]
+        if reported:
+            targets = sorted({s.target for s in reported})
+            return "AL state reported", [
+                (t, [(s.time_ns, s.state) for s in reported if s.target == t]) for t in targets
+            ]
+    return None
+
+
+def _nodes_in_states(
+    series: list[tuple[str, list[tuple[int, str]]]], names: list[str]
+) -> tuple[list[int], dict[str, list[int]]]:
+    """At each change, how many nodes are in each state (a node counts from its first state)."""
+    events = sorted((t, i, v) for i, (_, pts) in enumerate(series) for t, v in pts)
+    now: dict[int, str] = {}
+    times: list[int] = []
+    counts: dict[str, list[int]] = {n: [] for n in names}
+    for t, i, v in events:
+        now[i] = v
+        if times and times[-1] == t:
+            for n in names:
+                counts[n].pop()
+            times.pop()
+        times.append(t)
+        tally = Counter(now.values())
+        for n in names:
+            counts[n].append(tally.get(n, 0))
+    return times, counts

@@ -202,3 +202,105 @@ def test_json_keys_are_documented(capsys: pytest.CaptureFixture[str], path: Path
     from test_interface_doc import assert_documented, keys
 
     assert_documented("analyze", keys(analyze(capsys, str(path))))
+
+
+# --- the text leads with what matters; the plot stays readable (issue 42, Build 4) ----------------
+def test_real_capture_leads_with_the_cyclic_process_data(
+    capsys: pytest.CaptureFixture[str], shared_captures: Path, tshark: str
+) -> None:
+    import subprocess
+
+    path = shared_captures / "ethercrab_replay-ek1100-el2828-el2889.pcapng"
+    # tshark: the frames carrying the process data (LRW) as the master sent them (WKC 0)
+    sent = subprocess.run(
+        [tshark, "-r", str(path), "-Y", "ecat.cmd == 12 && ecat.cnt == 0"],
+        capture_output=True, text=True, check=True, timeout=300,
+    ).stdout.splitlines()  # fmt: skip
+    assert main(["analyze", str(path)]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    doc = analyze(capsys, str(path))
+    patterns = doc["ecat"]["patterns"]
+    cyclic = sorted((p for p in patterns if p["cyclic"]), key=lambda p: -p["frames"])
+    assert sum(p["frames"] for p in cyclic) == len(sent) == 263
+    busiest = cyclic[0]
+    head = lines[:15]
+    assert any(
+        line.startswith(f"  pattern {busiest['pattern']} (cyclic) from ") for line in head
+    ), head
+    assert lines[2].startswith(f"  pattern {busiest['pattern']} (cyclic)")  # first of all
+    assert f"{busiest['frames']} sent" in lines[2] and busiest["datagrams"].startswith("LRW")
+    once = [p["pattern"] for p in patterns if not p["cyclic"] and p["frames"] == 1]
+    (summary,) = [line for line in lines if "patterns of one frame each" in line]
+    assert summary.startswith(f"  {len(once)} patterns of one frame each (first datagram ")
+    assert f"{len(patterns)} patterns: {len(cyclic)} cyclic" in lines[1]
+
+
+def _figure_of(monkeypatch: pytest.MonkeyPatch, argv: list[str]) -> Any:
+    """Run analyze --plot and keep the figure it saves (and fail on any warning)."""
+    import warnings
+
+    import skinframes_cli.analyze as cli
+
+    kept: list[Any] = []
+
+    def keep(fig: Any, out: Path, **kw: Any) -> None:
+        fig.canvas.draw()
+        kept.append(fig)
+
+    monkeypatch.setattr(cli, "save_figure", keep)
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        assert main(["analyze", *argv]) == 0
+    (fig,) = kept
+    return fig
+
+
+def _readable(fig: Any) -> None:
+    from matplotlib.ticker import MaxNLocator
+
+    for ax in fig.axes:
+        assert ax.has_data(), ax.get_title()  # no empty panel
+        assert ax.xaxis.get_major_formatter().get_offset() == "", ax.get_title()
+        if ax.get_ylabel() in ("frames", "nodes"):
+            assert isinstance(ax.yaxis.get_major_locator(), MaxNLocator)
+            assert all(float(t).is_integer() for t in ax.get_yticks())
+        legend = ax.get_legend()
+        if legend is not None:
+            assert len(legend.get_texts()) <= 10
+            box, frame = legend.get_window_extent(), ax.get_window_extent()
+            assert not box.overlaps(frame), ax.get_title()  # beside the axes, not over them
+
+
+def test_plot_names_patterns_as_the_json_does(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, shared_captures: Path,
+    tmp_path: Path,
+) -> None:  # fmt: skip
+    path = shared_captures / "ethercrab_replay-ek1100-el2828-el2889.pcapng"
+    doc = analyze(capsys, str(path))
+    cyclic = {f"pattern {p['pattern']}" for p in doc["ecat"]["patterns"] if p["cyclic"]}
+    fig = _figure_of(monkeypatch, [str(path), "--plot", str(tmp_path / "a.png")])
+    capsys.readouterr()
+    labels = {t.get_text() for t in fig.axes[0].get_legend().get_texts()}
+    assert labels == cyclic == {"pattern 100", "pattern 101"}
+    _readable(fig)
+
+
+def test_plot_at_160_nodes_is_readable(
+    capsys: pytest.CaptureFixture[str], monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    pcap = tmp_path / "epl160.pcap"
+    simulate(capsys, "epl", "--nodes", "160", "--bytes", "192", "--cycles", "20", "--pcap",
+             str(pcap))  # fmt: skip
+    fig = _figure_of(monkeypatch, [str(pcap), "--plot", str(tmp_path / "a.png")])
+    capsys.readouterr()
+    assert len(fig.axes) == 3
+    assert fig.axes[1].get_xlabel() == "CN node id"  # 160 histograms would be unreadable
+    assert "nodes in each state" in fig.axes[2].get_title()
+    _readable(fig)
+    ecat = tmp_path / "ecat.pcap"  # no state reported: two panels, none empty
+    simulate(capsys, "ecat", "--nodes", "160", "--bytes", "192", "--cycles", "20", "--pcap",
+             str(ecat))  # fmt: skip
+    fig = _figure_of(monkeypatch, [str(ecat), "--plot", str(tmp_path / "b.png")])
+    capsys.readouterr()
+    assert len(fig.axes) == 2
+    _readable(fig)
