@@ -33,7 +33,7 @@ from skinframes.findings import (
 from skinframes.pcap import (
     LINKTYPE_CAN_SOCKETCAN,
     LINKTYPE_ETHERNET,
-    Capture,
+    RecordSource,
     read_capture,
 )
 from skinframes.pcap_plain import NotPlainError, RecordRow, iter_plain_pcap, record_rows
@@ -329,7 +329,7 @@ def _socketcan_findings(data: bytes) -> list[Finding]:
 
 
 def check_capture(
-    capture: Capture, *, progress: Callable[[int], None] | None = None
+    capture: RecordSource, *, progress: Callable[[int], None] | None = None
 ) -> CaptureReport:
     """Run every check on every record of ``capture``, reading it once (streamed).
     ``progress``: called with the number of records read since the last call."""

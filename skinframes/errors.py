@@ -20,6 +20,8 @@ Every error the library raises on bad input comes from here::
         ├── UnsupportedFormatError      a CAN trace format that cannot hold a frame as given
         └── CaptureError                a capture file that cannot be written as asked (path
                                         refused, a mark classic pcap cannot carry, arrays disagree)
+    InterfaceError                      a live capture cannot start: no such interface, not
+                                        root / no CAP_NET_RAW, not Linux
     (emulator.errors.EmulatorError continues the tree: TopologyError, ScheduleError, LinkError)
 
 Wrong argument *types* stay ``TypeError``. construct's and python-can's exceptions never escape:
@@ -43,6 +45,7 @@ __all__ = [
     "EsiFormatError",
     "FieldRangeError",
     "FrameTooLargeError",
+    "InterfaceError",
     "InvalidFieldError",
     "LengthMismatchError",
     "PcapFormatError",
@@ -174,3 +177,9 @@ def _path(exc: Exception) -> str | None:
     if not path:
         return None
     return str(path).replace("(parsing) -> ", "").replace("(building) -> ", "").replace(" -> ", ".")
+
+
+class InterfaceError(SkinframesError):
+    """A live capture cannot start on the network interface asked for: there is no such
+    interface, the process lacks root or CAP_NET_RAW, or the system has no AF_PACKET (not
+    Linux)."""

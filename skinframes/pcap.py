@@ -34,7 +34,7 @@ import zlib
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import IO, Final
+from typing import IO, Final, Protocol
 
 from skinframes.capture_writer import (
     CAPTURE_SNAPLEN,
@@ -73,6 +73,7 @@ __all__ = [
     "MarkedRecord",
     "PcapWriter",
     "Record",
+    "RecordSource",
     "Skipped",
     "iter_capture",
     "parse_capture",
@@ -206,6 +207,27 @@ class _Tally:
     records: int = 0
     skipped: list[Skipped] = field(default_factory=list)
     findings: list[FrameFinding] = field(default_factory=list)
+
+
+class RecordSource(Protocol):
+    """What reads like a capture: its records once, in order, then what it counted
+    (:class:`Capture` for a file, :class:`skinframes.live_capture.LiveCapture` for an interface)."""
+
+    path: str
+
+    def __iter__(self) -> Iterator[Record]: ...
+
+    @property
+    def skipped(self) -> tuple[Skipped, ...]:
+        """The records that could not be read."""
+
+    @property
+    def findings(self) -> tuple[FrameFinding, ...]:
+        """What is wrong in the source but did not cost a record."""
+
+    @property
+    def total(self) -> int:
+        """Records found: decoded + skipped."""
 
 
 class Capture:

@@ -25,6 +25,7 @@ from skinframes.errors import SkinframesError
 from skinframes.powerlink import NmtState
 from skinframes_cli.decode import open_capture
 from skinframes_cli.figure import save_figure
+from skinframes_cli.live import add_live, capture_input, is_live
 from skinframes_cli.progress import progress_bar
 
 MODEL_PRESET: Final = "wire"
@@ -42,7 +43,9 @@ def add_parser(sub: Any) -> None:
         "datagram pattern, period, round trip, working-counter deviations, AL states. Both: the "
         "network the capture shows and the emulator's cycle time for it (wire preset).",
     )
-    p.add_argument("path", help="capture file (pcap, pcapng, gzip); - for standard input")
+    p.add_argument(
+        "path", nargs="?", help="capture file (pcap, pcapng, gzip); - for standard input"
+    )
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.add_argument("--csv", metavar="DIR", help="write one CSV file per table into DIR")
     p.add_argument("--plot", metavar="FILE", help="histograms and state timeline (.png or .svg)")
@@ -59,6 +62,7 @@ def add_parser(sub: Any) -> None:
         metavar="US",
         help="EPL: the MN's PRes timeout; a PRes later than this after its PReq is late",
     )
+    add_live(p)
     p.set_defaults(run=run)
 
 
@@ -94,6 +98,34 @@ def run(args: argparse.Namespace) -> int:
     if args.plot is not None and Path(args.plot).suffix.lower() not in (".png", ".svg"):
         raise SkinframesError(f"{args.plot}: the plot is written as .png or .svg")
     timeout_ns = None if args.pres_timeout_us is None else round(args.pres_timeout_us * 1000)
+    live = is_live(args)
+    if live:
+        with capture_input(args, args.count) as capture:
+            analysis = analyze_capture(
+                capture, expected_wkc=args.expected_wkc, pres_timeout_ns=timeout_ns
+            )
+        source = capture.path
+    else:
+        analysis = _analyze_file(args, timeout_ns)
+        source = str(args.path)
+    models = {c.protocol: model_cycle_us(c) for c in analysis.config}
+    doc = analysis.to_json()
+    doc["path"] = source
+    doc["model_preset"] = MODEL_PRESET
+    for c in doc["config"]:
+        c["model_cycle_us"] = models[c["protocol"]]
+    if args.csv is not None:
+        _write_csv(Path(args.csv), analysis, doc)
+    if args.plot is not None:
+        _plot(Path(args.plot), analysis)
+    if args.json:
+        print(json.dumps(doc, indent=2))
+    else:
+        _print_text(doc, analysis)
+    return 0
+
+
+def _analyze_file(args: argparse.Namespace, timeout_ns: int | None) -> Analysis:
     # a counter of the frames read, on a terminal (a total would cost a pass over the file)
     with progress_bar(None, "frames") as advance:
         if args.path == "-":  # standard input, streamed as decode and check read it
@@ -110,21 +142,7 @@ def run(args: argparse.Namespace) -> int:
                 pres_timeout_ns=timeout_ns,
                 progress=advance,
             )
-    models = {c.protocol: model_cycle_us(c) for c in analysis.config}
-    doc = analysis.to_json()
-    doc["path"] = str(args.path)
-    doc["model_preset"] = MODEL_PRESET
-    for c in doc["config"]:
-        c["model_cycle_us"] = models[c["protocol"]]
-    if args.csv is not None:
-        _write_csv(Path(args.csv), analysis, doc)
-    if args.plot is not None:
-        _plot(Path(args.plot), analysis)
-    if args.json:
-        print(json.dumps(doc, indent=2))
-    else:
-        _print_text(doc, analysis)
-    return 0
+    return analysis
 
 
 # --- text -----------------------------------------------------------------------------------------

@@ -13,10 +13,11 @@ from collections.abc import Iterable
 from dataclasses import dataclass
 from typing import Any
 
-from skinframes.check import FrameFinding, check_capture, check_file
+from skinframes.check import CaptureReport, FrameFinding, check_capture, check_file
 from skinframes.findings import Severity
 from skinframes.text import escape
 from skinframes_cli.decode import open_capture
+from skinframes_cli.live import add_live, capture_input, is_live
 from skinframes_cli.progress import progress_bar
 
 
@@ -31,7 +32,9 @@ def add_parser(sub: Any) -> None:
         "their count and first and last frame; errors first. Exit status 1 when any finding is "
         "an error.",
     )
-    p.add_argument("path", help="capture file (pcap, pcapng, gzip); - for standard input")
+    p.add_argument(
+        "path", nargs="?", help="capture file (pcap, pcapng, gzip); - for standard input"
+    )
     p.add_argument("--json", action="store_true", help="one JSON document (every finding)")
     p.add_argument(
         "--verbose",
@@ -46,6 +49,7 @@ def add_parser(sub: Any) -> None:
         help="hide findings below this severity (default: warning in the listing, "
         "info with --verbose and in --json)",
     )
+    add_live(p)
     p.set_defaults(run=run)
 
 
@@ -88,12 +92,25 @@ def _frames(g: Group) -> str:
 
 def run(args: argparse.Namespace) -> int:
     """Check and report; the exit status survives a reader that leaves (``| head -1``)."""
+    if is_live(args):
+        with capture_input(args, args.count) as live:
+            report = check_capture(live)
+    else:
+        report = _check_file(args)
+    return _report(args, report)
+
+
+def _check_file(args: argparse.Namespace) -> CaptureReport:
     with progress_bar(None, "frames") as advance:  # on a terminal only (no cost elsewhere)
         seen = advance if sys.stderr.isatty() else None
         if args.path == "-":
             report = check_capture(open_capture("-"), progress=seen)
         else:
             report = check_file(args.path, progress=seen)
+    return report
+
+
+def _report(args: argparse.Namespace, report: CaptureReport) -> int:
     if args.min_severity is not None:
         floor = Severity[args.min_severity.upper()]
     else:

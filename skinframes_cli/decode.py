@@ -9,18 +9,17 @@ import sys
 from typing import Any
 
 from skinframes.errors import SkinframesError
-from skinframes.pcap import Capture, read_capture
+from skinframes.pcap import Capture
 from skinframes.selection import FrameSelection
 from skinframes.text import escape
+from skinframes_cli.live import add_live, capture_input, file_input, is_live
 from skinframes_cli.options import add_skin_layout, bounded_int, frame_ranges, protocol_arg
 from skinframes_cli.streams import input_path
 
 
 def open_capture(path: str) -> Capture:
     """The capture named on the command line, streamed; ``-`` is standard input."""
-    if path == "-":
-        return read_capture(sys.stdin.buffer)
-    return read_capture(path)
+    return file_input(path)
 
 
 def add_parser(sub: Any) -> None:
@@ -32,7 +31,7 @@ def add_parser(sub: Any) -> None:
         "Skipped records are reported on stderr with their reason. With --taxels, write the "
         "capture's skin taxels as a numpy array instead.",
     )
-    p.add_argument("path", help="capture file; - for standard input")
+    p.add_argument("path", nargs="?", help="capture file; - for standard input (or --iface)")
     p.add_argument("--json", action="store_true", help="JSON Lines: one object per frame")
     p.add_argument(
         "--taxels",
@@ -70,6 +69,7 @@ def add_parser(sub: Any) -> None:
         metavar="N",
         help="stop after N frames shown",
     )
+    add_live(p, count=False)  # -c above: frames shown, captured live or read
     p.set_defaults(run=run)
 
 
@@ -85,14 +85,27 @@ def selection(args: argparse.Namespace) -> FrameSelection:
 def run(args: argparse.Namespace) -> int:
     """Decode and print, record by record as the capture is read."""
     chosen = selection(args)
+    if is_live(args):
+        if args.taxels:
+            raise SkinframesError(
+                "--taxels reads a capture file twice; capture to a file first (--iface: "
+                "decode, check, analyze)"
+            )
+        with capture_input(args, count=None) as live:
+            return _listing(args, chosen, live, flush=True)
     if args.taxels:
         if chosen.active or args.count is not None:
             raise SkinframesError("--taxels: every frame is read; --protocol, --node, "
                                   "--frames and -c select frames to show")  # fmt: skip
         return _taxels(args)
+    return _listing(args, chosen, open_capture(args.path), flush=False)
+
+
+def _listing(args: argparse.Namespace, chosen: FrameSelection, capture: Any, *, flush: bool) -> int:
+    """Print the selected frames of ``capture`` (a file's or a live one; ``flush``: each line
+    as it comes, for a live capture read through a pipe)."""
     from skinframes.describe import JsonDescriber, describe_record  # here: check needs none
 
-    capture = open_capture(args.path)
     out = sys.stdout
     decoded = shown = 0
     limit = args.count
@@ -120,6 +133,8 @@ def run(args: argparse.Namespace) -> int:
                 f"frame {rec.frame:<6} {f'{sec}.{ns:09d}':>20} {len(rec.data):>5}  {escape(text)}\n"
             )
         shown += 1
+        if flush:
+            out.flush()
         if limit is not None and shown >= limit:
             break
     close = getattr(records, "close", None)
@@ -128,7 +143,7 @@ def run(args: argparse.Namespace) -> int:
     for s in capture.skipped:
         print(f"skipped frame {s.frame}: {escape(s.reason)}", file=sys.stderr)
     for f in capture.findings:
-        where = f"frame {f.frame}" if f.index >= 0 else "file"
+        where = f"frame {f.frame}" if f.index >= 0 else ("capture" if flush else "file")
         print(f"{where}: {escape(f.finding.message)}", file=sys.stderr)
     line = f"{capture.total} records: {decoded} decoded, {len(capture.skipped)} skipped"
     if chosen.active or limit is not None:

@@ -99,9 +99,7 @@ def test_can_decode_third_party_log(
     lines = err.splitlines()
     assert lines[0].startswith("12 frames: 0 skin samples (0 frames), 9 not skin data")
     assert "3 error frames" in lines[0]
-    assert lines[1] == (
-        "not skin data by id: 0x18ebff00x: 6, 0x200: 1, 0x300: 1, 0x6f8: 1"
-    )
+    assert lines[1] == ("not skin data by id: 0x18ebff00x: 6, 0x200: 1, 0x300: 1, 0x6f8: 1")
 
 
 def test_can_decode_legacy_class_and_board_filter(
@@ -137,9 +135,7 @@ def test_can_decode_reports_malformed_and_orphans(
     assert code == 0 and out == ""
     lines = err.splitlines()
     assert "1 orphan heads, 1 orphan tails, 1 malformed" in lines[0]
-    assert lines[1] == (
-        "malformed skin frame 1 (0x4e0): DLC 2, skin frames have 8 data bytes"
-    )
+    assert lines[1] == ("malformed skin frame 1 (0x4e0): DLC 2, skin frames have 8 data bytes")
 
 
 @pytest.mark.parametrize(
@@ -243,10 +239,8 @@ def test_can_decode_reports_records_and_boards(
     assert f"{51 + header} records: 51 decoded, {header} skipped (" in err
     assert lines[-3:] == [
         "board 10: 0 complete samples (4 triangles), 1 incomplete, 0 stray frames",
-        "board 13: 2 complete samples (4 triangles), 1 incomplete, 1 stray frames"
-        " (0x4d2: 1)",
-        "board 14: 3 complete samples (4 triangles), 0 incomplete, 2 stray frames"
-        " (0x4e1: 2)",
+        "board 13: 2 complete samples (4 triangles), 1 incomplete, 1 stray frames (0x4d2: 1)",
+        "board 14: 3 complete samples (4 triangles), 0 incomplete, 2 stray frames (0x4e1: 2)",
     ]
 
 

@@ -2,8 +2,9 @@
 
 Input files the README names (``capture.pcapng``, ``trace.asc``, ``trace.blf``, ``old.log``,
 ``skin.pcap``, the ESI file ``slave.xml``) are made first, from the demo's CAN trace and an emulated capture; then each
-command runs in process in that directory. ``serve`` needs a live interface and root: its line is
-parsed here, and tests/emulator/test_live_soem.py runs it against real masters.
+command runs in process in that directory. ``serve`` and ``--iface`` need a live interface and
+root: their lines are parsed here; tests/emulator/test_live_soem.py and tests/test_cli_live.py run
+them on veth pairs.
 """
 
 from __future__ import annotations
@@ -135,8 +136,9 @@ def test_every_command_line_of_the_readme_runs(
     line: str, workdir: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
     argv = shlex.split(line)[1:]
-    if argv[0] == "serve":
-        build_parser().parse_args(argv)  # runs only as root on a live link (test_live_soem)
+    if argv[0] == "serve" or "--iface" in argv:
+        # runs only as root on a live link (test_live_soem, test_cli_live)
+        build_parser().parse_args(argv)
         return
     old = Path.cwd()
     os.chdir(workdir)
