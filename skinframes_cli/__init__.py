@@ -38,6 +38,7 @@ COMMAND_MODULES: Final = (
     "decode",
     "check",
     "analyze",
+    "watch",
     "can",
     "compare",
     "serve",

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import json
 import os
+import re
 import select
 import shutil
 import signal
@@ -23,12 +24,14 @@ from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
+from pty_util import Terminal
 
 from emulator.live import VethPair, _in_netns, netns_socket, veth_netns
 from skinframes import ethercat, ethernet, powerlink
 from skinframes.errors import InterfaceError
 from skinframes.ethercat import Command, Datagram, EcatFrame
 from skinframes.live_capture import LiveCapture, capture_filter
+from skinframes_cli.watch import REFRESH_S
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 ROOT = Path(__file__).resolve().parent.parent
@@ -298,6 +301,8 @@ def test_analyze_iface_sees_a_real_masters_process_data(net: VethPair, tmp_path:
             pass
         capture = in_netns(net, "analyze", "--iface", MASTER, "--json")
         wait_for_start(capture)
+        view = Terminal("watch", "--iface", MASTER, prefix=("ip", "netns", "exec", net.netns))
+        view.read_until("[watching]")
         cycles = 1000
         master = subprocess.run(
             ["ip", "netns", "exec", net.netns, sys.executable, str(ROOT / "tests" / "soem_master.py"),
@@ -308,6 +313,11 @@ def test_analyze_iface_sees_a_real_masters_process_data(net: VethPair, tmp_path:
         soem = json.loads(master.stdout.splitlines()[-1])
         capture.send_signal(signal.SIGINT)
         out, err = capture.communicate(timeout=120)
+        time.sleep(2 * REFRESH_S)  # the view shows the last frames
+        view.out = ""
+        screen = view.read_until("LRW")
+        view.press("q")
+        assert view.wait() == 0
     finally:
         serve.send_signal(signal.SIGINT)
         serve.communicate(timeout=60)
@@ -318,7 +328,14 @@ def test_analyze_iface_sees_a_real_masters_process_data(net: VethPair, tmp_path:
     assert pd["frames"] >= cycles >= 500 and pd["returned"] == pd["frames"]
     assert pd["unanswered"] == [] and set(soem["wkc"]) == {soem["expected_wkc"]}
     assert pd["steady_wkc"][0] == soem["expected_wkc"]
+    # watch in a terminal shows the same period (its window: the last 2000 of 1000 cycles)
+    row = re.search(r"^ *(\d+)\s+(\d+)\s+([\d.]+)\s.*\sLRW ", screen, re.M)
+    assert row is not None, screen
+    watched_us, measured_us = float(row[3]), pd["period"]["median_ns"] / 1000
+    assert abs(watched_us - measured_us) <= 0.05 * measured_us, (watched_us, measured_us)
+    assert int(row[1]) == pd["frames"] and int(row[2]) == 0
     print(
+        f"watch: period median {watched_us} us; "
         f"process data: {pd['frames']} sent, {pd['returned']} returned, period median "
         f"{pd['period']['median_ns'] / 1000:.1f} us; SOEM's cycle median {soem['cycle_us']}"
     )

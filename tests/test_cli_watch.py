@@ -1,0 +1,102 @@
+"""``skinframes watch``: the terminal view in a pseudo-terminal, the plain lines in a pipe.
+
+Expected figures come from the emulator's own accounting of the run that made the capture
+(``simulate --json``: the cycle time, and the PRes its fault plan dropped per CN), never from
+the monitor under test.
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import re
+import signal
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+from pty_util import ROOT, Terminal
+
+
+@pytest.fixture(scope="module")
+def epl_run(tmp_path_factory: pytest.TempPathFactory) -> tuple[Path, dict[str, object]]:
+    """4 CNs x 192 bytes, 3000 cycles, 1 % of frames dropped on link 2 (CNs 3 and 4 behind it)."""
+    path = tmp_path_factory.mktemp("watch") / "epl.pcap"
+    argv = ["simulate", "epl", "--nodes", "4", "--bytes", "192", "--cycles", "3000",
+            "--fault", "drop:2:0.01", "--seed", "1", "--pcap", str(path), "--json"]  # fmt: skip
+    done = subprocess.run([sys.executable, "-m", "skinframes", *argv], capture_output=True,
+                          text=True, timeout=300, check=True, cwd=ROOT)  # fmt: skip
+    return path, json.loads(done.stdout)
+
+
+def lost(doc: dict[str, object]) -> dict[int, int]:
+    out = {}
+    for line in doc["diagnosis"]:  # type: ignore[attr-defined]
+        m = re.match(r"CN (\d+): (\d+) of \d+ PRes lost", line)
+        if m:
+            out[int(m[1])] = int(m[2])
+    return out
+
+
+def test_the_view_shows_the_emulators_figures_and_obeys_its_keys(
+    epl_run: tuple[Path, dict[str, object]],
+) -> None:
+    path, run = epl_run
+    term = Terminal("watch", str(path))
+    screen = term.read_until("[end of capture]")
+    period = run["cycle_us"]["median"]  # type: ignore[index]
+    assert f"3000 cycles; SoC period median {period:.1f} us" in screen, screen
+    rows = {int(m[1]): m for m in re.finditer(r"^ *(\d) +(\S+) +(\d+) +(\d+) ", screen, re.M)}
+    assert set(rows) == {1, 2, 3, 4}
+    assert {n: int(m[4]) for n, m in rows.items()} == {1: 0, 2: 0, **lost(run)}
+    assert all(m[2] == "OPERATIONAL" and m[3] == "3000" for m in rows.values())
+    assert "Taxels: triangles in contact per patch" in screen
+    term.out = ""
+    term.press("p")
+    assert "[paused]" in term.read_until("[paused]")
+    term.out = ""
+    term.press("p")
+    term.read_until("[end of capture]")
+    term.press("q")
+    assert term.wait() == 0
+    assert "Traceback" not in term.out
+
+
+def test_ctrl_c_ends_the_view_with_0(epl_run: tuple[Path, dict[str, object]]) -> None:
+    path, _ = epl_run
+    term = Terminal("watch", str(path), "--speed", "0.001")  # 380 ms of capture in 6 minutes
+    term.read_until("[watching]")
+    os.kill(term.pid, signal.SIGINT)
+    assert term.wait() == 0
+    assert "Traceback" not in term.out
+
+
+def test_plain_lines_when_stdout_is_a_pipe(epl_run: tuple[Path, dict[str, object]]) -> None:
+    path, run = epl_run
+    done = subprocess.run(
+        [sys.executable, "-m", "skinframes", "watch", str(path), "--speed", "0", "--interval",
+         "0.1"], capture_output=True, text=True, timeout=300, check=False, cwd=ROOT,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    lines = done.stdout.splitlines()
+    assert len(lines) >= 3 and lines[-1].endswith("(end)") and "\x1b" not in done.stdout
+    period = run["cycle_us"]["median"]  # type: ignore[index]
+    assert f"epl: period {period:.1f} us" in lines[-1]
+    assert f"4 CNs, missing {sum(lost(run).values())}, OPERATIONAL 4" in lines[-1]
+    times = [float(line.split()[1]) for line in lines]
+    assert times == sorted(times)
+
+
+def test_ecat_plain_line(tmp_path: Path) -> None:
+    path = tmp_path / "ecat.pcap"
+    argv = ["simulate", "ecat", "--nodes", "8", "--bytes", "192", "--cycles", "50",
+            "--pcap", str(path), "--json"]  # fmt: skip
+    run = json.loads(subprocess.run([sys.executable, "-m", "skinframes", *argv],
+                     capture_output=True, text=True, timeout=300, check=True, cwd=ROOT).stdout)  # fmt: skip
+    done = subprocess.run([sys.executable, "-m", "skinframes", "watch", str(path), "--speed", "0"],
+                          capture_output=True, text=True, timeout=300, check=True, cwd=ROOT)  # fmt: skip
+    last = done.stdout.splitlines()[-1]
+    assert f"period {run['cycle_us']['median']:.1f} us jitter 0.0 us" in last, last
+    assert "sent 50 lost 0, wkc 1 deviations 0" in last
+    assert "contact: " in last and " of 8 patches" in last
