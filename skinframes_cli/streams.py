@@ -75,7 +75,11 @@ def input_path(path: str, suffix: str = "") -> Iterator[str]:
     try:
         with os.fdopen(fd, "wb") as f:
             shutil.copyfileobj(sys.stdin.buffer, f, 1 << 20)
-        yield name
+        try:
+            yield name
+        except SkinframesError as exc:  # name the input as the user did, not the copy
+            exc.args = tuple(a.replace(name, STDIO) if isinstance(a, str) else a for a in exc.args)
+            raise
     finally:
         with contextlib.suppress(OSError):
             os.unlink(name)

@@ -448,6 +448,9 @@ def test_can_logs_and_taxels_read_standard_input(tmp_path: Path) -> None:
     cmp_file = skinframes("compare", str(log), "--json")
     cmp_pipe = skinframes("compare", "-", "--log-format", "asc", "--json", stdin=log.read_bytes())
     assert cmp_pipe.returncode == 0 and cmp_pipe.stdout == cmp_file.stdout
+    garbage = skinframes("can", "decode", "-", "--log-format", "asc", stdin=b"garbage\n")
+    assert garbage.returncode == 2  # the error names the input as given, not its copy
+    assert garbage.stderr.decode().startswith("skinframes: error: -: not a readable .asc CAN log")
     bare = skinframes("can", "decode", "-", stdin=log.read_bytes())
     assert bare.returncode == 2
     assert bare.stderr.decode().splitlines() == [
