@@ -50,6 +50,7 @@ BASE: dict[str, list[str]] = {
     "compare": ["compare", "missing.asc"],
     "serve": ["serve", "ecat", "--iface", "sf-no-such0", "--nodes", "2", "--bytes", "2"],
     "analyze": ["analyze", "missing.pcap"],
+    "watch": ["watch", "missing.pcap"],
     "vectors": ["vectors", "--out", "missing-folder"],
     "wireshark-plugin": ["wireshark-plugin", "--out", "missing-folder/skin.lua"],
     "sii": ["sii", "missing.xml", "--out", "o.bin"],
