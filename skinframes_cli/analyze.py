@@ -16,7 +16,10 @@ from collections import Counter
 from pathlib import Path
 from typing import Any, Final
 
+import numpy as np
+
 from emulator import WIRE, EmulatorError, simulate_ecat, simulate_epl
+from emulator.model.params import with_cn_response
 from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_capture, analyze_file
 from skinframes.analysis.ecat import EcatAnalysis
 from skinframes.analysis.epl import EplAnalysis
@@ -66,13 +69,15 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(run=run)
 
 
-def model_cycle_us(config: InferredConfig) -> float | None:
-    """The emulator's median cycle time for the inferred network (wire preset), or None when
-    the emulator cannot build it."""
+def model_cycle_us(config: InferredConfig, cn_response_ps: int | None = None) -> float | None:
+    """The emulator's median cycle time for the inferred network (wire preset; EPL with each
+    CN answering in ``cn_response_ps`` when given, :func:`emulator.model.params.
+    with_cn_response`), or None when the emulator cannot build it."""
     try:
         if config.protocol == "epl":
             cycles = 2 * config.nodes if config.asnd else 2
-            r = simulate_epl(config.nodes, config.bytes, WIRE, cycles=cycles, asnd=config.asnd)
+            params = with_cn_response(WIRE, cn_response_ps)
+            r = simulate_epl(config.nodes, config.bytes, params, cycles=cycles, asnd=config.asnd)
         else:
             r = simulate_ecat(
                 config.nodes,
@@ -114,6 +119,8 @@ def run(args: argparse.Namespace) -> int:
     doc["model_preset"] = MODEL_PRESET
     for c in doc["config"]:
         c["model_cycle_us"] = models[c["protocol"]]
+    if analysis.epl is not None and any(c["protocol"] == "epl" for c in doc["config"]):
+        _model_with_measured_cn(doc, analysis)
     if args.csv is not None:
         _write_csv(Path(args.csv), analysis, doc)
     if args.plot is not None:
@@ -165,6 +172,24 @@ def _limited(lines: list[str], out: list[str]) -> None:
         out.append(f"    ... {len(lines) - TEXT_LIST_LIMIT} more (--json or --csv list all)")
 
 
+def _model_with_measured_cn(doc: dict[str, Any], a: Analysis) -> None:
+    """The EPL network's model beside what it predicts (issue 40): the cycle's used part (SoC to
+    its last frame), and the model again with the CNs' own answer, the median PReq -> PRes time
+    of all polls, as D_CN (``cn_response_median_us``, ``model_cycle_measured_cn_us``; the
+    capture's PReq -> PRes includes the two frames' wire times, so the model is an upper bound
+    there)."""
+    assert a.epl is not None
+    times = [t for t in a.epl.response_ns.values() if len(t)]
+    median_ns = float(np.median(np.concatenate(times))) if times else None
+    for c, config in zip(doc["config"], a.config, strict=True):
+        if c["protocol"] != "epl":
+            continue
+        c["cn_response_median_us"] = None if median_ns is None else median_ns / _NS_PER_US
+        c["model_cycle_measured_cn_us"] = (
+            None if not median_ns else model_cycle_us(config, round(median_ns * 1000))
+        )
+
+
 def _print_text(doc: dict[str, Any], a: Analysis) -> None:
     counts = ", ".join(f"{k} {v}" for k, v in doc["counts"].items())
     out = [f"{doc['path']}: {a.records} records ({counts})"]
@@ -175,6 +200,9 @@ def _print_text(doc: dict[str, Any], a: Analysis) -> None:
     for c in doc["config"]:
         model = c["model_cycle_us"]
         measured = c["measured_period_ns"]
+        if c["protocol"] == "epl" and a.epl is not None and a.epl.used.count:
+            out.append(_epl_network_line(c, a.epl, doc["model_preset"]))
+            continue
         line = (
             f"network ({c['protocol']}): {c['nodes']} nodes x {c['bytes']} bytes, "
             f"{c['layout']}, {c['topology']}{', ASnd' if c['asnd'] else ''}: "
@@ -189,9 +217,34 @@ def _print_text(doc: dict[str, Any], a: Analysis) -> None:
     sys.stdout.write("\n".join(out) + "\n")
 
 
+def _epl_network_line(c: dict[str, Any], e: EplAnalysis, preset: str) -> str:
+    """The EPL network with the model beside what it predicts: the part of the cycle used (SoC
+    to its last frame), not the configured cycle length, which the MN sets."""
+    model, measured_cn = c["model_cycle_us"], c.get("model_cycle_measured_cn_us")
+    line = (
+        f"network (epl): {c['nodes']} nodes x {c['bytes']} bytes, {c['layout']}, "
+        f"{c['topology']}{', ASnd' if c['asnd'] else ''}: cycle used (SoC to its last frame) "
+        f"median {_us(e.used.median_ns)} us of the {_us(c['measured_period_ns'])} us period; model "
+        f"({preset}) {'-' if model is None else f'{model:.3f}'} us with 1 us CNs"
+    )
+    if measured_cn is not None:
+        line += (
+            f", {measured_cn:.3f} us with the CNs' measured "
+            f"{c['cn_response_median_us']:.3f} us (median PReq -> PRes)"
+        )
+    return line
+
+
 def _epl_text(e: EplAnalysis) -> list[str]:
     counts = ", ".join(f"{k} {v}" for k, v in e.message_counts.items())
     out = [f"EPL: {e.frames} frames ({counts})", f"  SoC period: {_stats_line(e.soc_period)}"]
+    if e.used.count:
+        out.append(
+            "  cycle phases (medians): isochronous (SoC -> SoA) "
+            f"{_us(e.isochronous.median_ns)} us, asynchronous (SoA -> next SoC) "
+            f"{_us(e.asynchronous.median_ns)} us, headroom (last frame -> next SoC) "
+            f"{_us(e.headroom.median_ns)} us"
+        )
     for n in sorted(e.responses):
         out.append(
             f"  CN {n:>3}: polled {e.polled.get(n, 0)}, missing "

@@ -304,3 +304,29 @@ def test_plot_at_160_nodes_is_readable(
     capsys.readouterr()
     assert len(fig.axes) == 2
     _readable(fig)
+
+
+def test_epl_model_beside_what_it_predicts(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    """A capture of 4 CNs that answer in 90 us (simulate --cn-response-us, wire preset): the
+    CNs' measured PReq -> PRes lies between 90 us and 90 us plus the two frames' and the hops'
+    times (by hand: PReq and PRes of 16 bytes are 84 bytes on the wire, 6.72 us each, and a hop
+    is 0.46 us of hub and 0.05 ns of cable, at most 4 there and back); the model run again with
+    that as D_CN predicts the emulated cycle to within that margin per CN; the used part of
+    each cycle (SoC to its last frame, the SoA) is the emulated cycle less the SoA's 6.72 us."""
+    pcap = tmp_path / "slow.pcapng"
+    sim = simulate(capsys, "epl", "--nodes", "4", "--bytes", "16", "--preset", "wire",
+                   "--cn-response-us", "90", "--cycles", "6", "--pcap", str(pcap))  # fmt: skip
+    doc = analyze(capsys, str(pcap))
+    (config,) = doc["config"]
+    margin_us = 2 * 6.72 + 8 * 0.46 + 1  # the frames, the hops, and the cables' ns
+    assert 90 <= config["cn_response_median_us"] <= 90 + margin_us
+    cycle = sim["cycle_us"]["median"]
+    assert cycle <= config["model_cycle_measured_cn_us"] <= cycle + 4 * margin_us
+    assert config["model_cycle_us"] == pytest.approx(cycle - 4 * 89, abs=1e-6)  # 1 us CNs
+    used_us = doc["epl"]["phases"]["used"]["median_ns"] / 1000
+    assert used_us == pytest.approx(cycle - 6.72, abs=1e-3)
+    assert main(["analyze", str(pcap)]) == 0
+    line = next(s for s in capsys.readouterr().out.splitlines() if s.startswith("network (epl)"))
+    assert "cycle used (SoC to its last frame)" in line and "with the CNs' measured" in line

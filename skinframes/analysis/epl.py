@@ -5,9 +5,11 @@ What it measures (EPSG DS 301 V1.4.0 section 4.2.4, the isochronous cycle):
 - the SoC period: the time from one SoC's timestamp to the next;
 - the phases of each cycle (SoC to the next SoC), where the paper's model (eqs. 3-10) predicts
   them: the isochronous phase, from the SoC to the SoA (the polls); the asynchronous phase, from
-  the SoA to the next SoC (ASnd, then idle); and the headroom, from the last frame of the cycle
-  to the next SoC (the part of the configured cycle length nothing used). Timestamps are the
-  capture's, so each is measured from frame to frame as the capture stamped them;
+  the SoA to the next SoC (ASnd, then idle); the part used, from the SoC to the cycle's last
+  frame (what the model's cycle time predicts, but for that frame's own duration); and the
+  headroom, from the last frame of the cycle to the next SoC (the part of the configured cycle
+  length nothing used). Timestamps are the capture's, so each is measured from frame to frame as
+  the capture stamped them;
 - per CN, the response time: from a PReq's timestamp to the timestamp of the PRes from the
   node it polled. A PReq whose node sends no PRes before the MN's next frame (any message type
   from node 240) is a *missing* response; a PRes that comes after the PRes timeout (when the
@@ -157,6 +159,7 @@ class EplAnalysis:
     isochronous: Summary  # SoC to SoA, each whole cycle
     asynchronous: Summary  # SoA to the next SoC
     headroom: Summary  # the cycle's last frame to the next SoC
+    used: Summary  # the SoC to the cycle's last frame
 
     def to_json(self) -> dict[str, Any]:
         """The ``epl`` object of ``analyze --json`` (docs/interface.md)."""
@@ -168,6 +171,7 @@ class EplAnalysis:
                 "isochronous": self.isochronous.to_json(),
                 "asynchronous": self.asynchronous.to_json(),
                 "headroom": self.headroom.to_json(),
+                "used": self.used.to_json(),
             },
             "pres_timeout_ns": self.pres_timeout_ns,
             "nodes": [
@@ -244,6 +248,7 @@ class EplAnalyzer:
         self.isochronous = Series()
         self.asynchronous = Series()
         self.headroom = Series()
+        self.used = Series()
 
     def _node(self, node: int) -> _Node:
         n = self.nodes.get(node)
@@ -307,6 +312,7 @@ class EplAnalyzer:
                     self.isochronous.append(self.soa_ns - self.last_soc_ns)
                     self.asynchronous.append(time_ns - self.soa_ns)
                     self.headroom.append(time_ns - last_ns)
+                    self.used.append(last_ns - self.last_soc_ns)
             self.last_soc_ns = time_ns
             self.soa_ns = None
         elif mtype == _PREQ:
@@ -401,4 +407,5 @@ class EplAnalyzer:
             isochronous=Summary.of(self.isochronous.array()),
             asynchronous=Summary.of(self.asynchronous.array()),
             headroom=Summary.of(self.headroom.array()),
+            used=Summary.of(self.used.array()),
         )

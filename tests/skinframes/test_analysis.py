@@ -89,7 +89,7 @@ def test_epl_statistics_equal_tshark_fields(
     pending: tuple[int, int, int] | None = None  # (node, frame, time)
     # the phases of each whole cycle: SoC -> its first SoA, that SoA -> the next SoC, the
     # cycle's last EPL frame -> the next SoC
-    phases: dict[str, list[int]] = {"iso": [], "async": [], "headroom": []}
+    phases: dict[str, list[int]] = {"iso": [], "async": [], "headroom": [], "used": []}
     soc = soa = last = None
     for r in rows:
         frame, t = int(r["frame.number"][0]), epoch_ns(r["frame.time_epoch"][0])
@@ -99,6 +99,7 @@ def test_epl_statistics_equal_tshark_fields(
                 phases["iso"].append(soa - soc)
                 phases["async"].append(t - soa)
                 phases["headroom"].append(t - last)
+                phases["used"].append(last - soc)
             soc, soa = t, None
         elif mtyp == 5 and soc is not None and soa is None:
             soa = t
@@ -118,6 +119,7 @@ def test_epl_statistics_equal_tshark_fields(
     assert_summary(analysis.epl.isochronous, phases["iso"])
     assert_summary(analysis.epl.asynchronous, phases["async"])
     assert_summary(analysis.epl.headroom, phases["headroom"])
+    assert_summary(analysis.epl.used, phases["used"])
     assert len(phases["iso"]) == len(periods)  # (every cycle of these has its SoA)
     for node, values in responses.items():
         assert_summary(analysis.epl.responses[node], values)
