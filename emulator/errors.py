@@ -7,7 +7,8 @@ skinframes.errors.SkinframesError
     │   ├── FaultError                 a fault SPEC that cannot be parsed or does not fit the network
     │   └── PayloadError               given taxels/payloads of the wrong shape or type
     ├── ScheduleError                  frames would overlap, marks a classic pcap cannot carry
-    └── LinkError                      live link: no such interface, no privileges, ip failed
+    ├── LinkError                      live link: no such interface, no privileges, ip failed
+    └── SdoAbortError                  an emulated EPL CN refuses an SDO access (abort code)
 """
 
 from __future__ import annotations
@@ -21,6 +22,7 @@ __all__ = [
     "PayloadError",
     "PresetError",
     "ScheduleError",
+    "SdoAbortError",
     "TopologyError",
 ]
 
@@ -51,3 +53,14 @@ class ScheduleError(EmulatorError):
 
 class LinkError(EmulatorError):
     """The live link cannot be set up: no such interface, no privileges, ``ip`` failed."""
+
+
+class SdoAbortError(EmulatorError):
+    """An emulated EPL CN refuses an SDO access; ``code`` is the DS 301 abort code (Table 58).
+
+    Never escapes a served node: the SDO server answers it as an aborted transfer.
+    """
+
+    def __init__(self, code: int, message: str) -> None:
+        super().__init__(f"{message} (SDO abort {code:#010x})")
+        self.code = code

@@ -31,13 +31,17 @@ import secrets
 import select
 import signal
 import socket
+import struct
 import subprocess
 import threading
 import time
 from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass, field
 from types import FrameType
-from typing import Final
+from typing import Final, Protocol
+
+import numpy as np
+import numpy.typing as npt
 
 import numpy as np
 import numpy.typing as npt
@@ -54,7 +58,9 @@ from skinframes.capture_writer import CaptureWriter
 __all__ = [
     "CPU_BUDGET_US",
     "ETH_P_ECAT",
+    "ETH_P_EPL",
     "LinkError",
+    "Publisher",
     "RawSocket",
     "ServeStats",
     "TaxelFeed",
@@ -66,30 +72,40 @@ __all__ = [
 ]
 
 ETH_P_ECAT: Final = 0x88A4
+ETH_P_EPL: Final = 0x88AB  # Ethernet POWERLINK (DS 301 4.6.1.1)
 MAX_FRAME_BYTES: Final = 1522  # VLAN-tagged maximum without FCS
 PACKET_OUTGOING: Final = 4  # linux/if_packet.h: a frame this host sent
+SOL_PACKET: Final = 263  # linux/socket.h
+PACKET_ADD_MEMBERSHIP: Final = 1  # linux/if_packet.h
+PACKET_MR_PROMISC: Final = 1  # linux/if_packet.h, struct packet_mreq.mr_type
 CLONE_NEWNET: Final = 0x40000000
 SOCKET_BUFFER_BYTES: Final = 1 << 22
 
 
 # --- raw socket ----------------------------------------------------------------------------------
 class RawSocket:
-    """An AF_PACKET socket for EtherType 0x88A4 on one interface (frames without FCS).
+    """An AF_PACKET socket for one EtherType (default 0x88A4) on one interface (no FCS).
+
+    ``promiscuous`` asks the interface for every frame (PACKET_MR_PROMISC, packet(7)), as
+    emulated nodes with MAC addresses of their own need (EPL: the MN sends each PReq to its
+    CN's MAC address); the membership ends with the socket.
 
     Raises:
         LinkError: no such interface, or not root / no CAP_NET_RAW.
     """
 
-    def __init__(self, iface: str) -> None:
+    def __init__(
+        self, iface: str, ethertype: int = ETH_P_ECAT, *, promiscuous: bool = False
+    ) -> None:
         self.iface = iface
         try:
-            sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ETH_P_ECAT))
+            sock = socket.socket(socket.AF_PACKET, socket.SOCK_RAW, socket.htons(ethertype))
         except PermissionError as exc:
             raise LinkError(
                 f"opening a raw socket on {iface!r} needs root or CAP_NET_RAW ({exc.strerror})"
             ) from exc
         try:
-            sock.bind((iface, ETH_P_ECAT))
+            sock.bind((iface, ethertype))
         except OSError as exc:
             sock.close()
             if exc.errno in (errno.ENODEV, errno.ENXIO):
@@ -98,6 +114,10 @@ class RawSocket:
         for opt in (socket.SO_RCVBUF, socket.SO_SNDBUF):
             with contextlib.suppress(OSError):
                 sock.setsockopt(socket.SOL_SOCKET, opt, SOCKET_BUFFER_BYTES)
+        if promiscuous:
+            mreq = struct.pack("iHH8s", socket.if_nametoindex(iface), PACKET_MR_PROMISC, 0, b"")
+            with contextlib.suppress(OSError):
+                sock.setsockopt(SOL_PACKET, PACKET_ADD_MEMBERSHIP, mreq)
         sock.setblocking(False)
         self.sock = sock
 
@@ -290,6 +310,14 @@ def netns_socket(iface: str, netns: str | None = None) -> RawSocket:
 
 
 # --- serving -----------------------------------------------------------------------------------
+class Publisher(Protocol):
+    """What a :class:`TaxelFeed` publishes to: the ESC chain, the EPL skin."""
+
+    def publish(self, payloads: npt.NDArray[np.uint8]) -> None:
+        """One sample: row k of ``payloads`` (patches x bytes) to the k-th patch."""
+        ...
+
+
 class TaxelFeed:
     """Changing taxel patterns: sample ``k`` of ``taxel.sample_payloads(nodes, samples, B, seed)``.
 
@@ -322,7 +350,7 @@ class TaxelFeed:
         count = self.published if published is None else published
         return (count - 1) % len(self.payloads)
 
-    def publish(self, chain: EcatChain, now: float) -> bool:
+    def publish(self, chain: Publisher, now: float) -> bool:
         """Publish the next sample if the period has passed; True if it did."""
         if now < self._next:
             return False

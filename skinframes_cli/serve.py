@@ -1,4 +1,8 @@
-"""``skinframes serve ecat``: the emulated ESC chain on a live interface, for any master."""
+"""``skinframes serve ecat|epl``: emulated skin patches on a live interface, for a real master.
+
+``ecat``: the emulated ESC chain, for any EtherCAT master. ``epl``: the patches as POWERLINK
+CNs (NMT, SDO server, object dictionary, PRes), for a real EPL MN such as openPOWERLINK's.
+"""
 
 from __future__ import annotations
 
@@ -15,11 +19,18 @@ from typing import Any
 
 from emulator.esc import compiled
 from emulator.esc.dc import DEFAULT_DRIFT_PPM
-from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat
+from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat, check_served_epl
 from skinframes.capture_writer import CaptureWriter
-from skinframes.errors import CaptureError
+from skinframes.errors import CaptureError, SkinframesError
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
-from skinframes_cli.options import bounded_int, finite_float, int_up_to, protocol_arg
+from skinframes.powerlink import MAX_CN_NODE_ID, MAX_PDO_PAYLOAD_BYTES, MIN_CN_NODE_ID
+from skinframes_cli.options import (
+    bounded_int,
+    finite_float,
+    int_list_in,
+    int_up_to,
+    protocol_arg,
+)
 
 STDOUT = "-"  # --pcap -: the capture on standard output
 MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
@@ -30,25 +41,35 @@ def add_parser(sub: Any) -> None:
     """Register the subcommand."""
     p = sub.add_parser(
         "serve",
-        help="serve emulated EtherCAT slaves on a network interface until SIGINT/SIGTERM",
-        description="Answer EtherCAT frames on IFACE as a line of emulated skin patches (ESCs "
-        "with SII, AL state machine, SyncManagers, FMMUs and a CoE mailbox), followed by the "
-        "slaves ESI files describe (--esi). Point any master at the other end "
-        "of the link, e.g. a veth pair in a network namespace (see the README). Needs root or "
-        "CAP_NET_RAW. Runs until SIGINT or SIGTERM, then prints what it served.",
+        help="serve emulated EtherCAT slaves or EPL CNs on a network interface until "
+        "SIGINT/SIGTERM",
+        description="ecat: answer EtherCAT frames on IFACE as a line of emulated skin patches "
+        "(ESCs with SII, AL state machine, SyncManagers, FMMUs and a CoE mailbox), followed by "
+        "the slaves ESI files describe (--esi). epl: answer as POWERLINK CNs (NMT state "
+        "machine, IdentResponse, StatusResponse, SDO server, object dictionary, PRes with the "
+        "taxels at 0x6100/1) for a real MN. Point the master at the other end of the link, e.g. "
+        "a veth pair in a network namespace (see the README). Needs root or CAP_NET_RAW. Runs "
+        "until SIGINT or SIGTERM, then prints what it served.",
     )
-    protocol_arg(p, "protocol", choices=("ecat",))
+    protocol_arg(p, "protocol", choices=("ecat", "epl"))
     p.add_argument("--iface", required=True, help="network interface the master is wired to")
     p.add_argument(
         "--nodes",
         type=int_up_to(MAX_INT_ARG),
         required=True,
-        help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}; 0 with --esi",
+        help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}; 0 with --esi; epl: CNs, "
+        f"1..{MAX_CN_NODE_ID}",
+    )
+    p.add_argument(
+        "--node-ids",
+        type=int_list_in(MIN_CN_NODE_ID, MAX_CN_NODE_ID),
+        help="epl: the CNs' node ids, a comma list or start:stop:step, one per node (default 1..N)",
     )
     p.add_argument(
         "--bytes",
         type=int_up_to(MAX_INT_ARG),
-        help=f"taxel bytes per slave, 1..{MAX_DATAGRAM_DATA_BYTES} (needed unless --nodes 0)",
+        help=f"taxel bytes per slave, 1..{MAX_DATAGRAM_DATA_BYTES} (needed unless --nodes 0); "
+        f"epl: per CN, 1..{MAX_PDO_PAYLOAD_BYTES} (0x6100/1)",
     )
     p.add_argument(
         "--esi",
@@ -57,7 +78,7 @@ def add_parser(sub: Any) -> None:
         metavar="ESI.xml[#TYPE]",
         help="after the patches, a slave as the ESI file describes it (device TYPE, by Type "
         "or product code, when the file has several): its SII image, CoE dictionary, PDO "
-        "assignment and mapping, DC; inputs count up at each --period-ms; repeatable",
+        "assignment and mapping, DC; inputs count up at each --period-ms; repeatable (ecat)",
     )
     p.add_argument(
         "--seed",
@@ -80,14 +101,15 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--no-mailbox",
         action="store_true",
-        help="patches without a mailbox (no CoE; PDOs from the SII only), as before CoE existed",
+        help="ecat: patches without a mailbox (no CoE; PDOs from the SII only), as before CoE "
+        "existed",
     )
     p.add_argument(
         "--drift-ppm",
         type=float,
-        default=DEFAULT_DRIFT_PPM,
-        help="largest clock drift of a patch's distributed clock in ppm, each patch's drawn "
-        "with --seed (0..200, default 25)",
+        default=None,
+        help="ecat: largest clock drift of a patch's distributed clock in ppm, each patch's "
+        "drawn with --seed (0..200, default 25)",
     )
     p.add_argument(
         "--pcap",
@@ -111,11 +133,17 @@ def _capture(path: str) -> CaptureWriter:
 
 def run(args: argparse.Namespace) -> int:
     """Serve until a signal arrives."""
+    if args.protocol == "epl":
+        return run_epl(args)
     from emulator.errors import TopologyError
     from emulator.esc.dc import seed_clocks
     from emulator.esc.esi_slave import check_esi_slave, esi_device
     from emulator.live import RawSocket, TaxelFeed, mixed_chain, serve
 
+    if args.node_ids is not None:
+        raise SkinframesError("--node-ids applies to serve epl only")
+    if args.drift_ppm is None:
+        args.drift_ppm = DEFAULT_DRIFT_PPM
     period_s = args.period_ms / 1000.0
     esi = [check_esi_slave(spec) for spec in args.esi]
     if args.nodes or not esi:
@@ -213,4 +241,84 @@ def run(args: argparse.Namespace) -> int:
         )
         for message in stats.error_messages:
             print(f"  not processed: {message}", file=out)
+    return 0
+
+
+def run_epl(args: argparse.Namespace) -> int:
+    """``serve epl``: the patches as EPL CNs until a signal arrives."""
+    from emulator.epl.live import serve_epl
+    from emulator.epl.skin import EplSkin, node_ids
+    from emulator.live import ETH_P_EPL, RawSocket, TaxelFeed
+
+    if args.no_mailbox or args.drift_ppm is not None or args.esi:
+        raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
+    if args.bytes is None:
+        raise SkinframesError("serve epl: --bytes is required")
+    period_s = args.period_ms / 1000.0
+    check_served_epl(args.nodes, args.bytes, args.samples, period_s)
+    ids = node_ids(args.nodes, args.node_ids)
+    if args.pcap == "":
+        raise CaptureError("--pcap: an empty file name")
+    skin = EplSkin(ids, args.bytes)
+    feed = TaxelFeed(
+        args.nodes, args.bytes, samples=args.samples, seed=args.seed, period_s=period_s
+    )
+    stop = threading.Event()
+
+    def on_error(exc: BaseException, frame: bytes) -> None:
+        if args.debug:
+            print(f"frame {frame.hex()}:", file=sys.stderr)
+            traceback.print_exception(exc, file=sys.stderr)
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with contextlib.ExitStack() as stack:
+            sock = stack.enter_context(RawSocket(args.iface, ETH_P_EPL, promiscuous=True))
+            capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
+            print(
+                f"serving {args.nodes} EPL CNs (node ids {','.join(map(str, ids))}) x "
+                f"{args.bytes} taxel bytes on {args.iface}; SIGINT/SIGTERM to stop",
+                file=sys.stderr,
+                flush=True,
+            )
+            stats = serve_epl(skin, sock, stop, feed=feed, capture=capture, on_error=on_error)
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+    report = skin.report()
+    summary: dict[str, Any] = {
+        "protocol": "epl",
+        "iface": args.iface,
+        "nodes": args.nodes,
+        "bytes": args.bytes,
+        "node_ids": ids,
+        **stats.summary(),
+        "error_messages": stats.error_messages,
+        "counts": report["counts"],
+        "cns": report["cns"],
+    }
+    if args.pcap is not None:
+        summary["pcap"] = args.pcap
+    out = sys.stderr if args.pcap == STDOUT else sys.stdout
+    if args.json:
+        print(json.dumps(summary), file=out)
+        return 0
+    print(
+        f"served {summary['frames_out']} answers to {summary['frames_in']} frames "
+        f"({summary['errors']} not processed), {summary['publications']} taxel samples; "
+        f"answer median {summary['answer_us_median']} us, p99 {summary['answer_us_p99']} us, "
+        f"max {summary['answer_us_max']} us",
+        file=out,
+    )
+    for cn in report["cns"]:  # type: ignore[attr-defined]
+        counted = ", ".join(f"{k} {v}" for k, v in cn["counts"].items()) or "nothing wrong"
+        print(f"  CN {cn['node_id']}: {cn['state']}; {counted}", file=out)
+    if report["counts"]:
+        counted = ", ".join(f"{k} {v}" for k, v in report["counts"].items())  # type: ignore[attr-defined]
+        print(f"  frames for no CN here or unreadable: {counted}", file=out)
+    for message in stats.error_messages:
+        print(f"  not processed: {message}", file=out)
     return 0

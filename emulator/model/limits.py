@@ -93,6 +93,18 @@ def check_served_ecat(nodes: int, data_bytes: int, samples: int, period_s: float
         raise TopologyError(f"taxel feed: a period of {period_s} s (more than 0)")
 
 
+def check_served_epl(nodes: int, data_bytes: int, samples: int, period_s: float) -> None:
+    """EPL CNs served on a live link: 1..239 CNs of 1..1490 taxel bytes (the PRes payload),
+    fed >= 1 taxel samples at a period > 0 s."""
+    check_epl(nodes, data_bytes)
+    if data_bytes < 1:
+        raise TopologyError(f"served EPL CN: {data_bytes} taxel bytes (1..{EPL_RANGE.max_bytes})")
+    if samples < 1:
+        raise TopologyError(f"taxel feed: {samples} samples (at least 1)")
+    if not period_s > 0:
+        raise TopologyError(f"taxel feed: a period of {period_s} s (more than 0)")
+
+
 def check_emulated_ecat(nodes: int, data_bytes: int) -> None:
     """An emulated EtherCAT chain: 1..1024 slaves of 1..1486 bytes."""
     check_ecat(nodes, data_bytes)
