@@ -67,6 +67,7 @@ __all__ = [
     "VethPair",
     "mixed_chain",
     "netns_socket",
+    "realtime",
     "serve",
     "veth_netns",
 ]
@@ -148,6 +149,18 @@ class RawSocket:
 
     def __exit__(self, *exc: object) -> None:
         self.close()
+
+
+def realtime(priority: int) -> None:
+    """Run this process under SCHED_FIFO at ``priority`` (sched(7)), as openPOWERLINK's demos do.
+
+    Raises:
+        LinkError: not permitted (root or CAP_SYS_NICE is needed) or no such priority.
+    """
+    try:
+        os.sched_setscheduler(0, os.SCHED_FIFO, os.sched_param(priority))
+    except (PermissionError, OSError) as exc:
+        raise LinkError(f"SCHED_FIFO priority {priority}: {exc.strerror or exc}") from exc
 
 
 # --- network namespaces ------------------------------------------------------------------------

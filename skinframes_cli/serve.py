@@ -118,6 +118,12 @@ def add_parser(sub: Any) -> None:
         ".pcapng name: direction per frame; else classic pcap); the file appears complete "
         "when serving stops; - streams a pcapng to stdout (the summary goes to stderr)",
     )
+    p.add_argument(
+        "--rt-priority",
+        type=bounded_int(1, 99),
+        help="epl: run under SCHED_FIFO with this priority (1..99; needs root or CAP_SYS_NICE), "
+        "as openPOWERLINK's own demos do, so that a busy host delays the PRes less",
+    )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
     p.set_defaults(run=run)
 
@@ -140,8 +146,8 @@ def run(args: argparse.Namespace) -> int:
     from emulator.esc.esi_slave import check_esi_slave, esi_device
     from emulator.live import RawSocket, TaxelFeed, mixed_chain, serve
 
-    if args.node_ids is not None:
-        raise SkinframesError("--node-ids applies to serve epl only")
+    if args.node_ids is not None or args.rt_priority is not None:
+        raise SkinframesError("--node-ids and --rt-priority apply to serve epl only")
     if args.drift_ppm is None:
         args.drift_ppm = DEFAULT_DRIFT_PPM
     period_s = args.period_ms / 1000.0
@@ -248,7 +254,7 @@ def run_epl(args: argparse.Namespace) -> int:
     """``serve epl``: the patches as EPL CNs until a signal arrives."""
     from emulator.epl.live import serve_epl
     from emulator.epl.skin import EplSkin, node_ids
-    from emulator.live import ETH_P_EPL, RawSocket, TaxelFeed
+    from emulator.live import ETH_P_EPL, RawSocket, TaxelFeed, realtime
 
     if args.no_mailbox or args.drift_ppm is not None or args.esi:
         raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
@@ -260,6 +266,8 @@ def run_epl(args: argparse.Namespace) -> int:
     if args.pcap == "":
         raise CaptureError("--pcap: an empty file name")
     skin = EplSkin(ids, args.bytes)
+    if args.rt_priority is not None:
+        realtime(args.rt_priority)
     feed = TaxelFeed(
         args.nodes, args.bytes, samples=args.samples, seed=args.seed, period_s=period_s
     )

@@ -21,7 +21,7 @@ from __future__ import annotations
 import ipaddress
 from collections import Counter, deque
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Final
 
 from emulator.epl.nmt import CYCLIC_STATES, CnStateMachine, Reset, addressed
@@ -150,7 +150,12 @@ class SkinCn:
             payload = bytes(buf)
         flags1 = PResFlag.RD if state == NmtState.OPERATIONAL else 0
         pres = PRes(self.node_id, payload, nmt_status=state, flags1=flags1, flags2=self._flags2())
-        self.pres_frame = frame(pres).to_bytes()
+        # The frame spans PResActPayloadLimit (0x1F98/5) payload bytes, zeros after the mapped
+        # ones, and no more: an MN drops a PRes longer than its limit for the node (0x1F8D;
+        # openPOWERLINK dllkframe.c checks the frame length too, Ethernet padding included), so
+        # it is not padded to 60 bytes here (a NIC pads it on the wire; veth does not).
+        fill = bytes(max(0, self.od.u(0x1F98, 5) - len(payload)))
+        self.pres_frame = replace(frame(pres), padding=fill).to_bytes()
 
     def rebuild(self) -> None:
         """Prepare PRes, IdentResponse and both StatusResponses from the present state."""
