@@ -91,6 +91,7 @@ class SkinCn:
     taxels: bytes = b""
     sample_number: int = 0
     last_soc_ns: int = 0
+    _not_active_ns: int = 0
     _tpdo: tuple[Mapped, ...] = ()
     _rpdo: tuple[Mapped, ...] = ()
 
@@ -285,6 +286,21 @@ class SkinCn:
             self.counts["cycle_errors"] += 1
             self._state_event(self.nmt.cycle_error)
         self.od.set_value(0x1C0B, 2, count.to_bytes(4, "little"))
+
+    def check_basic_ethernet(self, now_ns: int, last_epl_ns: int) -> None:
+        """NMT_CT3: NotActive with no EPL frame for 0x1F99 (us) -> BasicEthernet.
+
+        The time counts from the later of the last EPL frame seen (``last_epl_ns``) and the
+        first check that found the node NotActive.
+        """
+        if self.nmt.state != NmtState.NOT_ACTIVE:
+            self._not_active_ns = 0
+            return
+        if not self._not_active_ns:
+            self._not_active_ns = now_ns
+        quiet_since = max(last_epl_ns, self._not_active_ns)
+        if now_ns - quiet_since > self.od.u(0x1F99, 0) * 1000:
+            self._state_event(self.nmt.basic_ethernet_timeout)
 
     def _state_event(self, event: Callable[[], object]) -> None:
         before = self.nmt.changes

@@ -48,13 +48,15 @@ def addressed(command_id: int, data: bytes, node_id: int) -> tuple[int, bool]:
     """The plain command of an NMTCommand and whether it addresses ``node_id``.
 
     A plain command addresses whoever the ASnd went to (the caller checked the destination);
-    an extended one (0x41-0x4B, DS 301 7.3.1.2.2) the nodes whose bit is set in its node list.
+    an extended one (0x41-0x4B, DS 301 7.3.1.2.2) the nodes whose bit is set in its node list
+    (bytes missing at its end are zeros: the Ethernet padding of a minimum-size frame).
     """
     plain = command_id - EXTENDED_OFFSET
     if NmtCommandId.START_NODE <= plain <= NmtCommandId.SW_RESET:
-        if len(data) < NODE_LIST_BYTES:
-            return plain, False
-        return plain, bool(data[node_id // 8] >> (node_id % 8) & 1)
+        byte = node_id // 8
+        return plain, byte < min(len(data), NODE_LIST_BYTES) and bool(
+            data[byte] >> (node_id % 8) & 1
+        )
     return command_id, True
 
 

@@ -76,6 +76,7 @@ class SdoServer:
     def close(self) -> None:
         """Drop the connection (and any segmented transfer)."""
         self.connected = self.initialising = False
+        self.send_seq = self.recv_seq = 0
         self.history.clear()
         self._download = None
 
@@ -126,7 +127,7 @@ class SdoServer:
             self.counts["sdo_no_connection"] += 1
             if sdo.command is None:
                 return []
-            return [Sdo(sdo.send_sequence, SequenceCon.NO_CONNECTION, self.send_seq, 0)]
+            return [Sdo(sdo.send_sequence, SequenceCon.NO_CONNECTION, 0, SequenceCon.NO_CONNECTION)]
         out: list[Sdo] = []
         self._acknowledged(sdo.receive_sequence)
         if rcon == SequenceCon.ERROR_OR_ACK_REQUEST:  # the client lost frames: send them again

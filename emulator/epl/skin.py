@@ -66,6 +66,7 @@ class EplSkin:
         self.nodes = [SkinCn(i, taxel_bytes) for i in ids]
         self.by_id = {cn.node_id: cn for cn in self.nodes}
         self.counts: Counter[str] = Counter()
+        self.last_epl_ns = 0  # when the last EPL frame arrived (NMT_CT3's timer)
 
     def publish(self, payloads: npt.NDArray[np.uint8]) -> None:
         """One taxel sample: row k of ``payloads`` (patches x bytes) to the k-th node."""
@@ -98,6 +99,7 @@ class EplSkin:
         if frame[12:14] != ETHERTYPE_EPL_BYTES:
             self.counts["not_epl"] += 1
             return
+        self.last_epl_ns = now_ns
         try:
             message = decode_frame(frame).payload
         except DecodeError:
@@ -147,9 +149,10 @@ class EplSkin:
             target.after_asnd(message)
 
     def tick(self, now_ns: int) -> None:
-        """The nodes' timers: loss of SoC."""
+        """The nodes' timers: loss of SoC, the NotActive -> BasicEthernet timeout."""
         for cn in self.nodes:
             cn.check_soc(now_ns)
+            cn.check_basic_ethernet(now_ns, self.last_epl_ns)
 
     def report(self) -> dict[str, object]:
         """Per node: state, counts; and what the skin counted."""

@@ -1,0 +1,158 @@
+"""The emulated EPL CN offline: frames an MN sends, written byte by byte from DS 301.
+
+Every MN frame here is typed in as hex from EPSG DS 301 V1.4.0 (4.6.1.1 frame layouts, 7.3.1
+NMT commands, 6.3.2 SDO sequence and command layers) and the byte sequences the
+openPOWERLINK kit's README documents for its MN; the expected answers are typed in the same
+way, or read back by tshark. Nothing expected here comes from the code under test.
+"""
+
+from __future__ import annotations
+
+import pytest
+from epl_frames import (
+    TAXELS,
+    booted,
+    epl,
+    feed,
+    nmt_command,
+    preq,
+    sdo,
+    soa,
+    soc,
+    status_of,
+)
+
+from emulator.epl.skin import EplSkin
+
+
+# --- NMT (DS 301 7.1.4) --------------------------------------------------------------------------
+def test_boot_to_operational_and_back() -> None:
+    skin = EplSkin([1, 32], TAXELS)
+    assert feed(skin, soa(1, 1)) is None  # NotActive: silent, then PreOp1 (CT2)
+    assert status_of(skin, 1) == 0x1D
+    assert feed(skin, preq(1)) is None  # no PRes in PreOp1
+    feed(skin, soc())
+    assert status_of(skin, 1) == 0x5D  # PreOp2 (CT4)
+    feed(skin, nmt_command(1, 0x21))  # StartNode in PreOp2: not allowed, ignored
+    assert status_of(skin, 1) == 0x5D
+    feed(skin, nmt_command(1, 0x24))  # EnableReadyToOperate (CT5)
+    assert status_of(skin, 1) == 0x6D
+    assert status_of(skin, 32) == 0x5D  # addressed to node 1 only
+    feed(skin, nmt_command(1, 0x21))  # StartNode (CT6)
+    assert status_of(skin, 1) == 0xFD
+    feed(skin, nmt_command(1, 0x22))  # StopNode (CT7)
+    assert status_of(skin, 1) == 0x4D
+    assert feed(skin, preq(1)) is None  # Stopped: no PRes
+    feed(skin, nmt_command(1, 0x23))  # EnterPreOperational2 (CT10)
+    assert status_of(skin, 1) == 0x5D
+    feed(skin, nmt_command(255, 0x2A))  # ResetConfiguration to all: NotActive (GT7, CT1)
+    assert feed(skin, soa(2, 1)) is None  # NotActive: silent; the SoA wakes both (CT2)
+    assert status_of(skin, 1) == status_of(skin, 32) == 0x1D
+
+
+def test_extended_commands_use_the_node_list() -> None:
+    """NMTStartNodeEx 0x41 etc. (DS 301 7.3.1.2.2): a 32-byte node list, bit n = node n."""
+    skin = booted(1, 32, 110)
+    node_list = bytearray(32)
+    for n in (1, 110):
+        node_list[n // 8] |= 1 << (n % 8)
+    feed(skin, nmt_command(255, 0x44, node_list.hex()))  # EnableReadyToOperateEx
+    assert [status_of(skin, n) for n in (1, 32, 110)] == [0x6D, 0x5D, 0x6D]
+
+
+def test_reset_node_restores_the_defaults() -> None:
+    skin = booted(1)
+    feed(skin, sdo(1, "00 01 00 00"))  # open a connection (see the SDO tests)
+    feed(skin, sdo(1, "01 02 00 00"))
+    feed(skin, sdo(1, "02 06 00 00", "00 00 00 01 08 00 00 00 06 10 00 00 50 c3 00 00"))
+    assert skin.nodes[0].od.u(0x1006, 0) == 50_000
+    feed(skin, nmt_command(255, 0x28))  # NMTResetNode: reset application and communication
+    assert skin.nodes[0].od.u(0x1006, 0) == 0
+    assert not skin.nodes[0].sdo.connected
+
+
+def test_loss_of_soc_drops_to_preop1() -> None:
+    """0x1C0B: each cycle without SoC adds 8 to the threshold counter; at 0x1C0B/3 (default
+    15: two losses) the CN goes to PreOp1 (NMT_CT11). A SoC in time keeps it where it is."""
+    skin = booted(1)
+    cn = skin.nodes[0]
+    cn.od.set_value(0x1006, 0, (10_000).to_bytes(4, "little"))  # 10 ms cycle
+    tolerance_ns = cn.od.u(0x1C14, 0)
+    feed(skin, soc(), now_ns=1_000_000_000)
+    skin.tick(1_000_000_000 + 10_000_000 + tolerance_ns)  # exactly on time: no loss
+    assert status_of(skin, 1) == 0x5D and cn.od.u(0x1C0B, 1) == 0
+    skin.tick(1_000_000_000 + 10_000_000 + tolerance_ns + 1)
+    assert cn.od.u(0x1C0B, 1) == 1 and status_of(skin, 1) == 0x5D
+    skin.tick(1_000_000_000 + 20_000_000 + tolerance_ns + 1)
+    assert cn.od.u(0x1C0B, 1) == 2
+    assert status_of(skin, 1) == 0x1D
+
+
+def test_basic_ethernet_after_the_timeout() -> None:
+    """NMT_CT3: NotActive and no EPL frame for 0x1F99 (default 5 s) -> BasicEthernet; an EPL
+    frame then -> PreOp1 (CT12)."""
+    skin = EplSkin([1], TAXELS)
+    skin.tick(1)
+    skin.tick(5_000_000_001)
+    assert skin.nodes[0].nmt.state.name == "NOT_ACTIVE"
+    skin.tick(5_000_001_002)
+    assert skin.nodes[0].nmt.state.name == "BASIC_ETHERNET"
+    feed(skin, preq(32))
+    assert status_of(skin, 1) == 0x1D
+
+
+# --- PRes (DS 301 4.6.1.1.4) ----------------------------------------------------------------------
+def test_pres_carries_the_mapping_rd_only_in_operational() -> None:
+    skin = booted(7)
+    cn = skin.nodes[0]
+    taxels = bytes(range(100, 100 + TAXELS))
+    cn.publish(taxels)
+    empty = epl(feed(skin, preq(7)))
+    # 04 ff 07, NMTStatus 5D, flags1 0 (no RD), flags2 0, PDOVersion 0, reserved, size 0
+    assert empty[:10] == bytes.fromhex("04ff075d000000000000")
+    assert len(empty) == 10 + 36  # the frame spans PResActPayloadLimit 0x1F98/5 (default 36)
+    # map 0x6100/1 (8*24 bits at 0) and 0x6000/1 (8 bits at 192), as an MN writes it by SDO
+    od = cn.od
+    od.write(0x1F98, 5, (TAXELS + 1).to_bytes(2, "little"))
+    od.write(0x1A00, 1, bytes.fromhex("00 61 01 00 00 00 c0 00"))  # 0x00C0_0000_0001_6100
+    od.write(0x1A00, 2, bytes.fromhex("00 60 01 00 c0 00 08 00"))  # 0x0008_00C0_0001_6000
+    od.write(0x1A00, 0, b"\x02")
+    od.write(0x1600, 1, bytes.fromhex("00 62 01 00 00 00 08 00"))  # RPDO: 0x6200/1 from PReq
+    od.write(0x1600, 0, b"\x01")
+    feed(skin, nmt_command(7, 0x2A))  # ResetConfiguration: the mapping takes effect
+    feed(skin, soa(0, 0))
+    feed(skin, soc())
+    pres = epl(feed(skin, preq(7, "5a")))
+    assert pres[:10] == bytes.fromhex("04ff075d000000001900")  # size 25
+    assert pres[10:34] == taxels and pres[34] == 1  # the taxels, then the sample number
+    assert cn.outputs == 0x5A  # 0x6200/1 from the PReq's first byte
+    feed(skin, nmt_command(7, 0x24))
+    feed(skin, nmt_command(7, 0x21))
+    pres = epl(feed(skin, preq(7)))
+    assert pres[3] == 0xFD and pres[4] == 0x01  # Operational, RD
+
+
+def test_mapping_rules_answer_with_abort_codes() -> None:
+    from emulator.errors import SdoAbortError
+
+    od = booted(1).nodes[0].od
+    with pytest.raises(SdoAbortError) as exc:  # 0x1000 is not mappable (6.4.9.2)
+        od.write(0x1A00, 1, (0x0020_0000_0000_1000).to_bytes(8, "little"))
+        od.write(0x1A00, 0, b"\x01")
+    assert exc.value.code == 0x06040041
+    od.write(0x1A00, 1, (0x0100_0000_0001_6100).to_bytes(8, "little"))  # 256 bits > 24 bytes
+    with pytest.raises(SdoAbortError) as exc:
+        od.write(0x1A00, 0, b"\x01")
+    assert exc.value.code == 0x06040042
+    wide = EplSkin([1], 48).nodes[0].od  # 48 taxel bytes: more than PResActPayloadLimit 36
+    wide.write(0x1A00, 1, (0x0180_0000_0001_6100).to_bytes(8, "little"))
+    with pytest.raises(SdoAbortError) as exc:
+        wide.write(0x1A00, 0, b"\x01")
+    assert exc.value.code == 0x06040042
+    wide.write(0x1F98, 5, (48).to_bytes(2, "little"))
+    wide.write(0x1A00, 0, b"\x01")
+    od.write(0x1A00, 1, (0x0008_0000_0001_6000).to_bytes(8, "little"))
+    od.write(0x1A00, 0, b"\x01")
+    with pytest.raises(SdoAbortError) as exc:  # entries change only while /0 is 0
+        od.write(0x1A00, 1, (0x0008_0000_0001_6000).to_bytes(8, "little"))
+    assert exc.value.code == 0x08000022

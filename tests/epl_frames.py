@@ -1,0 +1,82 @@
+"""MN frames for the offline EPL CN tests, typed in byte by byte from DS 301.
+
+EPSG DS 301 V1.4.0 4.6.1.1 (SoC, PReq, SoA layouts), 7.3.1 (NMTCommand), 6.3.2 (SDO over
+ASnd): each helper takes the fields as numbers or hex and writes the bytes in the spec's order,
+so an expected value never comes from the code under test.
+"""
+
+from __future__ import annotations
+
+from emulator.epl.skin import EplSkin
+
+MN_MAC = "020000000af0"
+ASND_MAC = "01111e000004"  # C_DLL_MULTICAST_ASND
+SOC_MAC, PRES_MAC, SOA_MAC = "01111e000001", "01111e000002", "01111e000003"
+TAXELS = 24
+
+
+def mn(dst: str, epl: str) -> bytes:
+    """An MN frame: destination MAC, the MN's MAC, EtherType 0x88AB, the EPL bytes, padded."""
+    frame = bytes.fromhex(dst + MN_MAC + "88ab" + epl.replace(" ", ""))
+    return frame.ljust(60, b"\0")
+
+
+def soc() -> bytes:  # SoC: 01 ff f0, reserved, flags, reserved, NetTime 8, RelativeTime 8
+    return mn(SOC_MAC, "01 ff f0 00 00 00" + "00" * 16)
+
+
+def soa(service: int, target: int, *, er: bool = False, state: int = 0xFD) -> bytes:
+    """SoA (DS 301 4.6.1.1.5): 05 ff f0, NMTStatus, flags1 (ER 0x02), reserved, svid, target,
+    EPLVersion 0x20, flags3."""
+    return mn(
+        SOA_MAC, f"05 ff f0 {state:02x} {0x02 if er else 0:02x} 00 {service:02x} {target:02x} 20 00"
+    )
+
+
+def preq(node: int, payload: str = "00", rd: bool = True) -> bytes:
+    """PReq (4.6.1.1.3): 03 node f0, reserved, flags1 (RD), flags2, PDOVersion, reserved, size."""
+    size = len(bytes.fromhex(payload))
+    return mn(
+        f"020000000a{node:02x}",
+        f"03 {node:02x} f0 00 {int(rd):02x} 00 00 00 {size:02x} 00 {payload}",
+    )
+
+
+def nmt_command(dest: int, command: int, data: str = "") -> bytes:
+    """ASnd NMTCommand (7.3.1): 06 dest f0 04, NMTCommandID, reserved, data."""
+    return mn(ASND_MAC, f"06 {dest:02x} f0 04 {command:02x} 00 {data}")
+
+
+def sdo(dest: int, seq: str, command: str = "") -> bytes:
+    """ASnd SDO (6.3.2): 06 dest f0 05, the sequence layer (4 bytes), the command layer."""
+    return mn(ASND_MAC, f"06 {dest:02x} f0 05 {seq} {command}")
+
+
+def feed(skin: EplSkin, frame: bytes, now_ns: int = 1) -> bytes | None:
+    """One frame in, as the live loop does: the immediate answer, then the nodes react."""
+    back = skin.answer(frame)
+    skin.after(frame, back, now_ns)
+    return back
+
+
+def epl(frame: bytes | None) -> bytes:
+    assert frame is not None
+    return frame[14:]
+
+
+def invite(skin: EplSkin, node: int) -> bytes | None:
+    """SoA UnspecifiedInvite (svid 0xFF) to ``node``: what it sends from its queue."""
+    return feed(skin, soa(0xFF, node))
+
+
+def booted(*ids: int) -> EplSkin:
+    """CNs in PreOperational2: a SoA (NotActive -> PreOp1, NMT_CT2), a SoC (-> PreOp2, CT4)."""
+    skin = EplSkin(list(ids), TAXELS)
+    feed(skin, soa(0, 0))
+    feed(skin, soc())
+    return skin
+
+
+def status_of(skin: EplSkin, node: int) -> int:
+    """The NMTStatus a StatusResponse (SoA svid 2) reports: ASnd byte 6 (DS 301 7.3.3.3.1)."""
+    return epl(feed(skin, soa(2, node)))[6]
