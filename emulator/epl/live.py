@@ -91,6 +91,7 @@ def serve_epl(
                     back = answer(frame)  # the fast path: a prepared frame, or None
                     if back is not None:
                         send(back)
+                        sent_ns = wall_ns()
                         took_us = (perf() - t0) * 1e6
                         stats.frames_out += 1
                         if len(stats.answer_us) < keep_times:
@@ -100,7 +101,7 @@ def serve_epl(
                     if capture is not None:
                         capture.write(seen_ns, frame, outbound=False)
                         if back is not None:
-                            capture.write(wall_ns(), back, outbound=True)
+                            capture.write(sent_ns, back, outbound=True)
                     try:
                         skin.after(frame, back, clock_ns())
                     except Exception as exc:  # every frame is legal input: count it, go on
