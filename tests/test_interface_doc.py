@@ -16,6 +16,7 @@ from typing import Any
 
 import pytest
 
+from emulator.epl.live import EplServeStats
 from emulator.live import ServeStats
 from emulator.net.can_bus import skin_bus
 from skinframes import taxel
@@ -173,6 +174,8 @@ def test_sii_json_keys_are_documented(tmp_path: Path, capsys: pytest.CaptureFixt
 def test_serve_json_keys_are_documented() -> None:
     # serve needs a live link; its document is these four plus the library's summary
     assert_documented("serve", {"protocol", "iface", "nodes", "bytes", *ServeStats().summary()})
+    epl = {"node_ids", "error_messages", "counts", "cns", "node_id", "state", "state_changes"}
+    assert_documented("serve", {*epl, *EplServeStats().summary()})
 
 
 # --- Python names -------------------------------------------------------------------------------

@@ -1,0 +1,124 @@
+"""``skinframes serve epl``: argument checks, error lines, and a run over a stand-in socket (no
+root needed; the live run against openPOWERLINK is tests/emulator/test_live_epl.py)."""
+
+from __future__ import annotations
+
+import json
+import signal
+import socket
+from pathlib import Path
+
+import pytest
+import tshark_util
+from epl_frames import preq, soa, soc
+
+import emulator.live
+from skinframes_cli import main
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--nodes", "0", "--bytes", "16"], "EPL: 0 CNs (1..239)"),
+        (["--nodes", "240", "--bytes", "16"], "EPL: 240 CNs (1..239)"),
+        (["--nodes", "2", "--bytes", "1491"], "EPL: 1491 payload bytes (0..1490)"),
+        (["--nodes", "2", "--bytes", "0"], "served EPL CN: 0 taxel bytes (1..1490)"),
+        (["--nodes", "3", "--bytes", "8", "--node-ids", "1,2"], "--node-ids: 2 ids for 3 nodes"),
+        (["--nodes", "2", "--bytes", "8", "--node-ids", "5,5"], "--node-ids: an id appears twice"),
+        (["--nodes", "2", "--bytes", "8", "--samples", "0"], "taxel feed: 0 samples"),
+        (["--nodes", "2", "--bytes", "8", "--no-mailbox"], "--no-mailbox and --drift-ppm apply"),
+        (["--nodes", "2", "--bytes", "8", "--drift-ppm", "3"], "--no-mailbox and --drift-ppm"),
+        (["--nodes", "2", "--bytes", "8", "--pcap", ""], "--pcap: an empty file name"),
+    ],
+)
+def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
+    assert main(["serve", "epl", "--iface", "lo", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"skinframes: error: {message}"), err
+    assert err.count("\n") == 1
+
+
+@pytest.mark.parametrize("option", [["--node-ids", "1"], ["--rt-priority", "5"]])
+def test_epl_options_are_refused_for_ecat(
+    capsys: pytest.CaptureFixture[str], option: list[str]
+) -> None:
+    assert main(["serve", "ecat", "--iface", "lo", "--nodes", "1", "--bytes", "8", *option]) == 2
+    assert capsys.readouterr().err.startswith(
+        "skinframes: error: --node-ids and --rt-priority apply to serve epl only"
+    )
+
+
+def test_node_ids_out_of_range_are_refused_at_parse(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["serve", "epl", "--iface", "lo", "--nodes", "1", "--bytes", "8", "--node-ids", "240"]
+    assert main(argv) == 2
+    err = capsys.readouterr().err
+    assert "--node-ids" in err and "240" in err
+
+
+class ScriptedSocket:
+    """Stands in for RawSocket: MN frames in, answers kept; SIGINT once every frame was read,
+    as a user stops serve."""
+
+    def __init__(self, frames: list[bytes]) -> None:
+        self.inbox, self.outbox = list(frames), []
+        self.r, self.w = socket.socketpair()
+        self.w.send(b"x")
+
+    def fileno(self) -> int:
+        return self.r.fileno()
+
+    def recv(self) -> bytes | None:
+        if not self.inbox:
+            signal.raise_signal(signal.SIGINT)
+            return None
+        return self.inbox.pop(0)
+
+    def send(self, frame: bytes) -> None:
+        self.outbox.append(frame)
+
+    def __enter__(self) -> ScriptedSocket:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.r.close()
+        self.w.close()
+
+
+def test_serve_epl_answers_and_reports(
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    tshark: str,
+) -> None:
+    """SoA (NotActive -> PreOp1), SoC (-> PreOp2), a PReq to CN 5 and one to CN 9 (not here),
+    an IdentRequest to CN 6: two answers, a PRes and an IdentResponse."""
+    scripted = ScriptedSocket([soa(0, 0), soc(), preq(5), preq(9), soa(1, 6)])
+    opened: list[tuple[object, ...]] = []
+
+    def fake(iface: str, ethertype: int, *, promiscuous: bool) -> ScriptedSocket:
+        opened.append((iface, ethertype, promiscuous))
+        return scripted
+
+    monkeypatch.setattr(emulator.live, "RawSocket", fake)
+    capture = tmp_path / "serve.pcapng"
+    argv = ["serve", "epl", "--iface", "veth9", "--nodes", "2", "--bytes", "24"]
+    assert main([*argv, "--node-ids", "5,6", "--pcap", str(capture), "--json"]) == 0
+    assert opened == [("veth9", 0x88AB, True)]
+    summary = json.loads(capsys.readouterr().out)
+    assert (summary["frames_in"], summary["frames_out"], summary["errors"]) == (5, 2, 0)
+    assert summary["node_ids"] == [5, 6]
+    assert summary["counts"] == {"preq_unknown_node": 1}
+    assert [cn["state"] for cn in summary["cns"]] == ["PRE_OPERATIONAL_2"] * 2
+    pres, ident = scripted.outbox
+    assert pres[14:18] == bytes.fromhex("04ff055d") and ident[14:18] == bytes.fromhex("06ff0601")
+    assert tshark_util.problems(tshark, capture) == []
+    rows = tshark_util.fields(tshark, capture, ["epl.mtyp", "epl.src"])
+    assert [(int(r["epl.mtyp"][0]), int(r["epl.src"][0])) for r in rows] == [
+        (5, 240),
+        (1, 240),
+        (3, 240),
+        (4, 5),
+        (3, 240),
+        (5, 240),
+        (6, 6),
+    ]
