@@ -42,7 +42,7 @@ def skin_cdc(
     async_slot_ns: int = 2_000_000,
 ) -> bytes:
     """The MN's CDC for skin CNs ``node_ids`` with ``taxel_bytes`` each."""
-    pres_bytes = taxel_bytes + 1  # taxels, then 0x6000/1
+    pres_bytes = max(36, taxel_bytes + 1)  # taxels, then 0x6000/1; 36 the lowest limit
     mn: list[bytes] = [_entry(0x1F81, n, u(0x00000007, 4)) for n in node_ids]
     for k in range(len(node_ids)):
         mn += [_entry(0x1600 + k, 0, u(0, 1)), _entry(0x1A00 + k, 0, u(0, 1))]

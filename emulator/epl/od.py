@@ -69,10 +69,14 @@ FEATURE_FLAGS: Final = 0x00000065
 # 0x1F98/3 PResMaxLatency_U32 (ns): the PReq -> PRes time this CN promises; the issue's target
 # (issue 40: as fast as openPOWERLINK's own CN, within the shipped CDC's 200 us PRes timeout).
 PRES_MAX_LATENCY_NS: Final = 200_000
-DEFAULT_PAYLOAD_LIMIT_BYTES: Final = 36  # 0x1F98/4,5 default (DS 301 7.2.1.1.18, C_DLL_MIN...)
+# 0x1F98/4,5 PReq/PResActPayloadLimit: default and lowest value 36 (DS 301 7.2.1.1.18; as
+# openPOWERLINK's CN, apps/common/objdicts/CiA401_CN/objdict.h: range 36..1490)
+DEFAULT_PAYLOAD_LIMIT_BYTES: Final = 36
 DEFAULT_CYCLE_US: Final = 0  # 0x1006: 0 until the MN configures it
-DEFAULT_LOSS_THRESHOLD: Final = 15  # 0x1C0B/3, 0x1C0D/3 (DS 301 7.2.1.2.x default)
-DEFAULT_LOSS_TOLERANCE_NS: Final = 300_000  # 0x1C14 (DS 301 7.2.1.2.4 default 300 us)
+# 0x1C0B/3, 0x1C0D/3 thresholds and 0x1C14 LossOfFrameTolerance: openPOWERLINK's CN defaults
+# (CiA401_CN/objdict.h: 15; 100000 ns); an MN's CDC writes its own (the kit's: 80, 50 ms)
+DEFAULT_LOSS_THRESHOLD: Final = 15
+DEFAULT_LOSS_TOLERANCE_NS: Final = 100_000
 DEFAULT_BASIC_ETHERNET_TIMEOUT_US: Final = 5_000_000  # 0x1F99 (DS 301 7.2.1.1.20 default 5 s)
 MAPPING_ENTRIES: Final = 16  # sub-indices 1..16 of each 0x1600/0x1A00 mapping
 ETHERNET_INTERFACE_TYPE: Final = 6  # 0x1030/3: ethernetCsmacd (IANA ifType, DS 301 7.2.1.4.1)
@@ -265,6 +269,10 @@ class ObjectDictionary:
             limit = self.u(0x1F98, 2 if subindex == 4 else 1)
             if value > limit:
                 raise SdoAbortError(AbortCode.VALUE_TOO_HIGH, f"{where}: {value} > {limit}")
+            if value < DEFAULT_PAYLOAD_LIMIT_BYTES:
+                raise SdoAbortError(
+                    AbortCode.VALUE_TOO_LOW, f"{where}: {value} < {DEFAULT_PAYLOAD_LIMIT_BYTES}"
+                )
         if index in (MAP_INDEX_RX, MAP_INDEX_TX):
             self._check_mapping_write(index, subindex, value)
         entry.value = bytes(data)

@@ -23,6 +23,7 @@ from epl_frames import (
 )
 
 from emulator.epl.skin import EplSkin
+from emulator.errors import SdoAbortError
 
 
 # --- NMT (DS 301 7.1.4) --------------------------------------------------------------------------
@@ -113,7 +114,9 @@ def test_pres_carries_the_mapping_rd_only_in_operational() -> None:
     assert len(empty) == 10 + 36  # the frame spans PResActPayloadLimit 0x1F98/5 (default 36)
     # map 0x6100/1 (8*24 bits at 0) and 0x6000/1 (8 bits at 192), as an MN writes it by SDO
     od = cn.od
-    od.write(0x1F98, 5, (TAXELS + 1).to_bytes(2, "little"))
+    with pytest.raises(SdoAbortError) as exc:  # limits go down to 36 only (DS 301 7.2.1.1.18)
+        od.write(0x1F98, 5, (TAXELS + 1).to_bytes(2, "little"))
+    assert exc.value.code == 0x06090032
     od.write(0x1A00, 1, bytes.fromhex("00 61 01 00 00 00 c0 00"))  # 0x00C0_0000_0001_6100
     od.write(0x1A00, 2, bytes.fromhex("00 60 01 00 c0 00 08 00"))  # 0x0008_00C0_0001_6000
     od.write(0x1A00, 0, b"\x02")
@@ -125,6 +128,7 @@ def test_pres_carries_the_mapping_rd_only_in_operational() -> None:
     pres = epl(feed(skin, preq(7, "5a")))
     assert pres[:10] == bytes.fromhex("04ff075d000000001900")  # size 25
     assert pres[10:34] == taxels and pres[34] == 1  # the taxels, then the sample number
+    assert len(pres) == 10 + 36 and not any(pres[35:])  # zeros up to PResActPayloadLimit
     assert cn.outputs == 0x5A  # 0x6200/1 from the PReq's first byte
     feed(skin, nmt_command(7, 0x24))
     feed(skin, nmt_command(7, 0x21))
@@ -133,8 +137,6 @@ def test_pres_carries_the_mapping_rd_only_in_operational() -> None:
 
 
 def test_mapping_rules_answer_with_abort_codes() -> None:
-    from emulator.errors import SdoAbortError
-
     od = booted(1).nodes[0].od
     with pytest.raises(SdoAbortError) as exc:  # 0x1000 is not mappable (6.4.9.2)
         od.write(0x1A00, 1, (0x0020_0000_0000_1000).to_bytes(8, "little"))
