@@ -311,15 +311,15 @@ def _in_netns(netns: str) -> Iterator[None]:
         os.close(own)
 
 
-def netns_socket(iface: str, netns: str | None = None) -> RawSocket:
-    """A :class:`RawSocket` on ``iface``, created inside ``netns`` when given.
+def netns_socket(iface: str, netns: str | None = None, ethertype: int = ETH_P_ECAT) -> RawSocket:
+    """A :class:`RawSocket` on ``iface`` for ``ethertype``, created inside ``netns`` when given.
 
     A socket stays in the namespace it was created in, so the caller keeps working in its own.
     """
     if netns is None:
-        return RawSocket(iface)
+        return RawSocket(iface, ethertype)
     with _in_netns(netns):
-        return RawSocket(iface)
+        return RawSocket(iface, ethertype)
 
 
 # --- serving -----------------------------------------------------------------------------------

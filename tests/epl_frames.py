@@ -7,6 +7,8 @@ so an expected value never comes from the code under test.
 
 from __future__ import annotations
 
+import random
+
 from emulator.epl.skin import EplSkin
 
 MN_MAC = "020000000af0"
@@ -80,3 +82,28 @@ def booted(*ids: int) -> EplSkin:
 def status_of(skin: EplSkin, node: int) -> int:
     """The NMTStatus a StatusResponse (SoA svid 2) reports: ASnd byte 6 (DS 301 7.3.3.3.1)."""
     return epl(feed(skin, soa(2, node)))[6]
+
+
+def hostile(rng: random.Random) -> bytes:
+    """One hostile frame: random EPL bytes, a mutated MN frame, or a random SDO."""
+    kind = rng.randrange(4)
+    if kind == 0:  # any bytes, any length, EPL EtherType
+        body = rng.randbytes(rng.randrange(0, 1500))
+        return bytes(6) + bytes(6) + b"\x88\xab" + body
+    if kind == 1:  # a valid MN frame with random bytes changed
+        frame = bytearray(
+            rng.choice(
+                [soc(), soa(rng.randrange(256), rng.randrange(256)), preq(rng.randrange(256))]
+            )
+        )
+        for _ in range(rng.randrange(1, 6)):
+            frame[rng.randrange(14, len(frame))] = rng.randrange(256)
+        return bytes(frame)
+    if kind == 2:  # SDO with random sequence layer and command layer
+        seq = rng.randbytes(4).hex()
+        command = rng.randbytes(rng.choice([0, 4, 8, 12, 20, 40])).hex()
+        return sdo(rng.choice([1, 2, 255, 7]), seq, command)
+    # NMT commands, any id, any data, to anyone
+    return nmt_command(
+        rng.choice([1, 2, 255]), rng.randrange(256), rng.randbytes(rng.randrange(40)).hex()
+    )

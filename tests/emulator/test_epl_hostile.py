@@ -9,36 +9,11 @@ from __future__ import annotations
 
 import random
 
-from epl_frames import feed, nmt_command, preq, sdo, soa, soc, status_of
+from epl_frames import feed, hostile, nmt_command, preq, soa, soc, status_of
 
 from emulator.epl.skin import EplSkin
 
 FRAMES = 20_000
-
-
-def hostile(rng: random.Random) -> bytes:
-    """One hostile frame: random EPL bytes, a mutated MN frame, or a random SDO."""
-    kind = rng.randrange(4)
-    if kind == 0:  # any bytes, any length, EPL EtherType
-        body = rng.randbytes(rng.randrange(0, 1500))
-        return bytes(6) + bytes(6) + b"\x88\xab" + body
-    if kind == 1:  # a valid MN frame with random bytes changed
-        frame = bytearray(
-            rng.choice(
-                [soc(), soa(rng.randrange(256), rng.randrange(256)), preq(rng.randrange(256))]
-            )
-        )
-        for _ in range(rng.randrange(1, 6)):
-            frame[rng.randrange(14, len(frame))] = rng.randrange(256)
-        return bytes(frame)
-    if kind == 2:  # SDO with random sequence layer and command layer
-        seq = rng.randbytes(4).hex()
-        command = rng.randbytes(rng.choice([0, 4, 8, 12, 20, 40])).hex()
-        return sdo(rng.choice([1, 2, 255, 7]), seq, command)
-    # NMT commands, any id, any data, to anyone
-    return nmt_command(
-        rng.choice([1, 2, 255]), rng.randrange(256), rng.randbytes(rng.randrange(40)).hex()
-    )
 
 
 def test_hostile_frames_are_counted_and_the_cns_still_boot() -> None:

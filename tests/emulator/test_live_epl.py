@@ -14,6 +14,9 @@ every frame it received and sent is tshark-clean, EPL only; and the taxels tshar
 each Operational PRes (it maps them from the SDO writes it saw) are the served samples
 (``skinframes.taxel.sample_payloads`` with the seed), the sample the PRes's 0x6000/1 names.
 
+A second test sends ``serve epl --nodes 8`` 100,000 hostile frames (paced so that none is
+dropped unread), then boots its CNs as an MN would: alive, correct, and what it met counted.
+
 Needs root (network namespaces, raw sockets), iproute2, tshark and the kit (its ``build`` needs
 cmake and a C compiler, which it installs with apt as root). Without them the test skips with the
 reason; under CI=true it fails instead.
@@ -23,6 +26,7 @@ from __future__ import annotations
 
 import json
 import os
+import random
 import re
 import select
 import shutil
@@ -36,8 +40,9 @@ from typing import Any
 import pytest
 import tshark_util
 from epl_cdc import skin_cdc
+from epl_frames import hostile, nmt_command, preq, soa, soc
 
-from emulator.live import veth_netns
+from emulator.live import ETH_P_EPL, netns_socket, veth_netns
 from skinframes import read_capture, taxel
 
 ROOT = Path(__file__).resolve().parents[2]
@@ -52,17 +57,33 @@ RUN_AFTER_S = 3.0  # cycles kept running once every CN is OPERATIONAL
 ENV = {**os.environ, "PYTHONPATH": str(ROOT)}
 
 
-def missing_requirement() -> str | None:
-    """Why the live EPL test cannot run here, or None."""
+def missing_root() -> str | None:
+    """Why no live EPL test can run here, or None."""
     if not sys.platform.startswith("linux"):
         return "live EPL tests need Linux (AF_PACKET, network namespaces)"
     if os.geteuid() != 0:
         return "needs root (network namespaces, raw sockets, the MN's real-time threads)"
     if shutil.which("ip") is None:
         return "'ip' (iproute2) is not installed"
+    return None
+
+
+def missing_requirement() -> str | None:
+    """Why the live test against openPOWERLINK cannot run here, or None."""
+    if (reason := missing_root()) is not None:
+        return reason
     if not (KIT / "build").is_file():
         return f"no openPOWERLINK kit at {KIT} (set OPENPOWERLINK_KIT)"
     return None
+
+
+@pytest.fixture(scope="module")
+def root() -> None:
+    reason = missing_root()
+    if reason is not None:
+        if IN_CI:
+            pytest.fail("CI=true: " + reason)
+        pytest.skip(reason)
 
 
 @pytest.fixture(scope="module")
@@ -206,3 +227,103 @@ def check_capture(tshark: str, capture: Path) -> None:
         assert taxels == payloads[sample, IDS.index(node)].tobytes(), (node, sample)
         seen[node].add(sample)
     assert all(len(s) > 1 for s in seen.values()), seen  # the taxels move
+
+
+HOSTILE_FRAMES = 100_000
+HOSTILE_NODES = 8
+# Frames sent before waiting for serve to catch up: 50 of at most 1514 bytes stay within a raw
+# socket's default receive buffer (net.core.rmem_default, 208 KiB), so none is dropped unread
+BATCH = 50
+
+
+PROBE_NODE = HOSTILE_NODES  # only the probes ask it for an IdentResponse
+
+
+def hostile_frame(rng: random.Random) -> bytes:
+    """A hostile frame that is no SoA IdentRequest to the probe node (DS 301 4.6.1.1.5: SoA
+    MessageType 5, RequestedServiceID 1 at EPL byte 6, target at byte 7)."""
+    while True:
+        frame = hostile(rng)
+        probe = frame[12:14] == b"\x88\xab" and frame[14:15] == b"\x05"
+        if not (probe and frame[20:22] == bytes((1, PROBE_NODE))):
+            return frame
+
+
+def caught_up(mn: Any, timeout_s: float = 60.0) -> bool:
+    """Whether serve read everything sent so far: a SoA without a service (it wakes the probe
+    node if the hostile frames left it NotActive or BasicEthernet, DS 301 NMT_CT2/CT12), then a
+    SoA IdentRequest to it, whose IdentResponse (ASnd ServiceID 1) no hostile frame asks for."""
+    mn.send(soa(0, 0))
+    mn.send(soa(1, PROBE_NODE))
+    deadline = time.monotonic() + timeout_s
+    while time.monotonic() < deadline:
+        frame = mn.recv()
+        if frame is None:
+            time.sleep(0.0002)
+        elif frame[14] == 0x06 and frame[16] == PROBE_NODE and frame[17] == 0x01:
+            return True
+    return False
+
+
+def test_hostile_frames_leave_serve_epl_alive_and_correct(root: None) -> None:
+    """Issue 40: 100,000 hostile EPL frames to ``serve epl --nodes 8`` (tests/epl_frames.py's
+    generator: random EPL bytes, mutated MN frames, random SDO and NMT commands); afterwards a
+    boot written from DS 301 (NMTResetNode, SoA, SoC, EnableReadyToOperate, StartNode) brings
+    every CN to Operational and each PReq gets its PRes; serve counted what it met."""
+    rng = random.Random(40)
+    with veth_netns(master="eplhm0", slave="eplhc0", prefix="epl") as net:
+        serve = subprocess.Popen(
+            [
+                *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes"),
+                *("serve", "epl", "--iface", net.slave, "--nodes", str(HOSTILE_NODES)),
+                *("--bytes", "192", "--json"),
+            ],
+            cwd=ROOT,
+            env=ENV,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        try:
+            read_line(serve.stderr, "serving", 60)
+            with netns_socket(net.master, net.netns, ETH_P_EPL) as mn:
+                for start in range(0, HOSTILE_FRAMES, BATCH):
+                    for _ in range(min(BATCH, HOSTILE_FRAMES - start)):
+                        mn.send(hostile_frame(rng))
+                    assert caught_up(mn), f"serve answered no probe after {start} frames"
+                operational = boot_all(mn, range(1, HOSTILE_NODES + 1), deadline_s=180)
+        finally:
+            out, err = stop(serve, signal.SIGINT)
+    assert operational == set(range(1, HOSTILE_NODES + 1))
+    assert serve.returncode == 0, err[-3000:]
+    summary = json.loads(out)
+    assert summary["frames_in"] >= HOSTILE_FRAMES  # every one arrived (and the probes)
+    counted = sum(summary["counts"].values()) + sum(
+        sum(cn["counts"].values()) for cn in summary["cns"]
+    )
+    print(
+        f"\nhostile: {summary['frames_in']} frames in, {counted} counted, {summary['errors']} errors"
+    )
+    assert counted > 0 and summary["errors"] == 0, summary["error_messages"]
+
+
+def boot_all(mn: Any, nodes: range, deadline_s: float) -> set[int]:
+    """Boot ``nodes`` as an MN would, again and again until each answers a PReq with an
+    Operational PRes (NMTStatus 0xFD, EPL byte 3); the nodes that did."""
+    done: set[int] = set()
+    deadline = time.monotonic() + deadline_s
+    while done != set(nodes) and time.monotonic() < deadline:
+        for frame in (nmt_command(255, 0x28), soa(0, 0), soc()):
+            mn.send(frame)
+        for command in (0x24, 0x21):  # EnableReadyToOperate, StartNode
+            mn.send(nmt_command(255, command))
+        for node in nodes:
+            mn.send(preq(node))
+        until = time.monotonic() + 1.0
+        while time.monotonic() < until:
+            frame = mn.recv()
+            if frame is None:
+                time.sleep(0.01)
+            elif frame[14] == 0x04 and frame[17] == 0xFD:  # PRes, Operational
+                done.add(frame[16])
+    return done
