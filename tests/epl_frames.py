@@ -23,8 +23,10 @@ def mn(dst: str, epl: str) -> bytes:
     return frame.ljust(60, b"\0")
 
 
-def soc() -> bytes:  # SoC: 01 ff f0, reserved, flags, reserved, NetTime 8, RelativeTime 8
-    return mn(SOC_MAC, "01 ff f0 00 00 00" + "00" * 16)
+def soc(net_time: str = "00" * 8) -> bytes:
+    """SoC (4.6.1.1.1): 01 ff f0, reserved, flags, reserved, NetTime (s u32, ns u32, as hex),
+    RelativeTime (u64)."""
+    return mn(SOC_MAC, "01 ff f0 00 00 00" + net_time + "00" * 8)
 
 
 def soa(service: int, target: int, *, er: bool = False, state: int = 0xFD) -> bytes:

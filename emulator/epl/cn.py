@@ -6,9 +6,10 @@ and its SDO server (:mod:`.sdo_server`), and keeps the frames it answers with re
 - ``pres_frame``: the PRes (DS 301 4.6.1.1.4) with the TPDO 0x1A00 mapping's objects, sent in
   PreOperational2, ReadyToOperate and Operational (NMT_CS_PRE_OPERATIONAL_2 on: 7.1.4.x), RD
   set only in Operational, PR/RS saying what waits in the asynchronous queue;
-- ``ident_frame`` and ``status_frame(er)``: IdentResponse (7.3.3.2.1) and StatusResponse
-  (7.3.3.3.1, 72 frame bytes), answers to the SoA IdentRequest and StatusRequest; EC follows the
-  ER of the SoA that asks (6.5.5.1: exception reset acknowledged);
+- ``ident_frame`` and ``status_frames``: IdentResponse (7.3.3.2.1) and StatusResponse
+  (7.3.3.3.1, 72 frame bytes), answers to the SoA IdentRequest and StatusRequest, the latter
+  with EC, EN and the error entries of :mod:`.errsig` (one frame per EC/EN pair, since a
+  StatusRequest's ER can change EC and EN on the fast path);
 - the asynchronous queue: SDO answers sent one per SoA UnspecifiedInvite to this node.
 
 They are rebuilt (:meth:`SkinCn.rebuild`) when something they carry changes, so a live loop can
@@ -24,6 +25,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Final
 
+from emulator.epl.errsig import E_DLL_LOSS_SOC_TH, ErrorSignalling
 from emulator.epl.nmt import CYCLIC_STATES, CnStateMachine, Reset, addressed
 from emulator.epl.od import (
     INPUTS_INDEX,
@@ -60,6 +62,7 @@ LOSS_STEP: Final = 8  # DS 301 4.7.7.1: a threshold counter rises by 8 per error
 MAX_RS: Final = 7  # RS is 3 bits
 ASYNC_QUEUE_FRAMES: Final = 16  # frames beyond wait nowhere: dropped and counted
 EC_FLAG: Final = 0x08  # IdentResponse/StatusResponse flags1 (DS 301 7.3.3.3.1)
+EN_FLAG: Final = 0x10  # PRes and StatusResponse flags1 (DS 301 4.6.1.1.4, 7.3.3.3.1)
 # DS 301 5.1.2: a CN's IP address is 192.168.100.<node id>/24, gateway 192.168.100.254
 SUBNET: Final = ipaddress.IPv4Address("255.255.255.0")
 GATEWAY: Final = ipaddress.IPv4Address("192.168.100.254")
@@ -86,7 +89,11 @@ class SkinCn:
     counts: Counter[str] = field(default_factory=Counter)
     pres_frame: bytes = b""
     ident_frame: bytes = b""
-    status_frames: tuple[bytes, bytes] = (b"", b"")
+    status_frames: dict[tuple[bool, bool], bytes] = field(default_factory=dict)  # (EC, EN)
+    errsig: ErrorSignalling = field(default_factory=ErrorSignalling)
+    flags_stale: bool = False  # EN changed on the fast path: the PRes follows after the frame
+    last_soc_net_ns: int = 0  # the last SoC's NetTime, and when it came (host clock)
+    soc_seen_ns: int = 0
     queue: deque[bytes] = field(default_factory=deque)
     taxels: bytes = b""
     sample_number: int = 0
@@ -112,6 +119,7 @@ class SkinCn:
             self.od.reset_communication()
         self.sdo.close()
         self.queue.clear()
+        self.errsig.reset()
         self._publish_inputs()
         self._configure()  # NMT_GS_RESET_CONFIGURATION: the mappings take effect
 
@@ -150,6 +158,8 @@ class SkinCn:
                 buf[m.offset_bytes : m.offset_bytes + m.length_bytes] = value[: m.length_bytes]
             payload = bytes(buf)
         flags1 = PResFlag.RD if state == NmtState.OPERATIONAL else 0
+        if self.errsig.en:
+            flags1 |= EN_FLAG
         pres = PRes(self.node_id, payload, nmt_status=state, flags1=flags1, flags2=self._flags2())
         # The frame spans PResActPayloadLimit (0x1F98/5) payload bytes, zeros after the mapped
         # ones, and no more: an MN drops a PRes longer than its limit for the node (0x1F8D;
@@ -183,13 +193,20 @@ class SkinCn:
             host_name=f"{self.node_id:02X}-{od.u(0x1018, 1):08X}".encode().ljust(32, b"\0"),
         )
         self.ident_frame = self._asnd(ident, BROADCAST_NODE_ID)
-        self.status_frames = tuple(  # type: ignore[assignment]
-            self._asnd(
-                StatusResponse(nmt_status=state, flags1=EC_FLAG if er else 0, flags2=flags2),
+        entries = tuple(self.errsig.entries)
+        self.status_frames = {
+            (ec, en): self._asnd(
+                StatusResponse(
+                    nmt_status=state,
+                    flags1=(EC_FLAG if ec else 0) | (EN_FLAG if en else 0),
+                    flags2=flags2,
+                    error_entries=entries,
+                ),
                 BROADCAST_NODE_ID,
             )
-            for er in (False, True)
-        )
+            for ec in (False, True)
+            for en in (False, True)
+        }
 
     def _asnd(self, service: IdentResponse | StatusResponse | Sdo, dest: int) -> bytes:
         return frame(ASnd(service, dest=dest, src=self.node_id)).to_bytes()
@@ -212,7 +229,9 @@ class SkinCn:
         if service == RequestedService.IDENT_REQUEST:
             return self.ident_frame
         if service == RequestedService.STATUS_REQUEST:
-            return self.status_frames[bool(soa_flags1 & SoAFlag.ER)]
+            if self.errsig.status_request(bool(soa_flags1 & SoAFlag.ER)):
+                self.flags_stale = True
+            return self.status_frames[self.errsig.ec, self.errsig.en]
         if service == RequestedService.UNSPECIFIED_INVITE and self.queue:
             return self.queue.popleft()
         return None
@@ -225,8 +244,9 @@ class SkinCn:
     def after_soa(self, soa: SoA, answered: bool) -> None:
         """A SoA passed (``answered``: this node sent its invited frame)."""
         self._state_event(lambda: self.nmt.soc_or_soa(soc=False))
-        if answered:
-            self.rebuild()  # the queue (RS) may have shrunk
+        if answered or self.flags_stale:
+            self.flags_stale = False
+            self.rebuild()  # the queue (RS) may have shrunk, EN changed
 
     def after_pdo(self, preq: PReq | None) -> None:
         """A PReq to this node (``preq``) or another node's PRes passed."""
@@ -257,9 +277,11 @@ class SkinCn:
             self.counts["asnd_ignored"] += 1
 
     # --- loss of SoC (DS 301 4.7.7.2.3, 0x1C0B DLL_CNLossSoC_REC) --------------------------
-    def saw_soc(self, now_ns: int) -> None:
-        """A SoC arrived at ``now_ns``: a good cycle lowers the threshold counter by one."""
-        self.last_soc_ns = now_ns
+    def saw_soc(self, now_ns: int, net_time_ns: int = 0) -> None:
+        """A SoC with NetTime ``net_time_ns`` arrived at ``now_ns``: a good cycle lowers the
+        threshold counter by one."""
+        self.last_soc_ns = self.soc_seen_ns = now_ns
+        self.last_soc_net_ns = net_time_ns
         count = self.od.u(0x1C0B, 2)
         if count:
             self.od.set_value(0x1C0B, 2, (count - 1).to_bytes(4, "little"))
@@ -284,7 +306,11 @@ class SkinCn:
         if threshold and count >= threshold:
             count = 0
             self.counts["cycle_errors"] += 1
+            # the entry's time: the NetTime the MN last sent, moved on by the host's clock
+            when_ns = self.last_soc_net_ns + (now_ns - self.soc_seen_ns)
+            self.errsig.error(E_DLL_LOSS_SOC_TH, when_ns)
             self._state_event(self.nmt.cycle_error)
+            self.rebuild()
         self.od.set_value(0x1C0B, 2, count.to_bytes(4, "little"))
 
     def check_basic_ethernet(self, now_ns: int, last_epl_ns: int) -> None:

@@ -106,8 +106,9 @@ class EplSkin:
             self.counts["malformed"] += 1
             return
         if isinstance(message, SoC):
+            net_time_ns = message.net_time_s * 1_000_000_000 + message.net_time_ns
             for cn in self.nodes:
-                cn.saw_soc(now_ns)
+                cn.saw_soc(now_ns, net_time_ns)
                 cn.after_soc()
         elif isinstance(message, SoA):
             target = message.requested_target

@@ -8,7 +8,10 @@ way, or read back by tshark. Nothing expected here comes from the code under tes
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import pytest
+import tshark_util
 from epl_frames import (
     TAXELS,
     booted,
@@ -24,6 +27,7 @@ from epl_frames import (
 
 from emulator.epl.skin import EplSkin
 from emulator.errors import SdoAbortError
+from skinframes.pcap import write_pcap
 
 
 # --- NMT (DS 301 7.1.4) --------------------------------------------------------------------------
@@ -158,3 +162,55 @@ def test_mapping_rules_answer_with_abort_codes() -> None:
     with pytest.raises(SdoAbortError) as exc:  # entries change only while /0 is 0
         od.write(0x1A00, 1, (0x0008_0000_0001_6000).to_bytes(8, "little"))
     assert exc.value.code == 0x08000022
+
+
+# --- error signalling (DS 301 6.5.5, 6.5.8) ------------------------------------------------------
+def flags_of(skin: EplSkin, node: int, er: bool) -> int:
+    """flags1 of the StatusResponse to a StatusRequest with ER = ``er`` (ASnd byte 4)."""
+    return epl(feed(skin, soa(2, node, er=er)))[4]
+
+
+def test_ec_answers_er_and_a_reset_sets_it_again() -> None:
+    """6.5.5.1: a CN starts with EC = 1; the MN's ER 1 -> 0 handshake clears it; a reset sets
+    it again, so that the MN sees the CN was reset (EC 0x08, EN 0x10)."""
+    skin = booted(1)
+    assert flags_of(skin, 1, er=False) == 0x08  # fresh: EC set
+    assert flags_of(skin, 1, er=True) == 0x08
+    assert flags_of(skin, 1, er=True) == 0x08
+    assert flags_of(skin, 1, er=False) == 0x00  # ER 1 -> 0: EC cleared
+    assert flags_of(skin, 1, er=False) == 0x00
+    feed(skin, nmt_command(1, 0x29))  # NMTResetCommunication
+    feed(skin, soa(0, 0))  # NotActive -> PreOp1
+    assert flags_of(skin, 1, er=False) == 0x08
+
+
+def test_loss_of_soc_threshold_is_an_error_entry(tmp_path: Path, tshark: str) -> None:
+    """The cycle error of 0x1C0B becomes an entry of the StatusResponse (type 0x7002: emergency,
+    occurred, EPL profile; code 0x8245 E_DLL_LOSS_SOC_TH; time: the SoC's NetTime moved on by
+    the host's clock) and toggles EN in StatusResponse and PRes."""
+    skin = booted(1)
+    cn = skin.nodes[0]
+    cn.od.set_value(0x1006, 0, (10_000).to_bytes(4, "little"))
+    tolerance_ns = cn.od.u(0x1C14, 0)
+    # SoC with NetTime 1000 s + 5 ns (DS 301 4.6.1.1.1: seconds u32, nanoseconds u32)
+    feed(skin, soc("e8030000 05000000"), now_ns=7_000_000_000)
+    flags_of(skin, 1, er=True)  # the ER handshake: EC 1, then 0
+    assert flags_of(skin, 1, er=False) == 0x00
+    lost_at = 7_000_000_000 + 20_000_000 + tolerance_ns + 1  # two losses: threshold 15
+    skin.tick(7_000_000_000 + 10_000_000 + tolerance_ns + 1)
+    skin.tick(lost_at)
+    status = feed(skin, soa(2, 1))
+    assert status is not None and len(status) == 72
+    assert epl(status)[4] == 0x10  # EN toggled
+    write_pcap(tmp_path / "status.pcap", [(0, status)])
+    (row,) = tshark_util.fields(
+        tshark,
+        tmp_path / "status.pcap",
+        ["epl.asnd.sres.el.entry.type", "epl.asnd.sres.el.entry.code", "epl.asnd.sres.en"],
+    )
+    assert int(row["epl.asnd.sres.el.entry.type"][0], 0) == 0x7002
+    assert int(row["epl.asnd.sres.el.entry.code"][0], 0) == 0x8245
+    entry = epl(status)[18:38]  # the first entry: type, code, time s, time ns, 8 bytes info
+    elapsed_ns = lost_at - 7_000_000_000
+    assert int.from_bytes(entry[4:8], "little") == 1000
+    assert int.from_bytes(entry[8:12], "little") == 5 + elapsed_ns
