@@ -22,6 +22,10 @@ from emulator.live import MAX_ERROR_MESSAGES, BetweenFrames, RawSocket, TaxelFee
 from skinframes.capture_writer import CaptureWriter
 
 TICK_S: Final = 0.005  # the nodes' timers (loss of SoC) run at least this often
+# Nodes given the last taxel sample after each frame (EplSkin.refresh): each takes about 3 us
+# (bench below), so a PReq waits at most ~25 us for this work, and an MN's frames (one PReq per
+# node and cycle at least) hand a sample to every node within one cycle.
+REFRESH_NODES: Final = 8
 
 
 @dataclass
@@ -85,7 +89,9 @@ def serve_epl(
                 stats.publications += 1
             timeout = TICK_S if feed is None else min(TICK_S, feed.period_s)
             readable, _, _ = select.select([fd], [], [], timeout)
-            if readable:
+            if not readable:  # a quiet moment: every node gets the last sample
+                skin.refresh()
+            else:
                 while (frame := recv()) is not None:
                     t0, seen_ns = perf(), wall_ns()
                     back = answer(frame)  # the fast path: a prepared frame, or None
@@ -111,6 +117,7 @@ def serve_epl(
                         if on_error is not None:
                             on_error(exc, frame)
                     collector.after_frame()
+                    skin.refresh(REFRESH_NODES)
             now = clock_ns()
             if now >= next_tick:
                 skin.tick(now)

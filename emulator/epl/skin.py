@@ -67,11 +67,31 @@ class EplSkin:
         self.by_id = {cn.node_id: cn for cn in self.nodes}
         self.counts: Counter[str] = Counter()
         self.last_epl_ns = 0  # when the last EPL frame arrived (NMT_CT3's timer)
+        self.published = 0  # taxel samples published so far
+        self._rows: npt.NDArray[np.uint8] | None = None
+        self._stale: list[int] = []  # nodes whose row of the last sample is not applied yet
 
     def publish(self, payloads: npt.NDArray[np.uint8]) -> None:
-        """One taxel sample: row k of ``payloads`` (patches x bytes) to the k-th node."""
-        for cn, row in zip(self.nodes, payloads, strict=True):
-            cn.publish(row.tobytes())
+        """One taxel sample: row k of ``payloads`` (patches x bytes) for the k-th node.
+
+        Only noted here: :meth:`refresh` hands the rows to the nodes a few at a time, between
+        frames, so that no PReq waits for all N PRes to be rebuilt (160 nodes take about
+        1 ms). Until its turn a node sends the sample before, whole.
+        """
+        if len(payloads) != len(self.nodes):
+            raise TopologyError(f"publish: {len(payloads)} rows for {len(self.nodes)} CNs")
+        self.published += 1
+        self._rows = payloads
+        self._stale = list(range(len(self.nodes) - 1, -1, -1))  # popped from the end: node 0 first
+
+    def refresh(self, nodes: int | None = None) -> None:
+        """Give up to ``nodes`` (default: all) nodes their row of the last published sample."""
+        stale, rows, number = self._stale, self._rows, self.published
+        if rows is None:
+            return
+        for _ in range(len(stale) if nodes is None else min(nodes, len(stale))):
+            i = stale.pop()
+            self.nodes[i].publish(rows[i].tobytes(), number)
 
     # --- the fast path -----------------------------------------------------------------------
     def answer(self, frame: bytes) -> bytes | None:

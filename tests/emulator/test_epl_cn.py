@@ -10,6 +10,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import numpy as np
 import pytest
 import tshark_util
 from epl_frames import (
@@ -112,7 +113,9 @@ def test_pres_carries_the_mapping_rd_only_in_operational() -> None:
     cn = skin.nodes[0]
     taxels = bytes(range(100, 100 + TAXELS))
     cn.publish(taxels)
-    empty = epl(feed(skin, preq(7)))
+    whole = feed(skin, preq(7))
+    assert whole is not None and whole[:14] == bytes.fromhex("01111e000002 020000000a07 88ab")
+    empty = epl(whole)
     # 04 ff 07, NMTStatus 5D, flags1 0 (no RD), flags2 0, PDOVersion 0, reserved, size 0
     assert empty[:10] == bytes.fromhex("04ff075d000000000000")
     assert len(empty) == 10 + 36  # the frame spans PResActPayloadLimit 0x1F98/5 (default 36)
@@ -214,3 +217,26 @@ def test_loss_of_soc_threshold_is_an_error_entry(tmp_path: Path, tshark: str) ->
     elapsed_ns = lost_at - 7_000_000_000
     assert int.from_bytes(entry[4:8], "little") == 1000
     assert int.from_bytes(entry[8:12], "little") == 5 + elapsed_ns
+
+
+def test_a_published_sample_reaches_the_nodes_between_frames() -> None:
+    """EplSkin.publish only notes the sample; refresh hands it out, node by node, in order.
+    0x6000/1 (mapped behind the taxels) carries the sample's number."""
+    skin = booted(1, 2)
+    for cn in skin.nodes:
+        cn.od.write(0x1A00, 1, (0x00C0_0000_0001_6100).to_bytes(8, "little"))
+        cn.od.write(0x1A00, 2, (0x0008_00C0_0001_6000).to_bytes(8, "little"))
+        cn.od.write(0x1A00, 0, b"\x02")
+    feed(skin, nmt_command(255, 0x2A))
+    feed(skin, soa(0, 0))
+    feed(skin, soc())
+    rows = np.arange(2 * TAXELS, dtype=np.uint8).reshape(2, TAXELS)
+    skin.publish(rows)
+    assert epl(feed(skin, preq(1)))[10:35] == bytes(TAXELS + 1)  # not handed out yet
+    skin.refresh(1)
+    assert epl(feed(skin, preq(1)))[10:35] == rows[0].tobytes() + b"\x01"
+    assert epl(feed(skin, preq(2)))[10:35] == bytes(TAXELS + 1)
+    skin.publish(rows[::-1])
+    skin.refresh()
+    assert epl(feed(skin, preq(1)))[10:35] == rows[1].tobytes() + b"\x02"
+    assert epl(feed(skin, preq(2)))[10:35] == rows[0].tobytes() + b"\x02"
