@@ -4,7 +4,7 @@ A :class:`SkinCn` owns its object dictionary (:mod:`.od`), its NMT state machine
 and its SDO server (:mod:`.sdo_server`), and keeps the frames it answers with ready to send:
 
 - ``pres_frame``: the PRes (DS 301 4.6.1.1.4) with the TPDO 0x1A00 mapping's objects, sent in
-  PreOperational2, ReadyToOperate and Operational (NMT_CS_PRE_OPERATIONAL_2 on: 7.1.4.x), RD
+  PreOperational2, ReadyToOperate and Operational (DS 301 7.1.4), RD
   set only in Operational, PR/RS saying what waits in the asynchronous queue;
 - ``ident_frame`` and ``status_frames``: IdentResponse (7.3.3.2.1) and StatusResponse
   (7.3.3.3.1, 72 frame bytes), answers to the SoA IdentRequest and StatusRequest, the latter
@@ -57,10 +57,11 @@ from skinframes.powerlink import (
 )
 from skinframes.powerlink.enums import BROADCAST_NODE_ID, MN_NODE_ID
 
-# DS 301 4.2.4.1.2.2 (Table 16): PR 0x3 = PRIO_GENERIC_REQUEST, what SDO frames queue as
-# (openPOWERLINK's CN sends PR 3 with RS 1 for a waiting SDO answer, seen on the wire).
+# PR of a waiting SDO answer: PRIO_GENERIC_REQUEST = 3 (DS 301 PR values; openPOWERLINK
+# oplk/dll.h kDllAsyncReqPrioGeneric; its CN sends PR 3 with RS 1 for one, seen on the wire)
 PRIO_GENERIC_REQUEST: Final = 3
-LOSS_STEP: Final = 8  # DS 301 4.7.7.1: a threshold counter rises by 8 per error, falls by 1
+# DS 301 threshold counters: +8 per error, -1 per cycle without (openPOWERLINK errhndk.c)
+LOSS_STEP: Final = 8
 MAX_RS: Final = 7  # RS is 3 bits
 ASYNC_QUEUE_FRAMES: Final = 16  # frames beyond wait nowhere: dropped and counted
 EC_FLAG: Final = 0x08  # IdentResponse/StatusResponse flags1 (DS 301 7.3.3.3.1)
@@ -283,7 +284,7 @@ class SkinCn:
         else:
             self.counts["asnd_ignored"] += 1
 
-    # --- loss of SoC (DS 301 4.7.7.2.3, 0x1C0B DLL_CNLossSoC_REC) --------------------------
+    # --- loss of SoC (DS 301 4.7, DLL error handling; 0x1C0B DLL_CNLossSoC_REC) ------------
     def saw_soc(self, now_ns: int, net_time_ns: int = 0) -> None:
         """A SoC with NetTime ``net_time_ns`` arrived at ``now_ns``: a good cycle lowers the
         threshold counter by one."""

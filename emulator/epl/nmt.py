@@ -1,4 +1,4 @@
-"""The NMT state machine of a Controlled Node (EPSG DS 301 V1.4.0 7.1.3, 7.1.4, Figs. 73-75).
+"""The NMT state machine of a Controlled Node (EPSG DS 301 V1.4.0 7.1.3 and 7.1.4).
 
 One method per event; every transition names its clause (NMT_GTx generic, NMT_CTx CN-specific).
 The reset states (Initialising, ResetApplication, ResetCommunication, ResetConfiguration) are
