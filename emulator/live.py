@@ -43,9 +43,6 @@ from typing import Final, Protocol
 import numpy as np
 import numpy.typing as npt
 
-import numpy as np
-import numpy.typing as npt
-
 from emulator.errors import LinkError
 from emulator.esc.chain import EcatChain
 from emulator.esc.device import EscDevice
@@ -324,7 +321,7 @@ def netns_socket(iface: str, netns: str | None = None, ethertype: int = ETH_P_EC
 
 # --- serving -----------------------------------------------------------------------------------
 class Publisher(Protocol):
-    """What a :class:`TaxelFeed` publishes to: the ESC chain, the EPL skin."""
+    """What a :class:`TaxelFeed` publishes to besides an ESC line: the EPL skin."""
 
     def publish(self, payloads: npt.NDArray[np.uint8]) -> None:
         """One sample: row k of ``payloads`` (patches x bytes) to the k-th patch."""
@@ -363,12 +360,18 @@ class TaxelFeed:
         count = self.published if published is None else published
         return (count - 1) % len(self.payloads)
 
-    def publish(self, chain: Publisher, now: float) -> bool:
-        """Publish the next sample if the period has passed; True if it did."""
+    def publish(self, chain: EcatChain | Publisher, now: float) -> bool:
+        """Publish the next sample if the period has passed; True if it did.
+
+        ``chain``: an ESC line (its patches and ESI slaves as above), or any other
+        :class:`Publisher` (the EPL skin), which takes the sample's rows as they are.
+        """
         if now < self._next:
             return False
         rows = self.payloads[self.published % len(self.payloads)]
-        if all(type(d.app) is SkinPatchApplication for d in chain.devices):
+        if not isinstance(chain, EcatChain):
+            chain.publish(rows)  # the EPL skin: every row a patch's
+        elif all(type(d.app) is SkinPatchApplication for d in chain.devices):
             chain.publish(rows)
         else:
             _publish_line(chain.devices, rows)

@@ -26,9 +26,14 @@ from skinframes_cli import main
         (["--nodes", "3", "--bytes", "8", "--node-ids", "1,2"], "--node-ids: 2 ids for 3 nodes"),
         (["--nodes", "2", "--bytes", "8", "--node-ids", "5,5"], "--node-ids: an id appears twice"),
         (["--nodes", "2", "--bytes", "8", "--samples", "0"], "taxel feed: 0 samples"),
-        (["--nodes", "2", "--bytes", "8", "--no-mailbox"], "--no-mailbox and --drift-ppm apply"),
-        (["--nodes", "2", "--bytes", "8", "--drift-ppm", "3"], "--no-mailbox and --drift-ppm"),
+        (["--nodes", "2", "--bytes", "8", "--no-mailbox"], "--no-mailbox, --drift-ppm and --esi"),
+        (
+            ["--nodes", "2", "--bytes", "8", "--drift-ppm", "3"],
+            "--no-mailbox, --drift-ppm and --esi",
+        ),
         (["--nodes", "2", "--bytes", "8", "--pcap", ""], "--pcap: an empty file name"),
+        (["--nodes", "2", "--bytes", "8", "--esi", "x.xml"], "--no-mailbox, --drift-ppm and --esi"),
+        (["--nodes", "2"], "serve epl: --bytes is required"),
     ],
 )
 def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
