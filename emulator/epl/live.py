@@ -22,9 +22,10 @@ from emulator.live import MAX_ERROR_MESSAGES, BetweenFrames, RawSocket, TaxelFee
 from skinframes.capture_writer import CaptureWriter
 
 TICK_S: Final = 0.005  # the nodes' timers (loss of SoC) run at least this often
-# Nodes given the last taxel sample after each frame (EplSkin.refresh): each takes about 3 us
-# (bench below), so a PReq waits at most ~25 us for this work, and an MN's frames (one PReq per
-# node and cycle at least) hand a sample to every node within one cycle.
+# Nodes given the last taxel sample after each frame (EplSkin.refresh): eight of 192 bytes took
+# 26 us on the 2-core development machine (timeit), so a PReq waits at most that long for this
+# work, and an MN's frames (one PReq per node and cycle at least) hand a sample to every node
+# within one cycle.
 REFRESH_NODES: Final = 8
 
 
