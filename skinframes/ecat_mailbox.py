@@ -24,6 +24,7 @@ from enum import IntEnum
 from typing import Final
 
 from skinframes.errors import FieldRangeError, TruncatedError
+from skinframes.sdo_abort import SdoAbort
 
 __all__ = [
     "COE_HEADER_BYTES",
@@ -124,37 +125,7 @@ class SdoInfoOpcode(IntEnum):
     ERROR_REQUEST = 0x07
 
 
-class SdoAbort(IntEnum):
-    """SDO abort codes (ETG.1000.6 Table 41; CiA 301 Table 22)."""
-
-    TOGGLE_BIT = 0x05030000
-    TIMEOUT = 0x05040000
-    UNKNOWN_COMMAND = 0x05040001
-    INVALID_BLOCK_SIZE = 0x05040002
-    OUT_OF_MEMORY = 0x05040005
-    UNSUPPORTED_ACCESS = 0x06010000
-    WRITE_ONLY = 0x06010001
-    READ_ONLY = 0x06010002
-    SUBINDEX0_NOT_ZERO = 0x06010003  # "subindex 0 must be 0 for write access" (CoE)
-    COMPLETE_ACCESS_UNSUPPORTED = 0x06010004
-    NO_OBJECT = 0x06020000
-    NOT_MAPPABLE = 0x06040041
-    PDO_TOO_LONG = 0x06040042
-    INCOMPATIBLE_PARAMETER = 0x06040043
-    INTERNAL_INCOMPATIBILITY = 0x06040047
-    HARDWARE_ERROR = 0x06060000
-    LENGTH_MISMATCH = 0x06070010
-    LENGTH_TOO_HIGH = 0x06070012
-    LENGTH_TOO_LOW = 0x06070013
-    NO_SUBINDEX = 0x06090011
-    VALUE_RANGE = 0x06090030
-    VALUE_TOO_HIGH = 0x06090031
-    VALUE_TOO_LOW = 0x06090032
-    GENERAL_ERROR = 0x08000000
-    CANNOT_TRANSFER = 0x08000020
-    LOCAL_CONTROL = 0x08000021
-    DEVICE_STATE = 0x08000022  # "because of the present device state"
-    NO_DICTIONARY = 0x08000023
+# SdoAbort: CiA 301's codes, one enum with POWERLINK's (skinframes.sdo_abort), imported above
 
 
 _HEADER = struct.Struct("<HHBB")

@@ -14,6 +14,7 @@ import signal
 import sys
 import threading
 import traceback
+from collections.abc import Callable, Iterator
 from types import FrameType
 from typing import Any
 
@@ -180,32 +181,19 @@ def run(args: argparse.Namespace) -> int:
     if args.pcap == "":
         raise CaptureError("--pcap: an empty file name")
 
-    def on_error(exc: BaseException, frame: bytes) -> None:
-        if args.debug:  # the summary counts them; --debug shows each one as it happens
-            print(f"frame {frame.hex()}:", file=sys.stderr)
-            traceback.print_exception(exc, file=sys.stderr)
-
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
-    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        with contextlib.ExitStack() as stack:
-            sock = stack.enter_context(RawSocket(args.iface))
-            capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
-            how = "compiled" if compiled.in_use() else "as Python (make compiles them)"
-            what = f"{args.nodes} EtherCAT slaves x {size} bytes"
-            if esi:
-                what += " and " + ", ".join(s.device.type_name for s in esi)
-            print(
-                f"serving {what} on {args.iface}, the ESCs {how}; SIGINT/SIGTERM to stop",
-                file=sys.stderr,
-                flush=True,
-            )
-            stats = serve(chain, sock, stop, feed=feed, capture=capture, on_error=on_error)
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
+    with _until_signal(stop), contextlib.ExitStack() as stack:
+        sock = stack.enter_context(RawSocket(args.iface))
+        capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
+        how = "compiled" if compiled.in_use() else "as Python (make compiles them)"
+        what = f"{args.nodes} EtherCAT slaves x {size} bytes"
+        if esi:
+            what += " and " + ", ".join(s.device.type_name for s in esi)
+        print(
+            f"serving {what} on {args.iface}, the ESCs {how}; SIGINT/SIGTERM to stop",
+            file=sys.stderr,
+            flush=True,
+        )
+        stats = serve(chain, sock, stop, feed=feed, capture=capture, on_error=_on_error(args.debug))
     summary: dict[str, Any] = {
         "protocol": "ecat",
         "iface": args.iface,
@@ -250,6 +238,34 @@ def run(args: argparse.Namespace) -> int:
     return 0
 
 
+def _on_error(debug: bool) -> Callable[[BaseException, bytes], None]:
+    """What serve does with a frame it could not process: counted in the summary, and with
+    ``--debug`` the frame and its traceback shown as it happens."""
+
+    def on_error(exc: BaseException, frame: bytes) -> None:
+        if debug:
+            print(f"frame {frame.hex()}:", file=sys.stderr)
+            traceback.print_exception(exc, file=sys.stderr)
+
+    return on_error
+
+
+@contextlib.contextmanager
+def _until_signal(stop: threading.Event) -> Iterator[None]:
+    """Inside, SIGINT and SIGTERM set ``stop`` (serve ends its loop); the handlers before are
+    back afterwards."""
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        stop.set()
+
+    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield
+    finally:
+        for s, handler in previous.items():
+            signal.signal(s, handler)
+
+
 def run_epl(args: argparse.Namespace) -> int:
     """``serve epl``: the patches as EPL CNs until a signal arrives."""
     from emulator.epl.live import serve_epl
@@ -273,29 +289,18 @@ def run_epl(args: argparse.Namespace) -> int:
     )
     stop = threading.Event()
 
-    def on_error(exc: BaseException, frame: bytes) -> None:
-        if args.debug:
-            print(f"frame {frame.hex()}:", file=sys.stderr)
-            traceback.print_exception(exc, file=sys.stderr)
-
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
-    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
-        with contextlib.ExitStack() as stack:
-            sock = stack.enter_context(RawSocket(args.iface, ETH_P_EPL, promiscuous=True))
-            capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
-            print(
-                f"serving {args.nodes} EPL CNs (node ids {','.join(map(str, ids))}) x "
-                f"{args.bytes} taxel bytes on {args.iface}; SIGINT/SIGTERM to stop",
-                file=sys.stderr,
-                flush=True,
-            )
-            stats = serve_epl(skin, sock, stop, feed=feed, capture=capture, on_error=on_error)
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
+    with _until_signal(stop), contextlib.ExitStack() as stack:
+        sock = stack.enter_context(RawSocket(args.iface, ETH_P_EPL, promiscuous=True))
+        capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
+        print(
+            f"serving {args.nodes} EPL CNs (node ids {','.join(map(str, ids))}) x "
+            f"{args.bytes} taxel bytes on {args.iface}; SIGINT/SIGTERM to stop",
+            file=sys.stderr,
+            flush=True,
+        )
+        stats = serve_epl(
+            skin, sock, stop, feed=feed, capture=capture, on_error=_on_error(args.debug)
+        )
     report = skin.report()
     summary: dict[str, Any] = {
         "protocol": "epl",

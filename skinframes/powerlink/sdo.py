@@ -23,6 +23,7 @@ from enum import IntEnum
 from typing import Final
 
 from skinframes.errors import FieldRangeError, TruncatedError
+from skinframes.sdo_abort import SdoAbort
 
 SEQUENCE_MODULO: Final = 64  # 6-bit sequence numbers (DS 301 6.3.2.3.1)
 INDEX_HEADER_BYTES: Final = 4  # Index u16, SubIndex u8, reserved u8 (6.3.2.4.2.1.1)
@@ -73,38 +74,7 @@ class Segmentation(IntEnum):
     COMPLETE = 3
 
 
-class AbortCode(IntEnum):
-    """SDO abort codes (DS 301 6.3.2.4.2.3, Table 58)."""
-
-    TOGGLE_BIT = 0x05030000
-    TIMEOUT = 0x05040000
-    UNKNOWN_COMMAND = 0x05040001  # client/server command specifier not valid or unknown
-    INVALID_BLOCK_SIZE = 0x05040002
-    INVALID_SEQUENCE = 0x05040003
-    CRC_ERROR = 0x05040004
-    OUT_OF_MEMORY = 0x05040005
-    UNSUPPORTED_ACCESS = 0x06010000
-    READ_WRITE_ONLY = 0x06010001
-    WRITE_READ_ONLY = 0x06010002
-    NO_OBJECT = 0x06020000
-    NOT_MAPPABLE = 0x06040041
-    PDO_TOO_LONG = 0x06040042  # number and length of mapped objects exceed the PDO length
-    PARAMETER_INCOMPATIBLE = 0x06040043
-    INTERNAL_INCOMPATIBLE = 0x06040047
-    HARDWARE_ERROR = 0x06060000
-    LENGTH_MISMATCH = 0x06070010
-    LENGTH_TOO_HIGH = 0x06070012
-    LENGTH_TOO_LOW = 0x06070013
-    NO_SUBINDEX = 0x06090011
-    VALUE_RANGE = 0x06090030
-    VALUE_TOO_HIGH = 0x06090031
-    VALUE_TOO_LOW = 0x06090032
-    GENERAL_ERROR = 0x08000000
-    CANNOT_STORE = 0x08000020
-    LOCAL_CONTROL = 0x08000021
-    DEVICE_STATE = 0x08000022  # not in the present device state
-    NO_DICTIONARY = 0x08000023
-    CONNECTION_INVALID = 0x08000024  # EPL: the connection is not established (Table 58)
+AbortCode = SdoAbort  # DS 301 6.3.2.4.2.3, Table 58: CiA 301's codes (skinframes.sdo_abort)
 
 
 def pack_index(index: int, subindex: int) -> bytes:

@@ -28,7 +28,6 @@ import json
 import os
 import random
 import re
-import select
 import shutil
 import signal
 import subprocess
@@ -41,6 +40,7 @@ import pytest
 import tshark_util
 from epl_cdc import skin_cdc
 from epl_frames import hostile, nmt_command, preq, soa, soc
+from live_util import read_line
 
 from emulator.live import ETH_P_EPL, netns_socket, veth_netns
 from skinframes import read_capture, taxel
@@ -102,20 +102,6 @@ def kit() -> Path:
             pytest.fail("CI=true: " + reason)
         pytest.skip(reason)
     return KIT
-
-
-def read_line(stream: Any, needle: str, timeout_s: float) -> str:
-    deadline = time.monotonic() + timeout_s
-    seen = []
-    while time.monotonic() < deadline:
-        if select.select([stream], [], [], 0.1)[0]:
-            line = stream.readline()
-            if not line:
-                break
-            seen.append(line)
-            if needle in line:
-                return str(line)
-    pytest.fail(f"no line with {needle!r} within {timeout_s} s: {seen}")
 
 
 def operational_nodes(log: Path) -> set[int]:
