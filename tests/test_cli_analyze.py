@@ -330,3 +330,23 @@ def test_epl_model_beside_what_it_predicts(
     assert main(["analyze", str(pcap)]) == 0
     line = next(s for s in capsys.readouterr().out.splitlines() if s.startswith("network (epl)"))
     assert "cycle used (SoC to its last frame)" in line and "with the CNs' measured" in line
+
+
+@pytest.mark.parametrize("fault", [(), ("--fault", "cable:4@3")], ids=["steady", "broken"])
+def test_closed_ring_in_classic_pcap_as_in_pcapng(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, fault: tuple[str, ...]
+) -> None:
+    """A closed ring's copy from the master's second port runs the ring unprocessed and comes
+    back unmarked: classic pcap has no interface to tell it from a send (issue 42: every such
+    frame was called sent and never returned). The same run as pcapng, where the interfaces
+    tell, is the reference: every pattern's counts and times are the same."""
+    docs = []
+    for suffix in ("pcap", "pcapng"):
+        pcap = tmp_path / f"ring.{suffix}"
+        simulate(capsys, "ecat", "--nodes", "8", "--bytes", "16", "--closed-ring", "--cycles",
+                 "8", *fault, "--pcap", str(pcap))  # fmt: skip
+        docs.append(analyze(capsys, str(pcap))["ecat"]["patterns"])
+    classic, pcapng = docs
+    assert classic == pcapng
+    if not fault:  # both ports' frames: 8 sent, 8 back
+        assert [(p["frames"], p["returned"], p["unanswered"]) for p in pcapng] == [(8, 8, [])] * 2

@@ -11,7 +11,11 @@ Directions: an ESC sets bit 0x02 of the first source-MAC octet of a frame it pro
 the master's other port (another pcapng interface). A frame is the *return* of an earlier one
 when their patterns, first datagram index and master port (source MAC with that bit cleared)
 agree and either the bit or the interface differ; otherwise it is sent by the master
-(*outbound*). An outbound frame followed by another outbound frame of the same key before its
+(*outbound*). But for one case a capture without interfaces (classic pcap) cannot tell apart:
+a closed ring's master sends each frame from both ports, and the copy from the second port
+runs the ring unprocessed (in forwarding direction, no bit set) back to the first; so a frame
+that equals its port's outstanding send, working counters and all, while the same frame sent
+earlier from another port of the master is outstanding too, is that copy's return. An outbound frame followed by another outbound frame of the same key before its
 return is *unanswered* (lost), provided the capture holds returns of that pattern at all.
 
 Per pattern and master port: the period between outbound frames, the round trip (outbound to
@@ -351,6 +355,17 @@ class _Layout:
         return None
 
 
+# an outbound frame awaiting its return: (frame, time_ns, mac bit, interface, adps, wkcs)
+_Sent = tuple[int, int, int, int, tuple[int, ...], tuple[int, ...]]
+
+
+def _forwarded(sends: dict[bytes, _Sent], port: bytes, sent_ns: int) -> bool:
+    """Whether another master port has the same frame outstanding, sent no later than this
+    port's (sent at ``sent_ns``): a closed ring's second copy, run unprocessed (module
+    docstring)."""
+    return any(p != port and s[1] <= sent_ns for p, s in sends.items())
+
+
 class EcatAnalyzer:
     """Feed EtherCAT frames in capture order (:meth:`feed`), then read :meth:`result`."""
 
@@ -360,8 +375,8 @@ class EcatAnalyzer:
         self.undecodable = 0
         self.patterns: dict[Pattern, int] = {}
         self.streams: dict[tuple[int, bytes], _Stream] = {}
-        # (pattern, first idx, port) -> (frame, time_ns, mac bit, interface, adps)
-        self.pending: dict[tuple[int, int, bytes], tuple[int, int, int, int, tuple[int, ...]]] = {}
+        # (pattern, first idx) -> port -> (frame, time_ns, mac bit, interface, adps, wkcs)
+        self.pending: dict[tuple[int, int], dict[bytes, _Sent]] = {}
         self.requested: list[AlStateChange] = []
         self.reported: dict[bool, list[AlStateChange]] = {False: [], True: []}
         self.al_last: dict[tuple[bool, str], int] = {}
@@ -403,11 +418,17 @@ class EcatAnalyzer:
         stream = self.streams.get((pid, port))
         if stream is None:
             stream = self.streams[(pid, port)] = _Stream(len(wkcs))
-        key = (pid, idx0, port)
+        sends = self.pending.get((pid, idx0))
+        if sends is None:
+            sends = self.pending[(pid, idx0)] = {}
         al = self.al_patterns[pid]  # such patterns are never in self.layouts: dgs is walked
-        before = self.pending.get(key)
-        if before is not None and (before[2] != bit or before[3] != interface):
-            del self.pending[key]
+        before = sends.get(port)
+        if before is not None and (
+            before[2] != bit
+            or before[3] != interface
+            or (before[5] == wkcs and _forwarded(sends, port, before[1]))
+        ):
+            del sends[port]
             stream.round_trip_ns.append(time_ns - before[1])
             stream.back_frames.append(frame)
             stream.back_times.append(time_ns)
@@ -418,7 +439,7 @@ class EcatAnalyzer:
         if before is not None:
             stream.unanswered.append(before[0])
         adps = tuple(d[2] for d in dgs) if al else ()
-        self.pending[key] = (frame, time_ns, bit, interface, adps)
+        sends[port] = (frame, time_ns, bit, interface, adps, wkcs)
         stream.frames += 1
         if stream.last_out_ns is not None:
             stream.period_ns.append(time_ns - stream.last_out_ns)
