@@ -200,17 +200,7 @@ def run(args: argparse.Namespace) -> int:
         "nodes": args.nodes,
         "bytes": size,
         "mailbox": not args.no_mailbox,
-        "esi": [
-            {
-                "file": s.source,
-                "type": s.device.type_name,
-                "name": s.device.name,
-                "vendor_id": s.esi.vendor.vendor_id,
-                "product_code": s.device.product_code,
-                "revision": s.device.revision,
-            }
-            for s in esi
-        ],
+        "esi": [s.summary() for s in esi],
         **stats.summary(),
         "compiled": compiled.in_use(),
         "error_messages": stats.error_messages,

@@ -117,9 +117,9 @@ def add_parser(sub: Any) -> None:
     protocol_arg(p, "protocol", choices=PROTOCOLS)
     p.add_argument(
         "--nodes",
-        type=bounded_int(1, MAX_SLAVES),
+        type=bounded_int(0, MAX_SLAVES),
         required=True,
-        help="CNs / slaves (patches): EPL 1..239, EtherCAT 1..1024",
+        help="CNs / slaves (patches): EPL 1..239, EtherCAT 1..1024; 0 with --esi",
     )
     p.add_argument(
         "--bytes",
@@ -188,6 +188,15 @@ def add_parser(sub: Any) -> None:
         "INIT->PREOP->SAFEOP->OP) on patches with a CoE mailbox",
     )
     p.add_argument(
+        "--esi",
+        action="append",
+        default=[],
+        metavar="ESI.xml[#TYPE]",
+        help="EtherCAT: after the patches, a slave as the ESI file describes it (device TYPE, "
+        "by Type or product code, when the file has several), read each cycle by the master; "
+        "its inputs count the cycles; repeatable",
+    )
+    p.add_argument(
         "--seed",
         type=bounded_int(0, MAX_SEED),
         default=0,
@@ -201,6 +210,24 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.set_defaults(run=run)
+
+
+def _esi_slaves(args: argparse.Namespace) -> list[Any]:
+    """The ``--esi`` slaves, loaded and checked (one error line for a bad one); ``--nodes 0``
+    only with them, EtherCAT only."""
+    from emulator.esc.esi_slave import check_esi_slave
+
+    if args.esi and args.protocol != "ecat":
+        raise SkinframesError("--esi applies to EtherCAT only")
+    if args.nodes == 0 and not args.esi:
+        raise SkinframesError("--nodes 0: only with --esi (EPL: 1..239, EtherCAT: 1..1024)")
+    slaves = [check_esi_slave(spec) for spec in args.esi]
+    if args.nodes + len(slaves) > MAX_SLAVES:
+        raise SkinframesError(
+            f"--nodes {args.nodes} and {len(slaves)} --esi: {args.nodes + len(slaves)} slaves "
+            f"(1..{MAX_SLAVES})"
+        )
+    return slaves
 
 
 def run(args: argparse.Namespace) -> int:
@@ -220,6 +247,7 @@ def run(args: argparse.Namespace) -> int:
         args.asnd or args.pres_timeout_us is not None or args.cn_response_ps is not None
     ):
         raise SkinframesError("--asnd, --pres-timeout-us and --cn-response-us apply to EPL only")
+    esi = _esi_slaves(args)
     params = timing(args)
     timeout = None
     if args.pres_timeout_us is not None:
@@ -238,7 +266,7 @@ def run(args: argparse.Namespace) -> int:
         run_one = functools.partial(
             simulate_ecat, args.nodes, args.bytes, params, closed_ring=args.redundant,
             layout=args.layout, seed=args.seed, faults=faults, startup=args.startup,
-            vlan=args.vlan,
+            vlan=args.vlan, esi=esi,
         )  # fmt: skip
     check_pcap_size(args.pcap, args.cycles, args.allow_large_pcap, ports, run_one)
     with (
@@ -272,6 +300,7 @@ def run(args: argparse.Namespace) -> int:
                 progress=bar,
                 startup=args.startup,
                 vlan=args.vlan,
+                esi=esi,
                 **target,
             )
     if args.pcap == STDOUT:
@@ -280,12 +309,15 @@ def run(args: argparse.Namespace) -> int:
     if args.json:
         doc = result.to_json()
         doc["epl_cn_response_us"] = params.epl_cn_response_us
+        if args.protocol == "ecat":
+            doc["esi"] = [slave.summary() for slave in esi]
         print(json.dumps(doc, indent=2), file=out)
         return 0
     c = result.cycle_us()
+    with_esi = "".join(f" and {slave.device.type_name}" for slave in esi)
     lines = [
-        f"{result.protocol} {result.topology}: {result.nodes} nodes x {result.bytes} bytes, "
-        f"preset {params.label}, layout {result.layout}",
+        f"{result.protocol} {result.topology}: {result.nodes} nodes x {result.bytes} bytes"
+        f"{with_esi}, preset {params.label}, layout {result.layout}",
         f"  cycles {result.cycles}, frames {result.frames}",
     ]
     if result.startup_us is not None:

@@ -53,10 +53,12 @@ from emulator.esc.device import EscConfig, EscDevice, FirstBuffer, TraceCopy, la
 from emulator.esc.mapping import Access, Caches, LogicalOp, LogicalPlan, SmTable, outside
 from emulator.esc.registers import (
     ADDRESS_SPACE,
+    FMMU_BYTES,
     PROCESS_RAM,
     REG_ALIAS,
     REG_DL_CONTROL,
     REG_ECAT_EVENT,
+    REG_FMMU,
     REG_FORWARDED_ERRORS,
     REG_RESET_ECAT,
     REG_RW_OFFSET,
@@ -86,6 +88,10 @@ __all__ = [
     "FrameEffect",
     "SlaveEffect",
     "configure_frames",
+    "configure_line_frames",
+    "process_data_addresses",
+    "process_data_writes",
+    "skin_devices",
 ]
 
 STATION_BASE: Final = (
@@ -247,15 +253,7 @@ class EcatChain:
         """
         if not 1 <= nodes <= MAX_SLAVES:
             raise TopologyError(f"EtherCAT chain: {nodes} slaves (1..{MAX_SLAVES})")
-        return cls(
-            [
-                EscDevice(
-                    SlaveInfo.skin_patch(input_bytes, serial=i + 1, mailbox=mailbox),
-                    config=config,
-                )
-                for i in range(nodes)
-            ]
-        )
+        return cls(skin_devices(nodes, input_bytes, config=config, mailbox=mailbox))
 
     @classmethod
     def configured(
@@ -265,15 +263,23 @@ class EcatChain:
         *,
         logical_base: int = 0,
         station_base: int = STATION_BASE,
+        devices: Sequence[EscDevice] = (),
     ) -> EcatChain:
-        """Skin patches configured as a master leaves them, in OP.
+        """Skin patches, then ``devices`` (ESI slaves, for example), configured as a master
+        leaves them, in OP.
 
-        The configuration runs through frames (:func:`configure_frames`): station addresses
-        ``station_base + position``, SM0 as in the SII, FMMU0 mapping each patch's inputs to
-        ``logical_base + position * input_bytes``, then INIT -> PREOP -> SAFEOP -> OP.
+        The configuration runs through frames (:func:`configure_line_frames`): station
+        addresses ``station_base + position``, the mailbox SyncManagers as in the SII, each
+        slave's process-data SyncManagers with an FMMU each, the inputs at ``logical_base``
+        plus the input bytes of the slaves before it (a line of patches: ``position *
+        input_bytes``), the outputs after every input, then INIT -> PREOP -> SAFEOP -> OP.
         """
-        chain = cls.skin(nodes, input_bytes)
-        for frame in configure_frames(chain.devices[0].info, nodes, logical_base, station_base):
+        line = skin_devices(nodes, input_bytes) + list(devices)
+        if not 1 <= len(line) <= MAX_SLAVES:
+            raise TopologyError(f"EtherCAT chain: {len(line)} slaves (1..{MAX_SLAVES})")
+        chain = cls(line)
+        infos = [dev.info for dev in chain.devices]
+        for frame in configure_line_frames(infos, logical_base, station_base):
             if chain.process_frame(frame) is None:
                 raise TopologyError("EtherCAT chain: a configuration frame was lost")
         for dev in chain.devices:
@@ -289,6 +295,13 @@ class EcatChain:
     def input_bytes(self) -> int:
         """Input bytes of the first slave (every skin patch of a chain has the same)."""
         return self.devices[0].info.input_bytes
+
+    @property
+    def input_offsets(self) -> tuple[int, ...]:
+        """Where each slave's inputs start in the line's input image: the input bytes of the
+        slaves before it (a line of patches: position x input bytes)."""
+        sizes = [dev.info.input_bytes for dev in self.devices]
+        return tuple(int(x) for x in np.cumsum([0, *sizes[:-1]]))
 
     def publish(self, rows: npt.ArrayLike | Iterable[bytes]) -> None:
         """Each slave's application writes its next input buffer: one row per slave.
@@ -1259,7 +1272,7 @@ class EcatChain:
             if not onward:
                 break
         self.run_firmware()
-        return FrameEffect(ecat, tuple(slaves), frozenset(marks), self.input_bytes)
+        return FrameEffect(ecat, tuple(slaves), frozenset(marks), self.input_offsets)
 
     def count(self, register: int, position: int, times: int = 1) -> None:
         """An error counter of the ESC at ``position`` counts ``times`` (saturating at 0xFF;
@@ -1292,7 +1305,7 @@ class FrameEffect:
     sent: EcatFrame
     slaves: tuple[SlaveEffect, ...]
     marks_mac: frozenset[int]
-    input_bytes: int
+    input_offsets: tuple[int, ...]  # where each position's inputs start in the input image
 
     def wkc(self, acting: Container[int]) -> int:
         """The sum of the returned working counters when the ESCs in ``acting`` process it."""
@@ -1304,8 +1317,8 @@ class FrameEffect:
         self, acting: Container[int], taxels: npt.NDArray[np.uint8] | None
     ) -> tuple[EcatFrame, bool]:
         """The frame after the ESCs in ``acting`` processed it, and whether one marked its
-        source MAC. ``taxels``: the chain's input image (position x input_bytes), or None to
-        leave the input bytes as sent."""
+        source MAC. ``taxels``: the chain's input image (every slave's inputs, at
+        ``input_offsets``), or None to leave the input bytes as sent."""
         dgs = self.sent.datagrams
         data = [bytearray(d.data) for d in dgs]
         wkc = [d.wkc for d in dgs]
@@ -1320,7 +1333,7 @@ class FrameEffect:
             for k, off, value in s.constant:
                 data[k][off : off + len(value)] = value
             if taxels is not None:
-                base = s.position * self.input_bytes
+                base = self.input_offsets[s.position]
                 for k, off, src, n in s.copies:
                     data[k][off : off + n] = taxels[base + src : base + src + n].tobytes()
         back = tuple(
@@ -1334,7 +1347,7 @@ class FrameEffect:
         offset in the chain's input image, bytes)."""
         at = ethercat.data_offsets(self.sent)
         return [
-            (at[k] + off, s.position * self.input_bytes + src, n)
+            (at[k] + off, self.input_offsets[s.position] + src, n)
             for s in self.slaves
             if s.position in acting
             for k, off, src, n in s.copies
@@ -1350,6 +1363,7 @@ def _slave_effect(
     copies: list[TraceCopy],
 ) -> SlaveEffect | None:
     """The difference one ESC made to a frame, datagram by datagram."""
+    inputs = _input_area(dev.info)
     wkc: list[int] = []
     adp: list[int] = []
     const: list[tuple[int, int, bytes]] = []
@@ -1365,9 +1379,11 @@ def _slave_effect(
         )
         copied = bytearray(n)
         for c in copies:
-            if c.sm >= 0 and lo <= c.dst < lo + n:
-                runs.append((k, c.dst - lo, c.src, c.length))
-                copied[c.dst - lo : c.dst - lo + c.length] = b"\x01" * c.length
+            run = _input_run(c, inputs)
+            if run is not None and lo <= run[0] < lo + n:
+                dst, src, length = run
+                runs.append((k, dst - lo, src, length))
+                copied[dst - lo : dst - lo + length] = b"\x01" * length
         if after[lo : lo + n] != before[lo : lo + n]:
             diff = np.frombuffer(after, np.uint8, n, lo) != np.frombuffer(before, np.uint8, n, lo)
             changed = np.flatnonzero(diff & (np.frombuffer(bytes(copied), np.uint8) == 0))
@@ -1379,36 +1395,110 @@ def _slave_effect(
     return SlaveEffect(dev.position, tuple(wkc), tuple(adp), tuple(runs), tuple(const))
 
 
+def _input_area(info: SlaveInfo) -> tuple[int, int]:
+    """[start, end) of a slave's input buffer in its memory: its input SyncManager's start and
+    the bytes of its inputs."""
+    sm = info.sm_of_type(SyncManagerType.INPUTS)
+    start = 0 if sm is None else info.sync_managers[sm].start
+    return start, start + info.input_bytes
+
+
+def _input_run(c: TraceCopy, inputs: tuple[int, int]) -> tuple[int, int, int] | None:
+    """(offset in the frame, offset in the slave's inputs, bytes) of the input bytes copy ``c``
+    carried: a SyncManager buffer's, or the part of plain memory that lies in the input buffer
+    ``inputs`` (an input SyncManager of 1 byte is not activated: datasheet II 2.14, 0x0802);
+    None when it carried none."""
+    if c.sm >= 0:
+        return c.dst, c.src, c.length
+    lo, hi = max(c.src, inputs[0]), min(c.src + c.length, inputs[1])
+    if lo >= hi:
+        return None
+    return c.dst + lo - c.src, lo - inputs[0], hi - lo
+
+
+def skin_devices(
+    nodes: int, input_bytes: int, *, config: EscConfig | None = None, mailbox: bool = False
+) -> list[EscDevice]:
+    """``nodes`` skin patches of ``input_bytes`` each, powered on; serial numbers the
+    positions + 1 (:meth:`SlaveInfo.skin_patch`)."""
+    return [
+        EscDevice(SlaveInfo.skin_patch(input_bytes, serial=i + 1, mailbox=mailbox), config=config)
+        for i in range(nodes)
+    ]
+
+
+def process_data_writes(info: SlaveInfo, inputs_at: int, outputs_at: int) -> list[Datagram]:
+    """The register writes (ADP 0, to be addressed) that map a slave's process data, as a
+    master's configuration writes them (ETG.1000.6 5.4, SOEM ``ecx_config_map_group``): each
+    SyncManager of inputs, then of outputs, with the bytes of its PDOs (:meth:`SlaveInfo.sm_bytes`;
+    one without PDOs is left alone), each followed by an FMMU of its own (0x0600 + 16 x n, in
+    that order) that maps it to the logical address ``inputs_at`` or ``outputs_at`` (and on)."""
+    out: list[Datagram] = []
+    fmmu_at = REG_FMMU
+    at = {SyncManagerType.INPUTS: inputs_at, SyncManagerType.OUTPUTS: outputs_at}
+    fmmu_type = {SyncManagerType.INPUTS: 0x01, SyncManagerType.OUTPUTS: 0x02}  # read, write
+    for kind in (SyncManagerType.INPUTS, SyncManagerType.OUTPUTS):
+        for i, sm in enumerate(info.sync_managers):
+            size = info.sm_bytes(i)
+            if sm.type != kind or not size:
+                continue
+            regs = struct.pack("<HHBBBB", sm.start, size, sm.control, 0, sm.enable, 0)
+            out.append(Datagram(Command.FPWR, 0, 0x0800 + 8 * i, regs))
+            fmmu = struct.pack(
+                "<IHBBHBBBxxx", at[kind], size, 0, 7, sm.start, 0, fmmu_type[kind], 0x01
+            )
+            out.append(Datagram(Command.FPWR, 0, fmmu_at, fmmu))
+            fmmu_at += FMMU_BYTES
+            at[kind] += size
+    return out
+
+
+def process_data_addresses(
+    infos: Sequence[SlaveInfo], logical_base: int = 0
+) -> list[tuple[int, int]]:
+    """(inputs, outputs) logical address of each slave: the inputs one after another from
+    ``logical_base``, the outputs after the last input (what :func:`line_frames
+    <emulator.net.ecat.line_frames>` reads)."""
+    inputs = [info.input_bytes for info in infos]
+    outputs = [info.output_bytes for info in infos]
+    in_at = np.cumsum([logical_base, *inputs])
+    out_at = np.cumsum([int(in_at[-1]), *outputs])
+    return [(int(in_at[p]), int(out_at[p])) for p in range(len(infos))]
+
+
 def configure_frames(
     info: SlaveInfo, nodes: int, logical_base: int = 0, station_base: int = STATION_BASE
 ) -> list[bytes]:
-    """The frames a master sends to take ``nodes`` slaves described by ``info`` to OP.
+    """The frames a master sends to take ``nodes`` slaves described by ``info`` to OP
+    (:func:`configure_line_frames` of a line of equal slaves)."""
+    return configure_line_frames([info] * nodes, logical_base, station_base)
 
-    Station addresses by APWR, the mailbox SyncManagers (if the SII has them), the input
-    SyncManager and FMMU0 by FPWR, then BWR AL control INIT+ack, PREOP, SAFEOP, OP: the
+
+def configure_line_frames(
+    infos: Sequence[SlaveInfo], logical_base: int = 0, station_base: int = STATION_BASE
+) -> list[bytes]:
+    """The frames a master sends to take the slaves ``infos`` describe, in line order, to OP.
+
+    Station addresses by APWR, the mailbox SyncManagers (if the SII has them), the process-data
+    SyncManagers and their FMMUs by FPWR (:func:`process_data_writes`, at
+    :func:`process_data_addresses`), then BWR AL control INIT+ack, PREOP, SAFEOP, OP: the
     essential steps of ETG.1000.6's start-up (5.4, 6.4).
     """
-    sm_index = info.sm_of_type(SyncManagerType.INPUTS)
-    if sm_index is None:
-        raise TopologyError("configure: the slave has no input SyncManager")
-    sm = info.sync_managers[sm_index]
-    size = info.sm_bytes(sm_index)
+    for info in infos:
+        if info.sm_of_type(SyncManagerType.INPUTS) is None:
+            raise TopologyError("configure: the slave has no input SyncManager")
     frames: list[Datagram] = []
-    for p in range(nodes):
+    for p in range(len(infos)):
         frames.append(Datagram(Command.APWR, (-p) & 0xFFFF, 0x0010, _U16.pack(station_base + p)))
     frames.append(Datagram(Command.BWR, 0, 0x0120, _U16.pack(AlState.INIT | 0x10)))
-    for p in range(nodes):
+    addresses = process_data_addresses(infos, logical_base)
+    for p, info in enumerate(infos):
         station = station_base + p
         for i, mb in enumerate(info.sync_managers):  # mailbox SMs before PREOP (ETG.1000.6 5.6)
             if mb.type in (SyncManagerType.MAILBOX_OUT, SyncManagerType.MAILBOX_IN):
                 regs = struct.pack("<HHBBBB", mb.start, mb.length, mb.control, 0, mb.enable, 0)
                 frames.append(Datagram(Command.FPWR, station, 0x0800 + 8 * i, regs))
-        sm_regs = struct.pack("<HHBBBB", sm.start, size, sm.control, 0, sm.enable, 0)
-        frames.append(Datagram(Command.FPWR, station, 0x0800 + 8 * sm_index, sm_regs))
-        fmmu = struct.pack(
-            "<IHBBHBBBxxx", logical_base + p * size, size, 0, 7, sm.start, 0, 0x01, 0x01
-        )
-        frames.append(Datagram(Command.FPWR, station, 0x0600, fmmu))
+        frames += [replace(d, adp=station) for d in process_data_writes(info, *addresses[p])]
     for state in (AlState.PREOP, AlState.SAFEOP, AlState.OP):
         frames.append(Datagram(Command.BWR, 0, 0x0120, _U16.pack(state)))
     return [ethercat.frame(EcatFrame((d,))).to_bytes() for d in frames]

@@ -195,11 +195,14 @@ def _lrd_key(lad: int, n: int, first: bool) -> int:
 
 @dataclass(frozen=True, slots=True)
 class TraceCopy:
-    """Input bytes an ESC copied from a SyncManager buffer into a frame (for timing models)."""
+    """Bytes an ESC copied from its memory into a frame (for timing models): a SyncManager's
+    buffer, or memory no SyncManager controls (``sm`` -1: registers, or process RAM the
+    application writes as plain memory, e.g. behind a SyncManager of length 1, which the ESC
+    does not activate, datasheet II 2.14 0x0802)."""
 
     position: int  # the ESC's position in its chain
-    sm: int  # SyncManager index
-    src: int  # offset in the SyncManager buffer
+    sm: int  # SyncManager index, -1 for memory no SyncManager controls
+    src: int  # offset in the SyncManager buffer; with sm -1 the physical address
     dst: int  # offset in the frame buffer
     length: int
 
@@ -795,13 +798,14 @@ class EscDevice:
                 buf[at : at + k] = merged.to_bytes(k, "little")
             else:
                 buf[at : at + len(data)] = data
-            if sm >= 0 and self.trace is not None:
+            if self.trace is not None:
                 self.trace.append(TraceCopy(self.position, sm, src, at, len(data)))
         return 1
 
     def _read_phys(self, addr: int, n: int) -> list[tuple[int, bytes, int, int]]:
         """Readable parts of [addr, addr+n): (offset in the access, bytes, SM index or -1, offset
-        in the SM buffer). Register reads have their side effects here."""
+        in the SM buffer or, with -1, the physical address). Register reads have their side
+        effects here."""
         end = min(addr + n, ADDRESS_SPACE)
         mem = self.mem
         out: list[tuple[int, bytes, int, int]] = []
@@ -810,7 +814,7 @@ class EscDevice:
             hi = min(end, REGISTER_END)
             if reads_dc(pos, hi):
                 self.dc.refresh(mem, pos, hi)  # DC registers run with the clock
-            out.append((0, bytes(mem[pos:hi]), -1, 0))
+            out.append((0, bytes(mem[pos:hi]), -1, pos))
             events = cleared_events(pos, hi)
             if events:
                 self._clear_event(events)
@@ -840,7 +844,7 @@ class EscDevice:
         if not self.pdi_operational:
             hi = min(hi, PROCESS_RAM)  # no process RAM before the EEPROM loaded (I 11.2.1)
         if lo < hi:
-            out.append((lo - addr, bytes(self.mem[lo:hi]), -1, 0))
+            out.append((lo - addr, bytes(self.mem[lo:hi]), -1, lo))
 
     def _sm_read(
         self, out: list[tuple[int, bytes, int, int]], sm: _Sm, addr: int, lo: int, hi: int

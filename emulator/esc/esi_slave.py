@@ -23,8 +23,12 @@ Outputs are taken by the ESC as any master writes them; the application does not
 from __future__ import annotations
 
 import dataclasses
+from collections.abc import Sequence
 from pathlib import Path
 from typing import Final
+
+import numpy as np
+import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.dc import DC_FEATURES
@@ -50,12 +54,14 @@ __all__ = [
     "EsiApplication",
     "EsiSlave",
     "check_esi_slave",
+    "counter_images",
     "esi_device",
     "load_esi_slave",
     "parse_esi_spec",
     "slave_info",
 ]
 
+COUNTER_BITS: Final = 63  # a counter's bits that can be 1 (it is a non-negative int64)
 ESC_SYNCMANAGERS: Final = 8  # the emulated ESC's default register set (EscConfig)
 ESC_FMMUS: Final = 8
 
@@ -73,6 +79,17 @@ class EsiSlave:
     def label(self) -> str:
         """``FILE#TYPE`` as a user names it."""
         return f"{self.source}#{self.device.type_name}"
+
+    def summary(self) -> dict[str, str | int]:
+        """What ``serve``'s and ``simulate``'s JSON say of it (key ``esi``)."""
+        return {
+            "file": self.source,
+            "type": self.device.type_name,
+            "name": self.device.name,
+            "vendor_id": self.esi.vendor.vendor_id,
+            "product_code": self.device.product_code,
+            "revision": self.device.revision,
+        }
 
 
 def parse_esi_spec(spec: str) -> tuple[str, str | None]:
@@ -200,7 +217,7 @@ class EsiApplication(SlaveApplication):
         """A SYNC0 pulse: the inputs are sampled (written into their buffers)."""
         self._write_inputs(device)
 
-    def _layout(self, sync_manager: int) -> list[tuple[int, int, int]]:
+    def layout(self, sync_manager: int) -> list[tuple[int, int, int]]:
         """(index, subindex, bits) of the entries SyncManager ``sync_manager`` carries, in
         order: the assigned PDOs' mappings (CoE), else the SII's default PDOs."""
         if self.objects is not None and sync_manager in self.objects.assignments:
@@ -220,14 +237,9 @@ class EsiApplication(SlaveApplication):
         return [] if found is None else [(e.index, e.subindex, e.bit_length) for e in found.entries]
 
     def image(self, sync_manager: int) -> bytes:
-        """The bytes of input SyncManager ``sync_manager`` now (ETG.1000.6 5.6.7: entries
-        packed bit by bit, in mapping order, the first at bit 0)."""
-        value, at = 0, 0
-        for index, _, bits in self._layout(sync_manager):
-            if index:
-                value |= (self.counter % (1 << bits)) << at
-            at += bits
-        return value.to_bytes((at + 7) // 8, "little")
+        """The bytes of input SyncManager ``sync_manager`` now (:func:`counter_images`)."""
+        counters = np.array([self.counter], dtype=np.int64)
+        return bytes(counter_images(self.layout(sync_manager), counters)[0])
 
     def _write_inputs(self, device: Pdi) -> None:
         for index, start in self._input_sms:
@@ -240,7 +252,25 @@ class EsiApplication(SlaveApplication):
 
     def sm_bytes(self, index: int) -> int:
         """Bytes of the entries assigned to SyncManager ``index`` now."""
-        return (sum(bits for _, _, bits in self._layout(index)) + 7) // 8
+        return (sum(bits for _, _, bits in self.layout(index)) + 7) // 8
+
+
+def counter_images(
+    layout: Sequence[tuple[int, int, int]], counters: npt.NDArray[np.int64]
+) -> npt.NDArray[np.uint8]:
+    """(len(counters), bytes): the SyncManager buffer whose entries ``layout`` lists ((index,
+    subindex, bits), in mapping order) when every entry holds a counter, cut to its bits; one
+    row per counter (non-negative, below 2**63). ETG.1000.6 5.6.7: the entries packed bit by
+    bit, the first at bit 0 of the first byte, little-endian; a gap (index 0) stays 0."""
+    total = sum(bits for _, _, bits in layout)
+    plane = np.zeros((len(counters), -(-total // 8) * 8), np.uint8)
+    at = 0
+    for index, _, bits in layout:
+        if index:
+            n = min(bits, COUNTER_BITS)
+            plane[:, at : at + n] = (counters[:, None] >> np.arange(n, dtype=np.int64)) & 1
+        at += bits
+    return np.packbits(plane, axis=1, bitorder="little")
 
 
 def esi_device(slave: EsiSlave) -> EscDevice:

@@ -4,13 +4,14 @@ optionally, a capture written as the cycles come."""
 from __future__ import annotations
 
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.esc.esi_slave import EsiSlave, load_esi_slave
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net.ecat import EcatEngine
@@ -177,9 +178,11 @@ def simulate_ecat(
     every_cycle: bool = False,
     startup: bool = False,
     vlan: int | None = None,
+    esi: Sequence[str | EsiSlave] = (),
 ) -> SimResult:
     """Emulate ``cycles`` EtherCAT cycles reading ``data_bytes`` of taxels from each of
-    ``nodes`` skin patches (see :mod:`emulator.net.ecat`).
+    ``nodes`` skin patches, and the inputs of the slaves ``esi`` after them (see
+    :mod:`emulator.net.ecat`).
 
     Args:
         closed_ring: the master's second port closes the ring (``redundant`` is its old name).
@@ -198,6 +201,9 @@ def simulate_ecat(
             (:mod:`emulator.net.startup`) before the first cycle; open ring, no faults.
         vlan: tag every frame with this 802.1Q VLAN id (0..4094); the 4 bytes count on the
             wire.
+        esi: slaves as ESI files describe them, after the patches: ``ESI.xml[#TYPE]`` or
+            loaded (:func:`emulator.esc.esi_slave.load_esi_slave`); their inputs count the
+            cycles (:mod:`emulator.net.ecat_line`). ``nodes`` may be 0 with them.
     """
     if closed_ring is not None and redundant is not None and closed_ring != redundant:
         raise TopologyError("closed_ring and its old name redundant disagree")
@@ -212,6 +218,7 @@ def simulate_ecat(
         seed=seed,
         startup=startup,
         tags=_tags(vlan),
+        esi=tuple(load_esi_slave(e) if isinstance(e, str) else e for e in esi),
     )
     result, events = _execute(
         engine,

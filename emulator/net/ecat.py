@@ -29,6 +29,7 @@ from __future__ import annotations
 
 import random
 from collections import Counter
+from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import Any, Final
 
@@ -37,10 +38,12 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.chain import EcatChain, FrameEffect
+from emulator.esc.esi_slave import EsiSlave
 from emulator.model.limits import check_ecat, check_emulated_ecat
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
 from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
+from emulator.net.ecat_line import EcatLine
 from emulator.net.faults import Fault, check_faults, corruption_mark
 from emulator.net.startup import StartupRecord, run_startup
 from skinframes import ethercat, ethernet, vlan
@@ -53,6 +56,7 @@ __all__ = [
     "EcatEngine",
     "EcatTiming",
     "frames_for",
+    "line_frames",
     "path_latency_ps",
     "per_slave_frame_lengths",
     "send_times_ps",
@@ -69,22 +73,32 @@ LOST_LINK_REG: Final = 0x0310  # + port
 
 
 def frames_for(nodes: int, data_bytes: int, layout: str = "per-slave") -> list[EcatFrame]:
-    """The frames a master sends each cycle to read ``data_bytes`` of taxels from every slave.
-
-    ``per-slave``: one LRD per slave (the paper's telegram per node), packed into as few frames as
-    fit (eq. 15). ``logical``: the slaves' inputs form one contiguous logical image, read with the
-    fewest LRD datagrams of up to 1486 bytes (one per frame), as masters such as TwinCAT and SOEM
-    map process data.
-    """
+    """The frames a master sends each cycle to read ``data_bytes`` of taxels from every slave
+    (:func:`line_frames` of ``nodes`` equal slaves)."""
     check_ecat(nodes, data_bytes)
+    return line_frames([data_bytes] * nodes, layout)
+
+
+def line_frames(input_bytes: Sequence[int], layout: str = "per-slave") -> list[EcatFrame]:
+    """The frames a master sends each cycle to read every slave's inputs, slave ``p`` having
+    ``input_bytes[p]`` of them, mapped one after another from logical address 0
+    (:func:`emulator.esc.chain.process_data_addresses`).
+
+    ``per-slave``: one LRD per slave with inputs (the paper's telegram per node; index: the
+    position, modulo 256), packed into as few frames as fit (eq. 15). ``logical``: the slaves'
+    inputs form one contiguous logical image, read with the fewest LRD datagrams of up to 1486
+    bytes (one per frame), as masters such as TwinCAT and SOEM map process data.
+    """
     if layout == "per-slave":
+        offsets = np.cumsum([0, *input_bytes]).tolist()
         dgs = [
-            Datagram.logical(Command.LRD, i * data_bytes, bytes(data_bytes), idx=i & 0xFF)
-            for i in range(nodes)
+            Datagram.logical(Command.LRD, offsets[i], bytes(n), idx=i & 0xFF)
+            for i, n in enumerate(input_bytes)
+            if n
         ]
         return ethercat.pack_datagrams(dgs)
     if layout == "logical":
-        total = nodes * data_bytes
+        total = sum(input_bytes)
         step = ethercat.MAX_DATAGRAM_DATA_BYTES
         return [
             EcatFrame(
@@ -306,13 +320,15 @@ class EcatTiming:
 
 
 class EcatEngine(EcatTiming):
-    """EtherCAT cycles of ``nodes`` skin patches with ``data_bytes`` of taxels each.
+    """EtherCAT cycles of ``nodes`` skin patches with ``data_bytes`` of taxels each, then the
+    slaves ``esi`` (:class:`emulator.net.ecat_line.EcatLine`).
 
     Args:
         closed_ring: the master's second port closes the ring (cable redundancy).
         layout: ``per-slave`` or ``logical`` (see :func:`frames_for`).
         faults: the fault plan (:mod:`emulator.net.faults`); empty for a healthy network.
         seed: the random faults' seed.
+        esi: slaves ESI files describe, after the patches.
     """
 
     protocol: Final = "ecat"
@@ -330,13 +346,15 @@ class EcatEngine(EcatTiming):
         seed: int = 0,
         startup: bool = False,
         tags: tuple[VlanTag, ...] = (),
+        esi: tuple[EsiSlave, ...] = (),
     ) -> None:
-        check_emulated_ecat(nodes, data_bytes)
-        super().__init__(nodes, params, closed_ring=closed_ring, faults=faults, seed=seed)
+        self.line = EcatLine(nodes, data_bytes, esi)
+        check_emulated_ecat(self.line.nodes, data_bytes)
+        super().__init__(self.line.nodes, params, closed_ring=closed_ring, faults=faults, seed=seed)
         self.tags = tags  # VLAN tags on every frame (IEEE 802.1Q); their bytes count on the wire
         self.tag_shift = vlan.TAG_BYTES * len(tags)  # where the EtherCAT bytes move in a frame
-        self.sent = frames_for(nodes, data_bytes, layout)
-        self.data_bytes, self.layout = data_bytes, layout
+        self.sent = line_frames(self.line.input_sizes, layout)
+        self.patches, self.data_bytes, self.layout = nodes, data_bytes, layout
         self.out = [ethercat.frame(f, tags=tags).to_bytes() for f in self.sent]
         self.out2 = [
             ethercat.frame(f, src=ethercat.MASTER_MAC_SECOND, tags=tags).to_bytes()
@@ -352,7 +370,7 @@ class EcatEngine(EcatTiming):
                 raise TopologyError(
                     "the start-up runs on an open ring without faults or VLAN tags only"
                 )
-            self.chain = EcatChain.skin(nodes, data_bytes, mailbox=True)
+            self.chain = EcatChain(self.line.devices(mailbox=True))
             self.chain.timebase.params = params  # DC latches: this preset's hops (dc.py)
             self.startup = run_startup(
                 self.chain,
@@ -361,9 +379,9 @@ class EcatEngine(EcatTiming):
                 params.ifg_ps,
             )
         else:
-            self.chain = EcatChain.configured(nodes, data_bytes)
+            self.chain = EcatChain.configured(0, data_bytes, devices=self.line.devices())
         self.effects: list[FrameEffect] = [self.chain.frame_effect(f) for f in self.sent]
-        everyone = range(nodes)
+        everyone = range(self.nodes)
         self.expected_wkc = sum(e.wkc(everyone) for e in self.effects)
 
     # --- what the driver asks -----------------------------------------------------------------
@@ -388,7 +406,7 @@ class EcatEngine(EcatTiming):
                 for link in (f.where - 1, f.where):
                     if 0 <= link < self.links:
                         self._fail(link, start_ps, events)
-        image = None if taxels is None else taxels.reshape(-1)
+        image = None if taxels is None else self.image(np.array([c]), taxels[None])[0]
         steady = not self.chance and all(
             start_ps >= b + p.ecat_link_loss_ps for b in self.break_ps.values()
         )
@@ -443,6 +461,13 @@ class EcatEngine(EcatTiming):
         return Cycle(
             tuple(records), end + p.ifg_ps - start_ps, wkc, self.expected_wkc, events, steady
         )
+
+    def image(
+        self, cycles: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
+    ) -> npt.NDArray[np.uint8]:
+        """(k, bytes): the line's input image in cycles ``cycles`` whose patches hold ``taxels``
+        (k, patches, data_bytes) (:meth:`EcatLine.image`)."""
+        return self.line.image(cycles, taxels)
 
     def account(self, cyc: Cycle, times: int) -> None:
         """Count what ``cyc`` counted ``times`` over, in the ESCs' error counters."""

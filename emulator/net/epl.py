@@ -172,6 +172,17 @@ class EplEngine:
             raise TopologyError(f"EPL: only the SoC is rebuilt per cycle (node {record.node})")
         return self._socs(starts_ps)
 
+    @property
+    def patches(self) -> int:
+        """The nodes that carry taxels: every CN."""
+        return self.nodes
+
+    def image(
+        self, cycles: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
+    ) -> npt.NDArray[np.uint8]:
+        """(k, nodes x data_bytes): the taxels of cycles ``cycles``, CN after CN."""
+        return taxels.reshape(len(cycles), -1)
+
     def cycle(self, c: int, start_ps: int, taxels: npt.NDArray[np.uint8] | None) -> Cycle:
         """Walk cycle ``c`` starting at ``start_ps``; ``taxels`` (nodes x data_bytes) to build
         the frames' bytes, None for timing only."""

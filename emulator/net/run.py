@@ -59,6 +59,8 @@ class Engine(Protocol):
     @property
     def nodes(self) -> int: ...
     @property
+    def patches(self) -> int: ...  # the nodes that carry taxels (all but ESI slaves)
+    @property
     def data_bytes(self) -> int: ...
     @property
     def period(self) -> int: ...
@@ -66,6 +68,9 @@ class Engine(Protocol):
     def event_at(self, cycle: int) -> bool: ...
     def next_event(self, cycle: int) -> int | None: ...
     def cycle(self, c: int, start_ps: int, taxels: npt.NDArray[np.uint8] | None) -> Cycle: ...
+    def image(
+        self, cycles: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
+    ) -> npt.NDArray[np.uint8]: ...
     def account(self, cyc: Cycle, times: int) -> None: ...
     def rebuild(
         self, record: Record, starts_ps: npt.NDArray[np.int64], taxels: npt.NDArray[np.uint8]
@@ -163,6 +168,9 @@ class TaxelSource:
         self._ahead: npt.NDArray[np.uint8] | None = None  # the rest of the chunk being taken
         self._stop = threading.Event()
         self._threads: list[threading.Thread] = []
+        if nodes == 0 and payloads is None:  # a line of ESI slaves only: no taxels
+            self._given = np.zeros((cycles, 0, data_bytes), np.uint8)
+            return
         if isinstance(payloads, np.ndarray | list | tuple):  # one array (nested lists too)
             self._given = self._checked(np.asarray(payloads), cycles)
             return
@@ -347,7 +355,7 @@ def run(
     """
     check_cycles(cycles)
     source = (
-        TaxelSource(engine.nodes, engine.data_bytes, cycles, seed=seed, payloads=payloads)
+        TaxelSource(engine.patches, engine.data_bytes, cycles, seed=seed, payloads=payloads)
         if sink is not None
         else None
     )
@@ -356,7 +364,7 @@ def run(
         result = SimResult(
             engine.protocol,
             engine.topology,
-            engine.nodes,
+            engine.patches,
             engine.data_bytes,
             params_name,
             engine.layout,
@@ -417,7 +425,7 @@ def run(
             period = list(history)
             period_ps = sum(h.cycle_ps for h in period)
             if sink is not None and source is not None:
-                _repeat(engine, period, start, q, sink, source, overlap, progress)
+                _repeat(engine, period, c, start, q, sink, source, overlap, progress)
             for h in period:
                 result.add_cycles(h.cycle_ps, len(h.records), q)
                 for key, n in h.events.items():
@@ -446,6 +454,7 @@ def _first_cycle(result: SimResult, cyc: Cycle) -> None:
 def _repeat(
     engine: Engine,
     period: list[Cycle],
+    first: int,
     start: int,
     q: int,
     sink: Sink,
@@ -453,7 +462,8 @@ def _repeat(
     overlap: _Overlap,
     progress: Callable[[int], None] | None,
 ) -> None:
-    """Write ``q`` repetitions of ``period`` (walked cycles) from ``start`` (the fast path)."""
+    """Write ``q`` repetitions of ``period`` (walked cycles) from cycle ``first`` at ``start``
+    (the fast path)."""
     period_len = len(period)
     offsets = np.concatenate(([0], np.cumsum([h.cycle_ps for h in period])))
     period_ps = int(offsets[-1])
@@ -478,10 +488,14 @@ def _repeat(
         starts = start + (done + np.arange(k, dtype=np.int64)) * period_ps
         taxels = drawn.reshape(k, period_len, *source.shape)
         fills: list[tuple[int, npt.NDArray[np.uint8]]] = []
+        images: dict[int, npt.NDArray[np.uint8]] = {}
         for col, (i, r) in enumerate(cols):
             lo = int(at[col])
             if r.fill == FILL_TAXELS:
-                image = taxels[:, i].reshape(k, -1)
+                if i not in images:
+                    numbers = first + (done + np.arange(k, dtype=np.int64)) * period_len + i
+                    images[i] = engine.image(numbers, taxels[:, i])
+                image = images[i]
                 fills.extend((lo + dst, image[:, src : src + n]) for dst, src, n in r.runs)
             elif r.fill == FILL_FRAME:
                 fills.append((lo, engine.rebuild(r, starts + int(offsets[i]), taxels[:, i])))

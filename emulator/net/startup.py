@@ -22,13 +22,18 @@ from __future__ import annotations
 
 import struct
 from collections.abc import Callable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from typing import Final
 
 from emulator.errors import TopologyError
-from emulator.esc.chain import STATION_BASE, EcatChain
+from emulator.esc.chain import (
+    STATION_BASE,
+    EcatChain,
+    process_data_addresses,
+    process_data_writes,
+)
 from emulator.esc.dc import REG_DC_DELAY, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU
-from emulator.esc.sii import SyncManagerType
+from emulator.esc.sii import SlaveInfo, SyncManagerSpec, SyncManagerType
 from emulator.esc.state_machine import ACK, AlState
 from skinframes import ecat_mailbox as mb
 from skinframes import ethercat
@@ -41,7 +46,10 @@ __all__ = ["SII_WORDS", "StartupRecord", "run_startup"]
 # (8 bytes a read: two words at a time), the standard mailboxes and their protocols
 SII_WORDS: Final = (0x08, 0x0C, 0x18, 0x1C)
 EEPROM_READ: Final = 0x0100  # 0x0502 command bits 8-10 = 1 (datasheet II 2.11.3)
+DC: Final = 0x0004  # ESC features 0x0008 bit 2: distributed clocks available (datasheet II 2.1)
+MAILBOX_COE: Final = 0x0004  # SII word 0x1C, mailbox protocols: bit 2 CoE (ETG.2010 Table 2)
 MAILBOX_POLLS: Final = 10  # SM1 status reads before the master gives up on an answer
+SM1_STATUS: Final = 0x080D  # the send mailbox's status, bit 3 mailbox full (datasheet II 2.14)
 _U16 = struct.Struct("<H")
 _U32 = struct.Struct("<I")
 _U64 = struct.Struct("<Q")
@@ -99,10 +107,14 @@ def run_startup(
     logical_base: int = 0,
     station_base: int = STATION_BASE,
 ) -> list[StartupRecord]:
-    """Take ``chain`` (skin patches with a mailbox, powered on) to OP; the frames, timed."""
+    """Take ``chain`` (powered on: skin patches with a mailbox, ESI slaves) to OP; the frames,
+    timed. Each slave gets what its own SII describes: the mailbox steps only with a mailbox
+    (on SM0/SM1), the CoE reads only with CoE, its process-data SyncManagers and FMMUs
+    (:func:`emulator.esc.chain.process_data_writes`, at
+    :func:`~emulator.esc.chain.process_data_addresses`), the clocks only with DC."""
     m = _Master(chain, walk, frame_ps, ifg_ps)
     nodes = len(chain)
-    info = chain.devices[0].info
+    infos = [dev.info for dev in chain.devices]
     found = m.x(Datagram(Command.BRD, 0, 0x0000, bytes(2)))
     if found.wkc != nodes:
         raise TopologyError(f"start-up: {found.wkc} slaves answer, {nodes} expected")
@@ -114,21 +126,20 @@ def run_startup(
         for word in SII_WORDS:
             m.x(Datagram(Command.FPWR, s, 0x0502, struct.pack("<HI", EEPROM_READ, word)))
             m.x(Datagram(Command.FPRD, s, 0x0508, bytes(8)))
-    rx = info.sm_of_type(SyncManagerType.MAILBOX_OUT)
-    tx = info.sm_of_type(SyncManagerType.MAILBOX_IN)
-    if rx is None or tx is None or (rx, tx) != (0, 1):
-        raise TopologyError("start-up: the slaves have no mailbox on SM0/SM1")
-    mbx = [info.sync_managers[rx], info.sync_managers[tx]]
-    sm01 = b"".join(struct.pack("<HHBBBB", s.start, s.length, s.control, 0, 1, 0) for s in mbx)
-    for s in stations:
-        m.x(Datagram(Command.FPWR, s, 0x0800, sm01))
+    mailboxes = [_mailbox(info) for info in infos]
+    for s, mbx in zip(stations, mailboxes, strict=True):
+        if mbx is not None:
+            regs = (struct.pack("<HHBBBB", x.start, x.length, x.control, 0, 1, 0) for x in mbx)
+            m.x(Datagram(Command.FPWR, s, 0x0800, b"".join(regs)))
     m.state(AlState.PREOP, nodes)
     requests = (
         mb.sdo_upload_request(0x1018, 1),
         mb.sdo_upload_request(0x1C12, 0, complete_access=True),
         mb.sdo_upload_request(0x1C13, 0, complete_access=True),
     )
-    for s in stations:
+    for s, mbx, info in zip(stations, mailboxes, infos, strict=True):
+        if mbx is None or not info.mailbox_protocols & MAILBOX_COE:
+            continue
         counter = 0
         for body in requests:
             counter = mb.next_counter(counter)
@@ -136,27 +147,35 @@ def run_startup(
             if m.x(Datagram(Command.FPWR, s, mbx[0].start, message)).wkc != 1:
                 raise TopologyError(f"start-up: station {s:#x} refused a mailbox write")
             for _ in range(MAILBOX_POLLS):
-                if m.x(Datagram(Command.FPRD, s, 0x0805 + 8 * tx, bytes(1))).data[0] & 0x08:
+                if m.x(Datagram(Command.FPRD, s, SM1_STATUS, bytes(1))).data[0] & 0x08:
                     break
             else:
                 raise TopologyError(f"start-up: station {s:#x} did not answer over CoE")
             m.x(Datagram(Command.FPRD, s, mbx[1].start, bytes(mbx[1].length)))
-    sm_index = info.sm_of_type(SyncManagerType.INPUTS)
-    if sm_index is None:
-        raise TopologyError("start-up: the slaves have no input SyncManager")
-    sm = info.sync_managers[sm_index]
-    size = info.sm_bytes(sm_index)
-    for p, s in enumerate(stations):
-        regs = struct.pack("<HHBBBB", sm.start, size, sm.control, 0, sm.enable, 0)
-        m.x(Datagram(Command.FPWR, s, 0x0800 + 8 * sm_index, regs))
-        fmmu = struct.pack(
-            "<IHBBHBBBxxx", logical_base + p * size, size, 0, 7, sm.start, 0, 0x01, 0x01
-        )
-        m.x(Datagram(Command.FPWR, s, 0x0600, fmmu))
-    _config_dc(m, stations)
+    addresses = process_data_addresses(infos, logical_base)
+    for p, (s, info) in enumerate(zip(stations, infos, strict=True)):
+        if info.sm_of_type(SyncManagerType.INPUTS) is None:
+            raise TopologyError(f"start-up: station {s:#x} has no input SyncManager")
+        for d in process_data_writes(info, *addresses[p]):
+            m.x(replace(d, adp=s))
+    clocks = [s for s, dev in zip(stations, chain.devices, strict=True) if dev.config.features & DC]
+    if clocks:
+        _config_dc(m, clocks)
     m.state(AlState.SAFEOP, nodes)
     m.state(AlState.OP, nodes)
     return m.records
+
+
+def _mailbox(info: SlaveInfo) -> tuple[SyncManagerSpec, SyncManagerSpec] | None:
+    """The receive and send mailbox SyncManagers of a slave with a mailbox (SM0, SM1), else
+    None; a mailbox elsewhere is refused (TopologyError)."""
+    rx = info.sm_of_type(SyncManagerType.MAILBOX_OUT)
+    tx = info.sm_of_type(SyncManagerType.MAILBOX_IN)
+    if rx is None and tx is None:
+        return None
+    if (rx, tx) != (0, 1):
+        raise TopologyError("start-up: a slave's mailbox is not on SM0/SM1")
+    return info.sync_managers[0], info.sync_managers[1]
 
 
 def _config_dc(m: _Master, stations: list[int]) -> None:
