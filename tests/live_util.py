@@ -2,16 +2,25 @@
 
 from __future__ import annotations
 
+import contextlib
 import importlib.util
+import json
 import os
 import select
 import shutil
+import signal
+import subprocess
 import sys
 import time
+import xml.etree.ElementTree as ET
+from collections.abc import Iterator
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 import pytest
+
+if TYPE_CHECKING:
+    from emulator.live import VethPair
 
 ROOT = Path(__file__).resolve().parents[1]
 TESTS = ROOT / "tests"
@@ -54,3 +63,62 @@ def read_line(stream: Any, needle: str, timeout_s: float) -> str:
             if needle in line:
                 return str(line)
     pytest.fail(f"no line with {needle!r} within {timeout_s} s: {seen}")
+
+
+def xml_number(text: str | None) -> int:
+    s = (text or "").strip()
+    return int(s[2:], 16) if s.startswith("#x") else int(s)
+
+
+def from_xml(path: Path) -> dict[str, Any]:
+    """What the ESI says, read with ElementTree: identity, Type text, objects, the bits of the
+    default PDO assignment (PDOs with an Sm attribute) per direction."""
+    root = ET.parse(path).getroot()
+    device = root.find("Descriptions/Devices/Device")
+    assert device is not None
+    type_el = device.find("Type")
+    assert type_el is not None
+
+    def bits(tag: str) -> int:
+        return sum(
+            xml_number(e.findtext("BitLen"))
+            for p in device.iterfind(tag)
+            if p.get("Sm") is not None
+            for e in p.iterfind("Entry")
+        )
+
+    return {
+        "vendor_id": xml_number(root.findtext("Vendor/Id")),
+        "product_code": xml_number(type_el.get("ProductCode")),
+        "revision": xml_number(type_el.get("RevisionNo")),
+        "type": type_el.text,
+        "objects": {
+            xml_number(o.findtext("Index"))
+            for o in device.iterfind("Profile/Dictionary/Objects/Object")
+        },
+        "output_bytes": (bits("RxPdo") + 7) // 8,
+        "input_bytes": (bits("TxPdo") + 7) // 8,
+        "byte_size": xml_number(device.findtext("Eeprom/ByteSize")),
+    }
+
+
+@contextlib.contextmanager
+def serving(net: VethPair, *args: str) -> Iterator[dict[str, Any]]:
+    """``skinframes serve ecat ARGS --json`` on the slave end, stopped with SIGINT."""
+    cmd = [
+        *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve", "ecat"),
+        *("--iface", net.slave, "--json", "--period-ms", "2", *args),
+    ]
+    proc = subprocess.Popen(
+        cmd, cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
+    )
+    result: dict[str, Any] = {}
+    try:
+        read_line(proc.stderr, "serving", 60)
+        yield result
+    finally:
+        proc.send_signal(signal.SIGINT)
+        out, err = proc.communicate(timeout=60)
+        result["rc"], result["stderr"] = proc.returncode, err
+        if proc.returncode == 0:
+            result["summary"] = json.loads(out)
