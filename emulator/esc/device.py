@@ -182,6 +182,7 @@ __all__ = [
 
 _RESET_SEQUENCE: Final = b"RES"
 _MAILBOX_EVENT: Final = -1  # EscDevice.react: a mailbox or SyncManager event, not AL control
+_OUTPUTS_EVENT: Final = -2  # EscDevice.react: -2 - n, ECAT completed write SyncManager n's buffer
 LRD_OR_LRW: Final = frozenset((LRD, LRW))  # the logical commands that read (read_buffered)
 _LRD_KEY_SHIFT: Final = 17  # _lrd_key: the length (a datagram's 11 bits) and the flag below
 
@@ -357,6 +358,7 @@ class EscDevice:
         "_lrd_plans",
         "_mailbox_due",
         "_mailbox_hook",
+        "_outputs_hook",
         "_reset_progress",
         "_reset_written",
         "_rows",
@@ -457,6 +459,11 @@ class EscDevice:
             self.app, "mailbox_event", None
         )
         self._mailbox_due = False
+        # the application's handler of outputs: run after a frame that completed the buffer of
+        # a process-data SyncManager ECAT writes (its buffer exchange, datasheet I 8.1)
+        self._outputs_hook: Callable[[EscDevice, int], None] | None = getattr(
+            self.app, "outputs_event", None
+        )
         # where the application's reactions to a frame wait until the frame has passed (the
         # chain's list, EcatChain.run_firmware), or None: the application reacts at once
         self.firmware_queue: list[tuple[EscDevice, int]] | None = None
@@ -962,6 +969,8 @@ class EscDevice:
             else:
                 last = (status >> 4) & 0x03
                 status = (status & 0xCF) | ((last + 1) % 3 if last < 3 else 0) << 4
+                if self._outputs_hook is not None:  # the SyncManager's event for the PDI
+                    self._react(_OUTPUTS_EVENT - sm.index)
             self.mem[st] = status
         else:
             self.mem[st] = (self.mem[st] & ~SM_READ_OPEN) | SM_IRQ_READ
@@ -1340,11 +1349,15 @@ class EscDevice:
 
     def react(self, what: int) -> None:
         """The application's reaction to a frame: to a write of AL control with value ``what``
-        (the ESM, ETG.1000.6 6.4), or to a mailbox or SyncManager event (``what`` < 0): what
-        the slave's firmware does after the ESC signalled the event (datasheet I 3.4, 8)."""
+        (the ESM, ETG.1000.6 6.4), to a mailbox or SyncManager event (``what`` -1), or to the
+        buffer of process-data SyncManager n that ECAT completed (``what`` -2 - n): what the
+        slave's firmware does after the ESC signalled the event (datasheet I 3.4, 8.1)."""
         if what == _MAILBOX_EVENT:
             assert self._mailbox_hook is not None
             self._mailbox_hook(self)
+        elif what <= _OUTPUTS_EVENT:
+            assert self._outputs_hook is not None
+            self._outputs_hook(self, _OUTPUTS_EVENT - what)
         else:
             self.al_control_full = False  # the firmware reads AL control: ECAT may write again
             self.app.al_control(self, what)

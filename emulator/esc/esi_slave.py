@@ -17,7 +17,9 @@ the mailbox and CoE server, the SyncManager checks) with what the ESI describes:
 * distributed clocks (the ESC's feature bits 0x0008) only when the ESI has ``Dc`` op modes;
   then, once SYNC0 runs, inputs are sampled at its pulses.
 
-Outputs are taken by the ESC as any master writes them; the application does not act on them.
+* outputs: when the master completes an output SyncManager's buffer, the application reads it
+  through the PDI and, in OP, each entry the assigned RxPDOs map takes its bits (SDO uploads
+  of the ``0x7000``-area objects return them; :meth:`EsiApplication.take_outputs`).
 """
 
 from __future__ import annotations
@@ -55,6 +57,7 @@ __all__ = [
     "EsiSlave",
     "check_esi_slave",
     "counter_images",
+    "entry_values",
     "esi_device",
     "load_esi_slave",
     "parse_esi_spec",
@@ -241,6 +244,19 @@ class EsiApplication(SlaveApplication):
         counters = np.array([self.counter], dtype=np.int64)
         return bytes(counter_images(self.layout(sync_manager), counters)[0])
 
+    # --- outputs ---------------------------------------------------------------------------
+    def take_outputs(self, index: int, data: bytes) -> None:
+        """Outputs of SyncManager ``index`` (in OP, :meth:`SlaveApplication.outputs_event`):
+        each entry its assigned RxPDOs map (``0x7000``-area objects, usually) takes its bits
+        of ``data`` (:func:`entry_values`), readable over SDO."""
+        super().take_outputs(index, data)
+        if self.objects is None:
+            return
+        for obj, sub, value in entry_values(self.layout(index), data):
+            entry = self.objects.entry(obj, sub)
+            if not isinstance(entry, int) and entry.reader is None:
+                entry.value = value
+
     def _write_inputs(self, device: Pdi) -> None:
         for index, start in self._input_sms:
             data = self.image(index)
@@ -271,6 +287,23 @@ def counter_images(
             plane[:, at : at + n] = (counters[:, None] >> np.arange(n, dtype=np.int64)) & 1
         at += bits
     return np.packbits(plane, axis=1, bitorder="little")
+
+
+def entry_values(
+    layout: Sequence[tuple[int, int, int]], data: bytes
+) -> list[tuple[int, int, bytes]]:
+    """(index, subindex, value) of the entries ``layout`` maps ((index, subindex, bits), in
+    mapping order) in the SyncManager buffer ``data``: ETG.1000.6 5.6.7, the entries packed bit
+    by bit from bit 0 (what :func:`counter_images` packs), each value its bits in whole bytes,
+    little-endian; gaps (index 0) are skipped."""
+    whole = int.from_bytes(data, "little")
+    out, at = [], 0
+    for index, subindex, bits in layout:
+        if index:
+            value = (whole >> at) & ((1 << bits) - 1)
+            out.append((index, subindex, value.to_bytes((bits + 7) // 8, "little")))
+        at += bits
+    return out
 
 
 def esi_device(slave: EsiSlave) -> EscDevice:

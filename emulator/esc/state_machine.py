@@ -127,7 +127,12 @@ def transition_code(current: int, requested: int) -> AlStatusCode:
 
 
 class PdiApplication(Protocol):
-    """The slave application on the PDI side of an ESC (a microcontroller's firmware)."""
+    """The slave application on the PDI side of an ESC (a microcontroller's firmware).
+
+    It may also have ``mailbox_event(device)`` (after a frame that completed a mailbox buffer
+    or wrote SyncManager registers) and ``outputs_event(device, index)`` (after a frame that
+    completed the buffer of a process-data SyncManager the master writes, datasheet I 8.1):
+    the ESC calls those it has (:class:`SlaveApplication` has both)."""
 
     def power_on(self, device: Pdi) -> None:
         """Called after the ESC loaded its EEPROM at power-on or reset."""
@@ -239,6 +244,23 @@ class SlaveApplication:
             self._enter(device, AlState.OP, AlState.SAFEOP)
             state = AlState.SAFEOP
         device.pdi_set_al_status(state, error=True, code=code)
+
+    # --- outputs -----------------------------------------------------------------------------
+    def outputs_event(self, device: Pdi, index: int) -> None:
+        """The master completed the buffer of output SyncManager ``index`` (its buffer exchange
+        and event for the PDI, datasheet I 8.1, AL event 0x0220 bit 8 + index): read it through
+        the PDI (which frees the buffer) and, in OP only, take the outputs
+        (:meth:`take_outputs`); in SAFE-OP the outputs stay in their safe state (ETG.1000.6
+        6.4.1, "Safe-Operational": outputs in safe state)."""
+        start, length, _, _ = device.sm_registers(index)
+        data = device.pdi_read(start, length)
+        if device.al_status & STATE_MASK == AlState.OP:
+            self.take_outputs(index, data)
+
+    def take_outputs(self, index: int, data: bytes) -> None:
+        """Outputs ``data`` of SyncManager ``index`` act: here they are held (:attr:`outputs`;
+        a skin patch's dictionary reads its 0x7000 objects from them)."""
+        self.outputs = data
 
     # --- inputs ------------------------------------------------------------------------------
     def publish(self, device: Pdi, data: bytes) -> None:
