@@ -102,12 +102,40 @@ def from_xml(path: Path) -> dict[str, Any]:
     }
 
 
+def live_net(prefix: str) -> Iterator[VethPair]:
+    """A module's veth pair in a private netns (``prefix``: its name's start), or a skip with
+    the missing requirement (a failure under CI=true)."""
+    from emulator.live import veth_netns
+
+    reason = missing_requirement()
+    if reason is not None:
+        if IN_CI:
+            pytest.fail("CI=true: " + reason)
+        pytest.skip(reason)
+    with veth_netns(prefix=prefix) as pair:
+        yield pair
+
+
+def in_netns(net: VethPair, *cmd: str) -> subprocess.CompletedProcess[str]:
+    """Run ``cmd`` (a master) in the netns of ``net`` to its end (5 minutes at most), its output
+    captured as text."""
+    return subprocess.run(
+        ["ip", "netns", "exec", net.netns, *cmd],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
 @contextlib.contextmanager
-def serving(net: VethPair, *args: str) -> Iterator[dict[str, Any]]:
+def serving(net: VethPair, *args: str, period_ms: float = 2) -> Iterator[dict[str, Any]]:
     """``skinframes serve ecat ARGS --json`` on the slave end, stopped with SIGINT."""
     cmd = [
         *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve", "ecat"),
-        *("--iface", net.slave, "--json", "--period-ms", "2", *args),
+        *("--iface", net.slave, "--json", "--period-ms", str(period_ms), *args),
     ]
     proc = subprocess.Popen(
         cmd, cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True

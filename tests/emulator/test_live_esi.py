@@ -27,9 +27,9 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_util import ENV, IN_CI, ROOT, TESTS, from_xml, missing_requirement, serving
+from live_util import ENV, ROOT, TESTS, from_xml, in_netns, live_net, serving
 
-from emulator.live import VethPair, veth_netns
+from emulator.live import VethPair
 
 LAN9252, DYNPDO = "soes_linux_lan9252demo", "soes_rtl_xmc4_dynpdo"
 PATCHES, PATCH_BYTES = 20, 192
@@ -37,29 +37,11 @@ PATCHES, PATCH_BYTES = 20, 192
 
 @pytest.fixture(scope="module")
 def net() -> Iterator[VethPair]:
-    reason = missing_requirement()
-    if reason is not None:
-        if IN_CI:
-            pytest.fail("CI=true: " + reason)
-        pytest.skip(reason)
-    with veth_netns(prefix="esi") as pair:
-        yield pair
+    yield from live_net("esi")
 
 
 def run_master(net: VethPair, *args: str) -> dict[str, Any]:
-    done = subprocess.run(
-        [
-            *("ip", "netns", "exec", net.netns, sys.executable, str(TESTS / "soem_esi_master.py")),
-            net.master,
-            *args,
-        ],
-        cwd=ROOT,
-        env=ENV,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
+    done = in_netns(net, sys.executable, str(TESTS / "soem_esi_master.py"), net.master, *args)
     assert done.returncode == 0, done.stderr[-3000:]
     doc: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
     return doc

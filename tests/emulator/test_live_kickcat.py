@@ -21,14 +21,13 @@ from __future__ import annotations
 
 import os
 import re
-import subprocess
 from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
-from live_util import ENV, IN_CI, ROOT, from_xml, missing_requirement, serving
+from live_util import from_xml, in_netns, live_net, serving
 
-from emulator.live import VethPair, veth_netns
+from emulator.live import VethPair
 
 MASTER = os.environ.get("KICKCAT_MASTER", "")
 PATCHES, PATCH_BYTES = 20, 192
@@ -40,13 +39,7 @@ STATION_BASE = 1001  # KickCAT's first configured address (Bus::init: 1000 + pos
 def net() -> Iterator[VethPair]:
     if not (MASTER and os.access(MASTER, os.X_OK)):
         pytest.skip("KICKCAT_MASTER does not name a built KickCAT master (see the docstring)")
-    reason = missing_requirement()
-    if reason is not None:
-        if IN_CI:
-            pytest.fail("CI=true: " + reason)
-        pytest.skip(reason)
-    with veth_netns(prefix="esm") as pair:
-        yield pair
+    yield from live_net("esm")
 
 
 def test_kickcat_brings_patches_and_an_esi_slave_to_op(net: VethPair, shared_esi: Path) -> None:
@@ -56,15 +49,7 @@ def test_kickcat_brings_patches_and_an_esi_slave_to_op(net: VethPair, shared_esi
         *("--nodes", str(PATCHES), "--bytes", str(PATCH_BYTES)),
         *("--esi", str(shared_esi / LAN9252)),
     ) as server:
-        done = subprocess.run(
-            ["ip", "netns", "exec", net.netns, MASTER, "-i", net.master],
-            cwd=ROOT,
-            env=ENV,
-            capture_output=True,
-            text=True,
-            timeout=300,
-            check=False,
-        )
+        done = in_netns(net, MASTER, "-i", net.master)
     assert done.returncode == 0, done.stdout[-2000:] + done.stderr[-2000:]
     assert server["rc"] == 0, server["stderr"]
     slaves = re.findall(r"^slave (\d+) state (\w+) in (\d+) out (\d+)$", done.stdout, re.M)

@@ -33,6 +33,7 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
+import live_util
 import numpy as np
 import numpy.typing as npt
 import pytest
@@ -79,39 +80,21 @@ def serving(
     net: VethPair, nodes: int, size: int, pcap: Path | None = None
 ) -> Iterator[dict[str, Any]]:
     """``skinframes serve ecat`` on the slave end; stopped with SIGINT, its summary kept."""
-    cmd = [
-        *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes", "serve", "ecat"),
-        *("--iface", net.slave, "--nodes", str(nodes), "--bytes", str(size), "--json"),
-        *("--seed", str(SEED), "--samples", str(SAMPLES), "--period-ms", str(PERIOD_MS)),
+    with live_util.serving(
+        net,
+        *("--nodes", str(nodes), "--bytes", str(size)),
+        *("--seed", str(SEED), "--samples", str(SAMPLES)),
         *(() if pcap is None else ("--pcap", str(pcap))),
-    ]
-    proc = subprocess.Popen(
-        cmd, cwd=ROOT, env=ENV, stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True
-    )
-    result: dict[str, Any] = {}
-    try:
-        read_line(proc.stderr, "serving", 60)
+        period_ms=PERIOD_MS,
+    ) as result:
         yield result
-    finally:
-        proc.send_signal(signal.SIGINT)
-        out, err = proc.communicate(timeout=60)
-        result["rc"], result["stderr"] = proc.returncode, err
-        if proc.returncode == 0:
-            result["summary"] = json.loads(out)
 
 
 def run_soem(net: VethPair, inputs: Path, cycles: int = 1000, *options: str) -> dict[str, Any]:
-    done = subprocess.run(
-        [
-            *("ip", "netns", "exec", net.netns, sys.executable, str(TESTS / "soem_master.py")),
-            *(net.master, "--cycles", str(cycles), "--inputs-out", str(inputs), *options),
-        ],
-        cwd=ROOT,
-        env=ENV,
-        capture_output=True,
-        text=True,
-        timeout=240,
-        check=False,
+    done = live_util.in_netns(
+        net,
+        *(sys.executable, str(TESTS / "soem_master.py"), net.master),
+        *("--cycles", str(cycles), "--inputs-out", str(inputs), *options),
     )
     assert done.returncode == 0, done.stderr[-3000:]
     doc: dict[str, Any] = json.loads(done.stdout.splitlines()[-1])
