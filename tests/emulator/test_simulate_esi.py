@@ -132,3 +132,14 @@ def test_bad_esi_is_one_error_line(
     assert main(["simulate", *argv]) == 2
     err = capsys.readouterr().err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("skinframes: error: ") and message in err[0]
+
+
+def test_one_byte_inputs_carry_their_taxels() -> None:
+    """A patch of 1 byte: its SyncManager of length 1 is not activated (datasheet II 0x0802:
+    length > 1, else not activated), so the FMMU reads plain memory; the frames still carry the
+    taxels given (before, they came back 0)."""
+    given = np.arange(3 * 4, dtype=np.uint8).reshape(4, 3, 1) + 0xA0
+    sink = MemorySink()
+    simulate_ecat(3, 1, PAPER, cycles=4, sink=sink, payloads=given)
+    for c, lrds in enumerate(_returned_lrds(sink)):
+        assert [lrds[p] for p in range(3)] == [(p, 1, bytes([0xA0 + 3 * c + p])) for p in range(3)]
