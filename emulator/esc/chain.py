@@ -298,10 +298,10 @@ class EcatChain:
 
     @property
     def input_offsets(self) -> tuple[int, ...]:
-        """Where each slave's inputs start in the line's input image: the input bytes of the
-        slaves before it (a line of patches: position x input bytes)."""
-        sizes = [dev.info.input_bytes for dev in self.devices]
-        return tuple(int(x) for x in np.cumsum([0, *sizes[:-1]]))
+        """Where each slave's inputs start in the line's input image: the logical address the
+        configuration maps them to (:func:`process_data_addresses`; a line of patches:
+        position x input bytes)."""
+        return tuple(at for at, _ in process_data_addresses([d.info for d in self.devices]))
 
     def publish(self, rows: npt.ArrayLike | Iterable[bytes]) -> None:
         """Each slave's application writes its next input buffer: one row per slave.
