@@ -12,14 +12,15 @@ import contextlib
 import importlib
 import signal
 import sys
-import threading
 from collections.abc import Iterator, Sequence
-from types import FrameType, ModuleType
+from types import ModuleType
 from typing import TYPE_CHECKING, Any, Final
 
 from skinframes import __version__
 from skinframes.errors import SkinframesError
 from skinframes.text import escape
+from skinframes_cli import signals
+from skinframes_cli.signals import Terminated
 
 __all__ = ["Terminated", "main"]
 
@@ -70,30 +71,6 @@ class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # type: ignore[override]
         print(f"skinframes: error: {escape(message)} (see '{self.prog} --help')", file=sys.stderr)
         raise SystemExit(2)
-
-
-class Terminated(BaseException):
-    """SIGTERM arrived: raised in the main thread so ``with`` blocks (atomic files) clean up.
-
-    A BaseException, like KeyboardInterrupt, so that no ``except Exception`` swallows it.
-    """
-
-
-@contextlib.contextmanager
-def _sigterm_raises() -> Iterator[None]:
-    """While a command runs, SIGTERM raises :class:`Terminated` (main thread only)."""
-    if threading.current_thread() is not threading.main_thread():
-        yield
-        return
-
-    def terminate(signum: int, frame: FrameType | None) -> None:
-        raise Terminated
-
-    previous = signal.signal(signal.SIGTERM, terminate)
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
 
 
 @contextlib.contextmanager
@@ -169,8 +146,9 @@ def main(argv: Sequence[str] | None = None) -> int:
     except SystemExit as exc:  # usage errors (exit 2) and --help (exit 0), as a return code
         return exc.code if isinstance(exc.code, int) else 2
     try:
-        with _sigterm_raises(), _information(args.quiet):
+        with signals.handled(), _information(args.quiet):
             code: int = args.run(args)
+            signals.raise_if_signalled()  # one that something swallowed: not a success
         return code
     except SkinframesError as exc:
         if args.debug:

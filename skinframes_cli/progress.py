@@ -1,10 +1,13 @@
-"""A progress bar on stderr for long runs, only when stderr is a terminal."""
+"""A progress bar on stderr for long runs, only when stderr is a terminal; each step also stops
+the run for a signal that something swallowed (:mod:`skinframes_cli.signals`)."""
 
 from __future__ import annotations
 
 import sys
 from collections.abc import Callable, Iterator
 from contextlib import contextmanager
+
+from skinframes_cli.signals import raise_if_signalled
 
 __all__ = ["progress_bar"]
 
@@ -29,10 +32,12 @@ def progress_bar(total: int | None, unit: str) -> Iterator[Callable[[int], None]
     ) as bar:
 
         def advance(n: int) -> None:
+            raise_if_signalled()
             bar.update(n)
 
         yield advance
 
 
 def _ignore(n: int) -> None:
-    """Progress nobody sees."""
+    """Progress nobody sees (a signal a step swallowed still stops the run)."""
+    raise_if_signalled()

@@ -572,3 +572,33 @@ def test_demo_refuses_a_list_of_files_it_did_not_write(
     assert (out / "epl_160x192_paper.pcap").read_text() == "mine"
     prepare_out(out, ["a.pcap"], force=True)  # --force replaces it and trusts no name on it
     assert (out / MANIFEST).read_text().splitlines()[1:] == ["a.pcap"]
+
+
+def test_sigint_in_the_first_moments_after_the_temporary_file_appears(tmp_path: Path) -> None:
+    """Issue 42: a SIGINT 0-40 ms after the temporary pcap appears always wins: exit 130, the
+    previous file unchanged, no temporary file left. (numpy.random's Cython modules, imported
+    when the run first draws taxels, swallowed a KeyboardInterrupt that arrived during their
+    import: 2 of 16 such runs went on to replace the file; skinframes_cli.signals.)"""
+    import os
+    import signal
+    import time
+
+    target = tmp_path / "x.pcapng"
+    argv = [sys.executable, "-m", "skinframes", "simulate", "ecat", "--nodes", "160", "--bytes",
+            "192", "--cycles", "200000", "--allow-large-pcap", "--pcap", str(target)]  # fmt: skip
+    for k in range(16):
+        target.write_bytes(b"previous")
+        proc = subprocess.Popen(argv, cwd=ROOT, stdout=subprocess.DEVNULL, stderr=subprocess.PIPE)
+        try:
+            while proc.poll() is None and not _temp_files(tmp_path):
+                time.sleep(0.0002)
+            time.sleep(k * 0.0025)  # 0, 2.5, .. 37.5 ms after it appeared
+            proc.send_signal(signal.SIGINT)
+            _out, err = proc.communicate(timeout=300)
+        finally:
+            if proc.poll() is None:
+                os.kill(proc.pid, signal.SIGKILL)
+                proc.wait()
+        assert proc.returncode == 130, (k, err)
+        assert target.read_bytes() == b"previous", k
+        assert not _temp_files(tmp_path), k
