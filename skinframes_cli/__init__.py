@@ -43,6 +43,7 @@ COMMAND_MODULES: Final = (
     "can",
     "compare",
     "serve",
+    "epl_config",
     "wireshark_plugin",
     "vectors",
     "sii",

@@ -23,6 +23,7 @@ from typing import Final
 from emulator.errors import SdoAbortError
 from skinframes.powerlink import MAX_PDO_PAYLOAD_BYTES
 from skinframes.powerlink.sdo import AbortCode
+from skinframes.powerlink.cdc import mapping_entry
 
 
 class DataType(IntEnum):
@@ -114,11 +115,6 @@ class Mapped:
     subindex: int
     offset_bytes: int
     length_bytes: int
-
-
-def mapping_entry(index: int, subindex: int, offset_bits: int, length_bits: int) -> int:
-    """The UNSIGNED64 of one mapping entry (DS 301 6.4.9.2, Table 41)."""
-    return index | subindex << 16 | offset_bits << 32 | length_bits << 48
 
 
 def _u(dtype: DataType, value: int) -> bytes:

@@ -1,0 +1,165 @@
+"""Live, issue 40's acceptance for ``skinframes epl-config``: the real openPOWERLINK MN, with a
+CDC the command wrote, runs 8 patches of 192 taxel bytes (``serve epl``) at 10 ms for 1,000
+cycles without a loss-of-PRes error, and ``decode --taxels`` of serve's capture gives the
+served samples.
+
+The MN's loss-of-PRes error is E_DLL_LOSS_PRES_TH, 0x8243 (openPOWERLINK's errordefs.h): its
+error handler raises it when a CN's counter reaches 0x1C09 (the kit's README, "What it checks"),
+and the console MN logs it as an error history entry. Timing is kept robust on a loaded 2-core
+host by the command's default PRes timeout, 1 ms (five times what serve epl needs under
+``--rt-priority``, benchmarks/README.md), with which 8 CNs that each use it whole still fit the
+10 ms cycle (a longer one made the MN count cycles exceeded, 0x8232, and drop to PreOp1), and
+serve under ``--rt-priority``; nothing here asserts a time. Needs root, iproute2 and the kit (epl_live_util).
+"""
+
+from __future__ import annotations
+
+import json
+import re
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import numpy as np
+import pytest
+from epl_live_util import ENV, ROOT, built_kit, operational_nodes, stop
+from live_util import read_line
+
+from emulator.live import veth_netns
+from skinframes import read_capture, taxel
+from skinframes.powerlink import MessageType
+
+NODES, TAXEL_BYTES = 8, 192  # the issue's acceptance
+CYCLE_US = 10_000
+CYCLES = 1_000
+SEED, SAMPLES, PERIOD_MS = 40, 64, 5.0
+OPERATIONAL_WITHIN_S = 120.0  # 8 CNs' SDO downloads share one asynchronous slot per cycle
+RT_PRIORITY = 20
+# openPOWERLINK errordefs.h: E_DLL_LOSS_PRES_TH; the MN's log prints the code in hex
+LOSS_OF_PRES = re.compile(r"E_DLL_LOSS_PRES_TH|0x8243", re.IGNORECASE)
+
+
+@pytest.fixture(scope="module")
+def kit() -> Path:
+    return built_kit()
+
+
+def skinframes(*args: str) -> subprocess.CompletedProcess[str]:
+    return subprocess.run(
+        [sys.executable, "-m", "skinframes", *args],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
+def test_openpowerlink_mn_runs_8_patches_with_an_epl_config_cdc(kit: Path, tmp_path: Path) -> None:
+    cdc, capture, mn_log = tmp_path / "skin.cdc", tmp_path / "serve.pcapng", tmp_path / "mn.log"
+    made = skinframes(
+        *("epl-config", "--nodes", str(NODES), "--bytes", str(TAXEL_BYTES)),
+        *("--cycle-us", str(CYCLE_US)),
+        *("--out", str(cdc)),
+    )
+    assert made.returncode == 0, made.stderr
+    ids = list(range(1, NODES + 1))
+    with veth_netns(master="cdcmn0", slave="cdccn0", prefix="cdc") as net:
+        serve = subprocess.Popen(
+            [
+                *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes"),
+                *("serve", "epl", "--iface", net.slave, "--nodes", str(NODES)),
+                *("--bytes", str(TAXEL_BYTES), "--rt-priority", str(RT_PRIORITY)),
+                *("--seed", str(SEED), "--samples", str(SAMPLES), "--period-ms", str(PERIOD_MS)),
+                *("--pcap", str(capture), "--json"),
+            ],
+            cwd=ROOT,
+            env=ENV,
+            stdout=subprocess.PIPE,
+            stderr=subprocess.PIPE,
+            text=True,
+        )
+        mn = None
+        try:
+            read_line(serve.stderr, "serving", 60)
+            mn = subprocess.Popen(
+                [
+                    *(str(kit / "run-node"), "mn", net.master, "--netns", net.netns),
+                    *("--cdc", str(cdc), "--log", str(mn_log)),
+                ],
+                text=True,
+            )
+            started = time.monotonic()
+            while operational_nodes(mn_log) < set(ids):
+                assert mn.poll() is None, mn_log.read_text(errors="replace")[-3000:]
+                if time.monotonic() - started > OPERATIONAL_WITHIN_S:
+                    pytest.fail(
+                        f"OPERATIONAL after {OPERATIONAL_WITHIN_S} s: only "
+                        f"{sorted(operational_nodes(mn_log))}\n"
+                        + mn_log.read_text(errors="replace")[-3000:]
+                    )
+                time.sleep(0.2)
+            took_s = time.monotonic() - started
+            operational_at = len(mn_log.read_text(errors="replace"))
+            # 1,000 cycles and 2 s more (the MN's cycle may stretch on a loaded host; the SoCs
+            # in the capture are counted below)
+            time.sleep(CYCLES * CYCLE_US / 1e6 + 2.0)
+            # the log until serve stops: its CNs then fall silent, and the MN reports that
+            log = mn_log.read_text(errors="replace")
+        finally:  # serve first: its CNs would leave OPERATIONAL once the MN's SoCs stop
+            out, err = stop(serve, signal.SIGINT)
+            if mn is not None:
+                stop(mn, signal.SIGTERM)
+    assert not LOSS_OF_PRES.search(log), log[-3000:]
+    assert serve.returncode == 0, err[-3000:]
+    summary = json.loads(out)
+    assert [cn["state"] for cn in summary["cns"]] == ["OPERATIONAL"] * NODES, summary
+    assert summary["errors"] == 0, summary["error_messages"]
+
+    records = [(rec.time_ns, rec.data) for rec in read_capture(capture)]
+    epl = [f for _, f in records if f[12:14] == b"\x88\xab"]
+    times_ns = [t for t, f in records if f[12:14] == b"\x88\xab"]
+    mtyp = [f[14] & 0x7F for f in epl]
+    # the cycles after every CN was OPERATIONAL: from the first SoC after the last CN's first
+    # Operational PRes (NMTStatus 0xFD, EPL byte 3)
+    first_op = {}
+    for k, f in enumerate(epl):
+        if mtyp[k] == MessageType.PRES and f[17] == 0xFD:
+            first_op.setdefault(f[16], k)
+    assert set(first_op) == set(ids)
+    after = max(first_op.values())
+    socs = sum(1 for m in mtyp[after:] if m == MessageType.SOC)
+    preqs = [f[15] for k, f in enumerate(epl) if k > after and mtyp[k] == MessageType.PREQ]
+    pres = [f[16] for k, f in enumerate(epl) if k > after and mtyp[k] == MessageType.PRES]
+    exceeded = log[operational_at:].count(
+        "Code=0x8232"
+    )  # E_DLL_CYCLE_EXCEED: reported, not asserted
+    print(
+        f"\n{NODES} CNs OPERATIONAL {took_s:.1f} s after the MN started; then {socs} cycles, "
+        f"{len(preqs)} PReq, {len(pres)} PRes; {exceeded} cycles exceeded, MN log after: "
+        f"{len(log) - operational_at} bytes"
+    )
+    assert socs >= CYCLES
+
+    npz = tmp_path / "taxels.npz"
+    decoded = skinframes(
+        *("decode", str(capture), "--taxels", str(npz)),
+        *("--nodes", str(NODES), "--bytes", str(TAXEL_BYTES)),
+    )
+    assert decoded.returncode == 0, decoded.stderr
+    with np.load(npz) as arrays:
+        taxels, present, time_ns = arrays["taxels"], arrays["present"], arrays["time_ns"]
+    served = taxel.sample_payloads(NODES, SAMPLES, TAXEL_BYTES, seed=SEED)
+    rows = taxels.reshape(taxels.shape[0], NODES, TAXEL_BYTES)
+    # the samples of cycles in which every CN was Operational: before, a PRes carries RD=0,
+    # its data not valid (DS 301 4.6.1.1.4), which decode --taxels reads all the same
+    valid = time_ns > times_ns[after]
+    for node in range(NODES):
+        known = {served[s, node].tobytes() for s in range(SAMPLES)}
+        got = {rows[s, node].tobytes() for s in np.flatnonzero(present[:, node] & valid)}
+        assert got, f"no taxels of node {node + 1}"
+        assert got <= known, f"node {node + 1}: taxels that were not served"
+        assert len(got) > 1, f"node {node + 1}: the taxels never moved"
