@@ -50,8 +50,9 @@ CONFIGURATION_DATA_INDEX: Final = 0x1F22  # NMT_ConfigurationData_ADOM (DS 301 7
 # CN's PRes on its own RPDO channel and sends each PReq on its own TPDO channel), so the stock MN
 # runs at most 40 patches.
 MN_PDO_CHANNELS: Final = 40
-# The MN's process image objects the demo maps (objdict.h: 0xA4C0 PI_Output_U8 and 0xA040
-# PI_Input_U8, 252 sub-indices each); channel k uses sub-index k + 1 as mnobd.txt does.
+# The MN's process image objects (objdict.h: 0xA4C0 PI_Output_U8, 0xA040 PI_Input_U8, 252
+# sub-indices each), mapped as mnobd.txt maps them: RPDO channel k to 0xA4C0/k+1, TPDO channel
+# k from 0xA040/k+1.
 MN_RX_IMAGE_INDEX: Final = 0xA4C0
 MN_TX_IMAGE_INDEX: Final = 0xA040
 MN_RPDO_COMM: Final = 0x1400
@@ -112,7 +113,7 @@ def _u(value: int, size_bytes: int) -> bytes:
     return value.to_bytes(size_bytes, "little")
 
 
-def entry(index: int, subindex: int, value: int, size_bytes: int) -> CdcEntry:
+def _entry(index: int, subindex: int, value: int, size_bytes: int) -> CdcEntry:
     """An entry of an unsigned integer ``value`` of ``size_bytes``."""
     return CdcEntry(index, subindex, _u(value, size_bytes))
 
@@ -232,21 +233,21 @@ def _cn_block(config: SkinConfig) -> tuple[CdcEntry, ...]:
     thresholds, tolerance, payload limits, the mappings, mappings on."""
     taxel_bits = 8 * config.taxel_bytes
     return (
-        entry(RPDO_MAPPING, 0, 0, 1),
-        entry(TPDO_MAPPING, 0, 0, 1),
-        entry(0x1006, 0, config.cycle_us, 4),
-        entry(0x1020, 1, CONF_DATE, 4),
-        entry(0x1020, 2, CONF_TIME, 4),
-        entry(0x1C0B, 3, CN_LOSS_THRESHOLD, 4),
-        entry(0x1C0D, 3, CN_LOSS_THRESHOLD, 4),
-        entry(0x1C14, 0, LOSS_OF_FRAME_TOLERANCE_NS, 4),
-        entry(0x1F98, 4, config.preq_payload_bytes, 2),
-        entry(0x1F98, 5, config.pres_payload_bytes, 2),
-        entry(RPDO_MAPPING, 1, mapping_entry(OUTPUTS_INDEX, 1, 0, 8 * PREQ_DATA_BYTES), 8),
-        entry(TPDO_MAPPING, 1, mapping_entry(TAXELS_INDEX, 1, 0, taxel_bits), 8),
-        entry(TPDO_MAPPING, 2, mapping_entry(INPUTS_INDEX, 1, taxel_bits, 8), 8),
-        entry(RPDO_MAPPING, 0, 1, 1),
-        entry(TPDO_MAPPING, 0, 2, 1),
+        _entry(RPDO_MAPPING, 0, 0, 1),
+        _entry(TPDO_MAPPING, 0, 0, 1),
+        _entry(0x1006, 0, config.cycle_us, 4),
+        _entry(0x1020, 1, CONF_DATE, 4),
+        _entry(0x1020, 2, CONF_TIME, 4),
+        _entry(0x1C0B, 3, CN_LOSS_THRESHOLD, 4),
+        _entry(0x1C0D, 3, CN_LOSS_THRESHOLD, 4),
+        _entry(0x1C14, 0, LOSS_OF_FRAME_TOLERANCE_NS, 4),
+        _entry(0x1F98, 4, config.preq_payload_bytes, 2),
+        _entry(0x1F98, 5, config.pres_payload_bytes, 2),
+        _entry(RPDO_MAPPING, 1, mapping_entry(OUTPUTS_INDEX, 1, 0, 8 * PREQ_DATA_BYTES), 8),
+        _entry(TPDO_MAPPING, 1, mapping_entry(TAXELS_INDEX, 1, 0, taxel_bits), 8),
+        _entry(TPDO_MAPPING, 2, mapping_entry(INPUTS_INDEX, 1, taxel_bits, 8), 8),
+        _entry(RPDO_MAPPING, 0, 1, 1),
+        _entry(TPDO_MAPPING, 0, 2, 1),
     )
 
 
@@ -262,32 +263,32 @@ def skin_cdc(config: SkinConfig) -> tuple[CdcEntry, ...]:
     """
     ids = config.node_ids
     check_skin(ids, config.taxel_bytes)
-    mn = [entry(0x1F81, n, NODE_ASSIGNMENT, 4) for n in ids]
-    mn += [entry(RPDO_MAPPING + k, 0, 0, 1) for k in range(len(ids))]
-    mn += [entry(TPDO_MAPPING + k, 0, 0, 1) for k in range(len(ids))]
-    mn += [entry(0x1006, 0, config.cycle_us, 4), entry(0x1C02, 3, MN_CYCLE_EXCEED_THRESHOLD, 4)]
-    mn += [entry(0x1C09, n, MN_LOSS_OF_PRES_THRESHOLD, 4) for n in ids]
-    mn.append(entry(0x1C14, 0, LOSS_OF_FRAME_TOLERANCE_NS, 4))
-    mn += [entry(0x1F26, n, CONF_DATE, 4) for n in ids]
-    mn += [entry(0x1F27, n, CONF_TIME, 4) for n in ids]
-    mn.append(entry(0x1F8A, 2, config.async_slot_us * NS_PER_US, 4))
-    mn += [entry(0x1F8B, n, config.preq_payload_bytes, 2) for n in ids]
-    mn += [entry(0x1F8D, n, config.pres_payload_bytes, 2) for n in ids]
-    mn += [entry(0x1F92, n, config.pres_timeout_us * NS_PER_US, 4) for n in ids]
+    mn = [_entry(0x1F81, n, NODE_ASSIGNMENT, 4) for n in ids]
+    mn += [_entry(RPDO_MAPPING + k, 0, 0, 1) for k in range(len(ids))]
+    mn += [_entry(TPDO_MAPPING + k, 0, 0, 1) for k in range(len(ids))]
+    mn += [_entry(0x1006, 0, config.cycle_us, 4), _entry(0x1C02, 3, MN_CYCLE_EXCEED_THRESHOLD, 4)]
+    mn += [_entry(0x1C09, n, MN_LOSS_OF_PRES_THRESHOLD, 4) for n in ids]
+    mn.append(_entry(0x1C14, 0, LOSS_OF_FRAME_TOLERANCE_NS, 4))
+    mn += [_entry(0x1F26, n, CONF_DATE, 4) for n in ids]
+    mn += [_entry(0x1F27, n, CONF_TIME, 4) for n in ids]
+    mn.append(_entry(0x1F8A, 2, config.async_slot_us * NS_PER_US, 4))
+    mn += [_entry(0x1F8B, n, config.preq_payload_bytes, 2) for n in ids]
+    mn += [_entry(0x1F8D, n, config.pres_payload_bytes, 2) for n in ids]
+    mn += [_entry(0x1F92, n, config.pres_timeout_us * NS_PER_US, 4) for n in ids]
     channels = range(len(ids))
-    mn += [entry(MN_RPDO_COMM + k, 1, ids[k], 1) for k in channels]
+    mn += [_entry(MN_RPDO_COMM + k, 1, ids[k], 1) for k in channels]
     mn += [
-        entry(RPDO_MAPPING + k, 1, mapping_entry(MN_RX_IMAGE_INDEX, k + 1, 0, 8), 8)
+        _entry(RPDO_MAPPING + k, 1, mapping_entry(MN_RX_IMAGE_INDEX, k + 1, 0, 8), 8)
         for k in channels
     ]
-    mn += [entry(MN_TPDO_COMM + k, 1, ids[k], 1) for k in channels]
+    mn += [_entry(MN_TPDO_COMM + k, 1, ids[k], 1) for k in channels]
     mn += [
-        entry(TPDO_MAPPING + k, 1, mapping_entry(MN_TX_IMAGE_INDEX, k + 1, 0, 8), 8)
+        _entry(TPDO_MAPPING + k, 1, mapping_entry(MN_TX_IMAGE_INDEX, k + 1, 0, 8), 8)
         for k in channels
     ]
-    mn += [entry(RPDO_MAPPING + k, 0, 1, 1) for k in channels]
-    mn += [entry(TPDO_MAPPING + k, 0, 1, 1) for k in channels]
+    mn += [_entry(RPDO_MAPPING + k, 0, 1, 1) for k in channels]
+    mn += [_entry(TPDO_MAPPING + k, 0, 1, 1) for k in channels]
     block = encode_cdc(_cn_block(config))
     mn += [CdcEntry(CONFIGURATION_DATA_INDEX, n, block) for n in ids]
-    mn += [entry(0x1F81, n, NODE_ASSIGNMENT_VALID | NODE_ASSIGNMENT, 4) for n in ids]
+    mn += [_entry(0x1F81, n, NODE_ASSIGNMENT_VALID | NODE_ASSIGNMENT, 4) for n in ids]
     return tuple(mn)
