@@ -54,6 +54,7 @@ BASE: dict[str, list[str]] = {
     "vectors": ["vectors", "--out", "missing-folder"],
     "wireshark-plugin": ["wireshark-plugin", "--out", "missing-folder/skin.lua"],
     "sii": ["sii", "missing.xml", "--out", "o.bin"],
+    "epl-config": ["epl-config", "--nodes", "2", "--bytes", "2", "--out", "missing-folder/x.cdc"],
 }
 
 # (command, option): why only the empty value is tried
