@@ -21,9 +21,9 @@ from enum import Enum, IntEnum
 from typing import Final
 
 from emulator.errors import SdoAbortError
-from skinframes.powerlink import MAX_PDO_PAYLOAD_BYTES
+from skinframes.powerlink import MAX_PDO_PAYLOAD_BYTES, cdc
+from skinframes.powerlink.cdc import mapping_entry as mapping_entry  # was defined here
 from skinframes.powerlink.sdo import AbortCode
-from skinframes.powerlink.cdc import mapping_entry
 
 
 class DataType(IntEnum):
@@ -72,7 +72,7 @@ FEATURE_FLAGS: Final = 0x00000065
 PRES_MAX_LATENCY_NS: Final = 200_000
 # 0x1F98/4,5 PReq/PResActPayloadLimit: default and lowest value 36 (DS 301 7.2.1.1.18; as
 # openPOWERLINK's CN, apps/common/objdicts/CiA401_CN/objdict.h: range 36..1490)
-DEFAULT_PAYLOAD_LIMIT_BYTES: Final = 36
+DEFAULT_PAYLOAD_LIMIT_BYTES: Final = cdc.MIN_PAYLOAD_LIMIT_BYTES  # 36
 DEFAULT_CYCLE_US: Final = 0  # 0x1006: 0 until the MN configures it
 # 0x1C0B/3, 0x1C0D/3 thresholds and 0x1C14 LossOfFrameTolerance: openPOWERLINK's CN defaults
 # (CiA401_CN/objdict.h: 15; 100000 ns); an MN's CDC writes its own (the kit's: 80, 50 ms)
@@ -83,11 +83,12 @@ MAPPING_ENTRIES: Final = 16  # sub-indices 1..16 of each 0x1600/0x1A00 mapping
 ETHERNET_INTERFACE_TYPE: Final = 6  # 0x1030/3: ethernetCsmacd (IANA ifType, DS 301 7.2.1.4.1)
 ETHERNET_MTU_BYTES: Final = 1500
 
-MAP_INDEX_RX: Final = 0x1600
-MAP_INDEX_TX: Final = 0x1A00
-TAXELS_INDEX: Final = 0x6100
-INPUTS_INDEX: Final = 0x6000
-OUTPUTS_INDEX: Final = 0x6200
+# the objects an MN's CDC names (skinframes.powerlink.cdc, as `skinframes epl-config` writes it)
+MAP_INDEX_RX: Final = cdc.RPDO_MAPPING  # 0x1600
+MAP_INDEX_TX: Final = cdc.TPDO_MAPPING  # 0x1A00
+TAXELS_INDEX: Final = cdc.TAXELS_INDEX  # 0x6100
+INPUTS_INDEX: Final = cdc.INPUTS_INDEX  # 0x6000
+OUTPUTS_INDEX: Final = cdc.OUTPUTS_INDEX  # 0x6200
 
 
 @dataclass(slots=True)
