@@ -10,11 +10,16 @@ from __future__ import annotations
 import os
 import re
 import shutil
+import signal
 import subprocess
 import sys
+import time
+from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 import pytest
+from live_util import read_line
 
 ROOT = Path(__file__).resolve().parents[1]
 KIT = Path(os.environ.get("OPENPOWERLINK_KIT", ROOT.parent / "shared" / "tools" / "openpowerlink"))
@@ -82,3 +87,82 @@ def stop(proc: subprocess.Popen[str], sig: int) -> tuple[str, str]:
     except subprocess.TimeoutExpired:
         proc.kill()
         return proc.communicate()
+
+
+def serve_epl(net: Any, serve_args: list[str]) -> subprocess.Popen[str]:
+    """``skinframes serve epl --iface`` the slave end of ``net`` (a veth pair in a namespace)
+    with ``serve_args``, once it says it is serving."""
+    serve = subprocess.Popen(
+        [
+            *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes"),
+            *("serve", "epl", "--iface", net.slave, *serve_args),
+        ],
+        cwd=ROOT,
+        env=ENV,
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    try:
+        read_line(serve.stderr, "serving", 60)
+    except BaseException:
+        stop(serve, signal.SIGINT)
+        raise
+    return serve
+
+
+@dataclass(frozen=True)
+class ServeRun:
+    """What a run of the MN against ``serve epl`` left: the seconds until every CN was
+    OPERATIONAL (the MN's log), the MN's log when serve was stopped, serve's exit and output."""
+
+    took_s: float
+    log: str
+    returncode: int
+    out: str
+    err: str
+
+
+def mn_drives_serve(
+    kit: Path,
+    net: Any,
+    serve_args: list[str],
+    *,
+    cdc: Path,
+    mn_log: Path,
+    ids: list[int],
+    within_s: float,
+    run_s: float,
+) -> ServeRun:
+    """``serve epl --iface`` the slave end of ``net`` (a veth pair in a namespace) with
+    ``serve_args``, then the kit's MN with ``cdc`` on the other end; fails unless the MN reports
+    every CN of ``ids`` OPERATIONAL within ``within_s``; keeps cycling ``run_s`` more; stops
+    serve (SIGINT) and then the MN."""
+    serve = serve_epl(net, serve_args)
+    mn = None
+    try:
+        mn = subprocess.Popen(
+            [
+                *(str(kit / "run-node"), "mn", net.master, "--netns", net.netns),
+                *("--cdc", str(cdc), "--log", str(mn_log)),
+            ],
+            text=True,
+        )
+        started = time.monotonic()
+        while operational_nodes(mn_log) < set(ids):
+            assert mn.poll() is None, mn_log.read_text(errors="replace")[-3000:]
+            if time.monotonic() - started > within_s:
+                pytest.fail(
+                    f"OPERATIONAL after {within_s} s: only {sorted(operational_nodes(mn_log))}\n"
+                    + mn_log.read_text(errors="replace")[-3000:]
+                )
+            time.sleep(0.2)
+        took_s = time.monotonic() - started
+        time.sleep(run_s)
+        # the log until serve stops: its CNs then fall silent, and the MN reports that
+        log = mn_log.read_text(errors="replace")
+    finally:  # serve first: its CNs would leave OPERATIONAL once the MN's SoCs stop
+        out, err = stop(serve, signal.SIGINT)
+        if mn is not None:
+            stop(mn, signal.SIGTERM)
+    return ServeRun(took_s, log, serve.returncode, out, err)

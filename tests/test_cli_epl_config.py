@@ -64,8 +64,10 @@ def test_a_cycle_shorter_than_the_worst_is_written_with_a_note(
 ) -> None:
     out = tmp_path / "s.cdc"
     code, _, err = run(
-        ["epl-config", "--nodes", "8", "--bytes", "192", "--pres-timeout-us", "2000"]
-        + ["--cycle-us", "10000", "--out", str(out)],
+        [
+            *("epl-config", "--nodes", "8", "--bytes", "192", "--pres-timeout-us", "2000"),
+            *("--cycle-us", "10000", "--out", str(out)),
+        ],
         capsys,
     )
     assert code == 0 and out.exists()

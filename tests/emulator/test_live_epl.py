@@ -27,8 +27,6 @@ from __future__ import annotations
 import json
 import random
 import signal
-import subprocess
-import sys
 import time
 from pathlib import Path
 from typing import Any
@@ -36,8 +34,14 @@ from typing import Any
 import pytest
 import tshark_util
 from epl_frames import hostile, nmt_command, preq, soa, soc
-from epl_live_util import ENV, ROOT, built_kit, missing_root, operational_nodes, skip_or_fail, stop
-from live_util import read_line
+from epl_live_util import (
+    built_kit,
+    missing_root,
+    mn_drives_serve,
+    serve_epl,
+    skip_or_fail,
+    stop,
+)
 
 from emulator.live import ETH_P_EPL, netns_socket, veth_netns
 from skinframes import read_capture, taxel
@@ -68,49 +72,25 @@ def test_openpowerlink_mn_brings_serve_epl_to_operational(
     config = SkinConfig(tuple(IDS), TAXEL_BYTES, CYCLE_US, TIMEOUT_US, TIMEOUT_US)
     cdc.write_bytes(encode_cdc(skin_cdc(config)))
     capture, mn_log = tmp_path / "serve.pcapng", tmp_path / "mn.log"
+    serve_args = [
+        *("--nodes", str(len(IDS)), "--node-ids", ",".join(map(str, IDS))),
+        *("--bytes", str(TAXEL_BYTES), "--seed", str(SEED), "--samples", str(SAMPLES)),
+        *("--period-ms", str(PERIOD_MS), "--pcap", str(capture), "--json"),
+    ]
     with veth_netns(master="eplmn0", slave="eplcn0", prefix="epl") as net:
-        serve = subprocess.Popen(
-            [
-                *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes"),
-                *("serve", "epl", "--iface", net.slave, "--nodes", str(len(IDS))),
-                *("--node-ids", ",".join(map(str, IDS)), "--bytes", str(TAXEL_BYTES)),
-                *("--seed", str(SEED), "--samples", str(SAMPLES), "--period-ms", str(PERIOD_MS)),
-                *("--pcap", str(capture), "--json"),
-            ],
-            cwd=ROOT,
-            env=ENV,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
+        run = mn_drives_serve(
+            kit,
+            net,
+            serve_args,
+            cdc=cdc,
+            mn_log=mn_log,
+            ids=IDS,
+            within_s=OPERATIONAL_WITHIN_S,
+            run_s=RUN_AFTER_S,
         )
-        mn = None
-        try:
-            read_line(serve.stderr, "serving", 60)
-            mn = subprocess.Popen(
-                [
-                    *(str(kit / "run-node"), "mn", net.master, "--netns", net.netns),
-                    *("--cdc", str(cdc), "--log", str(mn_log)),
-                ],
-                text=True,
-            )
-            started = time.monotonic()
-            while operational_nodes(mn_log) < set(IDS):
-                assert mn.poll() is None, mn_log.read_text(errors="replace")[-3000:]
-                if time.monotonic() - started > OPERATIONAL_WITHIN_S:
-                    pytest.fail(
-                        f"OPERATIONAL after {OPERATIONAL_WITHIN_S} s: only "
-                        f"{sorted(operational_nodes(mn_log))}\n"
-                        + mn_log.read_text(errors="replace")[-3000:]
-                    )
-                time.sleep(0.2)
-            took_s = time.monotonic() - started
-            time.sleep(RUN_AFTER_S)
-        finally:  # serve first: its CNs would leave OPERATIONAL once the MN's SoCs stop
-            out, err = stop(serve, signal.SIGINT)
-            if mn is not None:
-                stop(mn, signal.SIGTERM)
+    took_s, out, err = run.took_s, run.out, run.err
     print(f"\nCNs {IDS} OPERATIONAL {took_s:.1f} s after the MN started")
-    assert serve.returncode == 0, err[-3000:]
+    assert run.returncode == 0, err[-3000:]
     summary = json.loads(out)
     assert [cn["state"] for cn in summary["cns"]] == ["OPERATIONAL"] * len(IDS), summary
     assert summary["errors"] == 0, summary["error_messages"]
@@ -190,20 +170,8 @@ def test_hostile_frames_leave_serve_epl_alive_and_correct(root: None) -> None:
     every CN to Operational and each PReq gets its PRes; serve counted what it met."""
     rng = random.Random(40)
     with veth_netns(master="eplhm0", slave="eplhc0", prefix="epl") as net:
-        serve = subprocess.Popen(
-            [
-                *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes"),
-                *("serve", "epl", "--iface", net.slave, "--nodes", str(HOSTILE_NODES)),
-                *("--bytes", "192", "--json"),
-            ],
-            cwd=ROOT,
-            env=ENV,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
-        )
+        serve = serve_epl(net, ["--nodes", str(HOSTILE_NODES), "--bytes", "192", "--json"])
         try:
-            read_line(serve.stderr, "serving", 60)
             with netns_socket(net.master, net.netns, ETH_P_EPL) as mn:
                 for start in range(0, HOSTILE_FRAMES, BATCH):
                     for _ in range(min(BATCH, HOSTILE_FRAMES - start)):
