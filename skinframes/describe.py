@@ -13,7 +13,6 @@ from enum import IntEnum
 from typing import Any
 
 from skinframes import encap, ethercat, ethernet, ipv4udp, powerlink
-from skinframes.canbus import CanFrame
 from skinframes.dispatch import RepeatMemo, decode_frame, protocol_of
 from skinframes.errors import DecodeError, TruncatedError
 from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, LINKTYPE_ETHERNET, Record
@@ -250,6 +249,8 @@ def _fields(linktype: int, data: bytes, text: bool) -> tuple[dict[str, Any], str
 
 def _can_fields(data: bytes) -> tuple[dict[str, Any], str]:
     """JSON fields and a text line for a SocketCAN record (LINKTYPE 227)."""
+    from skinframes.canbus import CanFrame  # here: an Ethernet capture never loads the CAN codec
+
     try:
         f = CanFrame.from_socketcan(data)
     except DecodeError as exc:
