@@ -62,3 +62,4 @@ def handled() -> Iterator[None]:
     finally:
         for s, handler in previous.items():
             signal.signal(s, handler)
+        _received.clear()  # (the command is over: its signal is reported, not carried on)
