@@ -10,7 +10,6 @@ import argparse
 import contextlib
 import functools
 import json
-import signal
 import sys
 import threading
 import traceback
@@ -32,6 +31,7 @@ from skinframes_cli.options import (
     int_up_to,
     protocol_arg,
 )
+from skinframes_cli.signals import handling
 
 STDOUT = "-"  # --pcap -: the capture on standard output
 MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
@@ -248,12 +248,8 @@ def _until_signal(stop: threading.Event) -> Iterator[None]:
     def on_signal(signum: int, frame: FrameType | None) -> None:
         stop.set()
 
-    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
-    try:
+    with handling(on_signal):
         yield
-    finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
 
 
 def run_epl(args: argparse.Namespace) -> int:

@@ -15,10 +15,10 @@ from __future__ import annotations
 import contextlib
 import signal
 import threading
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from types import FrameType
 
-__all__ = ["Terminated", "handled", "raise_if_signalled"]
+__all__ = ["Terminated", "handled", "handling", "raise_if_signalled"]
 
 
 class Terminated(BaseException):
@@ -56,10 +56,19 @@ def handled() -> Iterator[None]:
         _raise(signum)
 
     _received.clear()
-    previous = {s: signal.signal(s, on_signal) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        with handling(on_signal):
+            yield
+    finally:
+        _received.clear()  # (the command is over: its signal is reported, not carried on)
+
+
+@contextlib.contextmanager
+def handling(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]:
+    """Inside, SIGINT and SIGTERM go to ``handler``; the handlers before are back afterwards."""
+    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
     try:
         yield
     finally:
-        for s, handler in previous.items():
-            signal.signal(s, handler)
-        _received.clear()  # (the command is over: its signal is reported, not carried on)
+        for s, before in previous.items():
+            signal.signal(s, before)
