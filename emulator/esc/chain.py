@@ -49,7 +49,14 @@ from emulator.esc.commands import (
     LRD,
 )
 from emulator.esc.dc import DcTimebase
-from emulator.esc.device import EscConfig, EscDevice, FirstBuffer, TraceCopy, latches
+from emulator.esc.device import (
+    EscConfig,
+    EscDevice,
+    FirstBuffer,
+    TraceCopy,
+    event_requests_of,
+    latches,
+)
 from emulator.esc.mapping import Access, Caches, LogicalOp, LogicalPlan, SmTable, outside
 from emulator.esc.registers import (
     ADDRESS_SPACE,
@@ -348,13 +355,29 @@ class EcatChain:
     def run_firmware(self) -> None:
         """The slaves' applications react to the frames that passed (the ESM to AL control, the
         mailbox to its SyncManager events, ETG.1000.6 6.4, 5.6), slave by slave in chain order:
-        what :meth:`EscDevice.end_frame` left for them."""
+        what :meth:`EscDevice.end_frame` left for them. The event requests the applications
+        changed (0x0210 through AL status, SyncManager events) are brought up to date once all
+        reacted, over the rows of those that did (:meth:`EscDevice.defer_irq`): no frame
+        reads them meanwhile.
+        """
         queue = self.firmware
-        while queue:
-            work = sorted(queue, key=lambda w: w[0].position)  # stable: each slave's in order
-            queue.clear()
-            for dev, what in work:
-                dev.react(what)
+        if not queue:
+            return
+        changed: list[EscDevice] = []
+        reacted: list[EscDevice] = []
+        try:
+            while queue:
+                work = sorted(queue, key=lambda w: w[0].position)  # stable: each slave's in order
+                queue.clear()
+                for dev, what in work:
+                    dev.defer_irq(changed)
+                    reacted.append(dev)
+                    dev.react(what)
+        finally:
+            for dev in reacted:
+                dev.defer_irq(None)
+            if changed:
+                event_requests_of(changed, self.memory)
 
     def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
         if self.firmware:  # reactions to the frame before, not yet run: first them

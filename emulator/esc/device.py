@@ -354,6 +354,7 @@ class EscDevice:
         "_caches",
         "_completed",
         "_fmmus",
+        "_irq_batch",
         "_logical_plans",
         "_lrd_plans",
         "_mailbox_due",
@@ -445,6 +446,10 @@ class EscDevice:
         # by start; until then _sms and _active are those before
         self._unmade: tuple[frozenset[int] | None, SmTable, tuple[int, ...]] | None = None
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
+        # while the chain runs the firmware's reactions (EcatChain.run_firmware): where
+        # update_irq notes this ESC, to be brought up to date with the others that reacted, over
+        # their rows at once (no frame reads irq meanwhile); None: at once
+        self._irq_batch: list[EscDevice] | None = None
         # a BWR or FPWR of the receive time register 0x0900 in this frame: the writes that
         # latch the receive times at the end of the frame (datasheet II 0x0900)
         self.latch_due = False
@@ -1537,8 +1542,17 @@ class EscDevice:
 
     def update_irq(self) -> None:
         """The ECAT event request 0x0210 under the mask 0x0200 (datasheet I Table 3), kept in
-        :attr:`irq` for the IRQ field of every datagram: :func:`_event_requests` of this ESC."""
-        _event_requests([self], *self._rows)
+        :attr:`irq` for the IRQ field of every datagram: :func:`_event_requests` of this ESC;
+        while its reactions are batched (:meth:`defer_irq`), of all of the batch afterwards."""
+        if self._irq_batch is not None:
+            self._irq_batch.append(self)
+        else:
+            _event_requests([self], *self._rows)
+
+    def defer_irq(self, batch: list[EscDevice] | None) -> None:
+        """Until called with None, :meth:`update_irq` only notes this ESC in ``batch``, whose
+        ESCs the caller brings up to date together (:func:`event_requests_of`)."""
+        self._irq_batch = batch
 
     def count_frame_error(self) -> None:
         """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""
@@ -1860,6 +1874,14 @@ def _event_requests(
     irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
     for dev, irq in zip(devices, irqs, strict=True):
         dev.irq = irq
+
+
+def event_requests_of(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8]) -> None:
+    """:func:`_event_requests` of ``devices``, ESCs of one line whose memory is ``memory``, each
+    once, in one pass over their rows."""
+    unique = list({id(dev): dev for dev in devices}.values())
+    rows = np.fromiter((dev._rows[1][0] for dev in unique), np.intp, len(unique))
+    _event_requests(unique, memory, rows)
 
 
 def finish_together(

@@ -1366,3 +1366,22 @@ def test_a_master_rewrites_a_corrupted_eeprom_configuration_area() -> None:
     for frame in configure_frames(chain.devices[0].info, 3):
         assert chain.process_frame(frame) is not None
     assert [dev.al_status for dev in chain.devices] == [0x08] * 3
+
+
+def test_the_firmware_s_al_status_change_reaches_the_next_frame_s_irq_field() -> None:
+    # II 0x0210 bit 3, AL status event: set when the PDI changes AL status 0x0130, cleared when
+    # ECAT reads it (datasheet I Table 3); under the mask 0x0200 it is ORed into every
+    # datagram's IRQ field. Three patches take a broadcast INIT -> PREOP request; their firmware
+    # reacts after the frame, so the request's own frame shows no event and the next one does.
+    chain = EcatChain.skin(3, 16)
+    send(chain, Datagram(C.BWR, 0, 0x0200, u16(0x0008)))  # mask: the AL status event only
+    send(chain, Datagram(C.BRD, 0, 0x0130, bytes(2)))  # read AL status: its event clears
+    assert one(chain, Datagram(C.BRD, 0, 0x0210, bytes(2))).irq == 0
+    request = one(chain, Datagram(C.BWR, 0, 0x0120, u16(0x0002)))
+    assert (request.wkc, request.irq) == (3, 0)
+    after = send(chain, Datagram(C.NOP, 0, 0, b""), Datagram(C.APRD, -1 & 0xFFFF, 0x0210, bytes(2)))
+    assert [d.irq for d in after] == [0x0008, 0x0008]
+    assert word(after[1]) & 0x0008  # the second patch's own event request
+    status = one(chain, Datagram(C.BRD, 0, 0x0130, bytes(2)))  # every patch reads PREOP
+    assert (word(status), status.wkc) == (0x0002, 3)
+    assert one(chain, Datagram(C.BRD, 0, 0x0210, bytes(2))).irq == 0
