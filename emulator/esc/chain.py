@@ -54,8 +54,8 @@ from emulator.esc.device import (
     EscDevice,
     FirstBuffer,
     TraceCopy,
-    event_requests_of,
     latches,
+    react_together,
 )
 from emulator.esc.mapping import Access, Caches, LogicalOp, LogicalPlan, SmTable, outside
 from emulator.esc.registers import (
@@ -357,27 +357,13 @@ class EcatChain:
         mailbox to its SyncManager events, ETG.1000.6 6.4, 5.6), slave by slave in chain order:
         what :meth:`EscDevice.end_frame` left for them. The event requests the applications
         changed (0x0210 through AL status, SyncManager events) are brought up to date once all
-        reacted, over the rows of those that did (:meth:`EscDevice.defer_irq`): no frame
-        reads them meanwhile.
+        reacted, over the rows of those whose request changed (:func:`react_together`).
         """
         queue = self.firmware
-        if not queue:
-            return
-        changed: list[EscDevice] = []
-        reacted: list[EscDevice] = []
-        try:
-            while queue:
-                work = sorted(queue, key=lambda w: w[0].position)  # stable: each slave's in order
-                queue.clear()
-                for dev, what in work:
-                    dev.defer_irq(changed)
-                    reacted.append(dev)
-                    dev.react(what)
-        finally:
-            for dev in reacted:
-                dev.defer_irq(None)
-            if changed:
-                event_requests_of(changed, self.memory)
+        while queue:
+            work = sorted(queue, key=lambda w: w[0].position)  # stable: each slave's in order
+            queue.clear()
+            react_together(work, self.memory)
 
     def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
         if self.firmware:  # reactions to the frame before, not yet run: first them

@@ -1543,16 +1543,11 @@ class EscDevice:
     def update_irq(self) -> None:
         """The ECAT event request 0x0210 under the mask 0x0200 (datasheet I Table 3), kept in
         :attr:`irq` for the IRQ field of every datagram: :func:`_event_requests` of this ESC;
-        while its reactions are batched (:meth:`defer_irq`), of all of the batch afterwards."""
+        while it reacts among others (:func:`react_together`), of all of them afterwards."""
         if self._irq_batch is not None:
             self._irq_batch.append(self)
         else:
             _event_requests([self], *self._rows)
-
-    def defer_irq(self, batch: list[EscDevice] | None) -> None:
-        """Until called with None, :meth:`update_irq` only notes this ESC in ``batch``, whose
-        ESCs the caller brings up to date together (:func:`event_requests_of`)."""
-        self._irq_batch = batch
 
     def count_frame_error(self) -> None:
         """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""
@@ -1876,12 +1871,24 @@ def _event_requests(
         dev.irq = irq
 
 
-def event_requests_of(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8]) -> None:
-    """:func:`_event_requests` of ``devices``, ESCs of one line whose memory is ``memory``, each
-    once, in one pass over their rows."""
-    unique = list({id(dev): dev for dev in devices}.values())
-    rows = np.fromiter((dev._rows[1][0] for dev in unique), np.intp, len(unique))
-    _event_requests(unique, memory, rows)
+def react_together(work: Sequence[tuple[EscDevice, int]], memory: npt.NDArray[np.uint8]) -> None:
+    """Each ESC of ``work`` (of one line, whose memory is ``memory``) reacts to its event
+    (:meth:`EscDevice.react`), in order; the event requests the reactions change (AL status,
+    SyncManager events) are brought up to date once all reacted, over the rows of those whose
+    request changed: no frame reads them meanwhile."""
+    changed: list[EscDevice] = []
+    try:
+        for dev, _ in work:
+            dev._irq_batch = changed
+        for dev, what in work:
+            dev.react(what)
+    finally:
+        for dev, _ in work:
+            dev._irq_batch = None
+        if changed:
+            unique = list({id(dev): dev for dev in changed}.values())
+            rows = np.fromiter((dev._rows[1][0] for dev in unique), np.intp, len(unique))
+            _event_requests(unique, memory, rows)
 
 
 def finish_together(
