@@ -3,7 +3,10 @@
 Where the taxels sit (what the emulator writes, and what a master reading a skin sees):
 
 - **EPL**: CN ``k`` (node id 1..239) sends its patch as the payload of its PRes
-  (DS 301 4.6.1.1.4; byte ``12 * t + j`` is taxel j of triangle t, :mod:`skinframes.taxel`).
+  (DS 301 4.6.1.1.4; byte ``12 * t + j`` is taxel j of triangle t, :mod:`skinframes.taxel`),
+  valid only with the PRes flag RD set (the same clause: a CN sets it in NMT_CS_OPERATIONAL;
+  before, while it boots, its payload is not valid data): a PRes with RD clear leaves the
+  node's sample missing, as an EtherCAT datagram that returns unprocessed does.
   A sample is one cycle; it starts at the MN's SoC (DS 301 4.2.4.1).
 - **EtherCAT**: node ``i`` (0-based position in the chain) owns ``bytes_per_node`` bytes at
   logical address ``base + i * bytes_per_node`` of the process image, read by LRD or LRW
@@ -41,8 +44,13 @@ from skinframes.capture_arrays import (
 )
 from skinframes.errors import FieldRangeError
 from skinframes.pcap import LINKTYPE_ETHERNET
-from skinframes.powerlink.enums import MAX_CN_NODE_ID, MIN_CN_NODE_ID, MessageType
-from skinframes.powerlink.schemas import PDO_HEADER_BYTES, PDO_SIZE_OFFSET, SRC_OFFSET
+from skinframes.powerlink.enums import MAX_CN_NODE_ID, MIN_CN_NODE_ID, MessageType, PResFlag
+from skinframes.powerlink.schemas import (
+    FLAGS1_OFFSET,
+    PDO_HEADER_BYTES,
+    PDO_SIZE_OFFSET,
+    SRC_OFFSET,
+)
 
 __all__ = [
     "LAYOUTS",
@@ -265,10 +273,12 @@ class TaxelStream:
         soc, pres, src, size, payload_at = _epl_fields(rec, rows, at)
         pres &= src <= self.nodes
         markers = soc if self._epl.soc else pres & (src == self._epl.first_src)
+        flags = rec.data[np.where(pres, payload_at - PDO_HEADER_BYTES + FLAGS1_OFFSET, 0)]
+        ready = (flags & PResFlag.RD) != 0  # the payload is valid data only then
         out.place(
             rec.time_ns[rows],
             markers,
-            pres,
+            pres & ready,
             src - 1,
             payload_at,
             np.minimum(size, self.bytes_per_node),

@@ -36,6 +36,7 @@ MAX_PDO_PAYLOAD_BYTES: Final = 1490  # C_DLL_ISOCHR_MAX_PAYL
 
 # Offsets the fast paths read directly (the schemas below say the same)
 SRC_OFFSET: Final = 2  # Source node id in the common header
+FLAGS1_OFFSET: Final = 4  # PReq/PRes flags byte: RD (bit 0), EN, MS, ... (enums.PResFlag)
 PDO_SIZE_OFFSET: Final = 8  # PReq/PRes Size (u16); the payload starts at PDO_HEADER_BYTES
 SOC_NET_TIME_OFFSET: Final = 6  # SoC NetTime (s, ns), then RelativeTime: soc_schema below
 

@@ -13,10 +13,11 @@ import pytest
 import tshark_util
 
 from emulator import PAPER, parse_fault, simulate_ecat, simulate_epl
-from skinframes import taxel, taxels_from_capture
+from skinframes import powerlink, taxel, taxels_from_capture
 from skinframes.capture_arrays import read_record_arrays
 from skinframes.errors import FieldRangeError, PcapFormatError
-from skinframes.pcap import read_capture
+from skinframes.pcap import read_capture, write_pcap
+from skinframes.powerlink import PRes, SoC
 from skinframes_cli import main
 
 ROOT = Path(__file__).resolve().parent.parent.parent
@@ -97,6 +98,28 @@ def test_a_lost_pres_is_missing_not_invented(tmp_path: Path) -> None:
     assert result.present[2:, :2].all()
     assert np.array_equal(result.taxels[result.present], want[result.present])
     assert not result.taxels[~result.present].any()
+
+
+def test_a_pres_without_rd_carries_no_sample(tshark: str, tmp_path: Path) -> None:
+    # DS 301 4.6.1.1.4: a PRes's payload is valid only with RD (flags byte 4, bit 0), which a CN
+    # sets in NMT_CS_OPERATIONAL; CN 2 still boots in cycle 0 (RD clear, a payload of 0x55s)
+    cycles = [
+        [PRes(1, b"\x11" * 192), PRes(2, b"\x55" * 192, nmt_status=0x5D, flags1=0)],
+        [PRes(1, b"\x12" * 192), PRes(2, b"\x22" * 192)],
+    ]
+    records = []
+    for k, cycle in enumerate(cycles):
+        for j, message in enumerate([SoC(), *cycle]):
+            records.append((k * 1_000_000 + j * 100_000, powerlink.frame(message).to_bytes()))
+    path = tmp_path / "boot.pcap"
+    write_pcap(path, records)
+    rd = [row["epl.pres.rd"] for row in tshark_util.fields(tshark, path, ["epl.pres.rd"])]
+    assert rd == [[], ["1"], ["0"], [], ["1"], ["1"]]  # tshark reads the flag where we do
+    result = taxels_from_capture(path, nodes=2, bytes_per_node=192)
+    assert result.present.tolist() == [[True, False], [True, True]]
+    flat = result.taxels.reshape(2, 2, -1)
+    assert (flat[0, 0] == 0x11).all() and not flat[0, 1].any()  # missing reads as zeros
+    assert (flat[1, 0] == 0x12).all() and (flat[1, 1] == 0x22).all()
 
 
 def test_no_skin_data_is_an_error(tmp_path: Path) -> None:
