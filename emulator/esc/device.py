@@ -81,6 +81,7 @@ from emulator.esc.mapping import (
     PLAN_CACHE_ENTRIES,
     Access,
     Caches,
+    Fmmu,
     FmmuTable,
     LogicalOp,
     LogicalPlan,
@@ -425,14 +426,14 @@ class EscDevice:
         self._completed: list[_Sm] = []
         self._sms: list[_Sm | None] = []
         self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
-        self._fmmus: tuple[tuple[int, ...], ...] = ()
+        self._fmmus: tuple[Fmmu, ...] = ()
         self._logical_plans = Plans()
         self.fmmu_span = (0, 0)
         # fmmu_span as an array row, the chain's (use_span_row): _set_span keeps both alike
         self._span_row: npt.NDArray[np.int64] = np.zeros(2, np.int64)
         # the decoded FMMU table the ESC follows (fmmu_table): one object for every ESC whose
         # FMMU registers hold the same bytes, so that what follows from it is asked once
-        self.fmmu_decoded: FmmuTable = ((), (0, 0), self._logical_plans)
+        self.fmmu_decoded = FmmuTable((), (0, 0), self._logical_plans)
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle), or through the first of several (read_first_buffer): (frame offset,
         # SyncManager, whether an FMMU writes there) per (address, length, first), or None
@@ -492,7 +493,7 @@ class EscDevice:
         self._lrd_plans.clear()
         self.sm_areas = ()
         self._set_span((0, 0))
-        self.fmmu_decoded = ((), (0, 0), self._logical_plans)
+        self.fmmu_decoded = FmmuTable((), (0, 0), self._logical_plans)
         self.dc.reset()
 
     # --- properties the chain and the PDI application use ---------------------------------------
@@ -1269,11 +1270,11 @@ class EscDevice:
         LRW there is not that LRD)."""
         lad, n, first = key >> _LRD_KEY_SHIFT, (key >> 1) & 0xFFFF, bool(key & 1)
         plan: tuple[int, _Sm, bool] | None = None
-        reads = [f for f in self._fmmus if f[6] and f[0] < lad + n and f[1] > lad]
+        reads = [f for f in self._fmmus if f.reads and f.log_start < lad + n and f.log_end > lad]
         if first:
             reads = reads[:1]
-        if len(reads) == 1 and reads[0][8]:
-            log_start, log_end, phys = reads[0][:3]
+        if len(reads) == 1 and reads[0].bytewise:
+            log_start, log_end, phys = reads[0].log_start, reads[0].log_end, reads[0].phys
             lo, hi = max(lad, log_start), min(lad + n, log_end)
             at, end = phys + (lo - log_start), phys + (hi - log_start)
             if self._unmade is not None:
@@ -1285,7 +1286,9 @@ class EscDevice:
                 and (hit[0].start, hit[0].end) == (at, end)
                 and not (hit[0].mailbox or hit[0].ecat_writes)
             ):
-                writes = any(f[7] and f[0] < lad + n and f[1] > lad for f in self._fmmus)
+                writes = any(
+                    f.writes and f.log_start < lad + n and f.log_end > lad for f in self._fmmus
+                )
                 plan = (lo - lad, self._own(hit[0]), writes)  # whose state the reads change
         return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
@@ -1418,7 +1421,7 @@ class EscDevice:
         changes since they last were: one that started anew in any of them is new, one kept
         in all of them keeps its state. Hostile frames change the tables of every ESC often,
         and changing them at each of 160 ESCs took up to 1.5 ms a frame."""
-        self._change_sms(change, decoded, frozenset([entry[0] for entry in change[2]]))
+        self._change_sms(change, decoded, frozenset([entry.number for entry in change.fresh]))
 
     @staticmethod
     def change_syncmanagers_together(
@@ -1426,7 +1429,7 @@ class EscDevice:
     ) -> None:
         """:meth:`change_syncmanagers` and :meth:`sm_registers_written` at each of ``devices``
         (one change, as the chain's commit over the rows finds it)."""
-        fresh = frozenset([entry[0] for entry in change[2]])
+        fresh = frozenset([entry.number for entry in change.fresh])
         for dev in devices:
             dev._change_sms(change, decoded, fresh)
             dev._mailbox_due = True
@@ -1436,12 +1439,12 @@ class EscDevice:
         self._lrd_plans.clear()
         self.sm_areas = decoded
         unmade = self._unmade
-        if not change[3] or (unmade is not None and unmade[0] is None):  # all start anew
-            self._unmade = (None, decoded, change[4])
+        if not change.kept or (unmade is not None and unmade[0] is None):  # all start anew
+            self._unmade = (None, decoded, change.by_start)
             return
         if unmade is not None and unmade[0] is not None:  # those of the changes before too
             fresh |= unmade[0]
-        self._unmade = (fresh, decoded, change[4])
+        self._unmade = (fresh, decoded, change.by_start)
 
     def _make_sms(self) -> None:
         """Change the SyncManagers as :attr:`_unmade` says (:meth:`change_syncmanagers`),
@@ -1972,28 +1975,29 @@ def _syncmanagers(
         table, before = key[:width], key[width:]
         areas = devices[members[0]].sm_areas  # the same object at each of them
         found = sm_table(caches, table)
-        if found[0] != areas:
+        if found.entries != areas:
             change = sm_change(caches, areas, before, found)
-            if change[0]:  # no buffer, and no interrupt for ECAT (0x0210 bits 4-11)
-                bits = [b for b in (4 + (st - REG_SM) // SM_BYTES for st in change[0]) if b < 12]
+            if change.no_buffer:  # no buffer, and no interrupt for ECAT (0x0210 bits 4-11)
+                no_buffer = change.no_buffer
+                bits = [b for b in (4 + (st - REG_SM) // SM_BYTES for st in no_buffer) if b < 12]
                 if len(members) < TOGETHER_MIN:  # (written at once over the rows below)
                     for i in members:
                         mem = devices[i].mem
-                        for st in change[0]:
+                        for st in no_buffer:
                             mem[st] = SM_NO_BUFFER
                         for bit in bits:
                             mem[REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
                 else:
-                    memory[rows[members][:, None], np.array(change[0], np.intp)] = SM_NO_BUFFER
+                    memory[rows[members][:, None], np.array(no_buffer, np.intp)] = SM_NO_BUFFER
                     for bit in bits:
                         memory[rows[members], REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
             if frame:
                 EscDevice.change_syncmanagers_together(
-                    [devices[i] for i in members], change, found[0]
+                    [devices[i] for i in members], change, found.entries
                 )
             else:
                 for i in members:
-                    devices[i].change_syncmanagers(change, found[0])
+                    devices[i].change_syncmanagers(change, found.entries)
         elif frame:
             EscDevice.sm_registers_written_together([devices[i] for i in members])
 

@@ -30,6 +30,8 @@ __all__ = [
     "SM_ENTRY",
     "Access",
     "Caches",
+    "Fmmu",
+    "FmmuTable",
     "Holes",
     "LogicalPlan",
     "Mailboxes",
@@ -37,6 +39,7 @@ __all__ = [
     "Plans",
     "RowAccess",
     "SmChange",
+    "SmEntry",
     "SmFound",
     "SmTable",
     "WritesInert",
@@ -89,29 +92,65 @@ for _default in ("parts", "moved"):
     setattr(Plans, _default, None)
 
 
-# active FMMUs, the logical span they map, and the plans of logical accesses through them
-# (shared by every ESC whose FMMU registers hold the same bytes)
-FmmuTable = tuple[tuple[tuple[int, ...], ...], tuple[int, int], Plans]
-SmTable = tuple[tuple[int, int, int, int, int], ...]
+class Fmmu(NamedTuple):
+    """An active FMMU as decoded (datasheet II 2.13, :func:`decode_entries`), clipped to the
+    logical and the physical address spaces."""
+
+    log_start: int  # logical start address
+    log_end: int  # logical end (exclusive), clipped
+    phys: int  # physical start address
+    start_bit: int  # logical start bit
+    stop_bit: int  # logical stop bit
+    phys_bit: int  # physical start bit
+    reads: int  # type bit 0: read (1) or not (0)
+    writes: int  # type bit 1: write (1) or not (0)
+    bytewise: bool  # start bit 0, stop bit 7, physical bit 0: whole bytes
+    bits: int  # bits left in the address space from the physical start
+
+
+class FmmuTable(NamedTuple):
+    """Active FMMUs in register order, the logical span they map, and the plans of logical
+    accesses through them (shared by every ESC whose FMMU registers hold the same bytes)."""
+
+    fmmus: tuple[Fmmu, ...]
+    span: tuple[int, int]
+    plans: Plans
+
+
+class SmEntry(NamedTuple):
+    """A SyncManager that controls memory, as decoded (:func:`decode_sms`)."""
+
+    number: int  # the SyncManager: 0x0800 + 8 number
+    start: int
+    length: int  # clipped to the address space
+    control: int  # register 0x0804 + 8 index
+    locked: int  # deactivated by the PDI (0x0807 bit 0): 1, or the change's bool (sm_change)
+
+
+SmTable = tuple[SmEntry, ...]
 # mailboxes an access meets where ECAT accesses them: (SyncManager index, side 0 read / 1 write)
 # (esc_row_access)
 Mailboxes = tuple[tuple[int, int], ...]
 _K = TypeVar("_K")
 _V = TypeVar("_V")
-# a decoded SyncManager table, the order of its entries by start (PDI-locked last), and the
-# status registers (0x0805 + 8 y) of the SyncManagers without a buffer (sm_table)
-SmFound = tuple[SmTable, tuple[int, ...], tuple[int, ...]]
-# what a change of the decoded SyncManager table does (sm_change): the status registers set to
-# "no buffer"; the indices of the SyncManagers without a buffer; (index, start, length, control,
-# locked) of those that start anew and of those that keep their state; the indices of the
-# SyncManagers with a buffer, by start (PDI-locked last)
-SmChange = tuple[
-    tuple[int, ...],
-    tuple[int, ...],
-    tuple[tuple[int, int, int, int, bool], ...],
-    tuple[tuple[int, int, int, int, bool], ...],
-    tuple[int, ...],
-]
+
+
+class SmFound(NamedTuple):
+    """A decoded SyncManager table with what follows from it alone (:func:`sm_table`)."""
+
+    entries: SmTable
+    by_start: tuple[int, ...]  # the order of the entries by start (PDI-locked last)
+    idle: tuple[int, ...]  # the status registers (0x0805 + 8 y) of those without a buffer
+
+
+class SmChange(NamedTuple):
+    """What a change of the decoded SyncManager table does (:func:`sm_change`)."""
+
+    no_buffer: tuple[int, ...]  # the status registers set to "no buffer"
+    gone: tuple[int, ...]  # the indices of the SyncManagers without a buffer
+    fresh: SmTable  # those that start anew (locked as a bool)
+    kept: SmTable  # those that keep their state (locked as a bool)
+    by_start: tuple[int, ...]  # the indices of those with a buffer, by start (PDI-locked last)
 
 
 class Caches:
@@ -173,9 +212,7 @@ def remember(cache: dict[_K, _V], key: _K, value: _V, limit: int = DECODE_CACHE_
     return value
 
 
-def decode_fmmus(
-    caches: Caches, table: bytes
-) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
+def decode_fmmus(caches: Caches, table: bytes) -> tuple[tuple[Fmmu, ...], tuple[int, int]]:
     """The active FMMUs of the registers 0x0600+ (datasheet II 2.13) in register order, clipped,
     and the logical span they map (:func:`decode_entries`): FMMU 0 and the others decoded
     apart, each once per distinct bytes (:attr:`Caches.fmmu_parts`), since a broadcast to the
@@ -195,36 +232,33 @@ def _fmmu_parts(caches: Caches, table: bytes) -> tuple[FmmuTable, FmmuTable] | N
     head, rest = table[:size], table[size:]
     first = parts.get(head)
     if first is None:
-        first = remember(parts, head, (*decode_entries(head), Plans()))
+        first = remember(parts, head, FmmuTable(*decode_entries(head), Plans()))
     others = parts.get(rest)
     if others is None:
-        others = remember(parts, rest, (*decode_entries(rest), Plans()))
+        others = remember(parts, rest, FmmuTable(*decode_entries(rest), Plans()))
     return first, others
 
 
-def _joined(
-    first: FmmuTable, others: FmmuTable
-) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
+def _joined(first: FmmuTable, others: FmmuTable) -> tuple[tuple[Fmmu, ...], tuple[int, int]]:
     """The FMMUs and span of a table from those of its two parts (:func:`_fmmu_parts`)."""
-    if not first[0]:
-        return others[0], others[1]
-    if not others[0]:
-        return first[0], first[1]
-    span = (min(first[1][0], others[1][0]), max(first[1][1], others[1][1]))
-    return first[0] + others[0], span
+    if not first.fmmus:
+        return others.fmmus, others.span
+    if not others.fmmus:
+        return first.fmmus, first.span
+    span = (min(first.span[0], others.span[0]), max(first.span[1], others.span[1]))
+    return first.fmmus + others.fmmus, span
 
 
-def decode_entries(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int, int]]:
+def decode_entries(table: bytes) -> tuple[tuple[Fmmu, ...], tuple[int, int]]:
     """The active FMMUs of the registers 0x0600+ (datasheet II 2.13), or of some of them, in
     register order, clipped, and the logical span they map.
 
     Every value a frame can write is legal: the logical side ends at 0xFFFFFFFF, and the
     physical side ends with the 64 KiB address space (datasheet I 1.1): logical bytes (or
     bits) whose physical counterpart would lie beyond 0xFFFF are not mapped, so they are
-    neither read nor written and do not count. Entry: (logical start, logical end,
-    physical start, start bit, stop bit, physical bit, read, write, byte-wise, mapped bits).
+    neither read nor written and do not count (:class:`Fmmu`).
     """
-    fmmus: list[tuple[int, ...]] = []
+    fmmus: list[Fmmu] = []
     for log, length, sbit, ebit, phys, pbit, kind, act in FMMU_ENTRY.iter_unpack(table):
         if not (act & 0x01 and length and kind & 0x03):
             continue
@@ -235,9 +269,20 @@ def decode_entries(table: bytes) -> tuple[tuple[tuple[int, ...], ...], tuple[int
         phys_bits = ADDRESS_SPACE * 8 - (phys * 8 + pbit)  # bits left in the address space
         if log_end > log:
             fmmus.append(
-                (log, log_end, phys, sbit, ebit, pbit, kind & 1, kind >> 1 & 1, bytewise, phys_bits)
+                Fmmu(
+                    log,
+                    log_end,
+                    phys,
+                    sbit,
+                    ebit,
+                    pbit,
+                    kind & 1,
+                    kind >> 1 & 1,
+                    bytewise,
+                    phys_bits,
+                )
             )
-    span = (min(f[0] for f in fmmus), max(f[1] for f in fmmus)) if fmmus else (0, 0)
+    span = (min(f.log_start for f in fmmus), max(f.log_end for f in fmmus)) if fmmus else (0, 0)
     return tuple(fmmus), span  # span: logical bytes any FMMU maps (the chain skips the others)
 
 
@@ -248,7 +293,7 @@ def decode_sms(table: bytes) -> SmTable:
     for y, (start, length, control, _, activate, pdi) in enumerate(SM_ENTRY.iter_unpack(table)):
         length = min(length, ADDRESS_SPACE - start)  # no memory beyond 0xFFFF (I 1.1)
         if activate & 0x01 and length >= 2:
-            out.append((y, start, length, control, pdi & 0x01))
+            out.append(SmEntry(y, start, length, control, pdi & 0x01))
     return tuple(out)
 
 
@@ -263,10 +308,9 @@ def fmmu_table(caches: Caches, table: bytes) -> FmmuTable:
     plans = Plans()
     parts = _fmmu_parts(caches, table)
     if parts is None:
-        return remember(caches.fmmu, table, (*decode_entries(table), plans))
+        return remember(caches.fmmu, table, FmmuTable(*decode_entries(table), plans))
     plans.parts = parts
-    fmmus, span = _joined(*parts)
-    return remember(caches.fmmu, table, (fmmus, span, plans))
+    return remember(caches.fmmu, table, FmmuTable(*_joined(*parts), plans))
 
 
 def sm_table(caches: Caches, table: bytes) -> SmFound:
@@ -276,12 +320,14 @@ def sm_table(caches: Caches, table: bytes) -> SmFound:
     found = caches.sm.get(table)
     if found is None:
         entries = decode_sms(table)
-        by_start = sorted(range(len(entries)), key=lambda i: (entries[i][1], entries[i][4] != 0))
-        enabled = {e[0] for e in entries}
+        by_start = sorted(
+            range(len(entries)), key=lambda i: (entries[i].start, entries[i].locked != 0)
+        )
+        enabled = {e.number for e in entries}
         idle = tuple(
             REG_SM + SM_BYTES * z + 5 for z in range(len(table) // SM_BYTES) if z not in enabled
         )
-        found = remember(caches.sm, table, (entries, tuple(by_start), idle))
+        found = remember(caches.sm, table, SmFound(entries, tuple(by_start), idle))
     return found
 
 
@@ -300,27 +346,28 @@ def sm_change(
     if change is not None:
         return change
     after, order, idle = found
-    was = {e[0]: e for e in before}
+    was = {e.number: e for e in before}
     fresh, kept = [], []
     for y, start, length, control, pdi_locked in after:
-        entry = (y, start, length, control, pdi_locked != 0)
+        entry = SmEntry(y, start, length, control, pdi_locked != 0)
         old = was.get(y)
         if (
             old is None
             or (enabled_before is not None and not enabled_before[y] & 1)
-            or old[1] != start
-            or old[2] != length
+            or old.start != start
+            or old.length != length
         ):
             fresh.append(entry)
         else:
             kept.append(entry)
-    no_buffer = idle + tuple(REG_SM + SM_BYTES * e[0] + 5 for e in fresh)
+    no_buffer = idle + tuple(REG_SM + SM_BYTES * e.number + 5 for e in fresh)
     gone = tuple((st - REG_SM) // SM_BYTES for st in idle)
-    by_start = tuple(after[i][0] for i in order)
-    return remember(caches.sm_change, key, (no_buffer, gone, tuple(fresh), tuple(kept), by_start))
+    by_start = tuple(after[i].number for i in order)
+    change = SmChange(no_buffer, gone, tuple(fresh), tuple(kept), by_start)
+    return remember(caches.sm_change, key, change)
 
 
-def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> LogicalPlan:
+def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> LogicalPlan:
     """How a logical access of ``n`` bytes at ``lad`` reads and writes through ``fmmus``
     (datasheet I 7): the parts each FMMU maps, in register order, the lower-numbered FMMU
     winning a logical byte claimed twice (reads and writes claim separately); a part the
@@ -331,16 +378,16 @@ def plan_logical(fmmus: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int)
     d masks the mapped bits: of the frame bytes (read) or of the physical bytes (write). The
     bit-wise work is thus bounded by the mapped bytes, not by the datagram's length."""
     lo, hi = lad, lad + n
-    hit = [f for f in fmmus if not (f[1] <= lo or f[0] >= hi)]
-    reads = [f for f in hit if f[6] and cmd != LWR]
-    writes = [f for f in hit if f[7] and cmd != LRD]
+    hit = [f for f in fmmus if not (f.log_end <= lo or f.log_start >= hi)]
+    reads = [f for f in hit if f.reads and cmd != LWR]
+    writes = [f for f in hit if f.writes and cmd != LRD]
     plan: list[list[LogicalOp]] = [[], []]
     for ops, side, write in ((plan[0], reads, False), (plan[1], writes, True)):
         claimed: list[tuple[int, int]] | None = [] if len(side) > 1 else None
         for f in side:
-            log_start, log_end, phys = f[:3]
-            for a, b in claim(claimed, max(lad, log_start), min(lad + n, log_end)):
-                if f[8]:  # byte-wise mapping
+            log_start, phys = f.log_start, f.phys
+            for a, b in claim(claimed, max(lad, log_start), min(lad + n, f.log_end)):
+                if f.bytewise:
                     ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
                     continue
                 # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
@@ -415,9 +462,7 @@ class Access:
         "writes",
     )
 
-    def __init__(
-        self, caches: Caches, hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int
-    ) -> None:
+    def __init__(self, caches: Caches, hit: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> None:
         self._caches = caches  # the chain's, where its parts are kept
         self.hit, self.cmd, self.lad, self.n = hit, cmd, lad, n
         self._plan: LogicalPlan | None = None
@@ -447,7 +492,7 @@ class Access:
         return found
 
     @classmethod
-    def joined_along(cls, fmmu: tuple[int, ...], at: tuple[Access, int], others: Access) -> Access:
+    def joined_along(cls, fmmu: Fmmu, at: tuple[Access, int], others: Access) -> Access:
         """:meth:`joined` for a first FMMU ``fmmu`` that lies wholly inside the access, whose
         access is ``at`` (:func:`moved_along`): worked out from that one moved along, without
         an access of its own (after hostile writes to the others, each ESC of a configured
@@ -623,8 +668,9 @@ class Access:
         if common is None:
             rest: tuple[LogicalOp, ...] | None = found[5]  # type: ignore[assignment]
             f = self.hit[0]
-            if rest is not None and f[6]:  # an LRD: the first reads a buffer, the others plain
-                lo, hi = max(self.lad, f[0]) - self.lad, min(self.lad + self.n, f[1]) - self.lad
+            if rest is not None and f.reads:  # an LRD: the first reads a buffer, the others plain
+                lo = max(self.lad, f.log_start) - self.lad
+                hi = min(self.lad + self.n, f.log_end) - self.lad
                 self.rest = (unclaimed(rest, lo, hi, False), ())
             return False
         first_cut, shadow, effects, others_cut, register_writes, spans = common
@@ -654,11 +700,14 @@ class Access:
         meet those bytes."""
         cmd, lad, n = self.cmd, self.lad, self.n
         f = self.hit[0]
-        lo, hi = max(lad, f[0]) - lad, min(lad + n, f[1]) - lad  # the frame bytes it claims
+        lo, hi = (
+            max(lad, f.log_start) - lad,
+            min(lad + n, f.log_end) - lad,
+        )  # the frame bytes it claims
         reads, writes_ = others_cut
-        if f[6] and cmd != LWR and (spans is None or (lo < spans[0][1] and hi > spans[0][0])):
+        if f.reads and cmd != LWR and (spans is None or (lo < spans[0][1] and hi > spans[0][0])):
             reads = unclaimed(reads, lo, hi, False)
-        if f[7] and cmd != LRD and (spans is None or (lo < spans[1][1] and hi > spans[1][0])):
+        if f.writes and cmd != LRD and (spans is None or (lo < spans[1][1] and hi > spans[1][0])):
             if any(
                 op[1] < REGISTER_END and _frame_bytes(op)[0] < hi and _frame_bytes(op)[1] > lo
                 for op in register_writes
@@ -721,17 +770,15 @@ def _merged(first: Mailboxes, others: Mailboxes) -> Mailboxes:
     return first + tuple([m for m in others if m not in first])
 
 
-def moved_along(
-    caches: Caches, f: tuple[int, ...], cmd: int, lad: int, n: int
-) -> tuple[Access, int] | None:
+def moved_along(caches: Caches, f: Fmmu, cmd: int, lad: int, n: int) -> tuple[Access, int] | None:
     """When the FMMU ``f`` lies wholly inside a logical access (``cmd``, ``n`` bytes at
     ``lad``) and not at logical 0 with it: the access of ``f`` alone moved to logical 0
     through exactly its bytes (:attr:`Caches.parts`), and how many bytes into the frame the
     access has them (:meth:`Access.moved`); else None."""
-    start, end = f[0], f[1]
+    start, end = f.log_start, f.log_end
     if not (lad <= start and end <= lad + n and (start or lad)):
         return None
-    key = (((0, end - start, *f[2:]),), cmd, 0, end - start)
+    key = ((f._replace(log_start=0, log_end=end - start),), cmd, 0, end - start)
     at = caches.parts.get(key)
     if at is None:
         at = remember(caches.parts, key, Access(caches, *key), PLAN_CACHE_ENTRIES)
@@ -798,7 +845,7 @@ def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tupl
     return tuple(out)
 
 
-def _access(caches: Caches, hit: tuple[tuple[int, ...], ...], cmd: int, lad: int, n: int) -> Access:
+def _access(caches: Caches, hit: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Access:
     key = (hit, cmd, lad, n)
     found = caches.access.get(key)
     if found is None:
@@ -809,7 +856,7 @@ def _access(caches: Caches, hit: tuple[tuple[int, ...], ...], cmd: int, lad: int
 
 def shared_access(
     caches: Caches,
-    fmmus: tuple[tuple[int, ...], ...],
+    fmmus: tuple[Fmmu, ...],
     cmd: int,
     lad: int,
     n: int,
@@ -823,7 +870,9 @@ def shared_access(
     lo, hi = lad, lad + n
     if span is not None and lo <= span[0] and span[1] <= hi:
         return _access(caches, fmmus, cmd, lad, n)
-    return _access(caches, tuple([f for f in fmmus if f[1] > lo and f[0] < hi]), cmd, lad, n)
+    return _access(
+        caches, tuple([f for f in fmmus if f.log_end > lo and f.log_start < hi]), cmd, lad, n
+    )
 
 
 def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
@@ -835,26 +884,26 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
     whose tables differ in FMMU 0 alone; FMMU 0's by :func:`shared_access`): an access FMMU 0
     does not meet is the others' part's, one the others' span does not meet FMMU 0's.
     Otherwise :func:`shared_access`."""
-    plans = table[2]
+    plans = table.plans
     key = (cmd, lad, n)
     found = plans.get(key)
     if found is not None:
         return found
     parts = plans.parts
     if parts is None:
-        found = shared_access(caches, table[0], cmd, lad, n, table[1])
+        found = shared_access(caches, table.fmmus, cmd, lad, n, table.span)
     else:
         head, rest = parts
-        f, span = head[0], rest[1]
-        if not (f and f[0][1] > lad and f[0][0] < lad + n):  # FMMU 0 does not meet it
+        f, span = head.fmmus, rest.span
+        if not (f and f[0].log_end > lad and f[0].log_start < lad + n):  # FMMU 0 does not meet it
             found = _part_access(caches, rest, key)
-        elif not (rest[0] and span[0] < lad + n and span[1] > lad):  # FMMU 0 alone does
-            found = shared_access(caches, f, cmd, lad, n, head[1])
+        elif not (rest.fmmus and span[0] < lad + n and span[1] > lad):  # FMMU 0 alone does
+            found = shared_access(caches, f, cmd, lad, n, head.span)
         else:  # joined once per pair of parts' accesses, whatever else differs
             others = _part_access(caches, rest, key)
             at = None if not others.hit or len(f) > 1 else _moved_along(caches, head, key)
             if not others.hit:  # the others' span meets it, but none of them does
-                found = shared_access(caches, f, cmd, lad, n, head[1])
+                found = shared_access(caches, f, cmd, lad, n, head.span)
             elif at is not None:  # FMMU 0 inside the access: moved along, no access of its own
                 joint = (at[0], at[1], others)
                 found = caches.joined.get(joint)
@@ -862,7 +911,7 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
                     found = Access.joined_along(f[0], at, others)
                     remember(caches.joined, joint, found, PLAN_CACHE_ENTRIES)
             else:
-                pair = (shared_access(caches, f, cmd, lad, n, head[1]), others)
+                pair = (shared_access(caches, f, cmd, lad, n, head.span), others)
                 found = caches.joined.get(pair)
                 if found is None:
                     found = remember(caches.joined, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
@@ -874,20 +923,20 @@ def _moved_along(
 ) -> tuple[Access, int] | None:
     """:func:`moved_along` of the one FMMU of FMMU 0's part ``head``, once per part and access
     (its :attr:`Plans.moved`): an ESC's own FMMU 0 outlives the others' changes."""
-    plans = head[2]
+    plans = head.plans
     moved = plans.moved
     if moved is None:
         moved = plans.moved = {}
     elif key in moved:
         return moved[key]
-    return remember(moved, key, moved_along(caches, head[0][0], *key), PLAN_CACHE_ENTRIES)
+    return remember(moved, key, moved_along(caches, head.fmmus[0], *key), PLAN_CACHE_ENTRIES)
 
 
 def _part_access(caches: Caches, part: FmmuTable, key: tuple[int, int, int]) -> Access:
-    found = part[2].get(key)
+    found = part.plans.get(key)
     if found is None:
-        found = shared_access(caches, part[0], *key, part[1])
-        remember(part[2], key, found, PLAN_CACHE_ENTRIES)
+        found = shared_access(caches, part.fmmus, *key, part.span)
+        remember(part.plans, key, found, PLAN_CACHE_ENTRIES)
     return found
 
 
@@ -1005,14 +1054,15 @@ def _plain(
                     shadow.append(op)
                 else:
                     return None
-            for area in areas:  # (index, start, length, control, PDI-locked)
-                start, end = area[1], area[1] + area[2]
+            for area in areas:
+                start, end = area.start, area.start + area.length
                 if start < hi and end > lo:
-                    if not area[4] and ((area[3] >> 2) & 0x03 == 0x01) == (side == 1):
-                        if not (stateful and area[3] & 0x03 == 0x02):
+                    control = area.control
+                    if not area.locked and ((control >> 2) & 0x03 == 0x01) == (side == 1):
+                        if not (stateful and control & 0x03 == 0x02):
                             return None  # a buffer ECAT accesses (writes/reads): its own rules
-                        if (area[0], side) not in idle:
-                            idle.append((area[0], side))  # nothing there while it is idle
+                        if (area.number, side) not in idle:
+                            idle.append((area.number, side))  # nothing there while it is idle
                     start = max(start, REGISTER_END)
                     if start < end:
                         holes += ((start, end),)
@@ -1126,11 +1176,11 @@ def claim(claimed: list[tuple[int, int]] | None, lo: int, hi: int) -> list[tuple
     return runs
 
 
-def bit_span(f: tuple[int, ...], lo: int, hi: int) -> tuple[int, int, int]:
+def bit_span(f: Fmmu, lo: int, hi: int) -> tuple[int, int, int]:
     """Logical bits [b0, b1] of bytes [lo, hi) that FMMU ``f`` maps, and the physical bit
     of b0; b0 > b1 when none (the mapping is clipped to the 64 KiB address space)."""
     log_start, log_end, phys, start_bit, stop_bit, phys_bit = f[:6]
     l0 = log_start * 8 + start_bit
-    l1 = min((log_end - 1) * 8 + stop_bit, l0 + f[9] - 1)  # inclusive
+    l1 = min((log_end - 1) * 8 + stop_bit, l0 + f.bits - 1)  # inclusive
     b0, b1 = max(lo * 8, l0), min(hi * 8 - 1, l1)
     return b0, b1, phys * 8 + phys_bit + (b0 - l0)

@@ -235,8 +235,10 @@ def test_masked_bytes_take_the_data_under_the_mask_alone(
 
 # SyncManager areas (index, start, length, control, PDI-locked) as decode_sms gives them:
 # control 0x00 a buffer ECAT reads, 0x04 one ECAT writes (datasheet II 2.14)
-LOCKED_READ_BUFFER = (0, 0x0F00, 0x90, 0x00, 1)  # [0x0F00, 0x0F90), partly over registers
-WRITE_BUFFER = (1, 0x2000, 2, 0x04, 0)  # [0x2000, 0x2002)
+LOCKED_READ_BUFFER = mapping.SmEntry(
+    0, 0x0F00, 0x90, 0x00, 1
+)  # [0x0F00, 0x0F90), partly over registers
+WRITE_BUFFER = mapping.SmEntry(1, 0x2000, 2, 0x04, 0)  # [0x2000, 0x2002)
 
 
 def parts(plan: mapping.LogicalPlan, areas: mapping.SmTable, top: int) -> object:
@@ -280,7 +282,7 @@ def test_plain_parts_cut_away_the_bytes_where_an_access_does_nothing() -> None:
     # (frame bit = physical bit - 3 from frame byte 4, frame bits 0-27 mapped). Physical bits
     # 16-31 are left: frame bits 13-27, which are bits 5-19 from frame byte 5; so physical bit
     # = frame bit - 5 from byte 0x0FFE, in frame bytes 5-7
-    front = ((0, 0x0FFC, 2, 0x00, 1),)
+    front = (mapping.SmEntry(0, 0x0FFC, 2, 0x00, 1),)
     bit_read = (False, 0x0FFC, 4, 3, 0x0FFF_FFFF, 4, 4)
     assert parts(((bit_read,), ()), front, 0x10000) == (
         ((False, 0x0FFE, 2, -5, 0x0F_FFE0, 5, 3),),
@@ -450,13 +452,13 @@ def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
     differ in another FMMU share one (and its plain parts); one that differs in a met FMMU
     does not."""
     caches = mapping.Caches()  # a chain's
-    met = (0x100, 0x110, 0x1200, 0, 7, 0, 1, 1, True, 0)  # logical 0x100-0x10F onto 0x1200
-    other = (0x8000, 0x8004, 0x1400, 0, 7, 0, 1, 0, True, 0)
-    moved = (*other[:2], 0x1500, *other[3:])  # physical start 0x1500
+    met = mapping.Fmmu(0x100, 0x110, 0x1200, 0, 7, 0, 1, 1, True, 0)  # logical 0x100- on 0x1200
+    other = mapping.Fmmu(0x8000, 0x8004, 0x1400, 0, 7, 0, 1, 0, True, 0)
+    moved = other._replace(phys=0x1500)
     lrw = int(Command.LRW)
     a = mapping.shared_access(caches, (met, other), lrw, 0x100, 8)
     b = mapping.shared_access(caches, (met, moved), lrw, 0x100, 8)
-    c = mapping.shared_access(caches, ((*met[:2], 0x1300, *met[3:]),), lrw, 0x100, 8)
+    c = mapping.shared_access(caches, (met._replace(phys=0x1300),), lrw, 0x100, 8)
     assert a is b and a is not c
     assert a.plan == ((((True, 0x1200, 0, 8, 0, 0, 0),), ((True, 0x1200, 0, 8, 0, 0, 0),)))
 
@@ -558,14 +560,14 @@ def sm_areas() -> st.SearchStrategy[mapping.SmTable]:
     )
     return st.lists(entry, max_size=2).map(
         lambda sms: tuple(
-            (k, start, length, control, int(locked))
+            mapping.SmEntry(k, start, length, control, int(locked))
             for k, (start, length, control, locked) in enumerate(sms)
         )
     )
 
 
 def assert_maps_as_whole(
-    access: mapping.Access, hit: tuple[tuple[int, ...], ...], areas: mapping.SmTable, top: int
+    access: mapping.Access, hit: tuple[mapping.Fmmu, ...], areas: mapping.SmTable, top: int
 ) -> mapping.RowAccess | None:
     """``access`` (rows asked at ``areas``, ``top``) against the whole plan of ``hit``
     (plan_logical with its claims, then esc_row_access): plain alike, the same frame and
@@ -601,7 +603,7 @@ def assert_maps_as_whole(
 @example(  # hand-worked: FMMU 1 alone meets a read mailbox at 0x1000, which must be idle
     (0, 2, (0, 7, 0), 0x1800, 1),
     [(2, 2, (0, 7, 0), 0x1000, 1)],
-    ((0, 0x1000, 8, 0x02, 0),),
+    (mapping.SmEntry(0, 0x1000, 8, 0x02, 0),),
     Command.LRD,
     0,
     4,
@@ -625,7 +627,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
         for log, length, bits, phys, kind in (first, *others)
     )
     decoded, _ = mapping.decode_fmmus(caches, table)
-    hit = tuple(f for f in decoded if not (f[1] <= lad or f[0] >= lad + n))
+    hit = tuple(f for f in decoded if not (f.log_end <= lad or f.log_start >= lad + n))
     # meets the others first
     mapping.Access(caches, hit, int(cmd), lad, n).rows(areas, top, Inert())
     access = mapping.Access(caches, hit, int(cmd), lad, n)  # another ESC's, alike
@@ -647,7 +649,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     # table; at the second a SyncManager area the PDI locked lies there, where it reads nothing
     (1, 1, (0, 7, 0), 0x0000, 1),
     [(0, 1, (0, 7, 0), 0x1000, 1)],
-    [(), ((0, 0x1000, 2, 0x00, 1),)],
+    [(), (mapping.SmEntry(0, 0x1000, 2, 0x00, 1),)],
     Command.LRD,
     0,
     1,
@@ -677,7 +679,7 @@ def test_first_fmmus_moved_along_take_what_the_others_leave_them(
     assume(len(decoded) == len(rows) + len(others))  # none clipped away
     mine, theirs = decoded[: len(rows)], decoded[len(rows) :]
     n = max(f[1] for f in mine) - lad + 2
-    hit = tuple(f for f in theirs if not (f[1] <= lad or f[0] >= lad + n))
+    hit = tuple(f for f in theirs if not (f.log_end <= lad or f.log_start >= lad + n))
     assume(hit and all(lad < f[0] for f in mine))
     shared, inert = mapping.Access(caches, hit, int(cmd), lad, n), Inert()  # (one write plan)
     tops = (0x10000, 0x1008, 0x10000)  # each change alone: the tables, the top, FMMU 0's size
@@ -743,8 +745,8 @@ def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
     Once another ESC's access met FMMU 1, neither the plan of both FMMUs nor their holes are
     worked out: the first FMMU's plan and the others' cut are."""
     caches = mapping.Caches()  # a chain's
-    first = (0x10, 0x12, 0x0130, 0, 7, 0, 1, 0, True, 8 * (0x10000 - 0x0130))
-    other = (0x10, 0x14, 0x1100, 0, 7, 4, 1, 1, False, 8 * (0x10000 - 0x1100) - 4)
+    first = mapping.Fmmu(0x10, 0x12, 0x0130, 0, 7, 0, 1, 0, True, 8 * (0x10000 - 0x0130))
+    other = mapping.Fmmu(0x10, 0x14, 0x1100, 0, 7, 4, 1, 1, False, 8 * (0x10000 - 0x1100) - 4)
     whole: list[object] = []
     planned = mapping.plan_logical
 
@@ -755,7 +757,9 @@ def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
 
     monkeypatch.setattr(mapping, "plan_logical", plan)
     lrw = int(Command.LRW)
-    elsewhere = (0x100, 0x102, *first[2:])  # another ESC's FMMU 0, not in the datagram
+    elsewhere = first._replace(
+        log_start=0x100, log_end=0x102
+    )  # another ESC's FMMU 0, not in the datagram
     mapping.Access(caches, (elsewhere, other), lrw, 0x10, 4).rows((), 0x10000, Inert())
     whole.clear()  # that first access of FMMU 1 worked out the whole plan
     access = mapping.Access(caches, (first, other), lrw, 0x10, 4)
@@ -775,11 +779,13 @@ def test_a_write_of_inert_registers_counts_whatever_the_claims_leave() -> None:
     registers (a part that writes no byte, and counts in the working counter), however the
     others' part is worked out."""
     caches = mapping.Caches()  # a chain's
-    first = (0x12, 0x14, 0x2000, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x2000))
-    other = (0x10, 0x14, 0x0F7E, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x0F7E))
-    locked = ((0, 0x2000, 2, 0x04, 1),)
+    first = mapping.Fmmu(0x12, 0x14, 0x2000, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x2000))
+    other = mapping.Fmmu(0x10, 0x14, 0x0F7E, 0, 7, 0, 0, 1, True, 8 * (0x10000 - 0x0F7E))
+    locked = (mapping.SmEntry(0, 0x2000, 2, 0x04, 1),)
     lwr = int(Command.LWR)
-    elsewhere = (0x100, 0x102, *first[2:])  # another ESC's FMMU 0, not in the datagram
+    elsewhere = first._replace(
+        log_start=0x100, log_end=0x102
+    )  # another ESC's FMMU 0, not in the datagram
     mapping.Access(caches, (elsewhere, other), lwr, 0x10, 4).rows(locked, 0x10000, Inert())
     access = mapping.Access(caches, (first, other), lwr, 0x10, 4)
     access.rows(locked, 0x10000, Inert())
