@@ -1168,20 +1168,21 @@ class EscDevice:
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
         if shadow:
             self.write_shadow(self.shadow_writes(shadow, data_in))
-        for bytewise, a, b, c, d, e, f in reads:
-            if bytewise:  # physical a, frame offset b, c bytes
-                buf[off + b : off + b + c] = mem[a : a + c]
-            else:  # physical bytes [a, a + b), shift c, mask d of frame bytes [e, e + f)
-                value = int.from_bytes(mem[a : a + b], "little")
-                value = value >> c if c >= 0 else value << -c
-                at = off + e
-                frame = int.from_bytes(buf[at : at + f], "little")
-                buf[at : at + f] = ((frame & ~d) | (value & d)).to_bytes(f, "little")
-        for bytewise, a, b, c, d, e, f in writes:
+        for bytewise, phys, size, shift, mask, at, width in reads:
+            at += off
             if bytewise:
-                mem[a : a + c] = data_in[b : b + c]
+                buf[at : at + size] = mem[phys : phys + size]
             else:
-                mem[a : a + b] = _bits_written(mem[a : a + b], data_in, c, d, e, f)
+                value = int.from_bytes(mem[phys : phys + size], "little")
+                value = value >> shift if shift >= 0 else value << -shift
+                frame = int.from_bytes(buf[at : at + width], "little")
+                buf[at : at + width] = ((frame & ~mask) | (value & mask)).to_bytes(width, "little")
+        for bytewise, phys, size, shift, mask, at, width in writes:
+            if bytewise:
+                mem[phys : phys + size] = data_in[at : at + size]
+            else:
+                old = mem[phys : phys + size]
+                mem[phys : phys + size] = _bits_written(old, data_in, shift, mask, at, width)
         r, w = int(bool(reads)), int(bool(writes))
         return r if cmd == LRD else w if cmd == LWR else r + 2 * w
 
@@ -1202,12 +1203,13 @@ class EscDevice:
         writes below 0x0F80, a bit-wise part's merged with the registers as committed (what
         :meth:`_write` takes of them, datasheet I 3.4)."""
         mem, out = self.mem, []
-        for bytewise, a, b, c, d, e, f in parts:
-            if bytewise:  # physical a, frame offset b, c bytes
-                out.append((a, data_in[b : b + min(c, REGISTER_END - a)]))
+        for bytewise, phys, size, shift, mask, at, width in parts:
+            if bytewise:
+                out.append((phys, data_in[at : at + min(size, REGISTER_END - phys)]))
             else:
-                written = _bits_written(mem[a : a + b], data_in, c, d, e, f)
-                out.append((a, written[: REGISTER_END - a]))
+                old = mem[phys : phys + size]
+                written = _bits_written(old, data_in, shift, mask, at, width)
+                out.append((phys, written[: REGISTER_END - phys]))
         return out
 
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
@@ -1220,17 +1222,18 @@ class EscDevice:
         reads, writes = plan
         r = w = 0
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
-        for bytewise, a, b, c, d, e, f in reads:
+        for bytewise, phys, size, shift, mask, at, width in reads:
             if bytewise:
-                r |= self._read(a, buf, off + b, c, False)
+                r |= self._read(phys, buf, off + at, size, False)
             else:
-                r |= self._bit_read(a, b, c, d, buf, off + e, f)
+                r |= self._bit_read(phys, size, shift, mask, buf, off + at, width)
         if writes:
-            for bytewise, a, b, c, d, e, f in writes:
+            for bytewise, phys, size, shift, mask, at, width in writes:
                 if bytewise:
-                    w |= self._write(a, data_in[b : b + c])
+                    w |= self._write(phys, data_in[at : at + size])
                 else:
-                    w |= self._write(a, _bits_written(self.mem[a : a + b], data_in, c, d, e, f))
+                    old = self.mem[phys : phys + size]
+                    w |= self._write(phys, _bits_written(old, data_in, shift, mask, at, width))
         if cmd == LRD:
             return r
         if cmd == LWR:

@@ -44,6 +44,7 @@ __all__ = [
     "SmTable",
     "WritesInert",
     "along",
+    "byte_op",
     "cut",
     "decode_entries",
     "decode_fmmus",
@@ -71,8 +72,32 @@ FMMU_ENTRY: Final = struct.Struct("<IHBBHBBB3x")  # one FMMU's registers (datash
 
 DECODE_CACHE_ENTRIES: Final = 4096  # distinct FMMU/SM tables remembered (memory bound)
 PLAN_CACHE_ENTRIES: Final = 1 << 12  # distinct accesses remembered (memory bound)
-LogicalOp = tuple[bool, int, int, int, int, int, int]  # see plan_logical
+
+
+class LogicalOp(NamedTuple):
+    """A part of a logical access's plan (:func:`plan_logical`): physical bytes [phys, phys +
+    size) and frame bytes [at, at + width) of the datagram's data that one FMMU maps onto each
+    other. Byte-wise (:func:`byte_op`): the same bytes, ``width`` = ``size``, ``shift`` and
+    ``mask`` 0. Bit-wise: ``shift`` is where a frame bit lies in the physical bytes minus where
+    it lies in the frame bytes, ``mask`` the mapped bits: of the frame bytes (a read) or of the
+    physical bytes (a write)."""
+
+    bytewise: bool
+    phys: int
+    size: int
+    shift: int
+    mask: int
+    at: int
+    width: int
+
+
 LogicalPlan = tuple[tuple[LogicalOp, ...], tuple[LogicalOp, ...]]  # reads, writes
+
+
+def byte_op(phys: int, at: int, n: int) -> LogicalOp:
+    """The byte-wise part that maps physical bytes [phys, phys + n) onto frame bytes
+    [at, at + n)."""
+    return LogicalOp(True, phys, n, 0, 0, at, n)
 
 
 class Plans(dict[tuple[int, int, int], "Access"]):
@@ -371,12 +396,9 @@ def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Logical
     """How a logical access of ``n`` bytes at ``lad`` reads and writes through ``fmmus``
     (datasheet I 7): the parts each FMMU maps, in register order, the lower-numbered FMMU
     winning a logical byte claimed twice (reads and writes claim separately); a part the
-    64 KiB address space clips away is not mapped. Operation (byte-wise, a, b, c, d, e, f):
-    byte-wise, physical address a, frame offset b, c bytes; bit-wise, physical bytes
-    [a, a + b) hold the mapped bits, which lie in frame bytes [e, e + f) (the datagram's data),
-    c is where a frame bit lies in the physical bytes minus where it lies in the frame bytes,
-    d masks the mapped bits: of the frame bytes (read) or of the physical bytes (write). The
-    bit-wise work is thus bounded by the mapped bytes, not by the datagram's length."""
+    64 KiB address space clips away is not mapped. A bit-wise part's physical bytes hold the
+    mapped bits, its frame bytes those they lie in (:class:`LogicalOp`): its work is bounded by
+    the mapped bytes, not by the datagram's length."""
     lo, hi = lad, lad + n
     hit = [f for f in fmmus if not (f.log_end <= lo or f.log_start >= hi)]
     reads = [f for f in hit if f.reads and cmd != LWR]
@@ -388,7 +410,7 @@ def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Logical
             log_start, phys = f.log_start, f.phys
             for a, b in claim(claimed, max(lad, log_start), min(lad + n, f.log_end)):
                 if f.bytewise:
-                    ops.append((True, phys + (a - log_start), a - lad, b - a, 0, 0, 0))
+                    ops.append(byte_op(phys + (a - log_start), a - lad, b - a))
                     continue
                 # bit-wise: logical bit b maps to physical bit p0 + (b - b0), as whole integers
                 b0, b1, p0 = bit_span(f, a, b)
@@ -399,7 +421,7 @@ def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Logical
                 shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
                 bits = (1 << (b1 - b0 + 1)) - 1
                 mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
-                ops.append((False, first, last - first + 1, shift, mask, at, end - at + 1))
+                ops.append(LogicalOp(False, first, last - first + 1, shift, mask, at, end - at + 1))
     return tuple(plan[0]), tuple(plan[1])
 
 
@@ -534,7 +556,7 @@ class Access:
     def registers(self) -> tuple[bool, bool]:
         """Whether the plan reads, and whether it writes, registers (below 0x0F80)."""
         if self._registers is None:
-            reads, writes = (any(op[1] < REGISTER_END for op in ops) for ops in self.plan)
+            reads, writes = (any(op.phys < REGISTER_END for op in ops) for ops in self.plan)
             self._registers = reads, writes
         return self._registers
 
@@ -709,7 +731,7 @@ class Access:
             reads = unclaimed(reads, lo, hi, False)
         if f.writes and cmd != LRD and (spans is None or (lo < spans[1][1] and hi > spans[1][0])):
             if any(
-                op[1] < REGISTER_END and _frame_bytes(op)[0] < hi and _frame_bytes(op)[1] > lo
+                op.phys < REGISTER_END and op.at < hi and op.at + op.width > lo
                 for op in register_writes
             ):
                 return False  # a write of (inert) registers counts if the claims leave any of it
@@ -795,8 +817,8 @@ def _along(ops: tuple[LogicalOp, ...], offset: int) -> tuple[LogicalOp, ...]:
         return ops
     return tuple(
         [
-            (True, a, b + offset, c, d, e, f) if bytewise else (False, a, b, c, d, e + offset, f)
-            for bytewise, a, b, c, d, e, f in ops
+            LogicalOp(bytewise, phys, size, shift, mask, at + offset, width)
+            for bytewise, phys, size, shift, mask, at, width in ops
         ]
     )
 
@@ -806,13 +828,7 @@ def _frame_span(ops: tuple[LogicalOp, ...]) -> tuple[int, int]:
     claims outside it leave them as they are (:func:`unclaimed`)."""
     if not ops:
         return 0, 0
-    ends = [_frame_bytes(op) for op in ops]
-    return min(lo for lo, _ in ends), max(hi for _, hi in ends)
-
-
-def _frame_bytes(op: LogicalOp) -> tuple[int, int]:
-    """The frame bytes [start, end) of a part of a plan (:func:`plan_logical`)."""
-    return (op[2], op[2] + op[3]) if op[0] else (op[5], op[5] + op[6])
+    return min(op.at for op in ops), max(op.at + op.width for op in ops)
 
 
 def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tuple[LogicalOp, ...]:
@@ -822,26 +838,22 @@ def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tupl
     bit left goes."""
     out: list[LogicalOp] = []
     for op in ops:
-        bytewise, a, b, c, d, e, f = op
-        if bytewise:  # physical a, frame offset b, c bytes
-            if b >= hi or b + c <= lo:
-                out.append(op)
-                continue
-            if lo > b:
-                out.append((True, a, b, lo - b, 0, 0, 0))
-            if hi < b + c:
-                out.append((True, a + (hi - b), hi, b + c - hi, 0, 0, 0))
-            continue
-        # physical bytes [a, a + b), shift c, mask d, frame bytes [e, e + f)
-        if e >= hi or e + f <= lo:
+        bytewise, phys, size, shift, mask, at, width = op
+        if at >= hi or at + width <= lo:
             out.append(op)
             continue
-        x, y = 8 * (max(lo, e) - e), 8 * (min(hi, e + f) - e)  # frame bits from byte e
+        if bytewise:
+            if lo > at:
+                out.append(byte_op(phys, at, lo - at))
+            if hi < at + width:
+                out.append(byte_op(phys + (hi - at), hi, at + width - hi))
+            continue
+        x, y = 8 * (max(lo, at) - at), 8 * (min(hi, at + width) - at)  # frame bits from at
         if write:
-            x, y = max(0, x + c), max(0, y + c)  # physical bits from byte a
-        mask = d & ~(((1 << (y - x)) - 1) << x) if y > x else d
-        if mask:
-            out.append((False, a, b, c, mask, e, f))
+            x, y = max(0, x + shift), max(0, y + shift)  # physical bits from phys
+        left = mask & ~(((1 << (y - x)) - 1) << x) if y > x else mask
+        if left:
+            out.append(LogicalOp(False, phys, size, shift, left, at, width))
     return tuple(out)
 
 
@@ -1032,8 +1044,8 @@ def _plain(
     found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
     for side, ops in enumerate(plan):  # reads, writes
         for k, op in enumerate(ops):
-            lo = op[1]
-            hi = lo + (op[3] if op[0] else op[2])
+            lo = op.phys
+            hi = lo + op.size
             holes: tuple[tuple[int, int], ...] = ()
             if lo < REGISTER_END:
                 if not side:
@@ -1085,8 +1097,8 @@ def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
     for side, k, parts in reversed(holes):  # from the end: the indices stay valid
         op = plan[side][k]
         left = without(op, parts, side == 1)
-        if not left and side == 1 and op[1] < REGISTER_END:  # registers written count
-            left = [(True, op[1], op[2] if op[0] else op[5], 0, 0, 0, 0)]  # writing no byte
+        if not left and side == 1 and op.phys < REGISTER_END:  # registers written count
+            left = [byte_op(op.phys, op.at, 0)]  # writing no byte
         out[side][k : k + 1] = left
     return tuple(out[0]), tuple(out[1])
 
@@ -1098,9 +1110,9 @@ def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> lis
     mask (of the physical bits for a write, of the frame bits for a read); or nothing when no
     byte is left (every byte of a bit-wise part from :func:`plan_logical` holds a mapped bit).
     """
-    runs, lo = _outside(op, holes), op[1]
-    if op[0]:  # byte-wise: physical a, frame offset b, c bytes
-        return [(True, x, op[2] + (x - lo), y - x, 0, 0, 0) for x, y in runs]
+    runs, lo = _outside(op, holes), op.phys
+    if op.bytewise:
+        return [byte_op(x, op.at + (x - lo), y - x) for x, y in runs]
     if not runs:
         return []
     first, end = runs[0][0], runs[-1][1]
@@ -1117,13 +1129,12 @@ def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> lis
     else:  # a mask of frame bits: the valid physical bits where they lie in the frame bytes
         moved = valid >> shift if shift >= 0 else valid << -shift
         mask = (mask >> 8 * skip) & moved & ((1 << 8 * width) - 1)
-    return [(False, first, end - first, shift, mask, at + skip, width)] if mask else []
+    return [LogicalOp(False, first, end - first, shift, mask, at + skip, width)] if mask else []
 
 
 def _outside(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:
     """The runs [x, y) of ``op``'s physical bytes outside ``holes`` (:func:`outside`)."""
-    lo = op[1]
-    return outside(lo, lo + (op[3] if op[0] else op[2]), holes)
+    return outside(op.phys, op.phys + op.size, holes)
 
 
 def outside(lo: int, hi: int, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:

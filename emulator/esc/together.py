@@ -90,13 +90,10 @@ def logical_together(
     if reads:  # the frame leaves with the last ESC's reads
         out = arrived.copy()
         _read_rows(memory, slice(rows[-1], rows[-1] + 1), reads, out)
-    read = [(b, b + c) if bytewise else (e, e + f) for bytewise, _, b, c, _, e, f in reads]
+    read = [(op.at, op.at + op.width) for op in reads]
     met = [  # per write (and shadow write), whether a read replaces some of its frame bytes
         any(x < hi and y > lo for x, y in read)
-        for lo, hi in (
-            (b, b + c) if bytewise else (e, e + f)
-            for bytewise, _, b, c, _, e, f in (*writes, *shadow)
-        )
+        for lo, hi in ((op.at, op.at + op.width) for op in (*writes, *shadow))
     ]
     data_in = arrived  # the frame bytes no ESC reads arrive alike at every ESC: one row
     if any(met):  # per ESC, the data as it arrived there, from the memory before any write
@@ -105,12 +102,15 @@ def logical_together(
         data_in = np.concatenate((arrived, left[:-1]))
     if shadow:  # the registers as committed: no write of the datagram reaches them
         _shadow_rows(memory, at, shadow, met[len(writes) :], arrived, data_in, devices)
-    for (bytewise, a, b, c, d, e, f), varies in zip(writes, met[: len(writes)], strict=True):
+    for (bytewise, phys, size, shift, mask, start, width), varies in zip(
+        writes, met[: len(writes)], strict=True
+    ):
         src = data_in if varies else arrived
-        if bytewise:  # physical a, frame offset b, c bytes
-            memory[at, a : a + c] = src[:, b : b + c]
-        else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
-            write_masked(memory, at, a, a + b, _shifted(src[:, e : e + f], -c, b), _mask(d, b))
+        if bytewise:
+            memory[at, phys : phys + size] = src[:, start : start + size]
+        else:
+            new = _shifted(src[:, start : start + width], -shift, size)
+            write_masked(memory, at, phys, phys + size, new, _mask(mask, size))
     if reads:
         buf[off : off + n] = out[0].tobytes()
     r, w = int(bool(reads)), int(bool(writes))
@@ -131,14 +131,14 @@ def _shadow_rows(
     (:meth:`EscDevice.write_shadow`): from the data as it arrived, ``arrived`` where no read
     replaces their frame bytes (``varies``), else ``data_in`` (a row per ESC); one
     (address, bytes) for all where the bytes are alike."""
-    for (bytewise, a, b, c, d, e, f), per_row in zip(shadow, varies, strict=True):
+    for (bytewise, a, size, shift, bits, start, width), per_row in zip(shadow, varies, strict=True):
         src = data_in if per_row else arrived
-        if bytewise:  # physical a, frame offset b, c bytes
-            written = src[:, b : b + min(c, REGISTER_END - a)]
-        else:  # physical bytes [a, a + b) under mask d, shift c, frame bytes [e, e + f)
-            k = min(b, REGISTER_END - a)  # the register bytes: the shift's low k bytes alone
-            mask = _mask(d, b)[:k]
-            new = _shifted(src[:, e : e + f], -c, k)
+        if bytewise:  # physical a
+            written = src[:, start : start + min(size, REGISTER_END - a)]
+        else:
+            k = min(size, REGISTER_END - a)  # the register bytes: the shift's low k bytes alone
+            mask = _mask(bits, size)[:k]
+            new = _shifted(src[:, start : start + width], -shift, k)
             written = (memory[at, a : a + k] & ~mask) | (new & mask)
         resets = a <= REG_RESET_ECAT < a + written.shape[1]  # each ESC counts its reset byte
         if len(written) == 1 or (written == written[0]).all():
@@ -167,13 +167,12 @@ def _read_rows(
 ) -> None:
     """The parts ``reads`` of a plan (cut) read from the memory of ``rows`` into ``left``, the
     datagram's data as it arrived at each of them (a row each)."""
-    for bytewise, a, b, c, d, e, f in reads:
-        if bytewise:  # physical a, frame offset b, c bytes
-            left[:, b : b + c] = memory[rows, a : a + c]
-        else:  # physical bytes [a, a + b), shift c, mask d, frame bytes [e, e + f)
-            write_masked(
-                left, slice(None), e, e + f, _shifted(memory[rows, a : a + b], c, f), _mask(d, f)
-            )
+    for bytewise, phys, size, shift, mask, at, width in reads:
+        if bytewise:
+            left[:, at : at + size] = memory[rows, phys : phys + size]
+        else:
+            new = _shifted(memory[rows, phys : phys + size], shift, width)
+            write_masked(left, slice(None), at, at + width, new, _mask(mask, width))
 
 
 def _shifted(data: npt.NDArray[np.uint8], shift: int, width: int) -> npt.NDArray[np.uint8]:
@@ -254,19 +253,14 @@ def last_readers(
                 _merge(buf, off + at, len(data), new, int.from_bytes(data, "little"))
                 unread ^= new << 8 * at
         mem = dev.mem
-        for bytewise, a, b, c, d, e, f in reads:
-            if bytewise:  # physical a, frame offset b, c bytes
-                at, width, mask = b, c, (1 << 8 * c) - 1
-            else:  # physical bytes [a, a + b), shift c, mask d of frame bytes [e, e + f)
-                at, width, mask = e, f, d
+        for bytewise, phys, size, shift, bits, at, width in reads:
+            mask = (1 << 8 * width) - 1 if bytewise else bits
             new = unread >> 8 * at & mask  # what this part reads that no later ESC does
             if not new:
                 continue
-            if bytewise:
-                value = int.from_bytes(mem[a : a + c], "little")
-            else:
-                value = int.from_bytes(mem[a : a + b], "little")
-                value = value >> c if c >= 0 else value << -c
+            value = int.from_bytes(mem[phys : phys + size], "little")
+            if not bytewise:
+                value = value >> shift if shift >= 0 else value << -shift
             _merge(buf, off + at, width, new, value)
             unread ^= new << 8 * at
     return wkc

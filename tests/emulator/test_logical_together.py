@@ -255,41 +255,43 @@ def test_plain_parts_cut_away_the_bytes_where_an_access_does_nothing() -> None:
     RAM above the top is closed. A bit-wise part narrows to the bytes left and loses the holes'
     bits."""
     areas = (LOCKED_READ_BUFFER, WRITE_BUFFER)
-    byte_read = (True, 0x0F70, 0, 0x30, 0, 0, 0)  # physical [0x0F70, 0x0FA0) to frame 0..47
+    byte_read = mapping.byte_op(0x0F70, 0, 0x30)  # physical [0x0F70, 0x0FA0) to frame 0..47
     # physical bytes 0x1FFE..0x2001, frame bit = physical bit - 3, frame bytes 4..7
-    bit_read = (False, 0x1FFE, 4, 3, 0x0FFF_FFFF, 4, 4)
+    bit_read = mapping.LogicalOp(False, 0x1FFE, 4, 3, 0x0FFF_FFFF, 4, 4)
     got = parts(((byte_read, bit_read), ()), areas, 0x10000)
     # registers 0x0F70-0x0F7F, then 0x0F90-0x0F9F; of the bit-wise part only the physical bits
     # 0-15 (0x1FFE, 0x1FFF) stay: frame bits 0-12, in frame bytes 4 and 5
     assert got == (
         (
-            (True, 0x0F70, 0, 0x10, 0, 0, 0),
-            (True, 0x0F90, 0x20, 0x10, 0, 0, 0),
-            (False, 0x1FFE, 2, 3, 0x1FFF, 4, 2),
+            mapping.byte_op(0x0F70, 0, 0x10),
+            mapping.byte_op(0x0F90, 0x20, 0x10),
+            mapping.LogicalOp(False, 0x1FFE, 2, 3, 0x1FFF, 4, 2),
         ),
         (),
     )
     # written: the write buffer is ECAT's (not plain); elsewhere, the mask keeps physical bits
-    bit_write = (False, 0x1FFC, 4, 3, 0xFFFF_FFF0, 4, 4)  # physical bytes 0x1FFC..0x1FFF
+    bit_write = mapping.LogicalOp(
+        False, 0x1FFC, 4, 3, 0xFFFF_FFF0, 4, 4
+    )  # physical bytes 0x1FFC..0x1FFF
     top = 0x1FFE  # process RAM closed from 0x1FFE: physical bits 16-31 are a hole
     # physical bits 4-15 from frame bits 1-12 (frame bytes 4, 5)
-    cut = ((False, 0x1FFC, 2, 3, 0xFFF0, 4, 2),)
+    cut = (mapping.LogicalOp(False, 0x1FFC, 2, 3, 0xFFF0, 4, 2),)
     assert parts(((), (bit_write,)), (), top) == ((), cut)
     # the last byte closed: physical bits 4-23 from frame bits 1-20 (frame bytes 4-6)
-    cut = ((False, 0x1FFC, 3, 3, 0xFFFFF0, 4, 3),)
+    cut = (mapping.LogicalOp(False, 0x1FFC, 3, 3, 0xFFFFF0, 4, 3),)
     assert parts(((), (bit_write,)), (), 0x1FFF) == ((), cut)
     # a hole in front: a locked buffer [0x0FFC, 0x0FFE) of physical bytes 0x0FFC..0x0FFF
     # (frame bit = physical bit - 3 from frame byte 4, frame bits 0-27 mapped). Physical bits
     # 16-31 are left: frame bits 13-27, which are bits 5-19 from frame byte 5; so physical bit
     # = frame bit - 5 from byte 0x0FFE, in frame bytes 5-7
     front = (mapping.SmEntry(0, 0x0FFC, 2, 0x00, 1),)
-    bit_read = (False, 0x0FFC, 4, 3, 0x0FFF_FFFF, 4, 4)
+    bit_read = mapping.LogicalOp(False, 0x0FFC, 4, 3, 0x0FFF_FFFF, 4, 4)
     assert parts(((bit_read,), ()), front, 0x10000) == (
-        ((False, 0x0FFE, 2, -5, 0x0F_FFE0, 5, 3),),
+        (mapping.LogicalOp(False, 0x0FFE, 2, -5, 0x0F_FFE0, 5, 3),),
         (),
     )
     assert parts(((), (bit_write,)), (), 0x1FFC) == ((), ())  # nothing left
-    assert parts(((), ((True, 0x2000, 0, 2, 0, 0, 0),)), areas, 0x10000) is None
+    assert parts(((), (mapping.byte_op(0x2000, 0, 2),)), areas, 0x10000) is None
     plan = ((byte_read,), ())
     assert mapping.plain_access(plan, (), 0x10000) == (plan, (), plan)  # nothing to cut
 
@@ -460,7 +462,7 @@ def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
     b = mapping.shared_access(caches, (met, moved), lrw, 0x100, 8)
     c = mapping.shared_access(caches, (met._replace(phys=0x1300),), lrw, 0x100, 8)
     assert a is b and a is not c
-    assert a.plan == ((((True, 0x1200, 0, 8, 0, 0, 0),), ((True, 0x1200, 0, 8, 0, 0, 0),)))
+    assert a.plan == (((mapping.byte_op(0x1200, 0, 8),), (mapping.byte_op(0x1200, 0, 8),)))
 
 
 @pytest.mark.parametrize(
@@ -476,10 +478,10 @@ def test_fmmu_tables_that_differ_only_elsewhere_share_an_access() -> None:
     ],
 )
 def test_a_part_leaves_bytes_outside_its_holes(holes: list[tuple[int, int]], left: bool) -> None:
-    byte_wise = (True, 0x1000, 0, 0x10, 0, 0, 0)  # physical [0x1000, 0x1010)
+    byte_wise = mapping.byte_op(0x1000, 0, 0x10)  # physical [0x1000, 0x1010)
     # the same physical bytes, bits 3-127 from frame bits 0-124 (frame bytes 0-15)
-    bit_read = (False, 0x1000, 0x10, 3, (1 << 125) - 1, 0, 16)
-    bit_write = (False, 0x1000, 0x10, 3, ((1 << 125) - 1) << 3, 0, 16)
+    bit_read = mapping.LogicalOp(False, 0x1000, 0x10, 3, (1 << 125) - 1, 0, 16)
+    bit_write = mapping.LogicalOp(False, 0x1000, 0x10, 3, ((1 << 125) - 1) << 3, 0, 16)
     assert bool(mapping.without(byte_wise, holes, False)) is left
     assert bool(mapping.without(bit_read, holes, False)) is left
     assert bool(mapping.without(bit_write, holes, True)) is left
@@ -507,14 +509,14 @@ def test_claims_leave_the_bytes_no_earlier_claim_took(ranges: list[tuple[int, in
 
 def bit_pairs(plan: mapping.LogicalPlan) -> tuple[set[tuple[int, int]], ...]:
     """What a plan (cut) maps, read and written: the pairs (frame bit, physical bit), as the
-    parts' fields say (plan_logical): byte-wise, physical a, frame offset b, c bytes; bit-wise,
+    parts' fields say (LogicalOp): byte-wise, physical a, c bytes at frame offset e; bit-wise,
     physical bytes from a, physical bit = frame bit + c, mask d of frame bits from byte e (a
     read) or of physical bits from byte a (a write)."""
     out: tuple[set[tuple[int, int]], ...] = (set(), set())
     for side, ops in enumerate(plan):
         for bytewise, a, b, c, d, e, _ in ops:
             if bytewise:
-                out[side].update((8 * b + i, 8 * a + i) for i in range(8 * c))
+                out[side].update((8 * e + i, 8 * a + i) for i in range(8 * b))
             elif side == 0:
                 out[0].update(
                     (8 * e + j, 8 * a + j + c) for j in range(d.bit_length()) if d >> j & 1
@@ -765,8 +767,8 @@ def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
     access = mapping.Access(caches, (first, other), lrw, 0x10, 4)
     access.rows((), 0x10000, Inert())
     assert access.cut == (
-        ((True, 0x0130, 0, 2, 0, 0, 0), (False, 0x1100, 5, 4, 0xFFFF_0000, 0, 4)),
-        ((False, 0x1100, 5, 4, 0xF_FFFF_FFF0, 0, 4),),
+        (mapping.byte_op(0x0130, 0, 2), mapping.LogicalOp(False, 0x1100, 5, 4, 0xFFFF_0000, 0, 4)),
+        (mapping.LogicalOp(False, 0x1100, 5, 4, 0xF_FFFF_FFF0, 0, 4),),
     )
     assert access.events == 0x08
     assert whole == []
@@ -789,7 +791,7 @@ def test_a_write_of_inert_registers_counts_whatever_the_claims_leave() -> None:
     mapping.Access(caches, (elsewhere, other), lwr, 0x10, 4).rows(locked, 0x10000, Inert())
     access = mapping.Access(caches, (first, other), lwr, 0x10, 4)
     access.rows(locked, 0x10000, Inert())
-    assert access.cut == ((), ((True, 0x0F7E, 0, 0, 0, 0, 0),))
+    assert access.cut == ((), (mapping.byte_op(0x0F7E, 0, 0),))
 
 
 @given(
@@ -885,10 +887,10 @@ def test_tables_that_differ_in_fmmu_0_share_the_access_fmmu_0_does_not_meet() ->
     lwr, lrd = int(Command.LWR), int(Command.LRD)
     a, b = (mapping.table_access(caches, t, lwr, 0x100, 4) for t in tables)
     assert a is b
-    assert a.plan == ((), ((True, 0x1000, 0, 4, 0, 0, 0),))
+    assert a.plan == ((), (mapping.byte_op(0x1000, 0, 4),))
     a, b = (mapping.table_access(caches, t, lrd, 0, 16) for t in tables)
-    assert a.plan == (((True, 0x1100, 0, 8, 0, 0, 0),), ())
-    assert b.plan == (((True, 0x1100, 8, 8, 0, 0, 0),), ())
+    assert a.plan == ((mapping.byte_op(0x1100, 0, 8),), ())
+    assert b.plan == ((mapping.byte_op(0x1100, 8, 8),), ())
 
 
 def test_tables_that_differ_in_an_fmmu_an_access_does_not_meet_share_it() -> None:
@@ -908,7 +910,7 @@ def test_tables_that_differ_in_an_fmmu_an_access_does_not_meet_share_it() -> Non
     lrd = int(Command.LRD)
     a, b = (mapping.table_access(caches, t, lrd, 0, 12) for t in tables)
     assert a is b
-    assert a.plan == (((True, 0x1100, 0, 8, 0, 0, 0), (True, 0x1000, 8, 4, 0, 0, 0)), ())
+    assert a.plan == ((mapping.byte_op(0x1100, 0, 8), mapping.byte_op(0x1000, 8, 4)), ())
 
 
 def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
@@ -1447,7 +1449,10 @@ def test_shadow_writes_take_the_register_bytes_alone() -> None:
     registers 0x0F7E-0x0F7F take 21 20."""
     dev = EscDevice(SlaveInfo.skin_patch(SIZE))
     dev.pdi_write(0x0F7E, b"\x11\x22\x33\x44")
-    parts = ((True, 0x0F7C, 1, 8, 0, 0, 0), (False, 0x0F7E, 4, 4, 0x0FF0_0FF0, 2, 3))
+    parts = (
+        mapping.byte_op(0x0F7C, 1, 8),
+        mapping.LogicalOp(False, 0x0F7E, 4, 4, 0x0FF0_0FF0, 2, 3),
+    )
     assert dev.shadow_writes(parts, bytes(range(16))) == [
         (0x0F7C, b"\x01\x02\x03\x04"),
         (0x0F7E, b"\x21\x20"),
@@ -1466,9 +1471,11 @@ def test_shadow_writes_over_the_rows_are_each_escs() -> None:
             dev.pdi_write(0x0F70, rng.randbytes(16))
         phys = rng.choice((0x0F70, 0x0F7C, 0x0F7F))
         width, at = rng.randrange(1, 6), rng.randrange(4)
-        part = (False, phys, width, rng.randrange(-12, 12), rng.getrandbits(8 * width), at, 3)
+        part = mapping.LogicalOp(
+            False, phys, width, rng.randrange(-12, 12), rng.getrandbits(8 * width), at, 3
+        )
         if rng.random() < 0.3:
-            part = (True, phys, at, width, 0, 0, 0)
+            part = mapping.byte_op(phys, at, width)
         arrived = np.frombuffer(rng.randbytes(8), np.uint8)[None, :]
         data_in = np.frombuffer(rng.randbytes(8 * NODES), np.uint8).reshape(NODES, 8)
         varies = rng.random() < 0.5
