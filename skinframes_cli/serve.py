@@ -387,6 +387,12 @@ def _mn_config(args: argparse.Namespace) -> Any:
         return mn_config(entries, args.cycle_us)
     if args.nodes is None or args.bytes is None:
         raise SkinframesError("serve epl --mn: --cdc FILE, or --nodes N and --bytes B")
+    if args.nodes > MN_PDO_CHANNELS:
+        raise SkinframesError(
+            f"serve epl --mn: --nodes {args.nodes}: the CDC's MN has {MN_PDO_CHANNELS} PDO "
+            f"channels of each direction, one per CN (1..{MN_PDO_CHANNELS}); a CDC (--cdc) "
+            "names CNs without that limit"
+        )
     ids = tuple(node_ids(args.nodes, args.node_ids))
     return mn_config(skin_cdc(skin_config(ids, args.bytes, args.cycle_us)))
 
