@@ -16,7 +16,7 @@ import threading
 import traceback
 from collections.abc import Callable, Iterator
 from types import FrameType
-from typing import Any
+from typing import Any, TextIO
 
 from emulator.esc import compiled
 from emulator.esc.dc import DEFAULT_DRIFT_PPM
@@ -244,12 +244,8 @@ def run(args: argparse.Namespace) -> int:
         "compiled": compiled.in_use(),
         "error_messages": stats.error_messages,
     }
-    if args.pcap is not None:
-        summary["pcap"] = args.pcap
-    out = sys.stderr if args.pcap == STDOUT else sys.stdout  # stdout carries the capture
-    if args.json:
-        print(json.dumps(summary), file=out)
-    else:
+    out = _report(args, summary)
+    if out is not None:
         print(
             f"served {summary['frames_out']} of {summary['frames_in']} frames "
             f"({summary['dropped']} dropped, {summary['errors']} not processed), "
@@ -265,6 +261,19 @@ def run(args: argparse.Namespace) -> int:
         for message in stats.error_messages:
             print(f"  not processed: {message}", file=out)
     return 0
+
+
+def _report(args: argparse.Namespace, summary: dict[str, Any]) -> TextIO | None:
+    """Print ``summary`` as JSON with ``--json`` (``"pcap"`` added with ``--pcap``) and return
+    None; else the stream for the text summary. Either goes to stdout, or to stderr when the
+    capture streams to stdout (``--pcap -``)."""
+    if args.pcap is not None:
+        summary["pcap"] = args.pcap
+    out = sys.stderr if args.pcap == STDOUT else sys.stdout  # stdout carries the capture
+    if args.json:
+        print(json.dumps(summary), file=out)
+        return None
+    return out
 
 
 def _on_error(debug: bool) -> Callable[[BaseException, bytes], None]:
@@ -340,11 +349,8 @@ def run_epl(args: argparse.Namespace) -> int:
         "counts": report["counts"],
         "cns": report["cns"],
     }
-    if args.pcap is not None:
-        summary["pcap"] = args.pcap
-    out = sys.stderr if args.pcap == STDOUT else sys.stdout
-    if args.json:
-        print(json.dumps(summary), file=out)
+    out = _report(args, summary)
+    if out is None:
         return 0
     print(
         f"served {summary['frames_out']} answers to {summary['frames_in']} frames "
@@ -454,11 +460,8 @@ def run_epl_mn(args: argparse.Namespace) -> int:
         "counts": report["counts"],
         "cns": report["cns"],
     }
-    if args.pcap is not None:
-        summary["pcap"] = args.pcap
-    out = sys.stderr if args.pcap == STDOUT else sys.stdout
-    if args.json:
-        print(json.dumps(summary), file=out)
+    out = _report(args, summary)
+    if out is None:
         return 0
     when = summary["all_operational_s"]
     print(

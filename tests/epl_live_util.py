@@ -92,20 +92,36 @@ def stop(proc: subprocess.Popen[str], sig: int) -> tuple[str, str]:
         return proc.communicate()
 
 
-def serve_epl(net: Any, serve_args: list[str]) -> subprocess.Popen[str]:
-    """``skinframes serve epl --iface`` the slave end of ``net`` (a veth pair in a namespace)
-    with ``serve_args``, once it says it is serving."""
-    serve = subprocess.Popen(
-        [
-            *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes"),
-            *("serve", "epl", "--iface", net.slave, *serve_args),
-        ],
+def skinframes(*args: str) -> subprocess.CompletedProcess[str]:
+    """``python -m skinframes ARGS`` of this checkout, its output captured."""
+    return subprocess.run(
+        [sys.executable, "-m", "skinframes", *args],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
+def skinframes_in_netns(netns: str, *args: str) -> subprocess.Popen[str]:
+    """``python -m skinframes ARGS`` of this checkout inside ``netns``, its stdout and stderr
+    piped."""
+    return subprocess.Popen(
+        [*("ip", "netns", "exec", netns, sys.executable, "-m", "skinframes"), *args],
         cwd=ROOT,
         env=ENV,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
+
+
+def serve_epl(net: Any, serve_args: list[str]) -> subprocess.Popen[str]:
+    """``skinframes serve epl --iface`` the slave end of ``net`` (a veth pair in a namespace)
+    with ``serve_args``, once it says it is serving."""
+    serve = skinframes_in_netns(net.netns, "serve", "epl", "--iface", net.slave, *serve_args)
     try:
         read_line(serve.stderr, "serving", 60)
     except BaseException:

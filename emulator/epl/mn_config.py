@@ -32,7 +32,6 @@ NODE_IS_CN: Final = 0x02  # 0x1F81 bit 1
 # objdict.h too), 0x1F8A/2 AsyncSlotTimeout 100 us
 DEFAULT_PRES_TIMEOUT_NS: Final = 25_000
 DEFAULT_ASYNC_SLOT_NS: Final = 100_000
-NS_PER_US: Final = 1_000
 BITS_PER_BYTE: Final = 8
 
 

@@ -23,6 +23,7 @@ import enum
 from collections import Counter
 from collections.abc import Sequence
 from dataclasses import dataclass, field
+from typing import Final
 
 from emulator.epl.sdo_seq import NEW_WINDOW, SequenceLayer
 from skinframes.powerlink import Sdo, SdoCommand
@@ -48,6 +49,15 @@ class Phase(enum.Enum):
     CLOSING = "closing"  # every write done: the close to send
     DONE = "done"  # closed after every write succeeded
     FAILED = "failed"  # an abort or a sequence error: closed
+
+
+# The server's frames that set the connection up (rcon, scon) and where each leads
+_INIT = (SequenceCon.INITIALIZATION, SequenceCon.INITIALIZATION)
+_VALID = (SequenceCon.CONNECTION_VALID, SequenceCon.CONNECTION_VALID)
+HANDSHAKE: Final = {
+    Phase.OPENING: (_INIT, Phase.CONFIRMING),
+    Phase.CONFIRMED: (_VALID, Phase.READY),
+}
 
 
 @dataclass
@@ -111,17 +121,12 @@ class SdoClient:
     def receive(self, sdo: Sdo) -> None:
         """One SDO frame from the server."""
         rcon, scon = sdo.receive_con, sdo.send_con
-        if self.phase is Phase.OPENING:
-            if rcon == SequenceCon.INITIALIZATION and scon == SequenceCon.INITIALIZATION:
+        handshake = HANDSHAKE.get(self.phase)
+        if handshake is not None:  # the connection's set-up: the one frame expected, or nothing
+            expected, after = handshake
+            if (rcon, scon) == expected:
                 self.seq.recv_seq = sdo.send_sequence
-                self.phase = Phase.CONFIRMING
-            else:
-                self.counts["sdo_unexpected"] += 1
-            return
-        if self.phase is Phase.CONFIRMED:
-            if rcon == SequenceCon.CONNECTION_VALID and scon == SequenceCon.CONNECTION_VALID:
-                self.seq.recv_seq = sdo.send_sequence
-                self.phase = Phase.READY
+                self.phase = after
             else:
                 self.counts["sdo_unexpected"] += 1
             return

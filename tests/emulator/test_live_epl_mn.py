@@ -21,12 +21,11 @@ from __future__ import annotations
 import json
 import signal
 import subprocess
-import sys
 from pathlib import Path
 
 import pytest
 import tshark_util
-from epl_live_util import ENV, ROOT, built_kit, opl_cns
+from epl_live_util import built_kit, opl_cns, skinframes, skinframes_in_netns
 from epl_mn_util import shipped_files
 
 from skinframes import read_capture
@@ -48,17 +47,9 @@ def test_serve_epl_mn_brings_openpowerlink_cns_to_operational(
     cdc, capture = tmp_path / "mnobd.cdc", tmp_path / "mn.pcapng"
     cdc.write_bytes(shipped_files()["mnobd.cdc"])
     with opl_cns(kit, IDS, tmp_path) as (netns, iface):
-        serve = subprocess.Popen(
-            [
-                *("ip", "netns", "exec", netns, sys.executable, "-m", "skinframes"),
-                *("serve", "epl", "--mn", "--iface", iface, "--cdc", str(cdc)),
-                *("--cycles", str(CYCLES), "--pcap", str(capture), "--json"),
-            ],
-            cwd=ROOT,
-            env=ENV,
-            stdout=subprocess.PIPE,
-            stderr=subprocess.PIPE,
-            text=True,
+        serve = skinframes_in_netns(
+            *(netns, "serve", "epl", "--mn", "--iface", iface, "--cdc", str(cdc)),
+            *("--cycles", str(CYCLES), "--pcap", str(capture), "--json"),
         )
         try:
             out, err = serve.communicate(timeout=RUN_TIMEOUT_S)
@@ -96,15 +87,7 @@ def test_serve_epl_mn_brings_openpowerlink_cns_to_operational(
             operational[int(row["epl.src"][0])] += 1
     assert all(count >= CYCLES for count in operational.values()), operational
 
-    analyzed = subprocess.run(
-        [sys.executable, "-m", "skinframes", "analyze", str(capture), "--json"],
-        cwd=ROOT,
-        env=ENV,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
+    analyzed = skinframes("analyze", str(capture), "--json")
     assert analyzed.returncode == 0, analyzed.stderr
     nodes = {n["node"]: n for n in json.loads(analyzed.stdout)["epl"]["nodes"]}
     assert sorted(nodes) == IDS
