@@ -19,7 +19,7 @@ import pytest
 from epl_frames import hostile
 from epl_mn_util import SimLink, shipped_files
 
-from emulator.epl.mn import EplMn, Step
+from emulator.epl.mn import EplMn, Step, percentile_us
 from emulator.epl.mn_config import MnConfig, mn_config
 from emulator.epl.mn_live import MnRunStats, run_mn
 from emulator.epl.od import ObjectDictionary
@@ -234,3 +234,11 @@ def test_hostile_frames_never_stop_the_mn() -> None:
     assert stats.errors == 0, stats.error_messages
     assert sum(mn.counts.values()) > 0
     print(f"\nhostile: {dict(mn.counts)}, {stats.cycles} cycles")
+
+
+def test_percentiles_are_nearest_rank() -> None:
+    times = [k * 1000 for k in range(100, 0, -1)]  # 1..100 us, in any order
+    assert percentile_us(times, 0.5) == 50.0  # rank ceil(0.5 * 100) = 50
+    assert percentile_us(times, 0.99) == 99.0
+    assert percentile_us([7_500], 0.99) == 7.5
+    assert percentile_us([], 0.5) is None
