@@ -7,7 +7,9 @@ through :class:`Step`:
 
 1. the MN's NMTResetNode to all (ASnd NMTCommand 0x28 to 255, once, :meth:`EplMn.reset_all`);
 2. ``IDENTIFY``: SoA IdentRequest until the CN's IdentResponse (its MAC is learnt from it);
-3. ``STATUS``: SoA StatusRequest until its StatusResponse;
+3. ``STATUS``: SoA StatusRequest with ER (exception reset) set until its StatusResponse shows
+   EC (exception clear), then with ER clear until EC is clear (DS 301 6.5.3, the error
+   signalling's reset; the kit's README, step 4), at most ``STATUS_REQUESTS`` times;
 4. ``CONFIGURE``: the SDO writes of the node's 0x1F22 block (:class:`~.sdo_client.SdoClient`;
    only 0x1006 when the IdentResponse's ConfDate/ConfTime equal 0x1F26/0x1F27, as
    openPOWERLINK's MN skips the download then); then NMTResetConfiguration (0x2A), and the CN
@@ -54,6 +56,7 @@ from skinframes.powerlink import (
     RequestedService,
     Sdo,
     SoA,
+    SoAFlag,
     SoC,
     StatusResponse,
     frame,
@@ -67,6 +70,8 @@ RESEND_CYCLES: Final = 20
 # An SDO transfer whose answer has not come after this many invitations fails (the CN's boot
 # starts again)
 SDO_PATIENCE: Final = 50
+STATUS_REQUESTS: Final = 20  # then the boot goes on without the error signalling's reset
+EC_FLAG: Final = 0x08  # StatusResponse flags1: exception clear (DS 301 7.3.3.3.1)
 KEEP_TIMES: Final = 200_000  # PReq -> PRes times kept per CN for the median and p99
 
 
@@ -93,6 +98,8 @@ class NodeRun:
     answered: bool = False  # a PRes came since it was identified
     sdo: SdoClient | None = None
     sdo_invites: int = 0
+    exception_reset: bool = True  # the ER of its next StatusRequest
+    status_requests: int = 0
     commands: list[int] = field(default_factory=list)  # NMT commands to send it
     sent_command: tuple[int, int] | None = None  # (command, cycle)
     operational_ns: int | None = None  # when it first reported Operational (MN clock)
@@ -123,6 +130,8 @@ class NodeRun:
         self.step = Step.IDENTIFY
         self.configured = configured
         self.answered = False
+        self.exception_reset = True
+        self.status_requests = 0
         self.sdo = None
         self.sent_command = None
 
@@ -206,7 +215,15 @@ class EplMn:
         if node.step is Step.IDENTIFY:
             return self._soa(RequestedService.IDENT_REQUEST, node.node_id), None, node.node_id
         if node.step is Step.STATUS:
-            return self._soa(RequestedService.STATUS_REQUEST, node.node_id), None, node.node_id
+            node.status_requests += 1
+            flags = SoAFlag.ER if node.exception_reset else 0
+            soa = SoA(
+                RequestedService.STATUS_REQUEST,
+                node.node_id,
+                nmt_status=self.nmt_state,
+                flags1=flags,
+            )
+            return frame(soa).to_bytes(), None, node.node_id
         sdo = node.sdo
         if node.step is Step.CONFIGURE and sdo is not None:
             if sdo.waiting or node.rs:
@@ -307,7 +324,7 @@ class EplMn:
         elif isinstance(service, StatusResponse):
             self._reported(node, service.nmt_status, now_ns)
             if node.step is Step.STATUS:
-                node.step = Step.START if node.configured else Step.CONFIGURE
+                self._status(node, bool(service.flags1 & EC_FLAG))
         elif isinstance(service, Sdo):
             if node.sdo is not None and asnd.dest == MN_NODE_ID:
                 node.sdo_invites = 0
@@ -316,6 +333,17 @@ class EplMn:
                 node.counts["sdo_unexpected"] += 1
         else:
             node.counts["asnd_other"] += 1
+
+    def _status(self, node: NodeRun, ec: bool) -> None:
+        """A StatusResponse in the STATUS step: ER set until EC, then clear until EC clears."""
+        if node.exception_reset and ec:
+            node.exception_reset = False
+            return
+        if node.exception_reset or ec:
+            if node.status_requests < STATUS_REQUESTS:
+                return
+            node.counts["error_signalling_not_reset"] += 1
+        node.step = Step.START if node.configured else Step.CONFIGURE
 
     def _writes(self, node: NodeRun, ident: IdentResponse) -> list[CdcEntry]:
         """The node's 0x1F22 block; only its 0x1006 when its ConfDate/ConfTime are the CDC's."""

@@ -10,6 +10,7 @@ with the decoder it uses. The live judge is the real openPOWERLINK CN
 
 from __future__ import annotations
 
+import itertools
 import random
 import threading
 from collections.abc import Callable
@@ -133,6 +134,18 @@ def test_the_mn_boots_the_emulated_cns_as_the_kit_describes() -> None:
         assert sdo_writes(sim.sent, n) == [
             (e.index, e.subindex) for e in skin_config().nodes[IDS.index(n)].writes
         ]
+    # StatusRequests (SoA MessageType 5, RequestedServiceID 2 at EPL byte 6, target at 7) with
+    # ER (flags1 at EPL byte 4, 0x02) until the CN shows EC, then without: the error
+    # signalling's reset (DS 301 6.5.3), after which no CN shows EC
+    for n in IDS:
+        er = [
+            bool(f[EPL + 4] & 0x02)
+            for f in sim.sent
+            if f[EPL] == 0x05 and f[EPL + 6] == 0x02 and f[EPL + 7] == n
+        ]
+        # twice: before the SDO download and after NMTResetConfiguration
+        assert [k for k, _ in itertools.groupby(er)] == [True, False, True, False], er
+    assert not any(cn.errsig.ec for cn in skin.nodes)
     # what the CNs hold afterwards: the CDC's cycle and TPDO mapping (DS 301 6.4.9.2: length 16
     # | offset 16 | reserved 8 | sub-index 8 | index 16; 0x6100/1, 192 bits at 0)
     for cn in skin.nodes:

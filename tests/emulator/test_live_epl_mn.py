@@ -5,7 +5,8 @@ one bridge in a private network namespace; ``serve epl --mn`` runs on its own po
 kit's shipped CDC (openCONFIGURATOR's Demo_3CN ``mnobd.cdc``, read unchanged: CNs 1, 32, 110,
 50 ms cycle, PRes timeout 200 us) and stops after 200 cycles with every CN OPERATIONAL.
 
-The judges are the CNs and tshark: each CN's own log reports ReadyToOperate -> Operational;
+The judges are the CNs and tshark: each CN's own log reports ReadyToOperate -> Operational, and
+its StatusResponses follow the MN's exception resets (EC after ER, cleared after);
 the MN's capture is tshark-clean; each Operational PRes carries the demo CN's input byte 0x01
 (0x6000/1: apps/demo_cn_console/src/app.c sets its digital input to 1 at start, and stdin is
 /dev/null so no key changes it); ``analyze`` of the capture finds each CN's PReq -> PRes times.
@@ -71,6 +72,8 @@ def test_serve_epl_mn_brings_openpowerlink_cns_to_operational(
     assert [c["state"] for c in cns] == ["OPERATIONAL"] * len(IDS), summary
     assert summary["operational_cycles"] == CYCLES and summary["errors"] == 0
     assert all(c["response_us_median"] is not None for c in cns)
+    # each CN showed EC after ER and cleared it after ER went back (the error signalling reset)
+    assert not any("error_signalling_not_reset" in c["counts"] for c in cns), cns
     for n in IDS:  # the CN's own word
         log = (tmp_path / f"cn{n}.log").read_text(errors="replace")
         assert "NmtCsReadyToOperate->NmtCsOperational" in log, log[-2000:]
