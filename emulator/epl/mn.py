@@ -72,6 +72,7 @@ RESEND_CYCLES: Final = 20
 SDO_PATIENCE: Final = 50
 STATUS_REQUESTS: Final = 20  # then the boot goes on without the error signalling's reset
 EC_FLAG: Final = 0x08  # StatusResponse flags1: exception clear (DS 301 7.3.3.3.1)
+LOSS_STEP: Final = 8  # DS 301 threshold counters: +8 per error, -1 per good cycle
 KEEP_TIMES: Final = 200_000  # PReq -> PRes times kept per CN for the median and p99
 
 
@@ -107,6 +108,7 @@ class NodeRun:
     responses: int = 0
     losses: int = 0
     late: int = 0
+    loss_counter: int = 0  # DS 301's threshold counter of PRes losses
     response_ns: list[int] = field(default_factory=list)  # the first KEEP_TIMES
     worst_ns: int | None = None
     pres_payload: bytes = b""
@@ -382,9 +384,10 @@ class EplMn:
         node.worst_ns = max(took_ns, node.worst_ns or 0)
         if took_ns <= node.config.pres_timeout_ns:
             node.responses += 1
+            node.loss_counter = max(0, node.loss_counter - 1)
         else:
             node.late += 1
-            node.losses += 1
+            self._lost(node)
 
     def pres_late(self, node: NodeRun) -> None:
         """A PRes from ``node`` came after its timeout (counted as a loss then)."""
@@ -394,7 +397,19 @@ class EplMn:
         """No PRes from ``node`` within its timeout: a loss once it answered before."""
         node.polls += 1
         if node.answered:
-            node.losses += 1
+            self._lost(node)
+
+    @staticmethod
+    def _lost(node: NodeRun) -> None:
+        """A loss of PRes, and DS 301's threshold counter (0x1C09): where it reaches the
+        threshold openPOWERLINK's MN resets the CN (E_DLL_LOSS_PRES_TH); this MN counts it."""
+        node.losses += 1
+        threshold = node.config.loss_of_pres_threshold
+        if threshold:
+            node.loss_counter += LOSS_STEP
+            if node.loss_counter >= threshold:
+                node.loss_counter = 0
+                node.counts["loss_of_pres_threshold"] += 1
 
     def unidentified(self) -> bool:
         """Whether a CN waits to be identified."""

@@ -4,9 +4,10 @@ MN reads ``mnobd.cdc``; :mod:`skinframes.powerlink.cdc` decodes it).
 Objects read (EPSG DS 301 V1.4.0 7.2.1; the kit's README, "CDC (mnobd.cdc) format"): the node
 assignment 0x1F81/<node> (bit 0 the node exists, bit 1 it is a CN; the last entry of a node
 counts, as the CDC writes it twice), the cycle 0x1006/0 (us), the asynchronous slot timeout
-0x1F8A/2 (ns), each CN's PRes timeout 0x1F92/<node> (ns), ConfDate/ConfTime 0x1F26/0x1F27
-<node>, its 0x1F22 block (the objects the MN writes to it), and the MN's TPDO channels
-(0x1800+k/1 the node a channel sends to, 0x1A00+k its mapping), which size each PReq's payload.
+0x1F8A/2 (ns), each CN's PRes timeout 0x1F92/<node> (ns), its loss-of-PRes threshold
+0x1C09/<node>, ConfDate/ConfTime 0x1F26/0x1F27 <node>, its 0x1F22 block (the objects the MN
+writes to it), and the MN's TPDO channels (0x1800+k/1 the node a channel sends to, 0x1A00+k its
+mapping), which size each PReq's payload.
 Every other entry configures the real MN's own dictionary and is not needed here.
 """
 
@@ -45,6 +46,7 @@ class NodeConfig:
     writes: tuple[CdcEntry, ...]
     conf_date: int | None
     conf_time: int | None
+    loss_of_pres_threshold: int = 0  # 0x1C09/<node>; 0: none
 
 
 @dataclass(frozen=True, slots=True)
@@ -109,6 +111,7 @@ def mn_config(entries: Sequence[CdcEntry], cycle_us: int | None = None) -> MnCon
         timeout = values.get((0x1F92, n))
         block = values.get((CONFIGURATION_DATA_INDEX, n))
         date, time_ = values.get((0x1F26, n)), values.get((0x1F27, n))
+        threshold = values.get((0x1C09, n))
         nodes.append(
             NodeConfig(
                 node_id=n,
@@ -117,6 +120,7 @@ def mn_config(entries: Sequence[CdcEntry], cycle_us: int | None = None) -> MnCon
                 writes=block.nested if block is not None else (),
                 conf_date=date.value if date is not None else None,
                 conf_time=time_.value if time_ is not None else None,
+                loss_of_pres_threshold=threshold.value if threshold is not None else 0,
             )
         )
     slot = values.get((0x1F8A, 2))

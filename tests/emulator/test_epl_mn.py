@@ -93,6 +93,7 @@ def test_the_shipped_cdc_configures_the_mn_as_the_kit_says() -> None:
         assert node.preq_payload_bytes == 1  # the MN's TPDO maps 8 bits to each CN
         assert [(w.index, w.subindex) for w in node.writes] == DEMO_BLOCK
         assert (node.conf_date, node.conf_time) == (0x3124, 0x03735955)
+        assert node.loss_of_pres_threshold == 40  # 0x1C09 (the kit's README, "What it checks")
     assert mn_config(decode_cdc(shipped_files()["mnobd.cdc"]), 20_000).cycle_us == 20_000
 
 
@@ -255,3 +256,21 @@ def test_percentiles_are_nearest_rank() -> None:
     assert percentile_us(times, 0.99) == 99.0
     assert percentile_us([7_500], 0.99) == 7.5
     assert percentile_us([], 0.5) is None
+
+
+def test_five_losses_in_a_row_reach_the_loss_of_pres_threshold() -> None:
+    """0x1C09 = 40 (skin_cdc), DS 301's counter +8 per loss: the 5th loss in a row reaches it;
+    the MN counts it and goes on polling (openPOWERLINK's MN would reset the CN)."""
+    skin = EplSkin(list(IDS), 24)
+    pres_of_1: list[bytes] = []
+
+    def drop(answer: bytes) -> bool:  # PRes (MessageType 4) of CN 1 (source at EPL byte 2)
+        if answer[EPL] == 0x04 and answer[EPL + 2] == 1:
+            pres_of_1.append(answer)
+            return 30 < len(pres_of_1) <= 35
+        return False
+
+    mn, _, stats = run(skin_config(), skin, drop=drop)
+    node = mn.by_id[1]
+    assert node.losses == 5 and node.counts["loss_of_pres_threshold"] == 1
+    assert stats.operational_cycles == 20 and node.step is Step.OPERATIONAL
