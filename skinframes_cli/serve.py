@@ -438,6 +438,7 @@ def run_epl_mn(args: argparse.Namespace) -> int:
             net_time_offset_ns=time.time_ns() - time.monotonic_ns(),
             on_error=_on_error(args.debug),
         )
+        link.record_sent()
     report = mn.report(stats.started_ns)
     all_op = stats.all_operational_ns
     summary: dict[str, Any] = {

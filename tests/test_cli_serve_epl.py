@@ -15,6 +15,7 @@ from epl_mn_util import SkinSocket
 
 import emulator.live
 from emulator.epl.skin import EplSkin
+from skinframes import read_capture
 from skinframes_cli import main
 
 
@@ -200,6 +201,8 @@ def test_serve_epl_mn_boots_emulated_cns_and_reports(
     assert summary["operational_cycles"] == 5 and summary["errors"] == 0
     assert [cn["state"] for cn in summary["cns"]] == ["OPERATIONAL"] * 2
     assert all(cn["response_us_median"] is not None for cn in summary["cns"])
+    # every frame sent and received is in the capture, the last ones too
+    assert sum(1 for _ in read_capture(capture)) == summary["frames_in"] + summary["frames_out"]
     assert tshark_util.problems(tshark, capture) == []
     rows = tshark_util.fields(tshark, capture, ["epl.mtyp", "epl.src"])
     sent = {(int(r["epl.mtyp"][0]), int(r["epl.src"][0])) for r in rows}

@@ -53,13 +53,18 @@ class Link(Protocol):
 
 
 class SocketLink:
-    """A :class:`Link` on a raw socket, recording every frame in ``capture`` (host clock)."""
+    """A :class:`Link` on a raw socket, recording every frame in ``capture`` (host clock).
+
+    A sent frame is recorded only when the link next waits or receives (with the time it was
+    sent): between a PReq and its PRes the MN does no more than send and wait.
+    """
 
     def __init__(self, sock: RawSocket, capture: CaptureWriter | None = None) -> None:
         self.sock = sock
         self.capture = capture
         self.frames_in = self.frames_out = 0
         self._fd = sock.fileno()
+        self._sent: list[tuple[int, bytes]] = []  # sent, not yet recorded
         self._wall_offset_ns = time.time_ns() - time.monotonic_ns()
 
     def now_ns(self) -> int:
@@ -74,8 +79,15 @@ class SocketLink:
         sent = time.monotonic_ns()
         self.frames_out += 1
         if self.capture is not None:
-            self.capture.write(self.wall_ns(sent), frame, outbound=True)
+            self._sent.append((sent, frame))
         return sent
+
+    def record_sent(self) -> None:
+        """Record the frames sent since the last wait (the capture is complete after it)."""
+        if self.capture is not None:
+            for sent, frame in self._sent:
+                self.capture.write(self.wall_ns(sent), frame, outbound=True)
+        self._sent.clear()
 
     def recv(self, until_ns: int) -> tuple[bytes, int] | None:
         while True:
@@ -83,9 +95,11 @@ class SocketLink:
             now = time.monotonic_ns()
             if frame is not None:
                 self.frames_in += 1
+                self.record_sent()
                 if self.capture is not None:
                     self.capture.write(self.wall_ns(now), frame, outbound=False)
                 return frame, now
+            self.record_sent()
             if now >= until_ns:
                 return None
             select.select([self._fd], [], [], (until_ns - now) / NS_PER_S)
