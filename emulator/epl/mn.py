@@ -2,14 +2,14 @@
 
 :class:`EplMn` knows what to send and what the CNs' frames mean; when frames go out and how
 long it waits for answers is the loop's (:mod:`.mn_live`). Each CN's boot (the MN's NMT
-boot-up of a CN, DS 301 7.4; the kit's README, "What the oPL MN sends a CN at boot") runs
+boot-up of a CN; the kit's README, "What the oPL MN sends a CN at boot") runs
 through :class:`Step`:
 
 1. the MN's NMTResetNode to all (ASnd NMTCommand 0x28 to 255, once, :meth:`EplMn.reset_all`);
 2. ``IDENTIFY``: SoA IdentRequest until the CN's IdentResponse (its MAC is learnt from it);
 3. ``STATUS``: SoA StatusRequest with ER (exception reset) set until its StatusResponse shows
-   EC (exception clear), then with ER clear until EC is clear (DS 301 6.5.3, the error
-   signalling's reset; the kit's README, step 4), at most ``STATUS_REQUESTS`` times;
+   EC (exception clear), then with ER clear until EC is clear (the error signalling's reset;
+   the kit's README, step 4), at most ``STATUS_REQUESTS`` times;
 4. ``CONFIGURE``: the SDO writes of the node's 0x1F22 block (:class:`~.sdo_client.SdoClient`;
    only 0x1006 when the IdentResponse's ConfDate/ConfTime equal 0x1F26/0x1F27, as
    openPOWERLINK's MN skips the download then); then NMTResetConfiguration (0x2A), and the CN
@@ -20,12 +20,13 @@ through :class:`Step`:
 An SDO abort or a broken connection sends NMTResetNode to that CN and starts its boot again
 (counted as ``boot_restarts``), as openPOWERLINK's MN does.
 
-The asynchronous slot of each cycle carries one frame (DS 301 4.2.4.1.2): the MN's own ASnd
+The asynchronous slot of each cycle carries one frame: the MN's own ASnd
 (an NMT command after SoA NMTRequestInvite, an SDO frame after SoA UnspecifiedInvite, both
 addressed to the MN, 240, as openPOWERLINK sends them), or a CN's answer to SoA IdentRequest,
 StatusRequest or UnspecifiedInvite; the CNs take turns (:meth:`EplMn.async_slot`). A CN is polled
 (PReq) once it is identified; a PReq without a PRes within the CN's PRes timeout (0x1F92) is a
-loss once the CN has answered one since it was identified.
+loss once the CN has answered one since it was identified, and DS 301's threshold counter of
+losses is kept against 0x1C09 (reaching it is counted; openPOWERLINK's MN would reset the CN).
 """
 
 from __future__ import annotations
@@ -180,8 +181,9 @@ class EplMn:
         message = PReq(node.node_id, bytes(node.config.preq_payload_bytes), flags1=flags)
         return ethernet.EthernetFrame(node.mac, self._src_mac, message).to_bytes()
 
-    def _soa(self, service: int, target: int) -> bytes:
-        return frame(SoA(service, target, nmt_status=self.nmt_state)).to_bytes()
+    def _soa(self, service: int, target: int, flags1: int = 0) -> bytes:
+        soa = SoA(service, target, nmt_status=self.nmt_state, flags1=flags1)
+        return frame(soa).to_bytes()
 
     def _asnd(self, service: NmtCommand | Sdo, dest: int) -> bytes:
         return frame(ASnd(service, dest=dest)).to_bytes()
@@ -219,13 +221,8 @@ class EplMn:
         if node.step is Step.STATUS:
             node.status_requests += 1
             flags = SoAFlag.ER if node.exception_reset else 0
-            soa = SoA(
-                RequestedService.STATUS_REQUEST,
-                node.node_id,
-                nmt_status=self.nmt_state,
-                flags1=flags,
-            )
-            return frame(soa).to_bytes(), None, node.node_id
+            soa = self._soa(RequestedService.STATUS_REQUEST, node.node_id, flags)
+            return soa, None, node.node_id
         sdo = node.sdo
         if node.step is Step.CONFIGURE and sdo is not None:
             if sdo.waiting or node.rs:

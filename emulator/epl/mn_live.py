@@ -4,12 +4,12 @@
 :class:`SocketLink`, or anything that sends and receives frames):
 
 1. NMTResetNode to every node, then a pause while the CNs reset (``RESET_WAIT_NS``);
-2. the reduced cycle (DS 301 4.2.4.1.1, the MN in PreOperational1): SoA only, each followed by
-   its asynchronous slot, until every CN is identified (at most ``REDUCED_MAX_NS``);
-3. the isochronous cycle every 0x1006 us: SoC; per polled CN a PReq, then up to its PRes timeout
-   (0x1F92) for its PRes (timed from the PReq's send to the PRes's receipt, on this host's
-   clock: what a capture here shows); SoA and the asynchronous slot (up to 0x1F8A/2 for an invited CN's
-   ASnd); then the frames that come until the next SoC.
+2. the reduced cycle (the MN in PreOperational1): SoA only, each followed by its asynchronous
+   slot, until every CN is identified (at most ``REDUCED_MAX_NS``);
+3. the isochronous cycle every 0x1006 us: SoC; per polled CN a PReq, then up to its PRes
+   timeout (0x1F92) for its PRes (timed from the PReq's send to the PRes's receipt, on this
+   host's clock: what a capture here shows); SoA and the asynchronous slot (up to 0x1F8A/2 for
+   an invited CN's ASnd); then the frames that come until the next SoC.
 
 It runs until ``stop`` is set or, with ``cycles``, until that many cycles have passed with every
 CN Operational. A frame that still hits an internal error is counted (``errors``, the first
