@@ -11,7 +11,6 @@ from skinframes.powerlink import MAX_CN_NODE_ID, MIN_CN_NODE_ID
 from skinframes.powerlink.cdc import (
     MAX_TAXEL_BYTES,
     MN_PDO_CHANNELS,
-    SkinConfig,
     encode_cdc,
     skin_cdc,
     to_text,
@@ -72,9 +71,8 @@ def run(args: argparse.Namespace) -> int:
     """Write the CDC (and its text)."""
     from emulator.epl.skin import node_ids
     from emulator.model.epl_config import (
-        DEFAULT_PRES_TIMEOUT_US,
-        default_cycle_us,
         shortest_cycle_us,
+        skin_config,
         worst_cycle_us,
     )
 
@@ -87,11 +85,9 @@ def run(args: argparse.Namespace) -> int:
     if args.txt is not None and args.txt == args.out:
         raise SkinframesError("--txt: the same file as --out")
     ids = tuple(node_ids(args.nodes, args.node_ids))
-    timeout_us = args.pres_timeout_us or DEFAULT_PRES_TIMEOUT_US
-    probe = SkinConfig(ids, args.bytes, 1, timeout_us, timeout_us)
-    payload = probe.pres_payload_bytes
-    cycle_us = args.cycle_us or default_cycle_us(len(ids), payload, timeout_us, timeout_us)
-    config = SkinConfig(ids, args.bytes, cycle_us, timeout_us, timeout_us)
+    config = skin_config(ids, args.bytes, args.cycle_us, args.pres_timeout_us)
+    timeout_us, cycle_us = config.pres_timeout_us, config.cycle_us
+    payload = config.pres_payload_bytes
     entries = skin_cdc(config)
     shortest = shortest_cycle_us(len(ids), payload, 1.0)
     if cycle_us < shortest:

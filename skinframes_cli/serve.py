@@ -1,7 +1,8 @@
 """``skinframes serve ecat|epl``: emulated skin patches on a live interface, for a real master.
 
 ``ecat``: the emulated ESC chain, for any EtherCAT master. ``epl``: the patches as POWERLINK
-CNs (NMT, SDO server, object dictionary, PRes), for a real EPL MN such as openPOWERLINK's.
+CNs (NMT, SDO server, object dictionary, PRes), for a real EPL MN such as openPOWERLINK's;
+``epl --mn``: an emulated MN that boots and polls real CNs as a CDC says.
 """
 
 from __future__ import annotations
@@ -15,7 +16,7 @@ import threading
 import traceback
 from collections.abc import Callable, Iterator
 from types import FrameType
-from typing import Any
+from typing import Any, TextIO
 
 from emulator.esc import compiled
 from emulator.esc.dc import DEFAULT_DRIFT_PPM
@@ -24,6 +25,8 @@ from skinframes.capture_writer import CaptureWriter
 from skinframes.errors import CaptureError, SkinframesError
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
 from skinframes.powerlink import MAX_CN_NODE_ID, MAX_PDO_PAYLOAD_BYTES, MIN_CN_NODE_ID
+from skinframes.powerlink.cdc import MN_PDO_CHANNELS
+from skinframes.text import escape
 from skinframes_cli.options import (
     bounded_int,
     finite_float,
@@ -36,6 +39,8 @@ from skinframes_cli.signals import handling
 STDOUT = "-"  # --pcap -: the capture on standard output
 MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
 MAX_INT_ARG = 1 << 31  # --nodes/--bytes: larger is refused at parse; the range is checked in run
+MAX_U32 = (1 << 32) - 1  # --cycle-us: 0x1006 is an UNSIGNED32 of us
+MN_ONLY = ("--cdc", "--cycle-us", "--cycles")
 
 
 def add_parser(sub: Any) -> None:
@@ -49,17 +54,18 @@ def add_parser(sub: Any) -> None:
         "the slaves ESI files describe (--esi). epl: answer as POWERLINK CNs (NMT state "
         "machine, IdentResponse, StatusResponse, SDO server, object dictionary, PRes with the "
         "taxels at 0x6100/1) for a real MN. Point the master at the other end of the link, e.g. "
-        "a veth pair in a network namespace (see the README). Needs root or CAP_NET_RAW. Runs "
-        "until SIGINT or SIGTERM, then prints what it served.",
+        "a veth pair in a network namespace (see the README). epl --mn: be the MN instead, "
+        "booting the real CNs a CDC names (--cdc, as openCONFIGURATOR writes it) or the skin "
+        "of --nodes and --bytes, then polling them every cycle. Needs root or CAP_NET_RAW. Runs "
+        "until SIGINT or SIGTERM (or --cycles), then prints what it served.",
     )
     protocol_arg(p, "protocol", choices=("ecat", "epl"))
     p.add_argument("--iface", required=True, help="network interface the master is wired to")
     p.add_argument(
         "--nodes",
         type=int_up_to(MAX_INT_ARG),
-        required=True,
         help=f"slaves (patches), 1..{MAX_SERVED_SLAVES}; 0 with --esi; epl: CNs, "
-        f"1..{MAX_CN_NODE_ID}",
+        f"1..{MAX_CN_NODE_ID}; epl --mn: the CNs to boot, 1..{MN_PDO_CHANNELS} (or --cdc)",
     )
     p.add_argument(
         "--node-ids",
@@ -125,6 +131,32 @@ def add_parser(sub: Any) -> None:
         help="epl: run under SCHED_FIFO with this priority (1..99; needs root or CAP_SYS_NICE), "
         "as openPOWERLINK's own demos do, so that a busy host delays the PRes less",
     )
+    p.add_argument(
+        "--mn",
+        action="store_true",
+        help="epl: be the MN: boot the real CNs on IFACE (NMTResetNode, IdentRequest, "
+        "StatusRequest, the SDO writes of each CN's 0x1F22 block, NMTResetConfiguration, "
+        "EnableReadyToOperate, StartNode), then poll them each cycle; report each CN's state, "
+        "PReq -> PRes times and losses",
+    )
+    p.add_argument(
+        "--cdc",
+        metavar="FILE",
+        help="epl --mn: the concise device configuration (mnobd.cdc, as openCONFIGURATOR or "
+        "`skinframes epl-config` writes it) naming the CNs, the cycle and what to write to each",
+    )
+    p.add_argument(
+        "--cycle-us",
+        type=bounded_int(1, MAX_U32),
+        help="epl --mn: the cycle length in us (default: the CDC's 0x1006; with --nodes the "
+        "model's, as epl-config chooses it)",
+    )
+    p.add_argument(
+        "--cycles",
+        type=bounded_int(1, MAX_INT_ARG),
+        help="epl --mn: stop after this many cycles with every CN OPERATIONAL (default: run "
+        "until SIGINT/SIGTERM)",
+    )
     p.add_argument("--json", action="store_true", help="print the summary as one JSON document")
     p.set_defaults(run=run)
 
@@ -140,8 +172,15 @@ def _capture(path: str) -> CaptureWriter:
 
 def run(args: argparse.Namespace) -> int:
     """Serve until a signal arrives."""
+    mn_only = (args.cdc, args.cycle_us, args.cycles)
+    if not args.mn and any(v is not None for v in mn_only):
+        raise SkinframesError(f"{', '.join(MN_ONLY)} apply to serve epl --mn only")
     if args.protocol == "epl":
-        return run_epl(args)
+        return run_epl_mn(args) if args.mn else run_epl(args)
+    if args.mn:
+        raise SkinframesError("--mn applies to serve epl only")
+    if args.nodes is None:
+        raise SkinframesError("serve ecat: --nodes is required")
     from emulator.errors import TopologyError
     from emulator.esc.dc import seed_clocks
     from emulator.esc.esi_slave import check_esi_slave, esi_device
@@ -205,12 +244,8 @@ def run(args: argparse.Namespace) -> int:
         "compiled": compiled.in_use(),
         "error_messages": stats.error_messages,
     }
-    if args.pcap is not None:
-        summary["pcap"] = args.pcap
-    out = sys.stderr if args.pcap == STDOUT else sys.stdout  # stdout carries the capture
-    if args.json:
-        print(json.dumps(summary), file=out)
-    else:
+    out = _report(args, summary)
+    if out is not None:
         print(
             f"served {summary['frames_out']} of {summary['frames_in']} frames "
             f"({summary['dropped']} dropped, {summary['errors']} not processed), "
@@ -226,6 +261,19 @@ def run(args: argparse.Namespace) -> int:
         for message in stats.error_messages:
             print(f"  not processed: {message}", file=out)
     return 0
+
+
+def _report(args: argparse.Namespace, summary: dict[str, Any]) -> TextIO | None:
+    """Print ``summary`` as JSON with ``--json`` (``"pcap"`` added with ``--pcap``) and return
+    None; else the stream for the text summary. Either goes to stdout, or to stderr when the
+    capture streams to stdout (``--pcap -``)."""
+    if args.pcap is not None:
+        summary["pcap"] = args.pcap
+    out = sys.stderr if args.pcap == STDOUT else sys.stdout  # stdout carries the capture
+    if args.json:
+        print(json.dumps(summary), file=out)
+        return None
+    return out
 
 
 def _on_error(debug: bool) -> Callable[[BaseException, bytes], None]:
@@ -260,6 +308,8 @@ def run_epl(args: argparse.Namespace) -> int:
 
     if args.no_mailbox or args.drift_ppm is not None or args.esi:
         raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
+    if args.nodes is None:
+        raise SkinframesError("serve epl: --nodes is required")
     if args.bytes is None:
         raise SkinframesError("serve epl: --bytes is required")
     period_s = args.period_ms / 1000.0
@@ -299,11 +349,8 @@ def run_epl(args: argparse.Namespace) -> int:
         "counts": report["counts"],
         "cns": report["cns"],
     }
-    if args.pcap is not None:
-        summary["pcap"] = args.pcap
-    out = sys.stderr if args.pcap == STDOUT else sys.stdout
-    if args.json:
-        print(json.dumps(summary), file=out)
+    out = _report(args, summary)
+    if out is None:
         return 0
     print(
         f"served {summary['frames_out']} answers to {summary['frames_in']} frames "
@@ -317,6 +364,127 @@ def run_epl(args: argparse.Namespace) -> int:
         print(f"  CN {cn['node_id']}: {cn['state']}; {counted}", file=out)
     if report["counts"]:
         counted = ", ".join(f"{k} {v}" for k, v in report["counts"].items())  # type: ignore[attr-defined]
+        print(f"  frames for no CN here or unreadable: {counted}", file=out)
+    for message in stats.error_messages:
+        print(f"  not processed: {message}", file=out)
+    return 0
+
+
+def _mn_config(args: argparse.Namespace) -> Any:
+    """The MN's configuration: the CDC's (``--cdc``), or the skin of ``--nodes`` CNs of
+    ``--bytes`` taxel bytes as ``epl-config`` writes it."""
+    from emulator.epl.mn_config import mn_config
+    from emulator.epl.skin import node_ids
+    from emulator.model.epl_config import skin_config
+    from skinframes.powerlink.cdc import decode_cdc, skin_cdc
+
+    if args.cdc is not None:
+        if args.nodes is not None or args.bytes is not None or args.node_ids is not None:
+            raise SkinframesError("serve epl --mn: --cdc or --nodes/--bytes/--node-ids, not both")
+        try:
+            with open(args.cdc, "rb") as f:
+                data = f.read()
+        except OSError as exc:
+            raise SkinframesError(f"--cdc {escape(args.cdc)}: {exc.strerror or exc}") from exc
+        try:
+            entries = decode_cdc(data)
+        except SkinframesError as exc:
+            raise SkinframesError(f"--cdc {escape(args.cdc)}: {exc}") from exc
+        return mn_config(entries, args.cycle_us)
+    if args.nodes is None or args.bytes is None:
+        raise SkinframesError("serve epl --mn: --cdc FILE, or --nodes N and --bytes B")
+    if args.nodes > MN_PDO_CHANNELS:
+        raise SkinframesError(
+            f"serve epl --mn: --nodes {args.nodes}: the CDC's MN has {MN_PDO_CHANNELS} PDO "
+            f"channels of each direction, one per CN (1..{MN_PDO_CHANNELS}); a CDC (--cdc) "
+            "names CNs without that limit"
+        )
+    ids = tuple(node_ids(args.nodes, args.node_ids))
+    return mn_config(skin_cdc(skin_config(ids, args.bytes, args.cycle_us)))
+
+
+def run_epl_mn(args: argparse.Namespace) -> int:
+    """``serve epl --mn``: boot and poll real CNs until a signal arrives or ``--cycles``."""
+    import time
+
+    from emulator.epl.mn import EplMn
+    from emulator.epl.mn_live import SocketLink, run_mn
+    from emulator.live import ETH_P_EPL, RawSocket, realtime
+
+    if args.no_mailbox or args.drift_ppm is not None or args.esi:
+        raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
+    if args.pcap == "":
+        raise CaptureError("--pcap: an empty file name")
+    config = _mn_config(args)
+    mn = EplMn(config)
+    if args.rt_priority is not None:
+        realtime(args.rt_priority)
+    stop = threading.Event()
+    with _until_signal(stop), contextlib.ExitStack() as stack:
+        sock = stack.enter_context(RawSocket(args.iface, ETH_P_EPL, promiscuous=True))
+        capture = None if args.pcap is None else stack.enter_context(_capture(args.pcap))
+        link = SocketLink(sock, capture)
+        print(
+            f"MN for EPL CNs {','.join(map(str, config.node_ids))} on {args.iface}, cycle "
+            f"{config.cycle_us} us; SIGINT/SIGTERM to stop",
+            file=sys.stderr,
+            flush=True,
+        )
+        stats = run_mn(
+            mn,
+            link,
+            stop,
+            cycles=args.cycles,
+            net_time_offset_ns=time.time_ns() - time.monotonic_ns(),
+            on_error=_on_error(args.debug),
+        )
+        link.record_sent()
+    report = mn.report(stats.started_ns)
+    all_op = stats.all_operational_ns
+    summary: dict[str, Any] = {
+        "protocol": "epl",
+        "role": "mn",
+        "iface": args.iface,
+        "cdc": args.cdc,
+        "cycle_us": config.cycle_us,
+        "node_ids": config.node_ids,
+        "cycles": stats.cycles,
+        "operational_cycles": stats.operational_cycles,
+        "all_operational_s": None
+        if all_op is None
+        else round((all_op - stats.started_ns) / 1e9, 3),
+        "overruns": stats.overruns,
+        "frames_in": link.frames_in,
+        "frames_out": link.frames_out,
+        "errors": stats.errors,
+        "error_messages": stats.error_messages,
+        "counts": report["counts"],
+        "cns": report["cns"],
+    }
+    out = _report(args, summary)
+    if out is None:
+        return 0
+    when = summary["all_operational_s"]
+    print(
+        f"MN: {len(config.node_ids)} CNs, cycle {config.cycle_us} us: "
+        + ("not all OPERATIONAL" if when is None else f"all OPERATIONAL after {when} s")
+        + f"; {stats.cycles} cycles ({stats.operational_cycles} with all OPERATIONAL, "
+        f"{stats.overruns} overrun); {link.frames_out} frames sent, {link.frames_in} received "
+        f"({stats.errors} not processed)",
+        file=out,
+    )
+    for cn in summary["cns"]:
+        reached = "" if cn["operational_s"] is None else f" after {cn['operational_s']} s"
+        counted = ", ".join(f"{k} {v}" for k, v in cn["counts"].items()) or "nothing else"
+        print(
+            f"  CN {cn['node_id']}: {cn['state']}{reached}; PReq -> PRes median "
+            f"{cn['response_us_median']} us, p99 {cn['response_us_p99']} us, worst "
+            f"{cn['response_us_worst']} us; {cn['losses']} lost of {cn['polls']} "
+            f"({cn['late']} late); {counted}",
+            file=out,
+        )
+    if summary["counts"]:
+        counted = ", ".join(f"{k} {v}" for k, v in summary["counts"].items())
         print(f"  frames for no CN here or unreadable: {counted}", file=out)
     for message in stats.error_messages:
         print(f"  not processed: {message}", file=out)

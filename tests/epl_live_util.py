@@ -7,13 +7,16 @@ it fails instead.
 
 from __future__ import annotations
 
+import contextlib
 import os
 import re
+import secrets
 import shutil
 import signal
 import subprocess
 import sys
 import time
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
@@ -89,20 +92,36 @@ def stop(proc: subprocess.Popen[str], sig: int) -> tuple[str, str]:
         return proc.communicate()
 
 
-def serve_epl(net: Any, serve_args: list[str]) -> subprocess.Popen[str]:
-    """``skinframes serve epl --iface`` the slave end of ``net`` (a veth pair in a namespace)
-    with ``serve_args``, once it says it is serving."""
-    serve = subprocess.Popen(
-        [
-            *("ip", "netns", "exec", net.netns, sys.executable, "-m", "skinframes"),
-            *("serve", "epl", "--iface", net.slave, *serve_args),
-        ],
+def skinframes(*args: str) -> subprocess.CompletedProcess[str]:
+    """``python -m skinframes ARGS`` of this checkout, its output captured."""
+    return subprocess.run(
+        [sys.executable, "-m", "skinframes", *args],
+        cwd=ROOT,
+        env=ENV,
+        capture_output=True,
+        text=True,
+        timeout=300,
+        check=False,
+    )
+
+
+def skinframes_in_netns(netns: str, *args: str) -> subprocess.Popen[str]:
+    """``python -m skinframes ARGS`` of this checkout inside ``netns``, its stdout and stderr
+    piped."""
+    return subprocess.Popen(
+        [*("ip", "netns", "exec", netns, sys.executable, "-m", "skinframes"), *args],
         cwd=ROOT,
         env=ENV,
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
     )
+
+
+def serve_epl(net: Any, serve_args: list[str]) -> subprocess.Popen[str]:
+    """``skinframes serve epl --iface`` the slave end of ``net`` (a veth pair in a namespace)
+    with ``serve_args``, once it says it is serving."""
+    serve = skinframes_in_netns(net.netns, "serve", "epl", "--iface", net.slave, *serve_args)
     try:
         read_line(serve.stderr, "serving", 60)
     except BaseException:
@@ -166,3 +185,47 @@ def mn_drives_serve(
         if mn is not None:
             stop(mn, signal.SIGTERM)
     return ServeRun(took_s, log, serve.returncode, out, err)
+
+
+def _ip(*args: str) -> None:
+    subprocess.run(["ip", *args], check=True, capture_output=True, timeout=30)
+
+
+@contextlib.contextmanager
+def opl_cns(kit: Path, ids: list[int], logs: Path) -> Iterator[tuple[str, str]]:
+    """The real openPOWERLINK CNs ``ids`` (the kit's ``run-node cn``, each logging to
+    ``logs/cnN.log``) on one link: a private network namespace with a bridge, one veth pair per
+    CN and one for the MN; yields the namespace and the MN's interface. Everything is stopped
+    and deleted on the way out."""
+    netns = f"mn-{os.getpid()}-{secrets.token_hex(3)}"
+    _ip("netns", "add", netns)
+    cns: list[subprocess.Popen[str]] = []
+    try:
+        _ip("-n", netns, "link", "add", "mnbr", "type", "bridge")
+        _ip("-n", netns, "link", "set", "mnbr", "up")
+        subprocess.run(
+            ["ip", "netns", "exec", netns, "sysctl", "-qw", "net.ipv6.conf.all.disable_ipv6=1"],
+            check=False,
+            timeout=30,
+        )
+        for name in ["mnm0", *(f"mnc{n}" for n in ids)]:
+            _ip("-n", netns, "link", "add", name, "type", "veth", "peer", "name", name + "p")
+            _ip("-n", netns, "link", "set", name + "p", "master", "mnbr")
+            for dev in (name + "p", name):
+                _ip("-n", netns, "link", "set", dev, "up")
+        for n in ids:
+            cns.append(
+                subprocess.Popen(
+                    [
+                        *(str(kit / "run-node"), "cn", f"mnc{n}", "--netns", netns),
+                        *("--node-id", str(n), "--log", str(logs / f"cn{n}.log")),
+                    ],
+                    text=True,
+                )
+            )
+        time.sleep(1.0)  # the CNs open their interfaces
+        yield netns, "mnm0"
+    finally:
+        for cn in cns:
+            stop(cn, signal.SIGTERM)
+        subprocess.run(["ip", "netns", "del", netns], check=False, timeout=30)

@@ -11,8 +11,11 @@ from pathlib import Path
 import pytest
 import tshark_util
 from epl_frames import preq, soa, soc
+from epl_mn_util import SkinSocket
 
 import emulator.live
+from emulator.epl.skin import EplSkin
+from skinframes import read_capture
 from skinframes_cli import main
 
 
@@ -127,3 +130,107 @@ def test_serve_epl_answers_and_reports(
         (5, 240),
         (6, 6),
     ]
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--cdc", "x.cdc"], "--cdc, --cycle-us, --cycles apply to serve epl --mn only"),
+        (["--nodes", "2", "--bytes", "8", "--cycles", "5"], "--cdc, --cycle-us, --cycles apply"),
+        (["--mn"], "serve epl --mn: --cdc FILE, or --nodes N and --bytes B"),
+        (["--mn", "--nodes", "2"], "serve epl --mn: --cdc FILE, or --nodes N and --bytes B"),
+        (["--mn", "--cdc", "x.cdc", "--nodes", "2"], "serve epl --mn: --cdc or --nodes"),
+        (["--mn", "--cdc", "/nonexistent/x.cdc"], "--cdc /nonexistent/x.cdc: No such file"),
+        (
+            ["--mn", "--nodes", "41", "--bytes", "8"],
+            "serve epl --mn: --nodes 41: the CDC's MN has 40",
+        ),
+        (["--mn", "--nodes", "2", "--bytes", "8", "--esi", "x.xml"], "--no-mailbox, --drift"),
+    ],
+)
+def test_bad_mn_arguments(
+    capsys: pytest.CaptureFixture[str], args: list[str], message: str
+) -> None:
+    assert main(["serve", "epl", "--iface", "lo", *args]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"skinframes: error: {message}"), err
+    assert err.count("\n") == 1
+
+
+def test_a_cdc_that_is_no_cdc_is_one_error_line(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    bad = tmp_path / "bad.cdc"
+    bad.write_bytes(b"\x05\x00\x00\x00\x06\x10")  # 5 entries announced, one cut short
+    assert main(["serve", "epl", "--mn", "--iface", "lo", "--cdc", str(bad)]) == 2
+    err = capsys.readouterr().err
+    assert err.startswith(f"skinframes: error: --cdc {bad}: CDC: entry 0 of 5"), err
+    assert err.count("\n") == 1
+
+
+def test_mn_is_refused_for_ecat(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["serve", "ecat", "--iface", "lo", "--nodes", "1", "--bytes", "8", "--mn"]
+    assert main(argv) == 2
+    assert capsys.readouterr().err == "skinframes: error: --mn applies to serve epl only\n"
+
+
+def test_serve_epl_mn_boots_emulated_cns_and_reports(
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+    tmp_path: Path,
+    tshark: str,
+) -> None:
+    """``serve epl --mn --nodes 2 --bytes 8 --cycles 5`` over a stand-in socket whose emulated
+    CNs (emulator.epl.skin) answer at once: both OPERATIONAL, the report's keys, a tshark-clean
+    capture in which the MN sent SoC, PReq, SoA and ASnd and the CNs PRes and ASnd."""
+    opened: list[tuple[object, ...]] = []
+
+    def fake(iface: str, ethertype: int, *, promiscuous: bool) -> SkinSocket:
+        opened.append((iface, ethertype, promiscuous))
+        return SkinSocket(EplSkin([3, 7], 8))
+
+    monkeypatch.setattr(emulator.live, "RawSocket", fake)
+    capture = tmp_path / "mn.pcapng"
+    argv = ["serve", "epl", "--mn", "--iface", "veth9", "--nodes", "2", "--bytes", "8"]
+    assert (
+        main([*argv, "--node-ids", "3,7", "--cycles", "5", "--pcap", str(capture), "--json"]) == 0
+    )
+    assert opened == [("veth9", 0x88AB, True)]
+    summary = json.loads(capsys.readouterr().out)
+    assert summary["role"] == "mn" and summary["node_ids"] == [3, 7]
+    assert summary["operational_cycles"] == 5 and summary["errors"] == 0
+    assert [cn["state"] for cn in summary["cns"]] == ["OPERATIONAL"] * 2
+    assert all(cn["response_us_median"] is not None for cn in summary["cns"])
+    # every frame sent and received is in the capture, the last ones too
+    assert sum(1 for _ in read_capture(capture)) == summary["frames_in"] + summary["frames_out"]
+    assert tshark_util.problems(tshark, capture) == []
+    rows = tshark_util.fields(tshark, capture, ["epl.mtyp", "epl.src"])
+    sent = {(int(r["epl.mtyp"][0]), int(r["epl.src"][0])) for r in rows}
+    assert sent == {(1, 240), (3, 240), (5, 240), (6, 240), (4, 3), (4, 7), (6, 3), (6, 7)}
+
+
+def test_serve_epl_mn_text_summary(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    monkeypatch.setattr(emulator.live, "RawSocket", lambda *a, **k: SkinSocket(EplSkin([1], 8)))
+    assert (
+        main(
+            [
+                "serve",
+                "epl",
+                "--mn",
+                "--iface",
+                "x",
+                "--nodes",
+                "1",
+                "--bytes",
+                "8",
+                "--cycles",
+                "3",
+            ]
+        )
+        == 0
+    )
+    out = capsys.readouterr().out.splitlines()
+    assert out[0].startswith("MN: 1 CNs, cycle ") and "all OPERATIONAL after" in out[0]
+    assert out[1].startswith("  CN 1: OPERATIONAL after ") and "PReq -> PRes median" in out[1]

@@ -176,6 +176,24 @@ def test_serve_json_keys_are_documented() -> None:
     assert_documented("serve", {"protocol", "iface", "nodes", "bytes", *ServeStats().summary()})
     epl = {"node_ids", "error_messages", "counts", "cns", "node_id", "state", "state_changes"}
     assert_documented("serve", {*epl, *EplServeStats().summary()})
+    mn = {"role", "cdc", "cycle_us", "cycles", "operational_cycles", "all_operational_s"}
+    mn |= {"overruns", "frames_in", "frames_out", "errors", "error_messages", "counts", "pcap"}
+    assert_documented("serve", mn)
+
+
+def test_serve_epl_mn_json_keys_are_documented(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A run of ``serve epl --mn`` against emulated CNs (a stand-in socket): every key of its
+    document, the CNs' report and the counts they met included."""
+    from epl_mn_util import SkinSocket
+
+    import emulator.live
+    from emulator.epl.skin import EplSkin
+
+    monkeypatch.setattr(emulator.live, "RawSocket", lambda *a, **k: SkinSocket(EplSkin([1], 8)))
+    argv = ["serve", "epl", "--mn", "--iface", "x", "--nodes", "1", "--bytes", "8"]
+    assert_documented("serve", keys(run_json(capsys, *argv, "--cycles", "2", "--json")))
 
 
 # --- Python names -------------------------------------------------------------------------------

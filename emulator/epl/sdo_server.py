@@ -7,7 +7,9 @@ sequence number by one and acknowledges the other's last one in its receive sequ
 frame with scon 3 asks for an acknowledgement at once; a frame whose number skips ahead means
 lost frames, answered with rcon 3 (error response), and an rcon 3 from the client makes the
 server send again the frames it has not acknowledged (kept in a short history); scon 0 closes.
-openPOWERLINK's ``sdoseq.c`` keeps a history of 5 frames: so does this server.
+
+The numbers and the history are :class:`~emulator.epl.sdo_seq.SequenceLayer`'s, shared with
+the MN's SDO client.
 
 Command layer (DS 301 6.3.2.4): WriteByIndex and ReadByIndex, expedited (one segment) and
 segmented (an initiate segment with the DataSize, then segments, the last one "complete"); every
@@ -16,11 +18,12 @@ other command and every refused access is answered with an abort and its DS 301 
 
 from __future__ import annotations
 
-from collections import Counter, deque
+from collections import Counter
 from dataclasses import dataclass, field
 from typing import Final
 
 from emulator.epl.od import ObjectDictionary
+from emulator.epl.sdo_seq import NEW_WINDOW, SequenceLayer
 from emulator.errors import SdoAbortError
 from skinframes.errors import DecodeError
 from skinframes.powerlink import Sdo, SdoCommand
@@ -32,16 +35,10 @@ from skinframes.powerlink.sdo import (
     SequenceCon,
     abort_data,
     pack_data_size,
-    seq_add,
-    seq_diff,
     unpack_data_size,
     unpack_index,
 )
 
-HISTORY_FRAMES: Final = 5  # openPOWERLINK sdoseq.c SDO_HISTORY_SIZE
-# A received sequence number this far ahead or more is an old one (openPOWERLINK sdoseq.c
-# SDO_SEQ_NUM_THRESHOLD is 100 in units of 4, i.e. 25 numbers); nearer ones mean lost frames.
-NEW_WINDOW: Final = 25
 MAX_DOWNLOAD_BYTES: Final = 4096  # a segmented write larger than any object here is refused
 
 
@@ -67,32 +64,15 @@ class SdoServer:
     od: ObjectDictionary
     connected: bool = False
     initialising: bool = False
-    send_seq: int = 0  # our last sent sequence number
-    recv_seq: int = 0  # the client's last accepted sequence number
-    history: deque[Sdo] = field(default_factory=lambda: deque(maxlen=HISTORY_FRAMES))
+    seq: SequenceLayer = field(default_factory=SequenceLayer)
     counts: Counter[str] = field(default_factory=Counter)
     _download: _Download | None = None
 
     def close(self) -> None:
         """Drop the connection (and any segmented transfer)."""
         self.connected = self.initialising = False
-        self.send_seq = self.recv_seq = 0
-        self.history.clear()
+        self.seq.clear()
         self._download = None
-
-    def _frame(self, command: SdoCommand | None, *, advance: bool) -> Sdo:
-        if advance:
-            self.send_seq = seq_add(self.send_seq)
-        sdo = Sdo(
-            self.recv_seq,
-            SequenceCon.CONNECTION_VALID,
-            self.send_seq,
-            SequenceCon.CONNECTION_VALID,
-            command,
-        )
-        if advance:
-            self.history.append(sdo)
-        return sdo
 
     def receive(self, sdo: Sdo) -> list[Sdo]:
         """One SDO frame from the client; the frames to send back (none, one or more)."""
@@ -105,23 +85,17 @@ class SdoServer:
         if scon == SequenceCon.INITIALIZATION and rcon == SequenceCon.NO_CONNECTION:
             self.close()
             self.initialising = True
-            self.recv_seq = sdo.send_sequence
-            self.send_seq = 0
-            return [
-                Sdo(
-                    self.recv_seq,
-                    SequenceCon.INITIALIZATION,
-                    self.send_seq,
-                    SequenceCon.INITIALIZATION,
-                )
-            ]
+            self.seq.recv_seq = sdo.send_sequence
+            self.seq.send_seq = 0
+            init = SequenceCon.INITIALIZATION
+            return [self.seq.frame(None, advance=False, receive_con=init, send_con=init)]
         if self.initialising:
             if rcon == SequenceCon.INITIALIZATION and scon == SequenceCon.CONNECTION_VALID:
-                if sdo.receive_sequence != self.send_seq:
+                if sdo.receive_sequence != self.seq.send_seq:
                     return self._sequence_error(sdo, "init acknowledges a number never sent")
                 self.initialising, self.connected = False, True
-                self.recv_seq = sdo.send_sequence
-                return [self._frame(None, advance=False)]
+                self.seq.recv_seq = sdo.send_sequence
+                return [self.seq.frame(None, advance=False)]
             return self._sequence_error(sdo, "connection set-up out of order")
         if not self.connected:  # DS 301 6.3.2.3: answered "no connection" if it carries a command
             self.counts["sdo_no_connection"] += 1
@@ -129,52 +103,31 @@ class SdoServer:
                 return []
             return [Sdo(sdo.send_sequence, SequenceCon.NO_CONNECTION, 0, SequenceCon.NO_CONNECTION)]
         out: list[Sdo] = []
-        self._acknowledged(sdo.receive_sequence)
+        self.seq.acknowledged(sdo.receive_sequence)
         if rcon == SequenceCon.ERROR_OR_ACK_REQUEST:  # the client lost frames: send them again
-            self.counts["sdo_retransmissions"] += len(self.history)
-            out += [
-                Sdo(
-                    self.recv_seq,
-                    SequenceCon.CONNECTION_VALID,
-                    h.send_sequence,
-                    h.send_con,
-                    h.command,
-                )
-                for h in self.history
-            ]
-        ahead = seq_diff(sdo.send_sequence, self.recv_seq)
+            self.counts["sdo_retransmissions"] += len(self.seq.history)
+            out += self.seq.again()
+        ahead = self.seq.ahead(sdo)
         if ahead == 0 or ahead >= NEW_WINDOW:  # an acknowledgement, or an old frame again
             if scon == SequenceCon.ERROR_OR_ACK_REQUEST and not out:
-                out.append(self._frame(None, advance=False))
+                out.append(self.seq.frame(None, advance=False))
             return out
         if ahead > 1:  # frames lost: ask for them again (rcon 3 = error response)
             self.counts["sdo_lost_frames"] += ahead - 1
-            return [
-                *out,
-                Sdo(
-                    self.recv_seq,
-                    SequenceCon.ERROR_OR_ACK_REQUEST,
-                    self.send_seq,
-                    SequenceCon.CONNECTION_VALID,
-                ),
-            ]
-        self.recv_seq = sdo.send_sequence
+            error = SequenceCon.ERROR_OR_ACK_REQUEST
+            return [*out, self.seq.frame(None, advance=False, receive_con=error)]
+        self.seq.recv_seq = sdo.send_sequence
         responses = self._command(sdo.command) if sdo.command is not None else []
         if responses:
-            out += [self._frame(c, advance=True) for c in responses]
+            out += [self.seq.frame(c, advance=True) for c in responses]
         else:  # a segment without a response of its own, or no command: acknowledge it
-            out.append(self._frame(None, advance=False))
+            out.append(self.seq.frame(None, advance=False))
         return out
-
-    def _acknowledged(self, number: int) -> None:
-        """Forget history frames up to the client's receive sequence number ``number``."""
-        while self.history and seq_diff(number, self.history[0].send_sequence) < NEW_WINDOW:
-            self.history.popleft()
 
     def _sequence_error(self, sdo: Sdo, why: str) -> list[Sdo]:
         self.counts["sdo_sequence_errors"] += 1
         self.close()
-        return [Sdo(sdo.send_sequence, SequenceCon.ERROR_OR_ACK_REQUEST, self.send_seq, 0)]
+        return [Sdo(sdo.send_sequence, SequenceCon.ERROR_OR_ACK_REQUEST, self.seq.send_seq, 0)]
 
     # --- command layer -----------------------------------------------------------------------
     def _command(self, c: SdoCommand) -> list[SdoCommand]:

@@ -14,12 +14,14 @@ from emulator.model import analytic
 from emulator.model.params import WIRE, TimingParams
 from emulator.model.units import PS_PER_US
 from skinframes import ethernet
+from skinframes.powerlink.cdc import SkinConfig
 
 __all__ = [
     "CYCLE_STEP_US",
     "DEFAULT_PRES_TIMEOUT_US",
     "default_cycle_us",
     "shortest_cycle_us",
+    "skin_config",
     "worst_cycle_us",
 ]
 
@@ -61,3 +63,17 @@ def default_cycle_us(
     timeout, and no ASnd, can push the next SoC late."""
     worst = worst_cycle_us(nodes, pres_payload_bytes, pres_timeout_us, async_slot_us)
     return math.ceil(worst / CYCLE_STEP_US) * CYCLE_STEP_US
+
+
+def skin_config(
+    node_ids: tuple[int, ...],
+    taxel_bytes: int,
+    cycle_us: int | None = None,
+    pres_timeout_us: int | None = None,
+) -> SkinConfig:
+    """The skin's configuration with the model's times where none is given: PRes timeout and
+    asynchronous slot :data:`DEFAULT_PRES_TIMEOUT_US`, the cycle :func:`default_cycle_us`."""
+    timeout_us = pres_timeout_us or DEFAULT_PRES_TIMEOUT_US
+    payload = SkinConfig(node_ids, taxel_bytes, 1, timeout_us, timeout_us).pres_payload_bytes
+    cycle = cycle_us or default_cycle_us(len(node_ids), payload, timeout_us, timeout_us)
+    return SkinConfig(node_ids, taxel_bytes, cycle, timeout_us, timeout_us)

@@ -117,7 +117,7 @@ def test_sequence_errors_ack_requests_and_retransmission() -> None:
     feed(skin, sdo(1, "03 06 00 00"))  # rcon 3, rsnr 0: the MN lost our reply: send it again
     assert answers(skin) == reply
     feed(skin, sdo(1, "06 06 00 00"))  # acknowledged: nothing kept, nothing sent
-    assert answers(skin) == [] and not skin.nodes[0].sdo.history
+    assert answers(skin) == [] and not skin.nodes[0].sdo.seq.history
 
 
 @pytest.fixture

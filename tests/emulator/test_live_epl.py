@@ -39,6 +39,7 @@ from epl_live_util import (
     missing_root,
     mn_drives_serve,
     serve_epl,
+    skinframes_in_netns,
     skip_or_fail,
     stop,
 )
@@ -125,6 +126,35 @@ def check_capture(tshark: str, capture: Path) -> None:
         assert taxels == payloads[sample, IDS.index(node)].tobytes(), (node, sample)
         seen[node].add(sample)
     assert all(len(s) > 1 for s in seen.values()), seen  # the taxels move
+
+
+def test_serve_epl_mn_drives_serve_epl(root: None, tshark: str, tmp_path: Path) -> None:
+    """``serve epl --mn --nodes 3 --bytes 48`` (the CDC epl-config would write, 20 ms cycle)
+    boots ``serve epl`` with the same CNs over a veth pair: both say every CN is OPERATIONAL,
+    and the MN's capture is tshark-clean with the served samples in the Operational PRes."""
+    capture = tmp_path / "mn.pcapng"
+    skin = [*("--nodes", str(len(IDS)), "--node-ids", ",".join(map(str, IDS)))]
+    skin += ["--bytes", str(TAXEL_BYTES)]
+    with veth_netns(master="mnm1", slave="mnc1", prefix="mn") as net:
+        feed = ["--seed", str(SEED), "--samples", str(SAMPLES), "--period-ms", str(PERIOD_MS)]
+        serve = serve_epl(net, [*skin, *feed, "--json"])
+        try:
+            mn = skinframes_in_netns(
+                *(net.netns, "serve", "epl", "--mn", "--iface", net.master, *skin),
+                *("--cycle-us", str(CYCLE_US), "--cycles", "100", "--pcap", str(capture)),
+                "--json",
+            )
+            mn_out, mn_err = mn.communicate(timeout=300)
+        finally:
+            out, err = stop(serve, signal.SIGINT)
+    assert mn.returncode == 0, mn_err[-3000:]
+    report = json.loads(mn_out)
+    print(f"\nserve epl --mn: all OPERATIONAL after {report['all_operational_s']} s")
+    assert [cn["state"] for cn in report["cns"]] == ["OPERATIONAL"] * len(IDS), report
+    assert report["operational_cycles"] == 100 and report["errors"] == 0
+    assert serve.returncode == 0, err[-3000:]
+    assert [cn["state"] for cn in json.loads(out)["cns"]] == ["OPERATIONAL"] * len(IDS)
+    check_capture(tshark, capture)
 
 
 HOSTILE_FRAMES = 100_000

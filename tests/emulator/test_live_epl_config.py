@@ -16,13 +16,11 @@ from __future__ import annotations
 
 import json
 import re
-import subprocess
-import sys
 from pathlib import Path
 
 import numpy as np
 import pytest
-from epl_live_util import ENV, ROOT, built_kit, mn_drives_serve
+from epl_live_util import built_kit, mn_drives_serve, skinframes
 
 from emulator.live import veth_netns
 from skinframes import read_capture, taxel
@@ -41,18 +39,6 @@ LOSS_OF_PRES = re.compile(r"E_DLL_LOSS_PRES_TH|0x8243", re.IGNORECASE)
 @pytest.fixture(scope="module")
 def kit() -> Path:
     return built_kit()
-
-
-def skinframes(*args: str) -> subprocess.CompletedProcess[str]:
-    return subprocess.run(
-        [sys.executable, "-m", "skinframes", *args],
-        cwd=ROOT,
-        env=ENV,
-        capture_output=True,
-        text=True,
-        timeout=300,
-        check=False,
-    )
 
 
 def test_openpowerlink_mn_runs_8_patches_with_an_epl_config_cdc(kit: Path, tmp_path: Path) -> None:

@@ -9,13 +9,10 @@ from DS 301's mapping layout (6.4.9.2) and the kit's README.
 
 from __future__ import annotations
 
-import lzma
-import os
-import tarfile
-from pathlib import Path
 from typing import Any
 
 import pytest
+from epl_mn_util import shipped_files
 
 from skinframes.errors import FieldRangeError, LengthMismatchError, TruncatedError
 from skinframes.powerlink.cdc import (
@@ -28,31 +25,11 @@ from skinframes.powerlink.cdc import (
     to_text,
 )
 
-ROOT = Path(__file__).resolve().parents[2]
-KIT = Path(os.environ.get("OPENPOWERLINK_KIT", ROOT.parent / "shared" / "tools" / "openpowerlink"))
-ARCHIVE = KIT / "openpowerlink-src.tar.xz"
-DEMO = "apps/common/openCONFIGURATOR_projects/Demo_3CN/output/"
-IN_CI = os.environ.get("CI", "").lower() == "true"
-
 
 @pytest.fixture(scope="module")
 def shipped() -> dict[str, bytes]:
     """``mnobd.cdc`` and ``mnobd.txt`` from the kit's archive."""
-    if not ARCHIVE.is_file():
-        reason = f"no openPOWERLINK kit archive at {ARCHIVE} (set OPENPOWERLINK_KIT)"
-        if IN_CI:
-            pytest.fail("CI=true: " + reason)
-        pytest.skip(reason)
-    found: dict[str, bytes] = {}
-    with lzma.open(ARCHIVE) as xz, tarfile.open(fileobj=xz) as tar:
-        for member in tar:
-            for name in ("mnobd.cdc", "mnobd.txt"):
-                if member.name.endswith(DEMO + name):
-                    f = tar.extractfile(member)
-                    assert f is not None
-                    found[name] = f.read()
-    assert set(found) == {"mnobd.cdc", "mnobd.txt"}
-    return found
+    return shipped_files()
 
 
 def parse_text(text: str) -> list[Any]:
