@@ -276,6 +276,14 @@ def _bits_written(
     return ((old & ~mask) | (value & mask)).to_bytes(len(target), "little")
 
 
+class _Unmade(NamedTuple):
+    """SyncManagers changed but not made yet (:meth:`EscDevice._make_sms`)."""
+
+    fresh: frozenset[int] | None  # the indices of those that start anew (None: all of them)
+    decoded: SmTable  # the decoded table
+    by_start: tuple[int, ...]  # the order by start (SmChange.by_start)
+
+
 class FirstBuffer(NamedTuple):
     """An LRD's whole-buffer read by an ESC's first FMMU, done, whose other parts the chain
     reads over the rows (:meth:`EscDevice.logical_unless_rows` with ``rest``)."""
@@ -442,10 +450,9 @@ class EscDevice:
         self._lrd_plans: dict[int, tuple[int, _Sm, bool] | None] = {}
         # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
         self.sm_areas: SmTable = ()
-        # SyncManagers changed but not made yet, made when first needed (_make_sms): the
-        # indices of those that start anew (None: all of them), the decoded table, the order
-        # by start; until then _sms and _active are those before
-        self._unmade: tuple[frozenset[int] | None, SmTable, tuple[int, ...]] | None = None
+        # SyncManagers changed but not made yet, made when first needed (_make_sms); until
+        # then _sms and _active are those before
+        self._unmade: _Unmade | None = None
         self.irq = 0  # ECAT event request 0x0210 & mask 0x0200: ORed into IRQ fields
         # while the chain runs the firmware's reactions (EcatChain.run_firmware): where
         # update_irq notes this ESC, to be brought up to date with the others that reacted, over
@@ -957,7 +964,7 @@ class EscDevice:
         """Buffer exchange after the frame that accessed the end address (datasheet I 8.1)."""
         sm.complete = False
         if self._unmade is not None:
-            if self._unmade[0] is None:
+            if self._unmade.fresh is None:
                 return  # every SyncManager starts anew
             self._make_sms()
         if self._sms[sm.index] is not sm:
@@ -1043,7 +1050,7 @@ class EscDevice:
         where it does nothing (:meth:`plain_access`, :func:`emulator.esc.mapping.cut`); else
         None."""
         found = self.plain_access(cmd, lad, n)
-        return None if found is None else found[2]
+        return None if found is None else found.cut
 
     def plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
         """A logical access when all it does is plain memory (:meth:`plain_plan`): its plan, the
@@ -1088,9 +1095,9 @@ class EscDevice:
         with a failed access (datasheet I 8.2.1), wherever in the buffer it starts."""
         fresh: frozenset[int] | tuple[()] = ()
         if self._unmade is not None:  # one that starts anew has an empty mailbox
-            if self._unmade[0] is None:
+            if self._unmade.fresh is None:
                 return all(side == 0 for _, side in mailboxes)
-            fresh = self._unmade[0]
+            fresh = self._unmade.fresh
         sms = self._sms
         for index, side in mailboxes:
             if index in fresh:
@@ -1149,7 +1156,7 @@ class EscDevice:
         :meth:`plain_access`): the working counter's increment. Its plan with the holes cut,
         straight to and from memory: what :meth:`_through` does there without asking for side
         effects, since there are none, and skipping the holes, where it does nothing."""
-        return self.logical_cut(access[2], cmd, buf, off, n)
+        return self.logical_cut(access.cut, cmd, buf, off, n)
 
     def logical_cut(
         self,
@@ -1442,12 +1449,12 @@ class EscDevice:
         self._lrd_plans.clear()
         self.sm_areas = decoded
         unmade = self._unmade
-        if not change.kept or (unmade is not None and unmade[0] is None):  # all start anew
-            self._unmade = (None, decoded, change.by_start)
+        if not change.kept or (unmade is not None and unmade.fresh is None):  # all start anew
+            self._unmade = _Unmade(None, decoded, change.by_start)
             return
-        if unmade is not None and unmade[0] is not None:  # those of the changes before too
-            fresh |= unmade[0]
-        self._unmade = (fresh, decoded, change.by_start)
+        if unmade is not None and unmade.fresh is not None:  # those of the changes before too
+            fresh |= unmade.fresh
+        self._unmade = _Unmade(fresh, decoded, change.by_start)
 
     def _make_sms(self) -> None:
         """Change the SyncManagers as :attr:`_unmade` says (:meth:`change_syncmanagers`),

@@ -35,6 +35,7 @@ __all__ = [
     "Holes",
     "LogicalPlan",
     "Mailboxes",
+    "PartHoles",
     "PlainAccess",
     "Plans",
     "RowAccess",
@@ -425,12 +426,23 @@ def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Logical
     return tuple(plan[0]), tuple(plan[1])
 
 
-# the bytes of a plan's parts where it does nothing: (side 0 reads / 1 writes, index of the
-# part, its holes [start, end) in physical bytes), in plan order
-Holes = tuple[tuple[int, int, tuple[tuple[int, int], ...]], ...]
-# a logical access that is all plain memory: its plan, the holes, and the plan with the holes
-# cut (plain_access)
-PlainAccess = tuple[LogicalPlan, Holes, LogicalPlan]
+class PartHoles(NamedTuple):
+    """The bytes of a plan's part where it does nothing (:func:`plain_access`)."""
+
+    side: int  # 0 reads, 1 writes
+    part: int  # the part's place among them
+    holes: tuple[tuple[int, int], ...]  # [start, end) in physical bytes
+
+
+Holes = tuple[PartHoles, ...]  # in plan order
+
+
+class PlainAccess(NamedTuple):
+    """A logical access that is all plain memory (:func:`plain_access`)."""
+
+    plan: LogicalPlan
+    holes: Holes  # where it does nothing
+    cut: LogicalPlan  # the plan without the holes (:func:`cut`)
 
 
 class WritesInert(Protocol):
@@ -492,7 +504,7 @@ class Access:
         self._first: Access | None = None  # the first FMMU's access (Caches.parts)
         self._at: tuple[Access, int] | None = None  # or that access moved along (moved)
         self._others: Access | None = None  # the others' (Caches.parts)
-        self._along: tuple[object, ...] | None = None  # _apart_along's shared work, last tables
+        self._along: _Along | None = None  # _apart_along's shared work, for the last tables
         self._moved: object = _UNASKED  # (the FMMU's access at logical 0, frame offset) or None
         self.areas: SmTable | None = None
         self.top = 0
@@ -615,7 +627,7 @@ class Access:
             return
         access, self.events, self.mailboxes, self.dc, self.shadow = found
         self._plain = None if (self.mailboxes or self.dc or self.shadow) else access
-        self.cut = access[2]
+        self.cut = access.cut
 
     def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
         """:meth:`rows` from the first FMMU's part and the others' cut, when another access met
@@ -679,16 +691,18 @@ class Access:
         found = others._along
         if not (
             found is not None
-            and found[0] is moved
-            and found[1] is areas
-            and found[2] == top
-            and found[3] is writes
+            and found.moved is moved
+            and found.areas is areas
+            and found.top == top
+            and found.writes is writes
         ):
-            found = (moved, areas, top, writes, *_along_common(others, moved, areas, top, writes))
+            found = _Along(
+                moved, areas, top, writes, *_along_common(others, moved, areas, top, writes)
+            )
             others._along = found
-        common: _AlongCommon | None = found[4]  # type: ignore[assignment]
+        common = found.common
         if common is None:
-            rest: tuple[LogicalOp, ...] | None = found[5]  # type: ignore[assignment]
+            rest = found.rest
             f = self.hit[0]
             if rest is not None and f.reads:  # an LRD: the first reads a buffer, the others plain
                 lo = max(self.lad, f.log_start) - self.lad
@@ -754,6 +768,18 @@ _AlongCommon = tuple[
     tuple[LogicalOp, ...],
     tuple[tuple[int, int], tuple[int, int]],
 ]
+
+
+class _Along(NamedTuple):
+    """What :meth:`Access._apart_along` keeps with the others' access: for the first's moved
+    access and the tables last asked, :func:`_along_common` of them."""
+
+    moved: Access
+    areas: SmTable
+    top: int
+    writes: WritesInert
+    common: _AlongCommon | None
+    rest: tuple[LogicalOp, ...] | None
 
 
 def _along_common(
@@ -969,7 +995,7 @@ def plain_access(
     meets another SyncManager's area makes the access not plain. (Below 0x0F80 the registers
     are accessed whatever SyncManager area lies there.)"""
     found = _plain(plan, areas, top, inert, clearing=False, stateful=False)
-    return None if found is None else found[0]
+    return None if found is None else found.plain
 
 
 def row_access(
@@ -1041,7 +1067,7 @@ def _plain(
     idle: list[tuple[int, int]] = []
     dc: tuple[tuple[int, int], ...] = ()
     shadow: list[LogicalOp] = []
-    found: list[tuple[int, int, tuple[tuple[int, int], ...]]] = []
+    found: list[PartHoles] = []
     for side, ops in enumerate(plan):  # reads, writes
         for k, op in enumerate(ops):
             lo = op.phys
@@ -1081,9 +1107,10 @@ def _plain(
             if hi > top and hi > REGISTER_END:
                 holes += ((max(top, REGISTER_END), hi),)
             if holes:
-                found.append((side, k, holes))
+                found.append(PartHoles(side, k, holes))
     every: Holes = tuple(found)
-    return RowAccess((plan, every, cut(plan, every)), events, tuple(idle), dc, tuple(shadow))
+    plain = PlainAccess(plan, every, cut(plan, every))
+    return RowAccess(plain, events, tuple(idle), dc, tuple(shadow))
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
