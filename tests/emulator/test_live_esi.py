@@ -18,7 +18,6 @@ them the tests skip with the reason, under CI=true they fail.
 
 from __future__ import annotations
 
-import itertools
 import json
 import subprocess
 import sys
@@ -27,7 +26,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_util import ENV, ROOT, TESTS, from_xml, in_netns, live_net, serving
+from live_util import ENV, ROOT, TESTS, counts_up, from_xml, in_netns, live_net, serving
 
 from emulator.live import VethPair
 
@@ -64,12 +63,6 @@ def sii_image(shared_esi: Path, name: str, tmp_path: Path) -> bytes:
 # (ConfigData, checksum), vendor/product/revision (8-13), bootstrap and standard mailboxes and
 # the protocols (0x14-0x1C), size and version (0x3E-0x3F); the serial (14-15) is the maker's
 AGREED_BYTE_RANGES = ((0, 16), (16, 28), (0x28, 0x3A), (0x7C, 0x80))
-
-
-def counts_up(values: list[int], modulo: int) -> bool:
-    """Each value the one before or later (modulo), and not all equal."""
-    steps = [(b - a) % modulo for a, b in itertools.pairwise(values)]
-    return all(s < modulo // 2 for s in steps) and any(steps)
 
 
 def test_pysoem_brings_two_esi_slaves_to_op(
