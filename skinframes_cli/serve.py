@@ -78,8 +78,9 @@ def add_parser(sub: Any) -> None:
         default=[],
         metavar="ESI.xml[#TYPE]",
         help="after the patches, a slave as the ESI file describes it (device TYPE, by Type "
-        "or product code, when the file has several): its SII image, CoE dictionary, PDO "
-        "assignment and mapping, DC; inputs count up at each --period-ms; repeatable (ecat)",
+        "or product code, @REVISION among revisions, when the file has several): its SII image, "
+        "CoE dictionary, PDO assignment and mapping, DC; inputs count up at each --period-ms; "
+        "repeatable (ecat)",
     )
     p.add_argument(
         "--seed",
