@@ -838,11 +838,13 @@ def image_from_esi(
     eeprom = device.eeprom
     if eeprom is None:
         raise FieldRangeError(
-            f"SII: device {device.type_name} has no <Eeprom> (ByteSize, ConfigData)"
+            f"SII: device {device.type_name} (line {device.line}) has no <Eeprom> (ByteSize, "
+            "ConfigData)"
         )
     if len(eeprom.config_data) > CONFIG_AREA_BYTES:
         raise FieldRangeError(
-            f"SII: ConfigData of {device.type_name} is {len(eeprom.config_data)} bytes, "
+            f"SII: ConfigData of {device.type_name} (line {device.line}) is "
+            f"{len(eeprom.config_data)} bytes, "
             f"words 0-6 hold {CONFIG_AREA_BYTES}"
         )
     strings = _Strings()

@@ -91,7 +91,7 @@ def test_several_devices(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     code, _, err = _run(capsys, "sii", str(esi), "--device", "A-1@3", "--out", str(out))
     assert code == 2 and "no device 'A-1@3'" in err
     code, _, err = _run(capsys, "sii", str(esi), "--device", "B-2", "--out", str(out))
-    assert code == 2 and "no <Eeprom>" in err
+    assert code == 2 and "B-2 (line 11) has no <Eeprom>" in err  # the Device element's line
 
 
 def test_json_of_an_esi(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
