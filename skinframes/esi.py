@@ -663,14 +663,15 @@ class _Context:
         )
 
     def dc_time(self, op: ET.Element, tag: str) -> int:
-        """A time of a DC op mode in ns: what the SII DC category holds, an unsigned 32-bit
-        field (ETG.2010 Table 14); 0 when absent."""
+        """A time of a DC op mode in ns, 0 when absent: a cycle time 0..2**32-1 (the SII's
+        32-bit field, ETG.2010 Table 14), a shift time an ESI xs:int (it may be negative)."""
         el = op.find(tag)
         if el is None:
             return 0
         value = self.number(el)
-        if not 0 <= value <= 0xFFFF_FFFF:
-            raise self.error(el, f"{value} ns does not fit the SII's unsigned 32-bit DC times")
+        low, high = (-(2**31), 2**31 - 1) if tag.startswith("Shift") else (0, 2**32 - 1)
+        if not low <= value <= high:
+            raise self.error(el, f"{value} ns is outside {low}..{high}")
         return value
 
     def dc(self, dc: ET.Element | None) -> tuple[EsiDcOpMode, ...]:

@@ -921,8 +921,9 @@ def image_from_esi(
     dc = tuple(
         SiiDc(
             cycle_time_0_ns=m.cycle_time_sync0_ns,
-            shift_time_0_ns=m.shift_time_sync0_ns,
-            shift_time_1_ns=m.shift_time_sync1_ns,
+            # a negative ESI shift time (xs:int) as its two's complement in the 32-bit field
+            shift_time_0_ns=m.shift_time_sync0_ns & 0xFFFF_FFFF,
+            shift_time_1_ns=m.shift_time_sync1_ns & 0xFFFF_FFFF,
             sync1_cycle_factor=m.cycle_time_sync1_factor,
             assign_activate=m.assign_activate,
             sync0_cycle_factor=m.cycle_time_sync0_factor,

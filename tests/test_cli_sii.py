@@ -94,6 +94,23 @@ def test_several_devices(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     assert code == 2 and "B-2 (line 11) has no <Eeprom>" in err  # the Device element's line
 
 
+def test_a_negative_dc_shift_time(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """ESI's ShiftTimeSync0 is an xs:int (EtherCATInfo.xsd), and an Ingenia drive's ESI gives
+    -3 ns: the SII's 32-bit field holds it as its two's complement."""
+    esi = tmp_path / "dc.xml"
+    esi.write_bytes(
+        MULTI.replace(
+            b"<Eeprom><ByteSize>256",
+            b"<Dc><OpMode><Name>DC</Name><AssignActivate>#x300</AssignActivate>"
+            b"<ShiftTimeSync0>-3</ShiftTimeSync0></OpMode></Dc><Eeprom><ByteSize>256",
+        )
+    )
+    code, text, _ = _run(capsys, "sii", str(esi), "--device", "A-1@1", "--json")
+    assert code == 0
+    (dc,) = json.loads(text)["dc"]
+    assert (dc["assign_activate"], dc["shift_time_0_ns"]) == (0x300, 2**32 - 3)
+
+
 def test_json_of_an_esi(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``sii ESI --json``: the image's document (as decoding the --out file gives it) and
     ``esi``: the Type text, the dictionary's objects (null without one), what was left out."""
@@ -120,16 +137,21 @@ def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixtu
     esi.write_bytes(MULTI)
     link = tmp_path / "link.bin"
     link.symlink_to(tmp_path / "target.bin")
-    # a negative DC shift time (an Ingenia drive's ESI has one) does not fit the SII's field
-    (tmp_path / "dc.xml").write_bytes(
-        MULTI.replace(
-            b"<Eeprom><ByteSize>256",
-            b"<Dc><OpMode><Name>DC</Name>\n<ShiftTimeSync0>-3</ShiftTimeSync0></OpMode></Dc>"
-            b"<Eeprom><ByteSize>256",
+    # a DC cycle time is 0..2**32-1 (the SII's field), a shift time an xs:int: both refused
+    # outside, with the element's line
+    for tag, value, bound in (
+        ("CycleTimeSync0", "-1", "0..4294967295"),
+        ("ShiftTimeSync0", "2147483648", "-2147483648..2147483647"),
+    ):
+        (tmp_path / "dc.xml").write_bytes(
+            MULTI.replace(
+                b"<Eeprom><ByteSize>256",
+                f"<Dc><OpMode><Name>DC</Name>\n<{tag}>{value}</{tag}></OpMode></Dc>".encode()
+                + b"<Eeprom><ByteSize>256",
+            )
         )
-    )
-    code, _, err = _run(capsys, "sii", str(tmp_path / "dc.xml"), "--device", "A-1@1", "--json")
-    assert code == 2 and "line 10: <ShiftTimeSync0>: -3 ns" in err
+        code, _, err = _run(capsys, "sii", str(tmp_path / "dc.xml"), "--device", "A-1@1", "--json")
+        assert code == 2 and f"line 10: <{tag}>: {value} ns is outside {bound}" in err, err
     for argv in (
         [str(tmp_path / "trunc.xml"), "--out", str(tmp_path / "x.bin")],
         [str(tmp_path / "short.bin")],
