@@ -338,17 +338,19 @@ class EsiFile:
         return next((name for t, name in self.groups if t == group_type), "")
 
     def device(self, selector: str | None = None) -> EsiDevice:
-        """The device whose Type text or product code is ``selector``.
+        """The device whose Type text or product code is ``selector``, optionally followed by
+        ``@REVISION`` (its RevisionNo) for files that describe several revisions of a device.
 
-        Without a selector, the file's only device. The product code may be written in
-        decimal, ``0x`` or ``#x`` hex.
+        Without a selector, the file's only device. Product code and revision may be written
+        in decimal, ``0x`` or ``#x`` hex. A Type text holding ``@`` is matched whole first.
 
         Raises:
             EsiFormatError: no device matches, several do, or the file has several devices
                 and no selector was given (the message lists them).
         """
         listing = ", ".join(
-            f"{d.type_name} (product code {d.product_code:#x})" for d in self.devices
+            f"{d.type_name} (product code {d.product_code:#x}) @{d.revision:#x}"
+            for d in self.devices
         )
         if selector is None:
             if len(self.devices) == 1:
@@ -356,16 +358,29 @@ class EsiFile:
             raise EsiFormatError(
                 f"the ESI describes {len(self.devices)} devices, pick one: {listing}"
             )
-        found = [d for d in self.devices if d.type_name == selector]
-        if not found:
-            code = _number_or_none(selector)
-            found = [d for d in self.devices if code is not None and d.product_code == code]
+        found = self._matching(selector)
+        if not found and "@" in selector:
+            name, _, rev_text = selector.rpartition("@")
+            revision = _number_or_none(rev_text)
+            if revision is None:
+                raise EsiFormatError(f"{selector!r}: {rev_text!r} after @ is not a revision")
+            found = [d for d in self._matching(name) if d.revision == revision]
         if len(found) == 1:
             return found[0]
         if not found:
             raise EsiFormatError(f"no device {selector!r} in the ESI; it has: {listing}")
         revs = ", ".join(f"revision {d.revision:#x} (line {d.line})" for d in found)
-        raise EsiFormatError(f"{len(found)} devices match {selector!r}: {revs}")
+        raise EsiFormatError(
+            f"{len(found)} devices match {selector!r}: {revs}; pick one with @REVISION"
+        )
+
+    def _matching(self, selector: str) -> list[EsiDevice]:
+        """The devices whose Type text, else whose product code, is ``selector``."""
+        found = [d for d in self.devices if d.type_name == selector]
+        if not found:
+            code = _number_or_none(selector)
+            found = [d for d in self.devices if code is not None and d.product_code == code]
+        return found
 
 
 # --- reading -----------------------------------------------------------------------------------
@@ -647,6 +662,18 @@ class _Context:
             data_link_layer=self.flag(m, "DataLinkLayer"),
         )
 
+    def dc_time(self, op: ET.Element, tag: str) -> int:
+        """A time of a DC op mode in ns, 0 when absent: a cycle time 0..2**32-1 (the SII's
+        32-bit field, ETG.2010 Table 14), a shift time an ESI xs:int (it may be negative)."""
+        el = op.find(tag)
+        if el is None:
+            return 0
+        value = self.number(el)
+        low, high = (-(2**31), 2**31 - 1) if tag.startswith("Shift") else (0, 2**32 - 1)
+        if not low <= value <= high:
+            raise self.error(el, f"{value} ns is outside {low}..{high}")
+        return value
+
     def dc(self, dc: ET.Element | None) -> tuple[EsiDcOpMode, ...]:
         if dc is None:
             return ()
@@ -659,16 +686,16 @@ class _Context:
                     name=self.text(self.required(op, "Name")),
                     description=_flag_text(op, "Desc") or "",
                     assign_activate=self.child_number(op, "AssignActivate", 0),
-                    cycle_time_sync0_ns=0 if sync0 is None else self.number(sync0),
+                    cycle_time_sync0_ns=self.dc_time(op, "CycleTimeSync0"),
                     cycle_time_sync0_factor=0
                     if sync0 is None
                     else self.attr_number(sync0, "Factor", 0),
-                    shift_time_sync0_ns=self.child_number(op, "ShiftTimeSync0", 0),
-                    cycle_time_sync1_ns=0 if sync1 is None else self.number(sync1),
+                    shift_time_sync0_ns=self.dc_time(op, "ShiftTimeSync0"),
+                    cycle_time_sync1_ns=self.dc_time(op, "CycleTimeSync1"),
                     cycle_time_sync1_factor=0
                     if sync1 is None
                     else self.attr_number(sync1, "Factor", 0),
-                    shift_time_sync1_ns=self.child_number(op, "ShiftTimeSync1", 0),
+                    shift_time_sync1_ns=self.dc_time(op, "ShiftTimeSync1"),
                 )
             )
         return tuple(modes)

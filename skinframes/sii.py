@@ -838,11 +838,13 @@ def image_from_esi(
     eeprom = device.eeprom
     if eeprom is None:
         raise FieldRangeError(
-            f"SII: device {device.type_name} has no <Eeprom> (ByteSize, ConfigData)"
+            f"SII: device {device.type_name} (line {device.line}) has no <Eeprom> (ByteSize, "
+            "ConfigData)"
         )
     if len(eeprom.config_data) > CONFIG_AREA_BYTES:
         raise FieldRangeError(
-            f"SII: ConfigData of {device.type_name} is {len(eeprom.config_data)} bytes, "
+            f"SII: ConfigData of {device.type_name} (line {device.line}) is "
+            f"{len(eeprom.config_data)} bytes, "
             f"words 0-6 hold {CONFIG_AREA_BYTES}"
         )
     strings = _Strings()
@@ -919,8 +921,9 @@ def image_from_esi(
     dc = tuple(
         SiiDc(
             cycle_time_0_ns=m.cycle_time_sync0_ns,
-            shift_time_0_ns=m.shift_time_sync0_ns,
-            shift_time_1_ns=m.shift_time_sync1_ns,
+            # a negative ESI shift time (xs:int) as its two's complement in the 32-bit field
+            shift_time_0_ns=m.shift_time_sync0_ns & 0xFFFF_FFFF,
+            shift_time_1_ns=m.shift_time_sync1_ns & 0xFFFF_FFFF,
             sync1_cycle_factor=m.cycle_time_sync1_factor,
             assign_activate=m.assign_activate,
             sync0_cycle_factor=m.cycle_time_sync0_factor,

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import argparse
 import contextlib
+import dataclasses
 import functools
 import json
 import sys
@@ -84,8 +85,18 @@ def add_parser(sub: Any) -> None:
         default=[],
         metavar="ESI.xml[#TYPE]",
         help="after the patches, a slave as the ESI file describes it (device TYPE, by Type "
-        "or product code, when the file has several): its SII image, CoE dictionary, PDO "
-        "assignment and mapping, DC; inputs count up at each --period-ms; repeatable (ecat)",
+        "or product code, @REVISION among revisions, when the file has several): its SII image, "
+        "CoE dictionary, PDO assignment and mapping, DC; inputs count up at each --period-ms; "
+        "repeatable (ecat)",
+    )
+    p.add_argument(
+        "--esi-inputs",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="input values for the n-th --esi slave from the n-th such CSV file (header "
+        "INDEX:SUBINDEX,...; a row per --period-ms, repeated); its other entries count; "
+        "repeatable (ecat)",
     )
     p.add_argument(
         "--seed",
@@ -183,6 +194,7 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError("serve ecat: --nodes is required")
     from emulator.errors import TopologyError
     from emulator.esc.dc import seed_clocks
+    from emulator.esc.esi_inputs import read_esi_inputs
     from emulator.esc.esi_slave import check_esi_slave, esi_device
     from emulator.live import RawSocket, TaxelFeed, mixed_chain, serve
 
@@ -192,6 +204,19 @@ def run(args: argparse.Namespace) -> int:
         args.drift_ppm = DEFAULT_DRIFT_PPM
     period_s = args.period_ms / 1000.0
     esi = [check_esi_slave(spec) for spec in args.esi]
+    if len(args.esi_inputs) > len(esi):
+        raise SkinframesError(
+            f"--esi-inputs: {len(args.esi_inputs)} files for {len(esi)} --esi slaves (the n-th "
+            "file is the n-th --esi slave's)"
+        )
+    for k, path in enumerate(args.esi_inputs):
+        if not path:
+            raise SkinframesError("--esi-inputs: an empty file name")
+        try:
+            inputs = read_esi_inputs(path, esi[k].device)
+        except OSError as exc:
+            raise SkinframesError(f"--esi-inputs {path}: {exc.strerror or exc}") from exc
+        esi[k] = dataclasses.replace(esi[k], inputs=inputs)
     if args.nodes or not esi:
         if args.bytes is None and args.nodes:
             raise TopologyError("serve ecat: --bytes is required with --nodes > 0")
@@ -308,6 +333,8 @@ def run_epl(args: argparse.Namespace) -> int:
 
     if args.no_mailbox or args.drift_ppm is not None or args.esi:
         raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
+    if args.esi_inputs:
+        raise SkinframesError("--esi-inputs applies to serve ecat only")
     if args.nodes is None:
         raise SkinframesError("serve epl: --nodes is required")
     if args.bytes is None:
@@ -413,6 +440,8 @@ def run_epl_mn(args: argparse.Namespace) -> int:
 
     if args.no_mailbox or args.drift_ppm is not None or args.esi:
         raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
+    if args.esi_inputs:
+        raise SkinframesError("--esi-inputs applies to serve ecat only")
     if args.pcap == "":
         raise CaptureError("--pcap: an empty file name")
     config = _mn_config(args)

@@ -31,19 +31,28 @@ def add_parser(sub: Any) -> None:
         "sii",
         help="build an SII EEPROM image from an ESI file, or decode an image",
         description="With an ESI XML file (ETG.2000): write the SII EEPROM image (ETG.2010) of "
-        "one of its devices to --out. With an image: print what it holds (--json for JSON).",
+        "one of its devices to --out, or print it as JSON (--json). With an image: print what "
+        "it holds (--json for JSON).",
     )
     p.add_argument(
         "path", metavar="FILE", help="an ESI .xml file, or an SII image to decode; - for stdin"
     )
-    p.add_argument("--device", metavar="TYPE", help="the device: its Type text or product code")
+    p.add_argument(
+        "--device",
+        metavar="TYPE",
+        help="the device: its Type text or product code, optionally @REVISION",
+    )
     p.add_argument(
         "--out", metavar="FILE", help="the image file to write (ESI input); - for stdout"
     )
     p.add_argument(
         "--force", action="store_true", help="replace an --out file that is not an SII image"
     )
-    p.add_argument("--json", action="store_true", help="one JSON document (image input)")
+    p.add_argument(
+        "--json",
+        action="store_true",
+        help="one JSON document: the image's (ESI input: of the image built, with its device)",
+    )
     p.set_defaults(run=run)
 
 
@@ -57,10 +66,12 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError("FILE: an empty name")
     data = input_bytes(args.path)
     if _is_xml(data):
-        if args.out is None:
-            raise SkinframesError(f"{args.path}: an ESI file; --out FILE names the image to write")
-        if args.json:
-            raise SkinframesError("--json: only for decoding an image")
+        if args.out is None and not args.json:
+            raise SkinframesError(
+                f"{args.path}: an ESI file; --out FILE names the image to write, --json prints it"
+            )
+        if args.json and args.out == STDIO:
+            raise SkinframesError("--json with --out -: both on stdout; write the image to a file")
         return _build(args, data)
     if args.out is not None or args.device is not None:
         raise SkinframesError(f"{args.path}: not an ESI XML file; --out and --device need one")
@@ -74,31 +85,50 @@ def run(args: argparse.Namespace) -> int:
 
 
 def _build(args: argparse.Namespace, data: bytes) -> int:
+    if args.out is not None:
+        _check_out(args)
+    esi = parse_esi(data, source=args.path)
+    device = esi.device(args.device)
+    built = sii_from_esi(esi, device)
+    raw = encode_sii(built.image)
+    if args.out is not None:
+        with output(args.out, "wb", what="--out") as f:
+            f.write(raw)
+    for what in built.omitted:
+        print(f"left out to fit ByteSize {built.image.eeprom_bytes}: {what}", file=sys.stderr)
+    if args.out is not None:
+        print(
+            f"wrote {escape(args.out)}: {escape(device.type_name)}, {len(raw)} bytes",
+            file=sys.stderr,
+        )
+    if args.json:
+        doc = to_json(decode_sii(raw))
+        dictionary = device.dictionary
+        doc["esi"] = {
+            "type": device.type_name,
+            "objects": None if dictionary is None else len(dictionary.objects),
+            "left_out": list(built.omitted),
+        }
+        print(json.dumps(doc))
+    return 0
+
+
+def _check_out(args: argparse.Namespace) -> None:
+    """Refuse an empty --out, a symbolic link, and a file that is not an SII image already
+    (unless --force)."""
     if not args.out:
         raise SkinframesError("--out: an empty name")
+    if args.out == STDIO:
+        return
     out = Path(args.out)
-    if args.out != STDIO:
-        check_target(out)
-    if args.out != STDIO and out.exists() and not args.force:
+    check_target(out)
+    if out.exists() and not args.force:
         try:
             decode_sii(out.read_bytes())
         except DecodeError:
             raise SkinframesError(
                 f"{args.out}: exists and is not an SII image; move it away or use --force"
             ) from None
-    esi = parse_esi(data, source=args.path)
-    device = esi.device(args.device)
-    built = sii_from_esi(esi, device)
-    raw = encode_sii(built.image)
-    with output(args.out, "wb", what="--out") as f:
-        f.write(raw)
-    for what in built.omitted:
-        print(f"left out to fit ByteSize {built.image.eeprom_bytes}: {what}", file=sys.stderr)
-    print(
-        f"wrote {escape(args.out)}: {escape(device.type_name)}, {len(raw)} bytes",
-        file=sys.stderr,
-    )
-    return 0
 
 
 def _name(kind: type[FmmuUsage] | type[SyncManagerType], value: int) -> str:

@@ -193,7 +193,8 @@ def add_parser(sub: Any) -> None:
         default=[],
         metavar="ESI.xml[#TYPE]",
         help="EtherCAT: after the patches, a slave as the ESI file describes it (device TYPE, "
-        "by Type or product code, when the file has several), read each cycle by the master; "
+        "by Type or product code, @REVISION among revisions, when the file has several), read "
+        "each cycle by the master; "
         "its inputs count the cycles; repeatable",
     )
     p.add_argument(

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
+import itertools
 import json
 import os
 import select
@@ -17,6 +18,8 @@ from collections.abc import Iterator
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+import numpy as np
+import numpy.typing as npt
 import pytest
 
 if TYPE_CHECKING:
@@ -100,6 +103,69 @@ def from_xml(path: Path) -> dict[str, Any]:
         "input_bytes": (bits("TxPdo") + 7) // 8,
         "byte_size": xml_number(device.findtext("Eeprom/ByteSize")),
     }
+
+
+def counts_up(values: list[int], modulo: int) -> bool:
+    """Each value the one before or later (modulo), and not all equal."""
+    steps = [(b - a) % modulo for a, b in itertools.pairwise(values)]
+    return all(s < modulo // 2 for s in steps) and any(steps)
+
+
+def samples_of_rows(
+    rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8], take: int | None = None
+) -> list[set[int]]:
+    """For each slave's row, the indices k of the published samples it equals (fails if none).
+    Short rows may equal several samples: 8 bytes of 5 levels collide now and then."""
+    found = []
+    for p, row in enumerate(rows):
+        hits = np.flatnonzero((payloads[:, p, :take] == row).all(axis=1))
+        assert hits.size >= 1, f"slave {p}: {row.tobytes().hex()} is no published sample"
+        found.append({int(k) for k in hits})
+    return found
+
+
+def sample_of_rows(
+    rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8], take: int | None = None
+) -> list[int]:
+    """For each slave's row, the index k of the published sample it equals (fails if none, or
+    if several: for rows long enough that a slave's samples are distinct)."""
+    found = samples_of_rows(rows, payloads, take)
+    for p, ks in enumerate(found):
+        assert len(ks) == 1, f"slave {p}: {rows[p].tobytes().hex()} is samples {sorted(ks)}"
+    return [ks.pop() for ks in found]
+
+
+def check_taxels(
+    inputs: npt.NDArray[np.uint8],
+    nodes: int,
+    size: int,
+    take: int | None = None,
+    *,
+    seed: int,
+    samples: int,
+) -> int:
+    """Every cycle of ``inputs`` (the patches' rows, cycle after cycle) holds whole samples the
+    patches published (``serve ecat --seed SEED --samples SAMPLES``; their first ``take``
+    bytes), in time order; returns the samples seen."""
+    from skinframes import taxel
+
+    payloads = taxel.sample_payloads(nodes, samples, size, seed=seed)
+    for p in range(nodes):  # each slave's samples are distinct, so matching is unambiguous
+        assert len({payloads[k, p, :take].tobytes() for k in range(samples)}) == samples
+    seen: set[int] = set()
+    previous = None
+    for cycle in inputs.reshape(-1, nodes, size if take is None else take):
+        ks = sample_of_rows(cycle, payloads, take)
+        steps = [(b - a) % samples for a, b in itertools.pairwise(ks)]
+        # publications happen between frames: inside a cycle the sample only moves forward,
+        # at most once per frame of the cycle (a few), never backwards
+        assert all(s < samples // 2 for s in steps), ks
+        assert sum(1 for s in steps if s) <= 3, ks
+        if previous is not None:
+            assert (ks[0] - previous) % samples < samples // 2
+        previous = ks[-1]
+        seen.update(ks)
+    return len(seen)
 
 
 def live_net(prefix: str) -> Iterator[VethPair]:

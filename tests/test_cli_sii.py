@@ -21,6 +21,10 @@ MULTI = b"""<?xml version="1.0"?>
         <Eeprom><ByteSize>256</ByteSize><ConfigData>0500</ConfigData></Eeprom>
       </Device>
       <Device><Type ProductCode="#x20" RevisionNo="2">B-2</Type><Name>second</Name></Device>
+      <Device>
+        <Type ProductCode="#x10" RevisionNo="#x10001">A-1</Type><Name>first, again</Name>
+        <Eeprom><ByteSize>512</ByteSize></Eeprom>
+      </Device>
     </Devices>
   </Descriptions>
 </EtherCATInfo>
@@ -76,9 +80,53 @@ def test_several_devices(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> 
     out = tmp_path / "a.bin"
     code, _, err = _run(capsys, "sii", str(esi), "--out", str(out))
     assert code == 2 and err.count("\n") == 1 and "A-1" in err and "B-2" in err
-    assert _run(capsys, "sii", str(esi), "--device", "#x10", "--out", str(out))[0] == 0
+    # two revisions of A-1 (product code #x10): Type or product code alone names both
+    for selector in ("A-1", "#x10"):
+        code, _, err = _run(capsys, "sii", str(esi), "--device", selector, "--out", str(out))
+        assert code == 2 and err.count("\n") == 1 and "@REVISION" in err, err
+    # ... and @REVISION (RevisionNo, in any notation) one of them: the XML's ByteSize of each
+    for selector, size in (("A-1@1", 256), ("#x10@0x10001", 512), ("16@#x10001", 512)):
+        code, text, _ = _run(capsys, "sii", str(esi), "--device", selector, "--json")
+        assert code == 0 and json.loads(text)["eeprom_bytes"] == size, selector
+    code, _, err = _run(capsys, "sii", str(esi), "--device", "A-1@3", "--out", str(out))
+    assert code == 2 and "no device 'A-1@3'" in err
     code, _, err = _run(capsys, "sii", str(esi), "--device", "B-2", "--out", str(out))
-    assert code == 2 and "no <Eeprom>" in err
+    assert code == 2 and "B-2 (line 11) has no <Eeprom>" in err  # the Device element's line
+
+
+def test_a_negative_dc_shift_time(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """ESI's ShiftTimeSync0 is an xs:int (EtherCATInfo.xsd), and an Ingenia drive's ESI gives
+    -3 ns: the SII's 32-bit field holds it as its two's complement."""
+    esi = tmp_path / "dc.xml"
+    esi.write_bytes(
+        MULTI.replace(
+            b"<Eeprom><ByteSize>256",
+            b"<Dc><OpMode><Name>DC</Name><AssignActivate>#x300</AssignActivate>"
+            b"<ShiftTimeSync0>-3</ShiftTimeSync0></OpMode></Dc><Eeprom><ByteSize>256",
+        )
+    )
+    code, text, _ = _run(capsys, "sii", str(esi), "--device", "A-1@1", "--json")
+    assert code == 0
+    (dc,) = json.loads(text)["dc"]
+    assert (dc["assign_activate"], dc["shift_time_0_ns"]) == (0x300, 2**32 - 3)
+
+
+def test_json_of_an_esi(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
+    """``sii ESI --json``: the image's document (as decoding the --out file gives it) and
+    ``esi``: the Type text, the dictionary's objects (null without one), what was left out."""
+    esi = tmp_path / "multi.xml"
+    esi.write_bytes(MULTI)
+    out = tmp_path / "a.bin"
+    code, text, err = _run(
+        capsys, "sii", str(esi), "--device", "A-1@1", "--json", "--out", str(out)
+    )
+    assert code == 0 and "wrote" in err
+    doc = json.loads(text)
+    assert doc.pop("esi") == {"type": "A-1", "objects": None, "left_out": []}
+    assert _run(capsys, "sii", str(out), "--json")[:2] == (0, json.dumps(doc) + "\n")
+    assert (doc["product_code"], doc["config_data"]) == (0x10, "0500" + "00" * 12)
+    code, _, err = _run(capsys, "sii", str(esi), "--device", "A-1@1", "--json", "--out", "-")
+    assert code == 2 and err.count("\n") == 1
 
 
 def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
@@ -89,15 +137,30 @@ def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixtu
     esi.write_bytes(MULTI)
     link = tmp_path / "link.bin"
     link.symlink_to(tmp_path / "target.bin")
+    # a DC cycle time is 0..2**32-1 (the SII's field), a shift time an xs:int: both refused
+    # outside, with the element's line
+    for tag, value, bound in (
+        ("CycleTimeSync0", "-1", "0..4294967295"),
+        ("ShiftTimeSync0", "2147483648", "-2147483648..2147483647"),
+    ):
+        (tmp_path / "dc.xml").write_bytes(
+            MULTI.replace(
+                b"<Eeprom><ByteSize>256",
+                f"<Dc><OpMode><Name>DC</Name>\n<{tag}>{value}</{tag}></OpMode></Dc>".encode()
+                + b"<Eeprom><ByteSize>256",
+            )
+        )
+        code, _, err = _run(capsys, "sii", str(tmp_path / "dc.xml"), "--device", "A-1@1", "--json")
+        assert code == 2 and f"line 10: <{tag}>: {value} ns is outside {bound}" in err, err
     for argv in (
         [str(tmp_path / "trunc.xml"), "--out", str(tmp_path / "x.bin")],
         [str(tmp_path / "short.bin")],
         [str(tmp_path / "missing.xml")],
         [str(tmp_path)],
         [str(esi)],
-        [str(esi), "--device", "A-1", "--out", str(tmp_path / "notsii.txt")],
-        [str(esi), "--device", "A-1", "--out", str(link)],
-        [str(esi), "--device", "A-1", "--out", str(tmp_path / "no" / "x.bin")],
+        [str(esi), "--device", "A-1@1", "--out", str(tmp_path / "notsii.txt")],
+        [str(esi), "--device", "A-1@1", "--out", str(link)],
+        [str(esi), "--device", "A-1@1", "--out", str(tmp_path / "no" / "x.bin")],
         [str(tmp_path / "short.bin"), "--out", str(tmp_path / "x.bin")],
         [""],
     ):
@@ -107,7 +170,7 @@ def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixtu
     assert (tmp_path / "notsii.txt").read_text() == "hello\n" and not os.path.lexists(
         tmp_path / "target.bin"
     )
-    args = [str(esi), "--device", "A-1", "--out", str(tmp_path / "notsii.txt"), "--force"]
+    args = [str(esi), "--device", "A-1@1", "--out", str(tmp_path / "notsii.txt"), "--force"]
     assert _run(capsys, "sii", *args)[0] == 0
 
 

@@ -70,6 +70,7 @@ IDENTITY: Final = 0x1018
 ERROR_REGISTER: Final = 0x1001
 DATA_TYPE_PDO_MAPPING: Final = 0x0021  # ETG.1000.6 Table 64
 DATA_TYPE_IDENTITY: Final = 0x0023
+MAX_SUBINDEX: Final = 0xFF  # a CoE subindex is one byte (ETG.1000.6 SDO header)
 _STRINGS: Final = re.compile(r"^(STRING|OCTET_STRING|UNICODE_STRING)\((\d+)\)$")
 _STRING_CODES: Final = {"STRING": 0x09, "OCTET_STRING": 0x0A, "UNICODE_STRING": 0x0B}
 _STATE_BITS: Final = {  # ESI restriction words -> (read bit, write bit)
@@ -339,7 +340,12 @@ class _Builder:
         return 0
 
     def parts(self, o: EsiObject, t: EsiDataType) -> tuple[list[_Part], bool]:
-        """The subindices of a record/array type, and whether an array made them."""
+        """The subindices of a record/array type, and whether an array made them.
+
+        A SubItem of an array type without ``SubIdx`` is the array's elements, one subindex
+        each (how ESI writes ARRAY objects such as 0x1C12); with a ``SubIdx`` it is one entry
+        holding the whole array (an Ingenia drive's 0x58B2:1, ``ARRAY [0..511] OF BYTE``).
+        """
         parts: list[_Part] = []
         array = False
         next_sub = 0
@@ -347,7 +353,12 @@ class _Builder:
             access = access_bits(s.access, s.read_restrictions, s.write_restrictions)
             access |= _mapping_bits(s.pdo_mapping)
             inner = self.types.get(s.type_name)
-            if inner is not None and inner.array_elements and not inner.sub_items:
+            if (
+                inner is not None
+                and inner.array_elements
+                and not inner.sub_items
+                and s.subindex is None
+            ):
                 array = True
                 n = inner.array_elements
                 sub0 = inner.array_lower_bound if inner.array_lower_bound is not None else 1
@@ -401,6 +412,11 @@ class _Builder:
         if not parts or parts[0].subindex != 0:
             raise TopologyError(f"ESI dictionary: {where}: its type {t.name} has no subindex 0")
         top = max(p.subindex for p in parts)
+        if top > MAX_SUBINDEX:
+            raise TopologyError(
+                f"ESI dictionary: {where}: subindex {top} (type {t.name}); CoE subindices are "
+                f"0..{MAX_SUBINDEX}"
+            )
         by_sub = {p.subindex: p for p in parts}
         infos = list(o.sub_items)
         entries: list[Entry] = []

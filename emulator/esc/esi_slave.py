@@ -35,6 +35,7 @@ import numpy.typing as npt
 from emulator.errors import TopologyError
 from emulator.esc.dc import DC_FEATURES
 from emulator.esc.device import EscDevice
+from emulator.esc.esi_inputs import EsiInputs, pack_entries
 from emulator.esc.esi_objects import EsiDictionary, esi_dictionary
 from emulator.esc.objects import ObjectDictionary
 from emulator.esc.pdi import Pdi
@@ -77,6 +78,7 @@ class EsiSlave:
     device: EsiDevice
     sii: bytes
     source: str = ""
+    inputs: EsiInputs | None = None  # input values from a file (serve ecat --esi-inputs)
 
     @property
     def label(self) -> str:
@@ -84,8 +86,9 @@ class EsiSlave:
         return f"{self.source}#{self.device.type_name}"
 
     def summary(self) -> dict[str, str | int]:
-        """What ``serve``'s and ``simulate``'s JSON say of it (key ``esi``)."""
-        return {
+        """What ``serve``'s and ``simulate``'s JSON say of it (key ``esi``; ``inputs``, the
+        inputs file, only with one)."""
+        out: dict[str, str | int] = {
             "file": self.source,
             "type": self.device.type_name,
             "name": self.device.name,
@@ -93,6 +96,9 @@ class EsiSlave:
             "product_code": self.device.product_code,
             "revision": self.device.revision,
         }
+        if self.inputs is not None:
+            out["inputs"] = self.inputs.source
+        return out
 
 
 def parse_esi_spec(spec: str) -> tuple[str, str | None]:
@@ -185,9 +191,12 @@ class EsiApplication(SlaveApplication):
 
     objects: EsiDictionary | None
 
-    def __init__(self, esi: EsiFile, device: EsiDevice, info: SlaveInfo) -> None:
+    def __init__(
+        self, esi: EsiFile, device: EsiDevice, info: SlaveInfo, inputs: EsiInputs | None = None
+    ) -> None:
         self.esi, self.esi_device = esi, device
         self.counter = 0  # publications so far: what every input entry holds
+        self.input_file = inputs  # values from a file for the entries it names
         super().__init__(info)
         self._input_sms = [
             (i, sm.start)
@@ -206,8 +215,14 @@ class EsiApplication(SlaveApplication):
 
     # --- inputs ----------------------------------------------------------------------------
     def input_value(self, index: int, subindex: int, bits: int) -> bytes:
-        """An input entry's bytes now: the counter cut to ``bits``."""
-        return (self.counter % (1 << bits)).to_bytes((bits + 7) // 8, "little")
+        """An input entry's bytes now: the inputs file's value, else the counter, cut to
+        ``bits``."""
+        return (self._value(index, subindex) % (1 << bits)).to_bytes((bits + 7) // 8, "little")
+
+    def _value(self, index: int, subindex: int) -> int:
+        file = self.input_file
+        found = None if file is None else file.value(index, subindex, self.counter)
+        return self.counter if found is None else found
 
     def count(self, device: Pdi) -> None:
         """The next publication: every input entry counts one up (written unless SYNC0
@@ -240,9 +255,13 @@ class EsiApplication(SlaveApplication):
         return [] if found is None else [(e.index, e.subindex, e.bit_length) for e in found.entries]
 
     def image(self, sync_manager: int) -> bytes:
-        """The bytes of input SyncManager ``sync_manager`` now (:func:`counter_images`)."""
+        """The bytes of input SyncManager ``sync_manager`` now (:func:`counter_images`; with
+        an inputs file, :func:`pack_entries` of its values and the counter)."""
+        layout = self.layout(sync_manager)
+        if self.input_file is not None:
+            return pack_entries(layout, [self._value(i, s) for i, s, _ in layout])
         counters = np.array([self.counter], dtype=np.int64)
-        return bytes(counter_images(self.layout(sync_manager), counters)[0])
+        return bytes(counter_images(layout, counters)[0])
 
     # --- outputs ---------------------------------------------------------------------------
     def take_outputs(self, index: int, data: bytes) -> None:
@@ -318,7 +337,7 @@ def esi_device(slave: EsiSlave) -> EscDevice:
         syncmanagers=max(ESC_SYNCMANAGERS, len(slave.device.sync_managers)),
         features=DC_FEATURES if slave.device.dc_op_modes else 0,
     )
-    app = EsiApplication(slave.esi, slave.device, info)
+    app = EsiApplication(slave.esi, slave.device, info, slave.inputs)
     return EscDevice(info, config=config, sii=slave.sii, app=app)
 
 

@@ -15,10 +15,11 @@ from pathlib import Path
 
 import pytest
 
+from emulator.errors import TopologyError
 from emulator.esc.chain import EcatChain
 from emulator.esc.coe import CoeServer
 from emulator.esc.esi_objects import EsiDictionary
-from emulator.esc.esi_slave import EsiApplication, esi_device, load_esi_slave
+from emulator.esc.esi_slave import EsiApplication, check_esi_slave, esi_device, load_esi_slave
 from emulator.live import TaxelFeed, mixed_chain
 from skinframes import ecat_mailbox as mb
 from skinframes import ethercat
@@ -256,3 +257,67 @@ def test_distributed_clocks_only_where_the_esi_has_them(shared_esi: Path, name: 
     # SOEM's config_init reads to decide whether a slave has DC
     features = m.one(Datagram(C.APRD, 0, 0x0008, bytes(2))).data
     assert int.from_bytes(features, "little") & 0x0C == (0x0C if has_dc else 0)
+
+
+# A record whose SubItem 1 is a whole byte array (SubIdx given: one entry, as an Ingenia drive's
+# 0x58B2 "Monitoring data" with ARRAY [0..511] OF BYTE), and an array of 300 elements, which no
+# CoE subindex (one byte) can address.
+BYTE_BLOCK_TYPES = """
+<DataType><Name>ARRAY [0..7] OF BYTE</Name><BaseType>BYTE</BaseType><BitSize>64</BitSize>
+  <ArrayInfo><LBound>0</LBound><Elements>8</Elements></ArrayInfo></DataType>
+<DataType><Name>DT2100</Name><BitSize>80</BitSize>
+  <SubItem><SubIdx>0</SubIdx><Name>SubIndex 000</Name><Type>USINT</Type><BitSize>8</BitSize>
+    <BitOffs>0</BitOffs><Flags><Access>ro</Access></Flags></SubItem>
+  <SubItem><SubIdx>1</SubIdx><Name>Block</Name><Type>ARRAY [0..7] OF BYTE</Type>
+    <BitSize>64</BitSize><BitOffs>16</BitOffs><Flags><Access>ro</Access></Flags></SubItem>
+</DataType>
+<DataType><Name>DT2101ARR</Name><BaseType>USINT</BaseType><BitSize>2400</BitSize>
+  <ArrayInfo><LBound>1</LBound><Elements>300</Elements></ArrayInfo></DataType>
+<DataType><Name>DT2101</Name><BitSize>2416</BitSize>
+  <SubItem><SubIdx>0</SubIdx><Name>SubIndex 000</Name><Type>USINT</Type><BitSize>8</BitSize>
+    <BitOffs>0</BitOffs><Flags><Access>ro</Access></Flags></SubItem>
+  <SubItem><Name>Elements</Name><Type>DT2101ARR</Type><BitSize>2400</BitSize>
+    <BitOffs>16</BitOffs><Flags><Access>ro</Access></Flags></SubItem>
+</DataType>
+"""
+BYTE_BLOCK = """
+<Object><Index>#x2100</Index><Name>Byte block</Name><Type>DT2100</Type><BitSize>80</BitSize>
+  <Info><SubItem><Name>SubIndex 000</Name><Info><DefaultData>01</DefaultData></Info></SubItem>
+  <SubItem><Name>Block</Name><Info><DefaultData>0102030405060708</DefaultData></Info></SubItem>
+  </Info></Object>
+"""
+LONG_ARRAY = """
+<Object><Index>#x2101</Index><Name>Long array</Name><Type>DT2101</Type><BitSize>2416</BitSize>
+</Object>
+"""
+
+
+def with_objects(shared_esi: Path, tmp_path: Path, objects: str) -> Path:
+    xml = (shared_esi / f"{LAN9252}.xml").read_text(encoding="utf-8")
+    xml = xml.replace("<DataTypes>", "<DataTypes>" + BYTE_BLOCK_TYPES, 1)
+    xml = xml.replace("</Objects>", objects + "</Objects>", 1)
+    path = tmp_path / "blocks.xml"
+    path.write_text(xml, encoding="utf-8")
+    return path
+
+
+def test_an_array_typed_subitem_with_a_subindex_is_one_entry(
+    shared_esi: Path, tmp_path: Path
+) -> None:
+    dev = esi_device(load_esi_slave(str(with_objects(shared_esi, tmp_path, BYTE_BLOCK))))
+    od = dev.app.objects
+    assert isinstance(od, EsiDictionary)
+    assert od.read(0x2100, 0, PREOP) == b"\x01"
+    assert od.read(0x2100, 1, PREOP) == bytes(range(1, 9))  # the 64 bits, one entry
+    assert od.read(0x2100, 2, PREOP) == SdoAbort.NO_SUBINDEX
+    block = od.entry(0x2100, 1)
+    assert not isinstance(block, int) and block.bit_length == 64
+
+
+def test_an_array_beyond_subindex_255_is_refused(shared_esi: Path, tmp_path: Path) -> None:
+    path = with_objects(shared_esi, tmp_path, LONG_ARRAY)
+    with pytest.raises(TopologyError) as info:
+        check_esi_slave(str(path))  # what serve ecat --esi runs before serving
+    assert str(info.value).endswith(
+        "object 0x2101: subindex 300 (type DT2101); CoE subindices are 0..255"
+    )

@@ -10,7 +10,8 @@ and from the SII images their makers shipped beside them (../shared/esi, SOURCES
   the bytes of its default PDO assignment (the PDOs with an ``Sm``); both reach OP and their
   inputs count up;
 * 20 skin patches and one ESI slave in one line: SOEM reaches OP, every cycle's working
-  counter is the expected one.
+  counter is the expected one;
+* ``--esi-inputs``: the input entry plays the rows of a file written here, in turn.
 
 Root (or CAP_NET_RAW, CAP_NET_ADMIN, CAP_SYS_ADMIN), iproute2 and pysoem are needed: without
 them the tests skip with the reason, under CI=true they fail.
@@ -18,7 +19,6 @@ them the tests skip with the reason, under CI=true they fail.
 
 from __future__ import annotations
 
-import itertools
 import json
 import subprocess
 import sys
@@ -27,7 +27,7 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from live_util import ENV, ROOT, TESTS, from_xml, in_netns, live_net, serving
+from live_util import ENV, ROOT, TESTS, counts_up, from_xml, in_netns, live_net, serving
 
 from emulator.live import VethPair
 
@@ -64,12 +64,6 @@ def sii_image(shared_esi: Path, name: str, tmp_path: Path) -> bytes:
 # (ConfigData, checksum), vendor/product/revision (8-13), bootstrap and standard mailboxes and
 # the protocols (0x14-0x1C), size and version (0x3E-0x3F); the serial (14-15) is the maker's
 AGREED_BYTE_RANGES = ((0, 16), (16, 28), (0x28, 0x3A), (0x7C, 0x80))
-
-
-def counts_up(values: list[int], modulo: int) -> bool:
-    """Each value the one before or later (modulo), and not all equal."""
-    steps = [(b - a) % modulo for a, b in itertools.pairwise(values)]
-    return all(s < modulo // 2 for s in steps) and any(steps)
 
 
 def test_pysoem_brings_two_esi_slaves_to_op(
@@ -152,3 +146,29 @@ def test_pysoem_brings_patches_and_an_esi_slave_to_op(net: VethPair, shared_esi:
         f"{expected_wkc}, states {sorted(set(doc['states']))}, "
         f"{server['summary']['frames_in']} frames"
     )
+
+
+def test_pysoem_reads_inputs_from_a_file(net: VethPair, shared_esi: Path, tmp_path: Path) -> None:
+    """``--esi-inputs``: the slave's one input entry (0x6000:1, 8 bits, the XML's TxPdo) plays
+    the file's rows in turn, a row per publication, and pysoem reads nothing else."""
+    x = from_xml(shared_esi / f"{LAN9252}.xml")
+    rows = [(37 * k + 5) % 256 for k in range(16)]  # distinct, in an order a counter lacks
+    inputs = tmp_path / "inputs.csv"
+    inputs.write_text("# Button1\n0x6000:1\n" + "".join(f"{v}\n" for v in rows), encoding="utf-8")
+    with serving(
+        net,
+        "--nodes",
+        "0",
+        "--esi",
+        str(shared_esi / f"{LAN9252}.xml"),
+        "--esi-inputs",
+        str(inputs),
+    ) as server:
+        doc = run_master(net, "--image-bytes", str(x["byte_size"]))
+    assert server["rc"] == 0, server["stderr"]
+    assert (doc["op"], doc["states"]) == (8, [8])
+    seen = [int(row[0], 16) for row in doc["inputs"]]
+    assert set(seen) <= set(rows), sorted(set(seen) - set(rows))
+    assert counts_up([rows.index(v) for v in seen], len(rows))  # row after row, repeated
+    assert server["summary"]["esi"][0]["inputs"] == str(inputs)
+    print(f"\n--esi-inputs: {len(set(seen))} of {len(rows)} rows seen in {len(seen)} cycles")

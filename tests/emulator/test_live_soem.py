@@ -18,7 +18,6 @@ from __future__ import annotations
 
 import contextlib
 import importlib.util
-import itertools
 import json
 import os
 import select
@@ -35,11 +34,20 @@ from typing import Any
 
 import live_util
 import numpy as np
-import numpy.typing as npt
 import pytest
 import tshark_util
 from bench_util import load_benchmark
-from live_util import ENV, IN_CI, ROOT, TESTS, missing_requirement, read_line
+from live_util import (
+    ENV,
+    IN_CI,
+    ROOT,
+    TESTS,
+    check_taxels,
+    missing_requirement,
+    read_line,
+    sample_of_rows,
+    samples_of_rows,
+)
 
 from emulator.esc.chain import EcatChain
 from emulator.esc.hostile import hostile_frames
@@ -101,54 +109,6 @@ def run_soem(net: VethPair, inputs: Path, cycles: int = 1000, *options: str) -> 
     return doc
 
 
-def samples_of_rows(
-    rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8], take: int | None = None
-) -> list[set[int]]:
-    """For each slave's row, the indices k of the published samples it equals (fails if none).
-    Short rows may equal several samples: 8 bytes of 5 levels collide now and then."""
-    found = []
-    for p, row in enumerate(rows):
-        hits = np.flatnonzero((payloads[:, p, :take] == row).all(axis=1))
-        assert hits.size >= 1, f"slave {p}: {row.tobytes().hex()} is no published sample"
-        found.append({int(k) for k in hits})
-    return found
-
-
-def sample_of_rows(
-    rows: npt.NDArray[np.uint8], payloads: npt.NDArray[np.uint8], take: int | None = None
-) -> list[int]:
-    """For each slave's row, the index k of the published sample it equals (fails if none, or
-    if several: for rows long enough that a slave's samples are distinct)."""
-    found = samples_of_rows(rows, payloads, take)
-    for p, ks in enumerate(found):
-        assert len(ks) == 1, f"slave {p}: {rows[p].tobytes().hex()} is samples {sorted(ks)}"
-    return [ks.pop() for ks in found]
-
-
-def check_taxels(
-    inputs: npt.NDArray[np.uint8], nodes: int, size: int, take: int | None = None
-) -> int:
-    """Every cycle holds whole published samples (their first ``take`` bytes), in time order;
-    returns the samples seen."""
-    payloads = taxel.sample_payloads(nodes, SAMPLES, size, seed=SEED)
-    for p in range(nodes):  # each slave's samples are distinct, so matching is unambiguous
-        assert len({payloads[k, p, :take].tobytes() for k in range(SAMPLES)}) == SAMPLES
-    seen: set[int] = set()
-    previous = None
-    for cycle in inputs.reshape(-1, nodes, size if take is None else take):
-        ks = sample_of_rows(cycle, payloads, take)
-        steps = [(b - a) % SAMPLES for a, b in itertools.pairwise(ks)]
-        # publications happen between frames: inside a cycle the sample only moves forward,
-        # at most once per frame of the cycle (a few), never backwards
-        assert all(s < SAMPLES // 2 for s in steps), ks
-        assert sum(1 for s in steps if s) <= 3, ks
-        if previous is not None:
-            assert (ks[0] - previous) % SAMPLES < SAMPLES // 2
-        previous = ks[-1]
-        seen.update(ks)
-    return len(seen)
-
-
 def check_capture(tshark: str, path: Path) -> int:
     """tshark's verdict on the capture: no malformed frame, no expert item but SOEM's source."""
     malformed = tshark_util.run(
@@ -195,7 +155,7 @@ def test_pysoem_runs_the_emulated_skin(
     assert doc["init"] == 1
     data = np.fromfile(inputs, dtype=np.uint8)
     assert data.size == 1000 * nodes * size
-    distinct = check_taxels(data, nodes, size)
+    distinct = check_taxels(data, nodes, size, seed=SEED, samples=SAMPLES)
     assert distinct > 1  # the patterns changed while the master watched
     frames = check_capture(tshark, pcap)
     summary = server["summary"]
@@ -328,7 +288,7 @@ def test_pysoem_reassigns_pdos_in_preop(net: VethPair, tshark: str, tmp_path: Pa
     assert doc["wkc"] == [nodes] * 1000
     data = np.fromfile(inputs, dtype=np.uint8)
     assert data.size == 1000 * nodes * take
-    assert check_taxels(data, nodes, size, take) > 1
+    assert check_taxels(data, nodes, size, take, seed=SEED, samples=SAMPLES) > 1
 
 
 @pytest.mark.tshark

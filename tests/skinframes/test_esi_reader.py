@@ -160,6 +160,11 @@ def test_several_devices_are_picked_by_type_or_product_code() -> None:
         esi.device()
     with pytest.raises(EsiFormatError, match="no device 'C'"):
         esi.device("C")
+    assert esi.device("A-1@#x1") is esi.devices[0]  # @REVISION: the Type's RevisionNo="1"
+    with pytest.raises(EsiFormatError, match="no device 'A-1@2'"):
+        esi.device("A-1@2")
+    with pytest.raises(EsiFormatError, match="'x' after @ is not a revision"):
+        esi.device("A-1@x")
     a = esi.devices[0]
     assert a.line == 7 and a.physics == "YK"
     assert a.fmmus == (EsiFmmu("Inputs", 0),)
@@ -202,6 +207,22 @@ def test_bad_input_names_the_element_and_line(text: bytes, message: str) -> None
     with pytest.raises(EsiFormatError, match=message) as info:
         parse_esi(text, source="x.xml")
     assert isinstance(info.value, DecodeError) and str(info.value).startswith("x.xml: line ")
+
+
+def test_a_type_text_with_an_at_sign_is_matched_whole_first() -> None:
+    def device(type_text: str, revision: int) -> bytes:
+        return (
+            f'<Device><Type ProductCode="1" RevisionNo="{revision}">{type_text}</Type></Device>'
+        ).encode()
+
+    esi = parse_esi(
+        b"<EtherCATInfo><Vendor><Id>1</Id></Vendor><Descriptions><Devices>"
+        + device("T@2", 7)
+        + device("T", 2)
+        + b"</Devices></Descriptions></EtherCATInfo>"
+    )
+    assert esi.device("T@2").revision == 7  # the Type text, not T at revision 2
+    assert esi.device("T@2@7") is esi.devices[0]  # the last @ starts the revision
 
 
 def test_empty_and_binary_input() -> None:
