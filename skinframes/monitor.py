@@ -123,13 +123,21 @@ class Monitor:
             at += _PATCH_BYTES
 
     # --- reading ----------------------------------------------------------------------------
+    @property
+    def span_s(self) -> float:
+        """Seconds from the first frame to the last (0 before two)."""
+        if self.first_ns is None or self.last_ns is None:
+            return 0.0
+        return (self.last_ns - self.first_ns) / 1e9
+
     def snapshot(self) -> dict[str, Any]:
         """The figures as plain data (times in microseconds)."""
         a = self.analyzer.result()
-        span = 0.0
-        if self.first_ns is not None and self.last_ns is not None:
-            span = (self.last_ns - self.first_ns) / 1e9
-        doc: dict[str, Any] = {"frames": a.records, "other": a.counts["other"], "span_s": span}
+        doc: dict[str, Any] = {
+            "frames": a.records,
+            "other": a.counts["other"],
+            "span_s": self.span_s,
+        }
         if a.epl is not None:
             e = a.epl
             doc["epl"] = {
