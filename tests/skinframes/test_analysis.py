@@ -20,6 +20,7 @@ from conftest import PCAPS
 
 from skinframes.analysis import Summary, analyze_capture
 from skinframes.analysis.ecat import pattern_text
+from skinframes.capture_writer import pcap_bytes
 from skinframes.pcap import read_capture
 
 EPL_FILES = ["epl-viz_EPL_Example.cap", "epl-viz_1CN.pcapng"]
@@ -64,18 +65,29 @@ def _epl_rows(tshark: str, path: Path) -> list[dict[str, list[str]]]:
     return [r for r in tshark_util.fields(tshark, path, names) if r["epl.mtyp"]]
 
 
+def qinq(path: Path, out: Path) -> Path:
+    """``path``'s frames behind two hand-typed tags (IEEE 802.1Q-2018 6.9): an S-tag (TPID
+    88a8, VID 100) and a C-tag (TPID 8100, PCP 3, VID 7), after the source MAC."""
+    tags = bytes.fromhex("88a8 0064 8100 6007".replace(" ", ""))
+    frames = [(r.time_ns, r.data[:12] + tags + r.data[12:]) for r in read_capture(path)]
+    out.write_bytes(pcap_bytes(frames))
+    return out
+
+
 def _epl_paths(shared_captures: Path, tmp_path: Path) -> list[Path]:
     from emulator import WIRE, parse_fault, simulate_epl
 
     dropped = tmp_path / "epl_drops.pcapng"
     faults = (parse_fault("drop:2:0.3"), parse_fault("late:1:40"))
     simulate_epl(5, 16, WIRE, cycles=30, seed=2, asnd=True, faults=faults, pcap=dropped)
+    tagged = tmp_path / "epl_vlan.pcapng"  # 802.1Q: once analyzed as no EPL at all
+    simulate_epl(3, 16, WIRE, cycles=30, seed=2, faults=faults[:1], pcap=tagged, vlan=5)
     files = [shared_captures / f for f in EPL_FILES] + sorted(PCAPS.glob("epl_*.pcap"))
-    return [*files, dropped]
+    return [*files, dropped, tagged, qinq(dropped, tmp_path / "epl_qinq.pcap")]
 
 
 @pytest.mark.tshark
-@pytest.mark.parametrize("index", range(len(EPL_FILES) + 3))
+@pytest.mark.parametrize("index", range(len(EPL_FILES) + 5))
 def test_epl_statistics_equal_tshark_fields(
     tshark: str, shared_captures: Path, tmp_path: Path, index: int
 ) -> None:
@@ -125,8 +137,10 @@ def test_epl_statistics_equal_tshark_fields(
         assert_summary(analysis.epl.responses[node], values)
     assert {n for n, s in analysis.epl.responses.items() if s.count} == set(responses)
     assert [(m.node, m.frame) for m in analysis.epl.missing] == missing
-    if path.name == "epl_drops.pcapng":
+    if path.name in ("epl_drops.pcapng", "epl_qinq.pcap"):
         assert len(missing) > 30, "CN 1 late beyond its timeout, CNs 3.. dropped: missing PRes"
+    if path.name == "epl_vlan.pcapng":
+        assert missing, "CNs 2.. dropped: missing PRes"
 
 
 def _datagrams(row: dict[str, list[str]]) -> list[tuple[int, int, int, int, int, int]]:
@@ -205,11 +219,14 @@ def _ecat_paths(shared_captures: Path, tmp_path: Path) -> list[Path]:
     simulate_ecat(
         6, 16, WIRE, cycles=8, faults=(parse_fault("cable:3@4"),), pcap=broken
     )  # slaves 3.. cut off from cycle 4: working-counter deviations
-    return [shared_captures / f for f in ECAT_FILES] + sorted(PCAPS.glob("ecat_*.pcap")) + [broken]
+    tagged = tmp_path / "ecat_vlan.pcapng"  # 802.1Q: once analyzed as no EtherCAT at all
+    simulate_ecat(4, 16, WIRE, cycles=8, faults=(parse_fault("cable:2@4"),), pcap=tagged, vlan=9)
+    files = [shared_captures / f for f in ECAT_FILES] + sorted(PCAPS.glob("ecat_*.pcap"))
+    return [*files, broken, tagged, qinq(broken, tmp_path / "open_break_qinq.pcap")]
 
 
 @pytest.mark.tshark
-@pytest.mark.parametrize("index", range(len(ECAT_FILES) + 4))
+@pytest.mark.parametrize("index", range(len(ECAT_FILES) + 6))
 def test_ecat_statistics_equal_tshark_fields(
     tshark: str, shared_captures: Path, tmp_path: Path, index: int
 ) -> None:
@@ -229,7 +246,7 @@ def test_ecat_statistics_equal_tshark_fields(
     assert [
         (d.frame, d.pattern, d.datagram, d.wkc, d.expected) for d in analysis.ecat.wkc_deviations
     ] == sorted(deviations)
-    if path.name == "open_break.pcap":
+    if path.name.startswith(("open_break", "ecat_vlan")):
         assert deviations, "the cable break must show in the working counters"
 
 
