@@ -26,7 +26,7 @@ from typing import Any, Final
 
 from skinframes.monitor import Monitor
 from skinframes.text import escape
-from skinframes_cli.live import add_live, capture_input, file_input, is_live
+from skinframes_cli.live import add_live, capture_input, first_frames, is_live
 from skinframes_cli.options import bounded_float
 
 REFRESH_S: Final = 0.25  # the terminal view is redrawn this often
@@ -140,7 +140,7 @@ def run(args: argparse.Namespace) -> int:
             feed = Feed(live, 0, live, every)
             source = f"{args.iface} (live)"
         else:
-            feed = Feed(file_input(args.path), args.speed, None, every)
+            feed = Feed(first_frames(args), args.speed, None, every)
             source = args.path
         stop = stack.enter_context(_sigint_event(feed))
         feed.start()
