@@ -26,8 +26,8 @@ from __future__ import annotations
 
 from typing import Any, Final
 
-from skinframes import ethercat, ethernet, powerlink, taxel, vlan
-from skinframes.analysis import CaptureAnalyzer, Summary
+from skinframes import ethercat, ethernet, powerlink, taxel
+from skinframes.analysis import CaptureAnalyzer, Summary, plain_frame
 from skinframes.analysis.ecat import walk
 from skinframes.ethercat import Command
 from skinframes.pcap import LINKTYPE_ETHERNET, Record
@@ -92,7 +92,9 @@ class Monitor:
             self._taxels(rec.data)
 
     def _taxels(self, data: bytes) -> None:
-        _, ethertype, at = vlan.peel(data)
+        data = plain_frame(data)  # as the analysis reads it: no VLAN tags, no UDP/IPv4
+        at = ethernet.HEADER_BYTES
+        ethertype = int.from_bytes(data[at - 2 : at], "big")
         if ethertype == ethernet.ETHERTYPE_EPL:
             epl = data[at:]
             if len(epl) < PDO_HEADER_BYTES or epl[0] & _MTYPE_MASK != _PRES:

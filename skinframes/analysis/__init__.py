@@ -12,7 +12,10 @@ in memory that does not grow with the traffic: what ``skinframes watch`` shows.
 
 Frames with IEEE 802.1Q/802.1ad VLAN tags (TPID 0x8100, 0x88A8, 0x9100; up to
 :data:`skinframes.vlan.MAX_TAGS` stacked) are analysed as the untagged frame, as Wireshark's
-``vlan`` dissector hands the payload on by the inner EtherType.
+``vlan`` dissector hands the payload on by the inner EtherType; EPL and EtherCAT over
+unfragmented IPv4/UDP (ports 3819 and 0x88A4, :func:`skinframes.ipv4udp.claims`) as the message
+the UDP datagram carries, an EPL message with the node ids of the IP addresses (DS 301 5.1.2:
+its bytes 1-2 are reserved there).
 """
 
 from __future__ import annotations
@@ -22,7 +25,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Final
 
-from skinframes import ethernet, vlan
+from skinframes import ethernet, ipv4udp, vlan
 from skinframes.analysis.ecat import LOGICAL_WKC_PER_SLAVE, EcatAnalysis, EcatAnalyzer
 from skinframes.analysis.epl import EplAnalysis, EplAnalyzer
 from skinframes.analysis.stats import Series, Summary, Window
@@ -39,6 +42,7 @@ __all__ = [
     "analyze_capture",
     "analyze_file",
     "infer_config",
+    "plain_frame",
 ]
 
 PROGRESS_EVERY: Final = 4096  # records between progress callbacks
@@ -46,6 +50,10 @@ _EPL: Final = ethernet.ETHERTYPE_EPL.to_bytes(2, "big")
 _ECAT: Final = ethernet.ETHERTYPE_ECAT.to_bytes(2, "big")
 _ETHERTYPE: Final = slice(2 * ethernet.MAC_BYTES, 2 * ethernet.MAC_BYTES + 2)
 _TAGGED: Final = frozenset(t.to_bytes(2, "big") for t in vlan.TPIDS)
+_IPV4: Final = ipv4udp.ETHERTYPE_IPV4.to_bytes(2, "big")
+_WRAPPED: Final = _TAGGED | {_IPV4}
+_IP_SRC_LAST: Final = 15  # the last octets of the IPv4 source and destination (RFC 791)
+_IP_DST_LAST: Final = 19
 
 
 @dataclass(frozen=True, slots=True)
@@ -148,6 +156,34 @@ def _analyze_rows(
     return analyzer.result()
 
 
+def plain_frame(data: bytes) -> bytes:
+    """An Ethernet frame (at least its 14-byte header) as the analysis reads it: without VLAN
+    tags, and an EPL or EtherCAT message over IPv4/UDP as the plain Ethernet frame of that
+    message (module docstring); anything else as it is."""
+    if data[_ETHERTYPE] in _TAGGED:
+        data = _untagged(data)
+    if data[_ETHERTYPE] == _IPV4:
+        data = _unwrapped(data)
+    return data
+
+
+def _unwrapped(data: bytes) -> bytes:
+    """An Ethernet frame with an EPL or EtherCAT message over IPv4/UDP as the plain Ethernet
+    frame of that message (the same MACs); ``data`` itself when it carries none."""
+    header = ethernet.HEADER_BYTES
+    packet = data[header:]
+    proto = ipv4udp.claims(packet)
+    if proto is None:
+        return data
+    start = (packet[0] & 0x0F) * 4 + ipv4udp.UDP_HEADER_BYTES
+    end = int.from_bytes(packet[2:4], "big")  # the IPv4 total length: the padding after it
+    message = packet[start:end]
+    if proto == "ecat":
+        return data[: header - 2] + _ECAT + message
+    nodes = bytes((packet[_IP_DST_LAST], packet[_IP_SRC_LAST]))  # EPL: dest, src (Table 22)
+    return data[: header - 2] + _EPL + message[:1] + nodes + message[3:]
+
+
 def _untagged(data: bytes) -> bytes:
     """An Ethernet frame without its VLAN tags (the MACs, then the inner EtherType and on)."""
     _, _, payload = vlan.peel(data)
@@ -198,8 +234,8 @@ class CaptureAnalyzer:
                     n_other += 1
                     continue
                 kind = data[_ETHERTYPE]
-                if kind in _TAGGED:
-                    data = _untagged(data)
+                if kind in _WRAPPED:
+                    data = plain_frame(data)
                     kind = data[_ETHERTYPE]
                 if kind == _EPL:
                     n_epl += 1

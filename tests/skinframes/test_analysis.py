@@ -17,10 +17,10 @@ from typing import Any
 import pytest
 import tshark_util
 from conftest import PCAPS
+from encap_util import over_udp, qinq
 
 from skinframes.analysis import Summary, analyze_capture
 from skinframes.analysis.ecat import pattern_text
-from skinframes.capture_writer import pcap_bytes
 from skinframes.pcap import read_capture
 
 EPL_FILES = ["epl-viz_EPL_Example.cap", "epl-viz_1CN.pcapng"]
@@ -63,15 +63,6 @@ def assert_summary(got: Summary, values: list[int]) -> None:
 def _epl_rows(tshark: str, path: Path) -> list[dict[str, list[str]]]:
     names = ["frame.number", "frame.time_epoch", "epl.mtyp", "epl.src", "epl.dest"]
     return [r for r in tshark_util.fields(tshark, path, names) if r["epl.mtyp"]]
-
-
-def qinq(path: Path, out: Path) -> Path:
-    """``path``'s frames behind two hand-typed tags (IEEE 802.1Q-2018 6.9): an S-tag (TPID
-    88a8, VID 100) and a C-tag (TPID 8100, PCP 3, VID 7), after the source MAC."""
-    tags = bytes.fromhex("88a8 0064 8100 6007".replace(" ", ""))
-    frames = [(r.time_ns, r.data[:12] + tags + r.data[12:]) for r in read_capture(path)]
-    out.write_bytes(pcap_bytes(frames))
-    return out
 
 
 def _epl_paths(shared_captures: Path, tmp_path: Path) -> list[Path]:
@@ -222,11 +213,12 @@ def _ecat_paths(shared_captures: Path, tmp_path: Path) -> list[Path]:
     tagged = tmp_path / "ecat_vlan.pcapng"  # 802.1Q: once analyzed as no EtherCAT at all
     simulate_ecat(4, 16, WIRE, cycles=8, faults=(parse_fault("cable:2@4"),), pcap=tagged, vlan=9)
     files = [shared_captures / f for f in ECAT_FILES] + sorted(PCAPS.glob("ecat_*.pcap"))
-    return [*files, broken, tagged, qinq(broken, tmp_path / "open_break_qinq.pcap")]
+    udp = over_udp(broken, tmp_path / "open_break_udp.pcap", 0x88A4)
+    return [*files, broken, tagged, qinq(broken, tmp_path / "open_break_qinq.pcap"), udp]
 
 
 @pytest.mark.tshark
-@pytest.mark.parametrize("index", range(len(ECAT_FILES) + 6))
+@pytest.mark.parametrize("index", range(len(ECAT_FILES) + 7))
 def test_ecat_statistics_equal_tshark_fields(
     tshark: str, shared_captures: Path, tmp_path: Path, index: int
 ) -> None:
@@ -248,6 +240,22 @@ def test_ecat_statistics_equal_tshark_fields(
     ] == sorted(deviations)
     if path.name.startswith(("open_break", "ecat_vlan")):
         assert deviations, "the cable break must show in the working counters"
+
+
+@pytest.mark.tshark
+@pytest.mark.parametrize("name", ["epl_cycle_4cn.pcap", "epl_asnd_services.pcap"])
+def test_epl_over_udp_is_analyzed_as_the_same_frames_over_ethernet(
+    tshark: str, tmp_path: Path, name: str
+) -> None:
+    """EPL over UDP: tshark dissects every frame as EPL; the analysis is that of the same
+    messages sent over Ethernet (whose figures the tshark tests above check), node ids from
+    the IP addresses."""
+    udp = over_udp(PCAPS / name, tmp_path / name, 3819)
+    rows = tshark_util.fields(tshark, udp, ["frame.number"], "epl && udp.port == 3819")
+    plain = analyze_capture(read_capture(PCAPS / name)).to_json()
+    doc = analyze_capture(read_capture(udp)).to_json()
+    assert doc["counts"]["epl"] == len(rows) == plain["counts"]["epl"] > 0
+    assert doc == plain
 
 
 def test_cached_layouts_give_what_the_walk_gives(

@@ -2,7 +2,8 @@
 
 ``watch`` feeds its frames to ``analyze``'s analyzers: on the third-party captures and on
 emulated ones (a closed ring in classic pcap and pcapng, EPL with dropped PRes, VLAN tags) every
-figure it shows must be ``analyze``'s. Where a figure can be known without either, it is checked
+figure it shows must be ``analyze``'s (and over UDP/IPv4 that of the same frames over
+Ethernet). Where a figure can be known without either, it is checked
 against that too: the emulator's fault-free closed ring returns every frame it sends (the monitor
 once paired the second port's unprocessed copy as a new send: 600 sent, 599 lost), tshark's SoC
 times give the window's statistics, and a hand-made EPL cycle whose CN sends an ASnd before its
@@ -22,6 +23,7 @@ from typing import Any
 
 import pytest
 import tshark_util
+from encap_util import over_udp
 from memory_util import traced_peak
 from pty_util import ROOT
 
@@ -63,6 +65,8 @@ def emulated(tmp_path_factory: pytest.TempPathFactory) -> dict[str, Path]:
     for name, argv in runs.items():
         out[name] = folder / name
         skinframes("simulate", *argv.split(), "--pcap", str(out[name]))
+    out["ring_udp.pcap"] = over_udp(out["ring.pcap"], folder / "ring_udp.pcap", 0x88A4)
+    out["epl_udp.pcap"] = over_udp(out["epl_drops.pcap"], folder / "epl_udp.pcap", 3819)
     return out
 
 
@@ -158,6 +162,15 @@ def test_closed_ring_every_frame_returns_in_pcap_and_pcapng(
 def test_epl_with_missing_responses(emulated: dict[str, Path], name: str) -> None:
     doc = assert_same(emulated[name])
     assert sum(c["missing"] for c in doc["epl"]["cns"]) > 0
+
+
+@pytest.mark.parametrize("name", ["ring_udp.pcap", "epl_udp.pcap"])
+def test_over_udp_as_over_ethernet(emulated: dict[str, Path], name: str) -> None:
+    """EPL and EtherCAT over IPv4/UDP: the figures and taxels of the same frames over
+    Ethernet (EPL node ids from the IP addresses)."""
+    plain = watched(emulated[name.replace("_udp", "_drops" if "epl" in name else "")])
+    assert assert_same(emulated[name]) == plain
+    assert plain["contact"]
 
 
 @pytest.mark.parametrize("name", ["ecat_break.pcap", "ecat_vlan.pcap"])
