@@ -13,6 +13,7 @@ from skinframes.canbus.log import MAX_LISTED_DAMAGE as MAX_LISTED_DAMAGE
 from skinframes.canbus.log import NS_PER_S as NS_PER_S
 from skinframes.canbus.log import PCAP_SUFFIXES as PCAP_SUFFIXES
 from skinframes.canbus.log import PYTHON_CAN_SUFFIXES as PYTHON_CAN_SUFFIXES
+from skinframes.canbus.log import STREAM_SUFFIXES as STREAM_SUFFIXES
 from skinframes.canbus.log import TEXT_SUFFIXES as TEXT_SUFFIXES
 from skinframes.canbus.log import TRACE_SUFFIXES as TRACE_SUFFIXES
 from skinframes.canbus.log import CanLog as CanLog

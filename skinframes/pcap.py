@@ -26,6 +26,7 @@ Numbering: ``Record.index`` counts records from 0, skipped ones included; ``Reco
 from __future__ import annotations
 
 import io
+import itertools
 import logging
 import os
 import stat
@@ -70,6 +71,7 @@ __all__ = [
     "NS_PER_S",
     "Capture",
     "CaptureWriter",
+    "FirstRecords",
     "MarkedRecord",
     "PcapWriter",
     "Record",
@@ -228,6 +230,41 @@ class RecordSource(Protocol):
     @property
     def total(self) -> int:
         """Records found: decoded + skipped."""
+
+
+class FirstRecords:
+    """The first ``count`` records of a :class:`RecordSource` (``tshark -c``), itself a record
+    source: its skipped records, findings and total are those of what was read (the source is
+    closed after the ``count``-th record, as a reader that stops early closes it)."""
+
+    def __init__(self, source: RecordSource, count: int) -> None:
+        self.source = source
+        self.count = count
+        self.path = source.path
+
+    def __iter__(self) -> Iterator[Record]:
+        records = iter(self.source)
+        try:
+            yield from itertools.islice(records, self.count)
+        finally:
+            close = getattr(records, "close", None)
+            if close is not None:
+                close()
+
+    @property
+    def skipped(self) -> tuple[Skipped, ...]:
+        """The source's skipped records, of those read."""
+        return self.source.skipped
+
+    @property
+    def findings(self) -> tuple[FrameFinding, ...]:
+        """The source's findings, of what was read."""
+        return self.source.findings
+
+    @property
+    def total(self) -> int:
+        """Records read: decoded + skipped."""
+        return self.source.total
 
 
 class Capture:

@@ -26,9 +26,8 @@ from skinframes.analysis.epl import EplAnalysis
 from skinframes.atomic_file import atomic_output, output_folder
 from skinframes.errors import SkinframesError
 from skinframes.powerlink import NmtState
-from skinframes_cli.decode import open_capture
 from skinframes_cli.figure import save_figure
-from skinframes_cli.live import add_live, capture_input, is_live
+from skinframes_cli.live import add_live, capture_input, first_frames, is_live
 from skinframes_cli.progress import progress_bar
 
 MODEL_PRESET: Final = "wire"
@@ -135,9 +134,9 @@ def run(args: argparse.Namespace) -> int:
 def _analyze_file(args: argparse.Namespace, timeout_ns: int | None) -> Analysis:
     # a counter of the frames read, on a terminal (a total would cost a pass over the file)
     with progress_bar(None, "frames") as advance:
-        if args.path == "-":  # standard input, streamed as decode and check read it
+        if args.path == "-" or args.count is not None:  # stdin, streamed; or the first N
             analysis = analyze_capture(
-                open_capture("-"),
+                first_frames(args),
                 expected_wkc=args.expected_wkc,
                 pres_timeout_ns=timeout_ns,
                 progress=advance,

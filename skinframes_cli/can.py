@@ -28,6 +28,7 @@ from skinframes.canbus import (
 from skinframes.canbus.log import (
     PCAP_SUFFIXES,
     PYTHON_CAN_SUFFIXES,
+    STREAM_SUFFIXES,
     CanLogReader,
     RecordCounts,
 )
@@ -35,7 +36,7 @@ from skinframes.errors import CanLogFormatError
 from skinframes.pcap import Skipped
 from skinframes_cli.can_convert import add_convert
 from skinframes_cli.options import add_can_log, can_log_suffix, int_list
-from skinframes_cli.streams import input_path
+from skinframes_cli.streams import STDIO, input_path
 
 __all__ = ["SUBCOMMANDS", "add_decode", "add_parser", "board_text", "report"]
 
@@ -89,11 +90,16 @@ def run_decode(args: argparse.Namespace) -> int:
     Raises:
         CanLogFormatError: the log holds no CAN frame at all (exit 2).
     """
-    with input_path(args.trace, can_log_suffix(args)) as path:
+    suffix = can_log_suffix(args)
+    if args.trace == STDIO and suffix.removesuffix(".gz") in STREAM_SUFFIXES:
+        # read as it comes, each batch's samples printed at once: a pipe from a live logger
+        reader = CanLogReader(STDIO, stream=sys.stdin.buffer, log_format=suffix)
+        return _decode(args, reader, flush=True)
+    with input_path(args.trace, suffix) as path:  # BLF, SQLite: a copy (they need a file)
         return _decode(args, CanLogReader(path))
 
 
-def _decode(args: argparse.Namespace, reader: CanLogReader) -> int:
+def _decode(args: argparse.Namespace, reader: CanLogReader, *, flush: bool = False) -> int:
     r = Reassembler(boards=args.boards, skin_classes=(args.skin_class,))
     line = sample_json if args.json else sample_text
     write = sys.stdout.write
@@ -105,6 +111,8 @@ def _decode(args: argparse.Namespace, reader: CanLogReader) -> int:
             if s is not None:
                 lines.append(line(s))
         write("".join(lines))
+        if flush:
+            sys.stdout.flush()
     counts = r.finish()
     records = reader.record_counts
     if records.decoded == 0:

@@ -16,8 +16,7 @@ from typing import Any
 from skinframes.check import CaptureReport, FrameFinding, check_capture, check_file
 from skinframes.findings import Severity
 from skinframes.text import escape
-from skinframes_cli.decode import open_capture
-from skinframes_cli.live import add_live, capture_input, is_live
+from skinframes_cli.live import add_live, capture_input, first_frames, is_live
 from skinframes_cli.progress import progress_bar
 
 
@@ -103,8 +102,8 @@ def run(args: argparse.Namespace) -> int:
 def _check_file(args: argparse.Namespace) -> CaptureReport:
     with progress_bar(None, "frames") as advance:  # on a terminal only (no cost elsewhere)
         seen = advance if sys.stderr.isatty() else None
-        if args.path == "-":
-            report = check_capture(open_capture("-"), progress=seen)
+        if args.path == "-" or args.count is not None:
+            report = check_capture(first_frames(args), progress=seen)
         else:
             report = check_file(args.path, progress=seen)
     return report

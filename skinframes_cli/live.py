@@ -15,14 +15,14 @@ from collections.abc import Iterator
 from typing import TYPE_CHECKING, Final
 
 from skinframes.errors import SkinframesError
-from skinframes.pcap import Capture
+from skinframes.pcap import Capture, FirstRecords, RecordSource
 from skinframes.text import escape
 from skinframes_cli.options import bounded_float, bounded_int
 
 if TYPE_CHECKING:
     from skinframes.live_capture import LiveCapture
 
-__all__ = ["add_live", "capture_input", "file_input", "is_live"]
+__all__ = ["add_live", "capture_input", "file_input", "first_frames", "is_live"]
 
 MAX_DURATION_S: Final = 1e7  # about 116 days
 
@@ -49,7 +49,7 @@ def add_live(p: argparse.ArgumentParser, *, count: bool = True) -> None:
             "--count",
             type=bounded_int(1, 2**62),
             metavar="N",
-            help="with --iface: stop after N frames",
+            help="stop after N frames (a file: its first N frames, as tshark -c)",
         )
     p.set_defaults(live_count=count)  # -c is the live capture's (decode's -c is its own)
 
@@ -60,8 +60,6 @@ def _check(args: argparse.Namespace) -> None:
             raise SkinframesError("a capture file (PATH, - for standard input) or --iface IF")
         if args.duration is not None:
             raise SkinframesError("--duration: for a live capture (--iface IF)")
-        if getattr(args, "live_count", False) and args.count is not None:
-            raise SkinframesError("-c/--count: for a live capture (--iface IF)")
         return
     if args.path is not None:
         raise SkinframesError(f"{escape(args.path)} and --iface {escape(args.iface)}: one input")
@@ -117,3 +115,10 @@ def file_input(path: str) -> Capture:
     if path == "-":
         return read_capture(sys.stdin.buffer)
     return read_capture(path)
+
+
+def first_frames(args: argparse.Namespace) -> RecordSource:
+    """The capture file of ``args.path`` (``-``: standard input), its first ``args.count``
+    records when ``-c N`` is given (as ``tshark -c``)."""
+    capture = file_input(args.path)
+    return capture if args.count is None else FirstRecords(capture, args.count)

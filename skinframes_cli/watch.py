@@ -26,7 +26,7 @@ from typing import Any, Final
 
 from skinframes.monitor import Monitor
 from skinframes.text import escape
-from skinframes_cli.live import add_live, capture_input, file_input, is_live
+from skinframes_cli.live import add_live, capture_input, first_frames, is_live
 from skinframes_cli.options import bounded_float
 
 REFRESH_S: Final = 0.25  # the terminal view is redrawn this often
@@ -73,10 +73,13 @@ def add_parser(sub: Any) -> None:
 
 # --- reading (a thread) ---------------------------------------------------------------------------
 class Feed:
-    """The reader thread: frames into the monitor, under a lock; a file at its pace."""
+    """The reader thread: frames into the monitor, under a lock; a file at its pace. With
+    ``every_s`` (plain output) it also prints a line each time the capture's time passes another
+    ``every_s`` seconds: lines by capture time, however fast the frames are read."""
 
-    def __init__(self, records: Any, speed: float, live: Any) -> None:
+    def __init__(self, records: Any, speed: float, live: Any, every_s: float | None = None) -> None:
         self.monitor = Monitor()
+        self.every_s = every_s
         self.lock = threading.Lock()
         self.stop = threading.Event()
         self.done = threading.Event()
@@ -98,6 +101,8 @@ class Feed:
         try:
             start_wall: float | None = None
             first_ns = 0
+            every = self.every_s
+            next_s = every or 0.0
             for rec in self._records:
                 if self.stop.is_set():
                     break
@@ -109,6 +114,10 @@ class Feed:
                         time.sleep(min(wait, 0.05))
                 with self.lock:
                     self.monitor.feed(rec)
+                    if every is not None and (span := self.monitor.span_s) >= next_s:
+                        # one line, however many intervals the capture skipped
+                        print(plain_line(self.monitor.snapshot()), flush=True)
+                        next_s = (span // every + 1) * every
         except BaseException as exc:  # handed to the main thread, which reports it
             self.error = exc
         finally:
@@ -124,20 +133,21 @@ class Feed:
 def run(args: argparse.Namespace) -> int:
     """Watch until the end of the file, q, Ctrl-C or the capture's limits."""
     terminal = sys.stdout.isatty() and not args.plain
+    every = None if terminal else args.interval
     with contextlib.ExitStack() as stack:
         if is_live(args):
             live = stack.enter_context(capture_input(args, args.count))
-            feed = Feed(live, 0, live)
+            feed = Feed(live, 0, live, every)
             source = f"{args.iface} (live)"
         else:
-            feed = Feed(file_input(args.path), args.speed, None)
+            feed = Feed(first_frames(args), args.speed, None, every)
             source = args.path
         stop = stack.enter_context(_sigint_event(feed))
         feed.start()
         if terminal:
             _view(feed, source, stop)
         else:
-            _lines(feed, args.interval, stop)
+            _lines(feed, stop)
         feed.halt()
         feed.thread.join()
     if feed.error is not None:
@@ -165,16 +175,10 @@ def _sigint_event(feed: Feed) -> Iterator[threading.Event]:
 
 
 # --- plain: lines --------------------------------------------------------------------------------
-def _lines(feed: Feed, interval_s: float, stop: threading.Event) -> None:
-    next_s = interval_s
-    while not stop.is_set():
-        finished = feed.done.wait(0.05)
-        doc = feed.snapshot()
-        if doc["span_s"] >= next_s:  # one line, however many intervals the capture skipped
-            print(plain_line(doc), flush=True)
-            next_s = (doc["span_s"] // interval_s + 1) * interval_s
-        if finished:
-            break
+def _lines(feed: Feed, stop: threading.Event) -> None:
+    """The reader prints the lines as the capture's time passes; here the last one."""
+    while not stop.is_set() and not feed.done.wait(0.05):
+        pass
     print(plain_line(feed.snapshot()) + " (end)", flush=True)
 
 

@@ -152,6 +152,26 @@ def test_inferred_network_model_equals_the_emulated_cycle(
     assert config["measured_period_ns"] / 1000 == pytest.approx(sim["cycle_us"]["median"], abs=1e-3)
 
 
+@pytest.mark.tshark
+@pytest.mark.parametrize("protocol", ["epl", "ecat"])
+def test_vlan_tagged_frames_are_analyzed_as_tshark_dissects_them(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, tshark: str, protocol: str
+) -> None:
+    """802.1Q-tagged frames (once all ``other``, ``ecat: null``): tshark's vlan dissector hands
+    them to epl/ecat; analyze counts the same frames and infers the emulated network."""
+    import tshark_util
+
+    pcap = tmp_path / "tagged.pcap"
+    argv = (protocol, "--nodes", "5", "--bytes", "40", "--cycles", "20", "--vlan", "42")
+    sim = simulate(capsys, *argv, "--pcap", str(pcap))
+    doc = analyze(capsys, str(pcap))
+    numbers = tshark_util.fields(tshark, pcap, ["frame.number"], f"vlan.id == 42 && {protocol}")
+    assert doc["counts"][protocol] == len(numbers) == doc["records"] > 0
+    (config,) = doc["config"]
+    assert (config["protocol"], config["nodes"], config["bytes"]) == (protocol, 5, 40)
+    assert config["measured_period_ns"] / 1000 == pytest.approx(sim["cycle_us"]["median"], abs=1e-3)
+
+
 def test_text_csv_and_plot(capsys: pytest.CaptureFixture[str], tmp_path: Path) -> None:
     pcap = tmp_path / "epl.pcap"
     simulate(capsys, "epl", "--nodes", "3", "--bytes", "8", "--asnd", "--pcap", str(pcap))

@@ -257,3 +257,47 @@ def test_decode_lines_are_formatted_as_json_dumps_and_the_text_layout() -> None:
         "       1.234567891  board 14 triangle  3  00 01 ff 10 09 0a 0b 0c 0d 0e 0f f0"
         "  error 7 out_of_range 0xabc\n"
     )
+
+
+@pytest.mark.parametrize("suffix", [".asc", ".log", ".trc", ".csv", ".pcap"])
+def test_can_decode_stdin_streams(tmp_path: Path, suffix: str) -> None:
+    """``can decode -`` reads standard input as it comes: with the writer still there (no EOF),
+    the first samples are out (each sample we put in, board 14, triangle t, taxels all t); at the
+    end, what the same log gives as a file."""
+    import select
+
+    samples = [TimedSample(i * 50_000_000 + t * 260_000, TriangleSample(14, t, [t] * 12),
+                           i * 50_000_000 + t * 260_000 + 130_000)
+               for i in range(100) for t in range(16)]  # fmt: skip
+    log = tmp_path / f"skin{suffix}"
+    write_can_log(log, sample_frames(samples))
+    data = log.read_bytes()
+    proc = subprocess.Popen(
+        [sys.executable, "-m", "skinframes", "can", "decode", "-", "--log-format", suffix, "--json"],
+        stdin=subprocess.PIPE, stdout=subprocess.PIPE, stderr=subprocess.PIPE, cwd=ROOT,
+        bufsize=0,  # unbuffered: readline takes no more than the line, communicate the rest
+    )  # fmt: skip
+    assert proc.stdin is not None and proc.stdout is not None
+    try:
+        # the first 16 KiB of text (a pcap: 80 kB; its reader takes 64 KiB at a time), no more
+        # than the pipes hold; the pipe stays open
+        head = 80_000 if suffix == ".pcap" else 16384
+        proc.stdin.write(data[:head])
+        proc.stdin.flush()
+        ready, _, _ = select.select([proc.stdout], [], [], 120)
+        assert ready, "no sample before the end of the input"
+        line = proc.stdout.readline()
+        first = json.loads(line)
+        assert (first["board"], first["triangle"], first["taxels"]) == (14, 0, [0] * 12)
+        assert proc.poll() is None  # still reading: the input has not ended
+        rest, err = proc.communicate(data[head:], timeout=120)
+    finally:
+        if proc.poll() is None:
+            proc.kill()
+            proc.wait()
+    assert proc.returncode == 0, err
+    whole = subprocess.run([sys.executable, "-m", "skinframes", "can", "decode", str(log), "--json"],
+                           capture_output=True, timeout=120, check=True, cwd=ROOT)  # fmt: skip
+    assert line + rest == whole.stdout
+    assert err == whole.stderr
+    assert len(whole.stdout.splitlines()) == len(samples)

@@ -505,3 +505,35 @@ def test_can_convert_refuses_a_pcap_over_the_limit_before_writing(
     assert not out.exists()
     argv = ["can", "convert", str(log), "--to", "ecat", "--pcap", str(out), "--allow-large-pcap"]
     assert main(argv) == 0 and out.exists()
+
+
+@pytest.mark.tshark
+@pytest.mark.parametrize(
+    ("name", "count"),
+    [("ethercrab_replay-ek1100-el2828-el2889.pcapng", 500), ("epl-viz_EPL_Example.cap", 77)],
+)
+@pytest.mark.parametrize("command", ["check", "analyze"])
+def test_count_on_a_file_reads_its_first_frames_as_tshark_c(
+    tshark: str, shared_captures: Path, tmp_path: Path, name: str, count: int, command: str
+) -> None:
+    """``-c N`` on a file: the report of the first N frames, the same as of the file tshark
+    writes with ``-c N`` (same format: ``-F``), stdin too."""
+    path = shared_captures / name
+    first = tmp_path / ("first" + path.suffix)
+    fmt = "pcapng" if path.suffix == ".pcapng" else "pcap"
+    done = subprocess.run([tshark, "-r", str(path), "-c", str(count), "-F", fmt, "-w", str(first)],
+                          capture_output=True, timeout=120, check=False)  # fmt: skip
+    assert done.returncode == 0, done.stderr
+
+    def report(*argv: str, stdin: bytes | None = None) -> dict[str, object]:
+        doc: dict[str, object] = json.loads(
+            skinframes(command, *argv, "--json", stdin=stdin).stdout
+        )
+        doc.pop("path")
+        return doc
+
+    want = report(str(first))
+    assert want["records"] == count
+    assert report(str(path), "-c", str(count)) == want
+    assert report("-", "--count", str(count), stdin=path.read_bytes()) == want
+    assert report(str(path)) != want  # the whole file says more

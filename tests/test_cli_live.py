@@ -270,7 +270,7 @@ def test_usage_errors(net: VethPair) -> None:
         (["decode", "--iface", MASTER, "--taxels", "t.npy"], "--taxels reads a capture file"),
         (["analyze", "x.pcap", "--iface", MASTER], "x.pcap and --iface nd42m: one input"),
         (["check"], "a capture file (PATH, - for standard input) or --iface IF"),
-        (["check", "x.pcap", "-c", "3"], "-c/--count: for a live capture"),
+        (["check", "x.pcap", "-c", "0"], "-c/--count: 0: expected an integer in 1.."),
         (["decode", "--iface", MASTER, "--duration", "0"], "expected a number"),
     ):
         done = subprocess.run([sys.executable, "-m", "skinframes", *argv], capture_output=True,

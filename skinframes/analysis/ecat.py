@@ -24,19 +24,27 @@ state (the most frequent value, ties to the lower) or a given value for the proc
 datagrams. AL states (ETG.1000.4 Table 31): writes of AL control (0x0120) in outbound frames
 are the states the master requested; reads of AL status (0x0130) in returned frames are what
 the slaves reported, each change listed once.
+
+With a ``window`` (``skinframes watch``'s sliding window) the analyzer keeps only the last
+``window`` values of each series (period, round trip, unanswered frames) and events of each
+kind, and per datagram how often each working counter came instead of one row per frame: the
+counts (frames, returned, unanswered, working-counter deviations) and the steady working
+counters still cover everything fed, the statistics and event lists the window; memory then does
+not grow with the traffic (but for the patterns themselves, as many as the master sends).
 """
 
 from __future__ import annotations
 
 import struct
+from collections import Counter, deque
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
-import numpy.typing as npt
 
 from skinframes import ethercat, ethernet
-from skinframes.analysis.stats import Rows, Series, Summary
+from skinframes.analysis.stats import Rows, Series, Summary, Window
 from skinframes.ethercat import Command
 
 __all__ = [
@@ -214,6 +222,8 @@ class PatternReport:
     round_trip_ns: Any
     expected_wkc: tuple[int, ...]
     steady_wkc: tuple[int, ...]  # the most frequent returned working counter per datagram
+    unanswered_count: int = 0  # all of them (``unanswered``: a window's last ones)
+    wkc_deviation_count: int = 0  # datagrams of this pattern's frames off their expected_wkc
 
     def to_json(self, index: int) -> dict[str, Any]:
         """One entry of ``ecat.patterns``."""
@@ -242,6 +252,8 @@ class EcatAnalysis:
     wkc_deviations: tuple[WkcDeviation, ...]
     al_states: tuple[AlStateChange, ...]
     ports: tuple[str, ...]
+    # the AL state each target reported last (``al_states``'s targets), by name
+    al_current: dict[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         """The ``ecat`` object of ``analyze --json`` (docs/interface.md)."""
@@ -275,26 +287,58 @@ class EcatAnalysis:
         }
 
 
+class _WkcCounts:
+    """Per datagram how often each working counter came: a window's :class:`Rows` (memory
+    bounded by the distinct values, not by the frames)."""
+
+    __slots__ = ("columns", "rows")
+
+    def __init__(self, width: int) -> None:
+        self.columns: list[Counter[int]] = [Counter() for _ in range(width)]
+        self.rows = 0
+
+    def append(self, row: Sequence[int]) -> None:
+        """One frame's working counters."""
+        self.rows += 1
+        for counts, wkc in zip(self.columns, row, strict=True):
+            counts[wkc] += 1
+
+    def __len__(self) -> int:
+        return self.rows
+
+
 @dataclass(slots=True)
 class _Stream:
     """One pattern from one master port."""
 
     width: int
+    series: Callable[[], Series | Window]
+    counted: bool  # working counters as _WkcCounts (a window) or Rows
     frames: int = 0
+    returned: int = 0
     last_out_ns: int | None = None
-    period_ns: Series = field(default_factory=Series)
-    round_trip_ns: Series = field(default_factory=Series)
-    out_frames: Series = field(default_factory=Series)
-    out_times: Series = field(default_factory=Series)
-    back_frames: Series = field(default_factory=Series)
-    back_times: Series = field(default_factory=Series)
-    unanswered: Series = field(default_factory=Series)
-    out_wkc: Rows = field(init=False)
-    back_wkc: Rows = field(init=False)
+    period_ns: Series | Window = field(init=False)
+    round_trip_ns: Series | Window = field(init=False)
+    out_frames: Series | Window = field(init=False)
+    out_times: Series | Window = field(init=False)
+    back_frames: Series | Window = field(init=False)
+    back_times: Series | Window = field(init=False)
+    unanswered: Series | Window = field(init=False)
+    out_wkc: Rows | _WkcCounts = field(init=False)
+    back_wkc: Rows | _WkcCounts = field(init=False)
 
     def __post_init__(self) -> None:
-        self.out_wkc = Rows(self.width)
-        self.back_wkc = Rows(self.width)
+        new = self.series
+        self.period_ns, self.round_trip_ns, self.unanswered = new(), new(), new()
+        self.out_frames, self.out_times, self.back_frames, self.back_times = (
+            new(),
+            new(),
+            new(),
+            new(),
+        )
+        wkc = _WkcCounts if self.counted else Rows
+        self.out_wkc = wkc(self.width)
+        self.back_wkc = wkc(self.width)
 
 
 def _mac(b: bytes) -> str:
@@ -367,18 +411,30 @@ def _forwarded(sends: dict[bytes, _Sent], port: bytes, sent_ns: int) -> bool:
 
 
 class EcatAnalyzer:
-    """Feed EtherCAT frames in capture order (:meth:`feed`), then read :meth:`result`."""
+    """Feed EtherCAT frames in capture order (:meth:`feed`), then read :meth:`result` (at any
+    time).
 
-    def __init__(self, expected_wkc: int | None = None) -> None:
+    ``window``: keep only the last ``window`` values of each series and events of each kind
+    (module docstring); None keeps everything (``analyze``).
+    """
+
+    def __init__(self, expected_wkc: int | None = None, *, window: int | None = None) -> None:
         self.expected_wkc = expected_wkc
+        self.window = window
+        self.series: Callable[[], Series | Window] = (
+            Series if window is None else lambda: Window(window)
+        )
         self.frames = 0
         self.undecodable = 0
         self.patterns: dict[Pattern, int] = {}
         self.streams: dict[tuple[int, bytes], _Stream] = {}
         # (pattern, first idx) -> port -> (frame, time_ns, mac bit, interface, adps, wkcs)
         self.pending: dict[tuple[int, int], dict[bytes, _Sent]] = {}
-        self.requested: list[AlStateChange] = []
-        self.reported: dict[bool, list[AlStateChange]] = {False: [], True: []}
+        self.requested: deque[AlStateChange] = deque(maxlen=window)
+        self.reported: dict[bool, deque[AlStateChange]] = {
+            False: deque(maxlen=window),
+            True: deque(maxlen=window),
+        }
         self.al_last: dict[tuple[bool, str], int] = {}
         self.al_patterns: list[bool] = []  # per pattern: does it touch the AL registers?
         self.layouts: dict[tuple[int, bytes], _Layout] = {}
@@ -417,7 +473,9 @@ class EcatAnalyzer:
         port = bytes((data[6] & ~RETURNED_MAC_BIT,)) + data[7:12]
         stream = self.streams.get((pid, port))
         if stream is None:
-            stream = self.streams[(pid, port)] = _Stream(len(wkcs))
+            stream = self.streams[(pid, port)] = _Stream(
+                len(wkcs), self.series, self.window is not None
+            )
         sends = self.pending.get((pid, idx0))
         if sends is None:
             sends = self.pending[(pid, idx0)] = {}
@@ -429,6 +487,7 @@ class EcatAnalyzer:
             or (before[5] == wkcs and _forwarded(sends, port, before[1]))
         ):
             del sends[port]
+            stream.returned += 1
             stream.round_trip_ns.append(time_ns - before[1])
             stream.back_frames.append(frame)
             stream.back_times.append(time_ns)
@@ -504,36 +563,27 @@ class EcatAnalyzer:
         ports = tuple(dict.fromkeys(port for _, port in self.streams))
         reports: list[PatternReport] = []
         deviations: list[WkcDeviation] = []
-        any_returns = any(len(s.back_frames) for s in self.streams.values())
+        any_returns = any(s.returned for s in self.streams.values())
         for index, ((pid, port), s) in enumerate(
             sorted(self.streams.items(), key=lambda kv: kv[0])
         ):
             pattern = by_id[pid]
             cyclic = any(cmd in _LOGICAL for cmd, *_ in pattern)
-            use_back = len(s.back_frames) > 0 or any_returns
-            rows = s.back_wkc.array() if use_back else s.out_wkc.array()
-            numbers = s.back_frames.array() if use_back else s.out_frames.array()
-            times = s.back_times.array() if use_back else s.out_times.array()
-            steady = expected = _steady(rows)
+            use_back = s.returned > 0 or any_returns
+            wkc = s.back_wkc if use_back else s.out_wkc
+            steady = expected = _steady(wkc)
             if self.expected_wkc is not None:
                 expected = tuple(
                     self.expected_wkc if cmd in _LOGICAL else e
                     for (cmd, *_), e in zip(pattern, expected, strict=True)
                 )
-            if len(rows):
-                bad_rows, bad_cols = np.nonzero(rows != np.asarray(expected, dtype=np.int64))
-                for r, c in zip(bad_rows.tolist(), bad_cols.tolist(), strict=True):
-                    deviations.append(
-                        WkcDeviation(
-                            int(numbers[r]),
-                            int(times[r]),
-                            index,
-                            c,
-                            int(rows[r, c]),
-                            expected[c],
-                        )
-                    )
-            unanswered = s.unanswered.array() if len(s.back_frames) else np.empty(0, np.int64)
+            if isinstance(wkc, _WkcCounts):  # a window: how many, not which
+                off = sum(
+                    wkc.rows - counts[e] for counts, e in zip(wkc.columns, expected, strict=True)
+                )
+            else:
+                off = self._deviations(wkc, s, use_back, index, expected, deviations)
+            unanswered = s.unanswered.array() if s.returned else np.empty(0, np.int64)
             reports.append(
                 PatternReport(
                     pattern=pattern,
@@ -541,7 +591,7 @@ class EcatAnalyzer:
                     cyclic=cyclic,
                     port=_mac(port),
                     frames=s.frames,
-                    returned=len(s.back_frames),
+                    returned=s.returned,
                     unanswered=tuple(int(x) for x in unanswered),
                     period=Summary.of(s.period_ns.array()),
                     period_ns=s.period_ns.array(),
@@ -549,10 +599,12 @@ class EcatAnalyzer:
                     round_trip_ns=s.round_trip_ns.array(),
                     expected_wkc=tuple(expected),
                     steady_wkc=steady,
+                    unanswered_count=s.unanswered.total if s.returned else 0,
+                    wkc_deviation_count=off,
                 )
             )
         deviations.sort(key=lambda d: (d.frame, d.datagram))
-        al = sorted(self.requested + self.reported[any_returns], key=lambda a: (a.frame, a.kind))
+        al = sorted([*self.requested, *self.reported[any_returns]], key=lambda a: (a.frame, a.kind))
         return EcatAnalysis(
             frames=self.frames,
             undecodable=self.undecodable,
@@ -560,15 +612,50 @@ class EcatAnalyzer:
             wkc_deviations=tuple(deviations),
             al_states=tuple(al),
             ports=tuple(_mac(p) for p in ports),
+            al_current={
+                target: al_state_name(value)
+                for (returned, target), value in sorted(self.al_last.items())
+                if returned == any_returns
+            },
         )
 
+    @staticmethod
+    def _deviations(
+        wkc: Rows,
+        s: _Stream,
+        use_back: bool,
+        index: int,
+        expected: tuple[int, ...],
+        out: list[WkcDeviation],
+    ) -> int:
+        """Append the datagrams of ``wkc``'s frames off ``expected`` to ``out``; how many."""
+        rows = wkc.array()
+        if not len(rows):
+            return 0
+        numbers = s.back_frames.array() if use_back else s.out_frames.array()
+        times = s.back_times.array() if use_back else s.out_times.array()
+        bad_rows, bad_cols = np.nonzero(rows != np.asarray(expected, dtype=np.int64))
+        for r, c in zip(bad_rows.tolist(), bad_cols.tolist(), strict=True):
+            out.append(
+                WkcDeviation(int(numbers[r]), int(times[r]), index, c, int(rows[r, c]), expected[c])
+            )
+        return len(bad_rows)
 
-def _steady(rows: npt.NDArray[np.uint16]) -> tuple[int, ...]:
-    """Per column the most frequent value (ties to the lower); zeros for no rows."""
+
+def _most_frequent(values: Sequence[int], counts: Sequence[int]) -> int:
+    """The value counted most often, ties to the lower."""
+    return min(zip(values, counts, strict=True), key=lambda vc: (-vc[1], vc[0]))[0]
+
+
+def _steady(wkc: Rows | _WkcCounts) -> tuple[int, ...]:
+    """Per datagram the most frequent working counter (ties to the lower); zeros for no frames."""
+    if isinstance(wkc, _WkcCounts):
+        return tuple(_most_frequent(list(c), list(c.values())) if c else 0 for c in wkc.columns)
+    rows = wkc.array()
     if len(rows) == 0:
         return tuple(0 for _ in range(rows.shape[1]))
     out = []
     for column in rows.T:
         values, counts = np.unique(column, return_counts=True)
-        out.append(int(values[int(np.argmax(counts))]))  # unique sorts: argmax takes the lower
+        out.append(_most_frequent(values.tolist(), counts.tolist()))
     return tuple(out)

@@ -21,18 +21,24 @@ What it measures (EPSG DS 301 V1.4.0 section 4.2.4, the isochronous cycle):
   StatusResponse and IdentResponse (ASnd), every change with its frame and time;
 - ASnd service counts, NMT commands and NMT requests, and the error entries of StatusResponses.
 
+With a ``window`` (``skinframes watch``'s sliding window) the analyzer keeps only the last
+``window`` values of each series and the last ``window`` events of each kind: the counts
+(frames, polled, missing, late) still cover everything fed, the statistics and event lists the
+window; memory then does not grow with the traffic.
+
 Header fields are read at their offsets (DS 301 Table 22 common header, :mod:`.schemas`); the
 few ASnd frames that carry events go through the full decoder.
 """
 
 from __future__ import annotations
 
-from collections import Counter
+from collections import Counter, deque
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any, Final
 
 from skinframes import powerlink
-from skinframes.analysis.stats import Series, Summary
+from skinframes.analysis.stats import Series, Summary, Window
 from skinframes.errors import DecodeError
 from skinframes.powerlink.enums import (
     MessageType,
@@ -125,7 +131,7 @@ class EplEvent:
 class _Node:
     """What the analyzer keeps per CN."""
 
-    response_ns: Series = field(default_factory=Series)
+    response_ns: Series | Window
     sizes: Counter[int] = field(default_factory=Counter)
     polled: int = 0
     missing: int = 0
@@ -160,6 +166,8 @@ class EplAnalysis:
     asynchronous: Summary  # SoA to the next SoC
     headroom: Summary  # the cycle's last frame to the next SoC
     used: Summary  # the SoC to the cycle's last frame
+    # each node's NMT state now (the last one seen), by its DS 301 name
+    current_states: dict[int, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
         """The ``epl`` object of ``analyze --json`` (docs/interface.md)."""
@@ -224,36 +232,43 @@ class EplAnalysis:
 
 
 class EplAnalyzer:
-    """Feed EPL frames in capture order (:meth:`feed`), then read :meth:`result`."""
+    """Feed EPL frames in capture order (:meth:`feed`), then read :meth:`result` (at any time).
 
-    def __init__(self, pres_timeout_ns: int | None = None) -> None:
+    ``window``: keep only the last ``window`` values of each series and events of each kind
+    (module docstring); None keeps everything (``analyze``).
+    """
+
+    def __init__(self, pres_timeout_ns: int | None = None, *, window: int | None = None) -> None:
         self.pres_timeout_ns = pres_timeout_ns
+        self.series: Callable[[], Series | Window] = (
+            Series if window is None else lambda: Window(window)
+        )
         self.frames = 0
         self.mtypes: Counter[int] = Counter()
-        self.soc_period = Series()
+        self.soc_period = self.series()
         self.last_soc_ns: int | None = None
         self.nodes: dict[int, _Node] = {}
         self.pending: tuple[int, int, int] | None = None  # (node, frame, time_ns) of a PReq
-        self.missing: list[MissingResponse] = []
-        self.late: list[MissingResponse] = []
+        self.missing: deque[MissingResponse] = deque(maxlen=window)
+        self.late: deque[MissingResponse] = deque(maxlen=window)
         self.state: dict[int, int] = {}
-        self.states: list[StateChange] = []
+        self.states: deque[StateChange] = deque(maxlen=window)
         self.services: Counter[int] = Counter()
-        self.events: list[EplEvent] = []
+        self.events: deque[EplEvent] = deque(maxlen=window)
         self.soas = 0
         self.invites = 0
         # the cycle under way: its SoA's time (None before it), the last frame's time
         self.soa_ns: int | None = None
         self.last_ns: int | None = None
-        self.isochronous = Series()
-        self.asynchronous = Series()
-        self.headroom = Series()
-        self.used = Series()
+        self.isochronous = self.series()
+        self.asynchronous = self.series()
+        self.headroom = self.series()
+        self.used = self.series()
 
     def _node(self, node: int) -> _Node:
         n = self.nodes.get(node)
         if n is None:
-            n = self.nodes[node] = _Node()
+            n = self.nodes[node] = _Node(self.series())
         return n
 
     def _observe(self, node: int, value: int, frame: int, time_ns: int, source: str) -> None:
@@ -408,4 +423,5 @@ class EplAnalyzer:
             asynchronous=Summary.of(self.asynchronous.array()),
             headroom=Summary.of(self.headroom.array()),
             used=Summary.of(self.used.array()),
+            current_states={n: state_name(v) for n, v in sorted(self.state.items())},
         )

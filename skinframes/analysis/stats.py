@@ -1,7 +1,8 @@
 """Bounded-memory series and their summary statistics (all times in integer nanoseconds).
 
 A :class:`Series` keeps its values in an int64 ``array.array`` (8 bytes per value, no Python
-object per value), :class:`Rows` in a numpy array that grows in chunks; :class:`Summary` is what the report prints: count, min,
+object per value), :class:`Window` only the last N of them (a live view's sliding window),
+:class:`Rows` in a numpy array that grows in chunks; :class:`Summary` is what the report prints: count, min,
 quartiles, median, mean, max and the population standard deviation. Quartiles are numpy's
 default ("linear", Hyndman and Fan type 7), the same as Python's
 ``statistics.quantiles(method="inclusive")``.
@@ -10,6 +11,7 @@ default ("linear", Hyndman and Fan type 7), the same as Python's
 from __future__ import annotations
 
 import array
+from collections import deque
 from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import Any, Final
@@ -17,7 +19,7 @@ from typing import Any, Final
 import numpy as np
 import numpy.typing as npt
 
-__all__ = ["Rows", "Series", "Summary"]
+__all__ = ["Rows", "Series", "Summary", "Window"]
 
 _FIRST_CHUNK: Final = 64  # rows; the array doubles when full
 _EMPTY: Final = np.empty(0, dtype=np.int64)
@@ -63,9 +65,39 @@ class Series:
     def __len__(self) -> int:
         return len(self._values)
 
+    @property
+    def total(self) -> int:
+        """Values ever appended (all of them are kept)."""
+        return len(self._values)
+
     def array(self) -> npt.NDArray[np.int64]:
         """The values so far (a read-only copy: appending goes on)."""
         out = np.frombuffer(self._values, dtype=np.int64).copy() if self._values else _EMPTY
+        out.flags.writeable = False
+        return out
+
+
+class Window:
+    """A :class:`Series` that keeps only its last ``size`` values (memory independent of how
+    many come), and counts every value appended (:attr:`total`)."""
+
+    __slots__ = ("_values", "total")
+
+    def __init__(self, size: int) -> None:
+        self._values: deque[int] = deque(maxlen=size)
+        self.total = 0
+
+    def append(self, value: int) -> None:
+        """Add one value (the oldest goes when the window is full)."""
+        self._values.append(value)
+        self.total += 1
+
+    def __len__(self) -> int:
+        return len(self._values)
+
+    def array(self) -> npt.NDArray[np.int64]:
+        """The values in the window, oldest first (a read-only copy)."""
+        out = np.fromiter(self._values, dtype=np.int64, count=len(self._values))
         out.flags.writeable = False
         return out
 

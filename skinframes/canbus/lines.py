@@ -161,16 +161,23 @@ class LineTally:
             self.lines += 1
 
 
-def parse_asc_file(text: IO[str], tally: LineTally) -> Iterator[list[CanFrame | DataTuple]]:
+BLOCK_CHARS: Final = 1 << 18  # characters of lines parsed at once (a file)
+STREAM_BLOCK_CHARS: Final = 1 << 12  # the same for a stream: frames out soon after lines in
+
+
+def parse_asc_file(
+    text: IO[str], tally: LineTally, block_chars: int = BLOCK_CHARS
+) -> Iterator[list[CanFrame | DataTuple]]:
     """The frames of :func:`parse_asc` of a text file, a list per block of about
-    :data:`BLOCK_CHARS` characters; the other lines go to ``tally``.
+    ``block_chars`` characters (a stream: fewer, so that frames come out as lines come in); the
+    other lines go to ``tally``.
 
     The plain data frames of a block (``<t> <ch> <id> Rx|Tx d <dlc 0..8> <bytes>``,
     hexadecimal, one space before each byte) are found with one regular expression, the lines
     between them are read one by one.
     """
     state = _AscState()
-    for block in _line_blocks(text):
+    for block in _line_blocks(text, block_chars):
         if block.endswith("\n"):
             first = tally.lines
             yield _asc_block(block, state, tally)
@@ -179,8 +186,8 @@ def parse_asc_file(text: IO[str], tally: LineTally) -> Iterator[list[CanFrame | 
             yield list(tally.take(block.split("\n"), state))
 
 
-def _line_blocks(text: IO[str]) -> Iterator[str]:
-    """Whole lines of ``text`` joined into blocks of about :data:`BLOCK_CHARS` characters. When
+def _line_blocks(text: IO[str], block_chars: int) -> Iterator[str]:
+    """Whole lines of ``text`` joined into blocks of about ``block_chars`` characters. When
     reading fails (a truncated gzip stream, bytes that are not UTF-8), the lines read before
     come out first, then the error."""
     lines: list[str] = []
@@ -189,9 +196,11 @@ def _line_blocks(text: IO[str]) -> Iterator[str]:
         for line in text:
             lines.append(line)
             size += len(line)
-            if size >= BLOCK_CHARS:
+            if size >= block_chars:
                 yield "".join(lines)
                 lines, size = [], 0
+    except GeneratorExit:  # the consumer stopped (a reader that left): nothing more to give
+        raise
     except BaseException:
         if lines:
             yield "".join(lines)
@@ -241,7 +250,6 @@ def _asc_block(block: str, state: _AscState, tally: LineTally) -> list[CanFrame 
     return out
 
 
-BLOCK_CHARS: Final = 1 << 18
 # a plain data frame line up to its DLC, as CANoe and python-can write it; every field within
 # what _ASC_MESSAGE and python-can's _process_classic_can_frame accept (a narrower set)
 _ASC_PLAIN: Final = re.compile(
@@ -383,10 +391,12 @@ def parse_candump(lines: Iterable[str]) -> Iterator[CanFrame | DataTuple | LineS
             yield LineSkip(CANDUMP_NOT_A_LINE, str(exc), True)
 
 
-def parse_candump_file(text: IO[str], tally: LineTally) -> Iterator[list[CanFrame | DataTuple]]:
+def parse_candump_file(
+    text: IO[str], tally: LineTally, block_chars: int = BLOCK_CHARS
+) -> Iterator[list[CanFrame | DataTuple]]:
     """The frames of :func:`parse_candump` of a text file, a list per block of about
-    :data:`BLOCK_CHARS` characters; the other lines go to ``tally``."""
-    for block in _line_blocks(text):
+    ``block_chars`` characters; the other lines go to ``tally``."""
+    for block in _line_blocks(text, block_chars):
         out: list[CanFrame | DataTuple] = []
         lines = block.split("\n")
         if block.endswith("\n"):

@@ -48,8 +48,10 @@ from skinframes.atomic_file import atomic_path
 from skinframes.canbus.codec import SKIN_CLASS
 from skinframes.canbus.lines import (
     ASC_NOT_A_LINE,
+    BLOCK_CHARS,
     CANDUMP_NOT_A_LINE,
     EMPTY,
+    STREAM_BLOCK_CHARS,
     DataTuple,
     LineSkip,
     LineTally,
@@ -70,6 +72,7 @@ from skinframes.pcap import LINKTYPE_CAN_SOCKETCAN, PcapWriter, Skipped, read_ca
 __all__ = [
     "PCAP_SUFFIXES",
     "PYTHON_CAN_SUFFIXES",
+    "STREAM_SUFFIXES",
     "TRACE_SUFFIXES",
     "CanLog",
     "CanLogFormatError",
@@ -94,6 +97,8 @@ logger = logging.getLogger(__name__)
 PYTHON_CAN_SUFFIXES: Final = (".asc", ".blf", ".csv", ".db", ".log", ".trc")  # python-can 4.6
 TEXT_SUFFIXES: Final = (".asc", ".csv", ".log", ".trc")  # python-can reads and writes them gzipped
 PCAP_SUFFIXES: Final = (".pcap", ".pcapng", ".cap")
+# formats read from a stream as it comes (CanLogReader(stream=...)); BLF and SQLite need a file
+STREAM_SUFFIXES: Final = (*TEXT_SUFFIXES, *PCAP_SUFFIXES)
 NS_PER_S: Final = 1_000_000_000
 # frames each python-can writer cannot store as given (probed with python-can 4.6.1)
 _LOSSY: Final = {
@@ -269,13 +274,26 @@ class CanLogReader:
     and candump are read by :mod:`skinframes.canbus.lines`, the other python-can formats by
     python-can's reader, pcaps by :func:`skinframes.pcap.read_capture`.
 
+    ``stream`` (a binary stream, e.g. standard input): the log is read from it as it comes, in
+    small blocks (frames come out soon after their lines come in), its format the suffix
+    ``log_format`` (``".asc"``, ``".log.gz"``, ...: :data:`STREAM_SUFFIXES`, their ``.gz``);
+    ``path`` then only names it in messages.
+
     Raises (when iterated):
-        CanLogFormatError: unknown suffix, unreadable file, or damaged before the first frame.
+        CanLogFormatError: unknown suffix, unreadable file, or damaged before the first frame;
+            a stream of a format that needs a file (BLF, SQLite).
     """
 
-    def __init__(self, path: str | Path) -> None:
+    def __init__(
+        self, path: str | Path, *, stream: IO[bytes] | None = None, log_format: str | None = None
+    ) -> None:
         self.path = str(path)
-        self.format = can_log_format(path)
+        self.format = can_log_format(path if log_format is None else f"{path}{log_format}")
+        self._stream = stream
+        if stream is not None and self.format.removesuffix(".gz") not in STREAM_SUFFIXES:
+            raise CanLogFormatError(f"{self.path}: a {self.format} log is read from a file only")
+        self._block = BLOCK_CHARS if stream is None else STREAM_BLOCK_CHARS
+        self._batch = _BATCH_FRAMES if stream is None else _STREAM_BATCH_FRAMES
         self._records = 0
         self._decoded = 0
         self._reasons: Counter[str] = Counter()
@@ -322,10 +340,10 @@ class CanLogReader:
         self._used = True
         base = self.format.removesuffix(".gz")
         if base in PCAP_SUFFIXES:
-            return _batched(self._pcap())
+            return _batched(self._pcap(), self._batch)
         if base in (".asc", ".log"):
             return self._lines(base)
-        return _batched(self._python_can(base))
+        return _batched(self._python_can(base), self._batch)
 
     # ASC, candump: our line parsers
     def _lines(self, base: str) -> Iterator[list[CanFrame | DataTuple]]:
@@ -338,9 +356,9 @@ class CanLogReader:
         with self._open_text() as text:
             try:
                 if base == ".asc":
-                    yield from parse_asc_file(text, tally)
+                    yield from parse_asc_file(text, tally, self._block)
                 else:
-                    yield from parse_candump_file(text, tally)
+                    yield from parse_candump_file(text, tally, self._block)
             except (OSError, EOFError, UnicodeDecodeError, zlib.error) as exc:
                 frames = tally.lines - (self._records - skipped_before)
                 if frames <= 0:
@@ -368,7 +386,7 @@ class CanLogReader:
     @contextlib.contextmanager
     def _open_text(self) -> Iterator[IO[str]]:
         try:
-            f = _open_text(self.path, self.format)
+            f = self._text()
         except OSError as exc:
             raise CanLogFormatError(f"{self.path}: cannot read ({exc.strerror or exc})") from exc
         with f:
@@ -382,7 +400,7 @@ class CanLogReader:
         reader: Any
         try:
             if base in (".trc", ".csv"):
-                lines = _CountingLines(_open_text(self.path, self.format), base)
+                lines = _CountingLines(self._text(), base)
                 reader = (can.TRCReader if base == ".trc" else can.CSVReader)(
                     cast(TextIO, lines)  # a file for python-can: it only iterates and closes it
                 )
@@ -468,8 +486,18 @@ class CanLogReader:
             )
 
     # SocketCAN pcap
+    def _text(self) -> IO[str]:
+        """The log's text (UTF-8), gunzipped for a ``.gz`` format; the caller closes it."""
+        if self._stream is None:
+            return _open_text(self.path, self.format)
+        raw: IO[bytes] = self._stream
+        if self.format.endswith(".gz"):
+            raw = cast(IO[bytes], gzip.GzipFile(fileobj=raw, mode="rb"))
+        return io.TextIOWrapper(cast(Any, raw), encoding="utf-8")  # stdin: read1 as lines come
+
     def _pcap(self) -> Iterator[CanFrame | DataTuple]:
-        capture = read_capture(self.path)  # raises PcapFormatError, a DecodeError
+        # raises PcapFormatError, a DecodeError
+        capture = read_capture(self.path if self._stream is None else self._stream)
         for rec in capture:  # record by record, none held
             if rec.linktype != LINKTYPE_CAN_SOCKETCAN:
                 self._skip(rec.index, f"linktype {rec.linktype} record, not SocketCAN")
@@ -529,12 +557,15 @@ class _CountingLines:
         self._f.close()
 
 
-def _batched(items: Iterator[CanFrame | DataTuple]) -> Iterator[list[CanFrame | DataTuple]]:
-    while batch := list(itertools.islice(items, _BATCH_FRAMES)):
+def _batched(
+    items: Iterator[CanFrame | DataTuple], size: int
+) -> Iterator[list[CanFrame | DataTuple]]:
+    while batch := list(itertools.islice(items, size)):
         yield batch
 
 
 _BATCH_FRAMES: Final = 1024
+_STREAM_BATCH_FRAMES: Final = 32  # a stream: frames out soon after they come in
 
 
 def _tuple_frame(item: DataTuple) -> CanFrame:

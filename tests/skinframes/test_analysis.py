@@ -17,6 +17,7 @@ from typing import Any
 import pytest
 import tshark_util
 from conftest import PCAPS
+from encap_util import over_udp, qinq
 
 from skinframes.analysis import Summary, analyze_capture
 from skinframes.analysis.ecat import pattern_text
@@ -70,12 +71,14 @@ def _epl_paths(shared_captures: Path, tmp_path: Path) -> list[Path]:
     dropped = tmp_path / "epl_drops.pcapng"
     faults = (parse_fault("drop:2:0.3"), parse_fault("late:1:40"))
     simulate_epl(5, 16, WIRE, cycles=30, seed=2, asnd=True, faults=faults, pcap=dropped)
+    tagged = tmp_path / "epl_vlan.pcapng"  # 802.1Q: once analyzed as no EPL at all
+    simulate_epl(3, 16, WIRE, cycles=30, seed=2, faults=faults[:1], pcap=tagged, vlan=5)
     files = [shared_captures / f for f in EPL_FILES] + sorted(PCAPS.glob("epl_*.pcap"))
-    return [*files, dropped]
+    return [*files, dropped, tagged, qinq(dropped, tmp_path / "epl_qinq.pcap")]
 
 
 @pytest.mark.tshark
-@pytest.mark.parametrize("index", range(len(EPL_FILES) + 3))
+@pytest.mark.parametrize("index", range(len(EPL_FILES) + 5))
 def test_epl_statistics_equal_tshark_fields(
     tshark: str, shared_captures: Path, tmp_path: Path, index: int
 ) -> None:
@@ -125,8 +128,10 @@ def test_epl_statistics_equal_tshark_fields(
         assert_summary(analysis.epl.responses[node], values)
     assert {n for n, s in analysis.epl.responses.items() if s.count} == set(responses)
     assert [(m.node, m.frame) for m in analysis.epl.missing] == missing
-    if path.name == "epl_drops.pcapng":
+    if path.name in ("epl_drops.pcapng", "epl_qinq.pcap"):
         assert len(missing) > 30, "CN 1 late beyond its timeout, CNs 3.. dropped: missing PRes"
+    if path.name == "epl_vlan.pcapng":
+        assert missing, "CNs 2.. dropped: missing PRes"
 
 
 def _datagrams(row: dict[str, list[str]]) -> list[tuple[int, int, int, int, int, int]]:
@@ -205,11 +210,15 @@ def _ecat_paths(shared_captures: Path, tmp_path: Path) -> list[Path]:
     simulate_ecat(
         6, 16, WIRE, cycles=8, faults=(parse_fault("cable:3@4"),), pcap=broken
     )  # slaves 3.. cut off from cycle 4: working-counter deviations
-    return [shared_captures / f for f in ECAT_FILES] + sorted(PCAPS.glob("ecat_*.pcap")) + [broken]
+    tagged = tmp_path / "ecat_vlan.pcapng"  # 802.1Q: once analyzed as no EtherCAT at all
+    simulate_ecat(4, 16, WIRE, cycles=8, faults=(parse_fault("cable:2@4"),), pcap=tagged, vlan=9)
+    files = [shared_captures / f for f in ECAT_FILES] + sorted(PCAPS.glob("ecat_*.pcap"))
+    udp = over_udp(broken, tmp_path / "open_break_udp.pcap", 0x88A4)
+    return [*files, broken, tagged, qinq(broken, tmp_path / "open_break_qinq.pcap"), udp]
 
 
 @pytest.mark.tshark
-@pytest.mark.parametrize("index", range(len(ECAT_FILES) + 4))
+@pytest.mark.parametrize("index", range(len(ECAT_FILES) + 7))
 def test_ecat_statistics_equal_tshark_fields(
     tshark: str, shared_captures: Path, tmp_path: Path, index: int
 ) -> None:
@@ -229,8 +238,24 @@ def test_ecat_statistics_equal_tshark_fields(
     assert [
         (d.frame, d.pattern, d.datagram, d.wkc, d.expected) for d in analysis.ecat.wkc_deviations
     ] == sorted(deviations)
-    if path.name == "open_break.pcap":
+    if path.name.startswith(("open_break", "ecat_vlan")):
         assert deviations, "the cable break must show in the working counters"
+
+
+@pytest.mark.tshark
+@pytest.mark.parametrize("name", ["epl_cycle_4cn.pcap", "epl_asnd_services.pcap"])
+def test_epl_over_udp_is_analyzed_as_the_same_frames_over_ethernet(
+    tshark: str, tmp_path: Path, name: str
+) -> None:
+    """EPL over UDP: tshark dissects every frame as EPL; the analysis is that of the same
+    messages sent over Ethernet (whose figures the tshark tests above check), node ids from
+    the IP addresses."""
+    udp = over_udp(PCAPS / name, tmp_path / name, 3819)
+    rows = tshark_util.fields(tshark, udp, ["frame.number"], "epl && udp.port == 3819")
+    plain = analyze_capture(read_capture(PCAPS / name)).to_json()
+    doc = analyze_capture(read_capture(udp)).to_json()
+    assert doc["counts"]["epl"] == len(rows) == plain["counts"]["epl"] > 0
+    assert doc == plain
 
 
 def test_cached_layouts_give_what_the_walk_gives(
