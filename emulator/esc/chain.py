@@ -54,6 +54,7 @@ from emulator.esc.device import (
     EscDevice,
     FirstBuffer,
     TraceCopy,
+    commit_apart,
     latches,
     react_together,
 )
@@ -1120,16 +1121,25 @@ class EcatChain:
         for key, positions in groups.items():
             shape = (key[0], *((a, len(d)) for a, d in line[positions[0]].pending))
             shapes.setdefault(shape, []).append(positions)
+        alone: dict[int, list[int]] = {}  # by configuration: ESCs few of which write alike
         for members in shapes.values():
             if len(members) == 1 and len(members[0]) >= TOGETHER_MIN:
                 self._commit(line, members[0], alike=True)
                 continue
             positions = sorted(p for group in members for p in group)
             if len(positions) < TOGETHER_MIN:
-                for p in positions:
-                    line[p].end_frame()
+                alone.setdefault(id(line[positions[0]].write_plans), []).extend(positions)
             else:  # one commit, not one a group: each costs a pass over rows and a DC compare
                 self._commit(line, positions, alike=False)
+        for positions in alone.values():  # writes that differ in address too (hostile FMMUs)
+            positions.sort()
+            together = [line[p] for p in positions]
+            rows = np.array(positions, dtype=np.intp)
+            if len(positions) >= TOGETHER_MIN and commit_apart(together, self.memory, rows):
+                finish_together(together, self.memory, rows)
+                continue
+            for dev in together:
+                dev.end_frame()
 
     def _commit(self, line: list[EscDevice], positions: list[int], *, alike: bool) -> None:
         """The ESCs of ``line`` at ``positions`` commit their register writes together and end

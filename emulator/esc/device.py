@@ -1580,6 +1580,15 @@ TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows 
 _Rows = npt.NDArray[np.intp]
 
 
+class _Slot(NamedTuple):
+    """One register write of a frame at several ESCs (:func:`_commit_slots`)."""
+
+    addr: int
+    n: int  # bytes
+    members: list[int] | None  # the ESCs (indices) that made it; None: every one
+    data: npt.NDArray[np.uint8]  # one row for all, or a row per member (per ESC when None)
+
+
 def commit_together(
     devices: Sequence[EscDevice],
     memory: npt.NDArray[np.uint8],
@@ -1593,21 +1602,98 @@ def commit_together(
     same addresses and lengths whose bytes differ from ESC to ESC (a logical datagram's through
     FMMUs that map each ESC's own frame bytes onto registers), each write then a row of bytes
     per ESC."""
-    plans = devices[0].write_plans
-    masks = plans.mask_array
     first = devices[0].pending
-    datas: list[npt.NDArray[np.uint8]] = []
-    for j, (_, written) in enumerate(first):
+    slots: list[_Slot] = []
+    for j, (addr, written) in enumerate(first):
         if alike:
-            datas.append(np.frombuffer(written, np.uint8))
+            data = np.frombuffer(written, np.uint8)
         else:
             blob = b"".join([dev.pending[j][1] for dev in devices])
-            datas.append(np.frombuffer(blob, np.uint8).reshape(len(devices), len(written)))
-    pending = [(addr, plans.plan(addr, len(written))) for addr, written in first]
+            data = np.frombuffer(blob, np.uint8).reshape(len(devices), len(written))
+        slots.append(_Slot(addr, len(written), None, data))
+    _commit_slots(devices, memory, rows, slots)
+
+
+def commit_apart(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> bool:
+    """:func:`commit_together` of ``devices`` (one configuration) whose lists of writes differ
+    in their addresses and lengths too (a logical datagram's through FMMUs that differ from ESC
+    to ESC): each write at the ESCs that made it, in an order that keeps every ESC's own (the
+    ESCs' writes are independent of each other's). False, having done nothing, where no such
+    order exists (two ESCs made two writes in opposite orders): then each ESC commits alone."""
+    index: dict[tuple[int, int, int], int] = {}  # (address, length, repeat) -> write
+    members: list[list[int]] = []
+    blobs: list[list[bytes]] = []
+    after: list[set[int]] = []  # the writes some ESC made after each
+    for i, dev in enumerate(devices):
+        repeats: dict[tuple[int, int], int] = {}
+        last = -1
+        for addr, written in dev.pending:
+            shape = (addr, len(written))
+            k = repeats.get(shape, 0)
+            repeats[shape] = k + 1
+            key = (addr, len(written), k)
+            j = index.get(key)
+            if j is None:
+                j = index[key] = len(members)
+                members.append([])
+                blobs.append([])
+                after.append(set())
+            members[j].append(i)
+            blobs[j].append(written)
+            if last >= 0:
+                after[last].add(j)
+            last = j
+    order = _ordered(after)
+    if order is None:
+        return False
+    keys = list(index)
+    slots = []
+    for j in order:
+        addr, n, _ = keys[j]
+        data = np.frombuffer(b"".join(blobs[j]), np.uint8).reshape(len(members[j]), n)
+        slots.append(_Slot(addr, n, None if len(members[j]) == len(devices) else members[j], data))
+    _commit_slots(devices, memory, rows, slots)
+    return True
+
+
+def _ordered(after: list[set[int]]) -> list[int] | None:
+    """The writes 0..len(after)-1 in an order where each comes before those ``after`` it names
+    (a topological order, earliest first where free), or None where there is none (a cycle)."""
+    waiting = [0] * len(after)
+    for later in after:
+        for j in later:
+            waiting[j] += 1
+    ready = [j for j in range(len(after)) if not waiting[j]]
+    ready.reverse()  # a stack: the lowest first
+    order: list[int] = []
+    while ready:
+        j = ready.pop()
+        order.append(j)
+        for k in sorted(after[j], reverse=True):
+            waiting[k] -= 1
+            if not waiting[k]:
+                ready.append(k)
+    return order if len(order) == len(after) else None
+
+
+def _commit_slots(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    slots: Sequence[_Slot],
+) -> None:
+    """The commit of :func:`commit_together` and :func:`commit_apart`: each write of ``slots``
+    in order, at the ESCs that made it, through the write plans (masked, or the registers with
+    side effects, :func:`write_special`); then what the writes set off, step by step over the
+    ESCs (each only where its own writes set it off, or where doing it again changes
+    nothing)."""
+    plans = devices[0].write_plans
+    masks = plans.mask_array
     for dev in devices:
         dev.pending.clear()
+    pending = [plans.plan(slot.addr, slot.n) for slot in slots]
     touched = 0
-    for _, (_, touches) in pending:
+    for _, touches in pending:
         touched |= touches
     every = consecutive(rows)
     sm_before = memory[every, REG_SM : plans.sm_end].copy() if touched & TOUCHES_SM else None
@@ -1618,18 +1704,36 @@ def commit_together(
     flags = [False] * 5  # (unused), EEPROM command, DL control, FMMU, SM written
     eeprom = np.zeros(len(rows), np.bool_)
     al = np.zeros(len(rows), np.bool_)  # AL control written (taken: not a full mailbox)
-    dc: tuple[int, int] | None = None
-    for (addr, (segments, _)), values in zip(pending, datas, strict=True):
+    dc: tuple[int, int] | None = None  # the DC registers every ESC wrote
+    dc_of: dict[int, tuple[int, int]] = {}  # and those only some did, by ESC
+    for slot, (segments, _) in zip(slots, pending, strict=True):
+        addr, idx = slot.addr, slot.members
+        if idx is None:
+            who, at, at_rows, on = devices, every, rows, enabled
+            written_ee, written_al = eeprom, al
+        else:
+            who, at = [devices[i] for i in idx], rows[idx]
+            at_rows, on = at, None if enabled is None else enabled[idx]
+            written_ee, written_al = np.zeros(len(idx), np.bool_), np.zeros(len(idx), np.bool_)
         for lo, hi, mask, marks in segments:
-            part = values[..., lo - addr : hi - addr]  # one row, or one per ESC
+            part = slot.data[..., lo - addr : hi - addr]  # one row, or one per ESC
             if mask < 0:  # a register with side effects
                 write_special(
-                    devices, memory, rows, lo, hi, part, enabled, masks, flags, eeprom, al
+                    who, memory, at_rows, lo, hi, part, on, masks, flags, written_ee, written_al
                 )
             elif mask:
-                write_masked(memory, every, lo, hi, part, masks[lo:hi])
+                write_masked(memory, at, lo, hi, part, masks[lo:hi])
                 if marks:
-                    dc = mark(lo, hi, flags, plans.fmmu_end, dc)
+                    if idx is None:
+                        dc = mark(lo, hi, flags, plans.fmmu_end, dc)
+                    else:
+                        for i in idx:
+                            found = mark(lo, hi, flags, plans.fmmu_end, dc_of.get(i))
+                            if found is not None:
+                                dc_of[i] = found
+        if idx is not None:
+            eeprom[idx] |= written_ee
+            al[idx] |= written_al
     _, _, dl, fmmu, sm = flags
     # what the writes set off, in this order (datasheet I 3.4), step by step over all the ESCs:
     # FMMU and SyncManager tables, DL control, DC registers, an EEPROM command, AL control
@@ -1640,9 +1744,22 @@ def commit_together(
         changed = (memory[every, REG_SM : plans.sm_end] != sm_before).any(axis=1)
         _syncmanagers(devices, memory, rows, np.flatnonzero(changed).tolist(), enabled)
     if dl:
-        _dl_status(devices, memory, rows)
-    if dc is not None:
+        _dl_status(devices, memory, rows)  # (the same again where DL control stayed)
+    if dc is not None and not dc_of:
         configure_together([dev.dc for dev in devices], memory, rows, *dc)
+    elif dc is not None or dc_of:  # each ESC the DC registers it wrote, alike ones together
+        by_range: dict[tuple[int, int], list[int]] = {}
+        for i in range(len(devices)):
+            own = dc_of.get(i)
+            if own is not None and dc is not None:
+                own = (min(own[0], dc[0]), max(own[1], dc[1]))
+            elif own is None:
+                own = dc
+            if own is not None:
+                by_range.setdefault(own, []).append(i)
+        for (lo, hi), at_ in by_range.items():
+            clocks = [devices[i].dc for i in at_]
+            configure_together(clocks, memory, rows[np.array(at_, np.intp)], lo, hi)
     _event_requests(devices, memory, every)
     if eeprom.any():
         _eeprom_commands(devices, memory, rows, np.flatnonzero(eeprom))
