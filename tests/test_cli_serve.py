@@ -162,7 +162,8 @@ def test_serve_stats_percentiles_are_the_sorted_times_at_int_q_count() -> None:
 def test_serve_collects_garbage_between_frames_not_inside_them() -> None:
     """While serving, no collection starts inside a frame however many objects it makes; after
     the frame the young generations are collected, every FULL_EVERY-th time all of them, so
-    cyclic garbage is still freed; the collector is as it was afterwards."""
+    cyclic garbage is still freed; what survives is frozen, so that no later collection walks
+    it; the collector is as it was afterwards."""
     before = gc.isenabled()
     events: list[str] = []
     gc.callbacks.append(lambda phase, info: events.append(f"{phase} {info['generation']}"))
@@ -181,6 +182,13 @@ def test_serve_collects_garbage_between_frames_not_inside_them() -> None:
                 collector.after_frame()
             assert events[-2:] == ["start 2", "stop 2"]
             assert events.count("start 2") == 1
+            # what survives is frozen: the next collection does not walk it again
+            kept = [Cycle() for _ in range(3 * YOUNG_OBJECTS)]
+            frozen = gc.get_freeze_count()
+            collector.after_frame()
+            assert gc.get_freeze_count() >= frozen + len(kept)
+            assert gc.get_count() == (0, 0, 0)
+        assert gc.get_freeze_count() == 0  # unfrozen afterwards
         assert gc.isenabled() == before
     finally:
         gc.callbacks.pop()
