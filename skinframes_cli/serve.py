@@ -9,7 +9,6 @@ from __future__ import annotations
 
 import argparse
 import contextlib
-import dataclasses
 import functools
 import json
 import sys
@@ -194,8 +193,7 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError("serve ecat: --nodes is required")
     from emulator.errors import TopologyError
     from emulator.esc.dc import seed_clocks
-    from emulator.esc.esi_inputs import read_esi_inputs
-    from emulator.esc.esi_slave import check_esi_slave, esi_device
+    from emulator.esc.esi_slave import check_esi_slaves, esi_device
     from emulator.live import RawSocket, TaxelFeed, mixed_chain, serve
 
     if args.node_ids is not None or args.rt_priority is not None:
@@ -203,20 +201,7 @@ def run(args: argparse.Namespace) -> int:
     if args.drift_ppm is None:
         args.drift_ppm = DEFAULT_DRIFT_PPM
     period_s = args.period_ms / 1000.0
-    esi = [check_esi_slave(spec) for spec in args.esi]
-    if len(args.esi_inputs) > len(esi):
-        raise SkinframesError(
-            f"--esi-inputs: {len(args.esi_inputs)} files for {len(esi)} --esi slaves (the n-th "
-            "file is the n-th --esi slave's)"
-        )
-    for k, path in enumerate(args.esi_inputs):
-        if not path:
-            raise SkinframesError("--esi-inputs: an empty file name")
-        try:
-            inputs = read_esi_inputs(path, esi[k].device)
-        except OSError as exc:
-            raise SkinframesError(f"--esi-inputs {path}: {exc.strerror or exc}") from exc
-        esi[k] = dataclasses.replace(esi[k], inputs=inputs)
+    esi = check_esi_slaves(args.esi, args.esi_inputs)
     if args.nodes or not esi:
         if args.bytes is None and args.nodes:
             raise TopologyError("serve ecat: --bytes is required with --nodes > 0")

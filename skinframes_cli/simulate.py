@@ -198,6 +198,15 @@ def add_parser(sub: Any) -> None:
         "its inputs count the cycles; repeatable",
     )
     p.add_argument(
+        "--esi-inputs",
+        action="append",
+        default=[],
+        metavar="FILE",
+        help="EtherCAT: input values for the n-th --esi slave from the n-th such CSV file "
+        "(header INDEX:SUBINDEX,...; a row per cycle, repeated; as serve ecat --esi-inputs); "
+        "its other entries count the cycles; repeatable",
+    )
+    p.add_argument(
         "--seed",
         type=bounded_int(0, MAX_SEED),
         default=0,
@@ -214,15 +223,15 @@ def add_parser(sub: Any) -> None:
 
 
 def _esi_slaves(args: argparse.Namespace) -> list[Any]:
-    """The ``--esi`` slaves, loaded and checked (one error line for a bad one); ``--nodes 0``
-    only with them, EtherCAT only."""
-    from emulator.esc.esi_slave import check_esi_slave
+    """The ``--esi`` slaves, loaded and checked, with their ``--esi-inputs`` files (one error
+    line for a bad one); ``--nodes 0`` only with them, EtherCAT only."""
+    from emulator.esc.esi_slave import check_esi_slaves
 
-    if args.esi and args.protocol != "ecat":
-        raise SkinframesError("--esi applies to EtherCAT only")
+    if (args.esi or args.esi_inputs) and args.protocol != "ecat":
+        raise SkinframesError("--esi and --esi-inputs apply to EtherCAT only")
     if args.nodes == 0 and not args.esi:
         raise SkinframesError("--nodes 0: only with --esi (EPL: 1..239, EtherCAT: 1..1024)")
-    slaves = [check_esi_slave(spec) for spec in args.esi]
+    slaves = check_esi_slaves(args.esi, args.esi_inputs)
     if args.nodes + len(slaves) > MAX_SLAVES:
         raise SkinframesError(
             f"--nodes {args.nodes} and {len(slaves)} --esi: {args.nodes + len(slaves)} slaves "

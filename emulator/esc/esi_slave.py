@@ -35,7 +35,7 @@ import numpy.typing as npt
 from emulator.errors import TopologyError
 from emulator.esc.dc import DC_FEATURES
 from emulator.esc.device import EscDevice
-from emulator.esc.esi_inputs import EsiInputs, pack_entries
+from emulator.esc.esi_inputs import EsiInputs, pack_entries, read_esi_inputs
 from emulator.esc.esi_objects import EsiDictionary, esi_dictionary
 from emulator.esc.objects import ObjectDictionary
 from emulator.esc.pdi import Pdi
@@ -57,6 +57,7 @@ __all__ = [
     "EsiApplication",
     "EsiSlave",
     "check_esi_slave",
+    "check_esi_slaves",
     "counter_images",
     "entry_values",
     "esi_device",
@@ -219,10 +220,13 @@ class EsiApplication(SlaveApplication):
         ``bits``."""
         return (self._value(index, subindex) % (1 << bits)).to_bytes((bits + 7) // 8, "little")
 
-    def _value(self, index: int, subindex: int) -> int:
+    def _value(self, index: int, subindex: int, publication: int | None = None) -> int:
+        """An input entry's value at ``publication`` (default: now, :attr:`counter`): the
+        inputs file's, else the counter's."""
+        at = self.counter if publication is None else publication
         file = self.input_file
-        found = None if file is None else file.value(index, subindex, self.counter)
-        return self.counter if found is None else found
+        found = None if file is None else file.value(index, subindex, at)
+        return at if found is None else found
 
     def count(self, device: Pdi) -> None:
         """The next publication: every input entry counts one up (written unless SYNC0
@@ -255,13 +259,25 @@ class EsiApplication(SlaveApplication):
         return [] if found is None else [(e.index, e.subindex, e.bit_length) for e in found.entries]
 
     def image(self, sync_manager: int) -> bytes:
-        """The bytes of input SyncManager ``sync_manager`` now (:func:`counter_images`; with
-        an inputs file, :func:`pack_entries` of its values and the counter)."""
+        """The bytes of input SyncManager ``sync_manager`` now (:meth:`images`)."""
+        return bytes(self.images(sync_manager, np.array([self.counter], dtype=np.int64))[0])
+
+    def images(
+        self, sync_manager: int, publications: npt.NDArray[np.int64]
+    ) -> npt.NDArray[np.uint8]:
+        """(len(publications), bytes): the bytes of input SyncManager ``sync_manager`` at each
+        of ``publications`` (non-negative): :func:`counter_images`, or with an inputs file
+        :func:`pack_entries` of its values and the counter's. What ``serve`` publishes and the
+        timing engine's master reads (:class:`emulator.net.ecat_line.EcatLine`)."""
         layout = self.layout(sync_manager)
-        if self.input_file is not None:
-            return pack_entries(layout, [self._value(i, s) for i, s, _ in layout])
-        counters = np.array([self.counter], dtype=np.int64)
-        return bytes(counter_images(layout, counters)[0])
+        if self.input_file is None:
+            return counter_images(layout, publications)
+        rows = [
+            pack_entries(layout, [self._value(i, s, c) for i, s, _ in layout])
+            for c in publications.tolist()
+        ]
+        width = (sum(bits for _, _, bits in layout) + 7) // 8
+        return np.frombuffer(b"".join(rows), np.uint8).reshape(len(rows), width)
 
     # --- outputs ---------------------------------------------------------------------------
     def take_outputs(self, index: int, data: bytes) -> None:
@@ -339,6 +355,27 @@ def esi_device(slave: EsiSlave) -> EscDevice:
     )
     app = EsiApplication(slave.esi, slave.device, info, slave.inputs)
     return EscDevice(info, config=config, sii=slave.sii, app=app)
+
+
+def check_esi_slaves(specs: Sequence[str], inputs: Sequence[str] = ()) -> list[EsiSlave]:
+    """:func:`check_esi_slave` of each of ``specs``, the n-th with the inputs file
+    ``inputs[n]`` (:func:`emulator.esc.esi_inputs.read_esi_inputs`), as ``--esi`` and
+    ``--esi-inputs`` name them; every failure one :class:`SkinframesError` naming the file."""
+    slaves = [check_esi_slave(spec) for spec in specs]
+    if len(inputs) > len(slaves):
+        raise SkinframesError(
+            f"--esi-inputs: {len(inputs)} files for {len(slaves)} --esi slaves (the n-th "
+            "file is the n-th --esi slave's)"
+        )
+    for k, path in enumerate(inputs):
+        if not path:
+            raise SkinframesError("--esi-inputs: an empty file name")
+        try:
+            values = read_esi_inputs(path, slaves[k].device)
+        except OSError as exc:
+            raise SkinframesError(f"--esi-inputs {path}: {exc.strerror or exc}") from exc
+        slaves[k] = dataclasses.replace(slaves[k], inputs=values)
+    return slaves
 
 
 def check_esi_slave(spec: str) -> EsiSlave:

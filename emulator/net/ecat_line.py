@@ -9,9 +9,9 @@ those logical addresses (:func:`emulator.net.ecat.line_frames`), as the configur
 of equal sizes: patch ``p``'s taxels at ``p x patch_bytes``.
 
 Per cycle, the image holds the patches' taxels of that cycle and, for each ESI slave, its
-inputs at that cycle's publication: in cycle ``c`` (from 0) every input entry holds ``c + 1``,
-cut to its bits (:func:`emulator.esc.esi_slave.counter_images`), as ``serve`` counts
-publications.
+inputs at that cycle's publication: cycle ``c`` (from 0) is publication ``c + 1``, every input
+entry holding ``c + 1`` cut to its bits, or its value in an inputs file's row ``c + 1``
+(:meth:`emulator.esc.esi_slave.EsiApplication.images`, what ``serve`` publishes).
 """
 
 from __future__ import annotations
@@ -24,7 +24,7 @@ import numpy.typing as npt
 from emulator.errors import TopologyError
 from emulator.esc.chain import skin_devices
 from emulator.esc.device import EscDevice
-from emulator.esc.esi_slave import EsiApplication, EsiSlave, counter_images, esi_device
+from emulator.esc.esi_slave import EsiApplication, EsiSlave, esi_device
 from emulator.esc.sii import SyncManagerType
 
 __all__ = ["EcatLine"]
@@ -85,5 +85,5 @@ class EcatLine:
             app = dev.app
             if sm is None or not isinstance(app, EsiApplication):
                 continue
-            parts.append(counter_images(app.layout(sm), cycles + 1))
+            parts.append(app.images(sm, cycles + 1))
         return np.concatenate(parts, axis=1)

@@ -143,3 +143,26 @@ def test_one_byte_inputs_carry_their_taxels() -> None:
     simulate_ecat(3, 1, PAPER, cycles=4, sink=sink, payloads=given)
     for c, lrds in enumerate(_returned_lrds(sink)):
         assert [lrds[p] for p in range(3)] == [(p, 1, bytes([0xA0 + 3 * c + p])) for p in range(3)]
+
+
+@pytest.mark.tshark
+def test_esi_inputs_from_a_file_in_the_pcap(tshark: str, shared_esi: Path, tmp_path: Path) -> None:
+    # the LAN9252 demo's one input entry 0x6000:01 (8 bits) from a file of 3 rows; cycle c is
+    # publication c + 1 and takes row (c + 1) % 3: 0x22, 0x33, 0x11, 0x22, ... (worked out by
+    # hand); the K2G's 32-bit entry, with no file, still counts: c + 1
+    inputs = tmp_path / "button.csv"
+    inputs.write_text("0x6000:1\n0x11\n0x22\n0x33\n", encoding="utf-8")
+    path = tmp_path / "inputs.pcap"
+    argv = ["simulate", "ecat", "--nodes", "0", "--bytes", "1", "--cycles", "5"]
+    argv += ["--pcap", str(path)]
+    argv += ["--esi", str(shared_esi / DEMO), "--esi-inputs", str(inputs)]
+    argv += ["--esi", f"{shared_esi / K2G}#k2gice"]
+    assert main(argv) == 0
+    rows = tshark_util.fields(tshark, path, ["ecat.lad", "ecat.cnt", "ecat.data"])
+    returned = [r for r in rows if any(int(v, 0) for v in r["ecat.cnt"])]
+    demo = [bytes.fromhex(r["ecat.data"][0]) for r in returned]
+    k2g = [bytes.fromhex(r["ecat.data"][1]) for r in returned]
+    assert demo == [bytes([v]) for v in (0x22, 0x33, 0x11, 0x22, 0x33)]
+    assert k2g == [(c + 1).to_bytes(4, "little") for c in range(5)]
+    bad = ["simulate", "epl", "--nodes", "1", "--bytes", "8", "--esi-inputs", str(inputs)]
+    assert main(bad) == 2
