@@ -1096,8 +1096,11 @@ class EcatChain:
         register writes (a broadcast's, one configuration) commit them together, and finish the
         frame together (:func:`finish_together`), and so do those whose writes differ only in
         their bytes (a logical datagram's through FMMUs onto registers, a BRW's, or broadcasts
-        that met different bytes: groups of equal writes commit as one); of those without
-        writes only the ones with something to finish are asked (:meth:`EscDevice.unfinished`).
+        that met different bytes: groups of equal writes commit as one), and so, in one pass,
+        do the rest of one configuration whose writes differ in their addresses too (through
+        FMMUs that differ from ESC to ESC, :func:`commit_apart`), when they are many; of those
+        without writes only the ones with something to finish are asked
+        (:meth:`EscDevice.unfinished`).
         ESCs commit independently of each other, so the groups may go in any order, and so may
         the reactions they queue for the slaves' firmware, each to its own ESC."""
         groups: dict[tuple[object, ...], list[int]] = {}
