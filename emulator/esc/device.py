@@ -55,6 +55,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
+from graphlib import CycleError, TopologicalSorter
 from typing import Final, NamedTuple
 
 import numpy as np
@@ -1658,22 +1659,15 @@ def commit_apart(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], ro
 
 def _ordered(after: list[set[int]]) -> list[int] | None:
     """The writes 0..len(after)-1 in an order where each comes before those ``after`` it names
-    (a topological order, earliest first where free), or None where there is none (a cycle)."""
-    waiting = [0] * len(after)
-    for later in after:
-        for j in later:
-            waiting[j] += 1
-    ready = [j for j in range(len(after)) if not waiting[j]]
-    ready.reverse()  # a stack: the lowest first
-    order: list[int] = []
-    while ready:
-        j = ready.pop()
-        order.append(j)
-        for k in sorted(after[j], reverse=True):
-            waiting[k] -= 1
-            if not waiting[k]:
-                ready.append(k)
-    return order if len(order) == len(after) else None
+    (a topological order, :mod:`graphlib`), or None where there is none (a cycle)."""
+    sorter: TopologicalSorter[int] = TopologicalSorter(dict.fromkeys(range(len(after)), ()))
+    for j, later in enumerate(after):
+        for k in later:
+            sorter.add(k, j)
+    try:
+        return list(sorter.static_order())
+    except CycleError:
+        return None
 
 
 def _commit_slots(
