@@ -33,7 +33,7 @@ from typing import Final, NamedTuple, TypeVar
 import numpy as np
 import numpy.typing as npt
 
-from skinframes import ethercat, ethernet, taxel
+from skinframes import ethercat, ethernet, taxel, vlan
 from skinframes.atomic_file import atomic_output, check_target, create_temp
 from skinframes.capture_arrays import (
     BLOCK_RECORDS,
@@ -313,17 +313,21 @@ class TaxelStream:
 def _ethernet(rec: RecordArrays) -> tuple[npt.NDArray[np.int64], npt.NDArray[np.int64]]:
     """(offset of the bytes after the EtherType, EtherType) per record; -1 for non-Ethernet.
 
-    One IEEE 802.1Q tag is looked through.
+    VLAN tags are looked through, stacked ones too (IEEE 802.1Q C-tags, 802.1ad S-tags and the
+    old Q-in-Q TPID, :data:`skinframes.vlan.TPIDS`, as Wireshark dissects them).
     """
     ok = (rec.linktype == LINKTYPE_ETHERNET) & (rec.length >= ethernet.HEADER_BYTES)
     at = np.where(ok, rec.offset + _ETHERTYPE_AT, 0)
     ethertype = np.where(ok, u16_at(rec.data, at, big=True), -1)
     payload = rec.offset + ethernet.HEADER_BYTES
-    tagged = (ethertype == ETHERTYPE_VLAN) & (rec.length >= ethernet.HEADER_BYTES + VLAN_TAG_BYTES)
-    if bool(tagged.any()):
-        inner = u16_at(rec.data, np.where(tagged, at + VLAN_TAG_BYTES, 0), big=True)
-        ethertype = np.where(tagged, inner, ethertype)
+    end = rec.offset + rec.length
+    tpids = np.array(sorted(vlan.TPIDS), np.int64)
+    tagged = np.isin(ethertype, tpids) & (payload + VLAN_TAG_BYTES <= end)
+    while bool(tagged.any()):  # one tag more each time, within the record: it ends
+        at = np.where(tagged, at + VLAN_TAG_BYTES, at)
+        ethertype = np.where(tagged, u16_at(rec.data, np.where(tagged, at, 0), big=True), ethertype)
         payload = np.where(tagged, payload + VLAN_TAG_BYTES, payload)
+        tagged &= np.isin(ethertype, tpids) & (payload + VLAN_TAG_BYTES <= end)
     return payload, ethertype
 
 

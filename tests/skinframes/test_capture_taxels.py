@@ -11,6 +11,7 @@ import numpy as np
 import numpy.typing as npt
 import pytest
 import tshark_util
+from encap_util import qinq
 
 from emulator import PAPER, parse_fault, simulate_ecat, simulate_epl
 from skinframes import powerlink, taxel, taxels_from_capture
@@ -86,6 +87,17 @@ def test_gzip_and_the_command_line(tmp_path: Path) -> None:
         assert np.array_equal(z["taxels"], want) and z["present"].all()
         assert z["time_ns"].tolist() == taxels_from_capture(path).time_ns.tolist()
     assert main(["decode", str(path), "--taxels", str(tmp_path / "no" / "t.npy")]) == 2
+
+
+@pytest.mark.parametrize(("protocol", "layout"), [("epl", "per-slave"), ("ecat", "logical")])
+def test_taxels_behind_stacked_vlan_tags(tmp_path: Path, protocol: str, layout: str) -> None:
+    # the emulated frames behind a hand-typed S-tag and C-tag (encap_util.qinq): the taxels the
+    # emulator carried (expected), as from the untagged frames
+    plain = emulate(tmp_path, protocol, 4, 192, layout, False, "pcap")
+    tagged = qinq(plain, tmp_path / "qinq.pcap")
+    result = taxels_from_capture(tagged, nodes=4, bytes_per_node=192, layout=layout)
+    assert result.present.all()
+    assert np.array_equal(result.taxels, expected(4, 192, 5, seed=7))
 
 
 def test_a_lost_pres_is_missing_not_invented(tmp_path: Path) -> None:
