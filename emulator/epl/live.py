@@ -84,7 +84,7 @@ def serve_epl(
     send = sock.send
     recv = sock.recv
     next_tick = 0
-    with BetweenFrames() as collector:
+    with BetweenFrames(freeze=False) as collector:  # EPL frames make reference cycles
         while not stop.is_set():
             if feed is not None and feed.publish(skin, time.monotonic()):
                 stats.publications += 1
