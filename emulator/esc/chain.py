@@ -27,7 +27,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Container, Iterable, Sequence
 from dataclasses import dataclass, replace
-from typing import Final
+from typing import Final, NamedTuple
 
 import numpy as np
 import numpy.typing as npt
@@ -50,20 +50,34 @@ from emulator.esc.commands import (
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import (
+    LRD_OR_LRW,
     EscConfig,
     EscDevice,
     FirstBuffer,
+    SmRun,
     TraceCopy,
     commit_apart,
+    finish_reads,
     latches,
     react_together,
+    read_buffers,
 )
-from emulator.esc.mapping import Access, Caches, LogicalOp, LogicalPlan, SmTable, outside
+from emulator.esc.mapping import (
+    PLAN_CACHE_ENTRIES,
+    Access,
+    Caches,
+    LogicalOp,
+    LogicalPlan,
+    SmTable,
+    outside,
+    remember,
+)
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     FMMU_BYTES,
     PROCESS_RAM,
     REG_ALIAS,
+    REG_DC_ACTIVATION,
     REG_DL_CONTROL,
     REG_ECAT_EVENT,
     REG_FMMU,
@@ -200,6 +214,53 @@ def _frozen_clock() -> int:
     return 0
 
 
+class _ImageRead(NamedTuple):
+    """An LRD (or LRW) every ESC it reaches reads as one whole buffer
+    (:meth:`EcatChain._image_read`)."""
+
+    layouts: int  # Caches.layouts when planned: the plan holds while it stays
+    devices: list[EscDevice] | None  # the ESCs; None: not such a datagram
+    sms: list[SmRun]  # each one's read SyncManager
+    offsets: list[int]  # each one's buffer in the datagram's data, ascending, apart
+    rows: npt.NDArray[np.intp]  # each one's row of the chain's memory
+    sync0: npt.NDArray[np.intp] | None  # the rows whose applications sample at SYNC0
+
+
+class _Exchange(NamedTuple):
+    """Whole buffers read over rows (:func:`read_buffers`), exchanged at the end of the frame
+    (:func:`finish_reads`)."""
+
+    devices: list[EscDevice]
+    sms: list[SmRun]
+    rows: npt.NDArray[np.intp]
+
+
+def _plan_image(
+    devices: list[EscDevice], targets: list[int], cmd: int, lad: int, n: int, layouts: int
+) -> _ImageRead:
+    """:meth:`EcatChain._image_read`'s plan for ``devices`` at ``targets``."""
+    none = _ImageRead(layouts, None, [], [], np.zeros(0, np.intp), None)
+    sms: list[SmRun] = []
+    offsets: list[int] = []
+    for dev in devices:
+        plan = dev.whole_plan(lad, n, cmd)
+        if plan is None:
+            return none
+        at, sm = plan
+        if sms and not (
+            at >= offsets[-1] + sm.length
+            and (sm.index, sm.start, sm.length) == (sms[0].index, sms[0].start, sms[0].length)
+        ):
+            return none
+        sms.append(sm)
+        offsets.append(at)
+    if not sms:
+        return none
+    sampling = [p for p, dev in zip(targets, devices, strict=True) if hasattr(dev.app, "sync0")]
+    sync0 = np.array(sampling, np.intp) if sampling else None
+    return _ImageRead(layouts, devices, sms, offsets, np.array(targets, np.intp), sync0)
+
+
 class EcatChain:
     """Emulated ESCs in a line, the first one's port 0 facing the master.
 
@@ -243,6 +304,11 @@ class EcatChain:
         self._address_index: dict[int, list[int]] = {}
         for dev in self.devices:
             dev.firmware_queue = self.firmware
+        # LRDs of whole input buffers planned (_image_read), by command, address, length and
+        # the ESCs the frame reaches
+        self._image_reads: dict[tuple[int, int, int, int], _ImageRead] = {}
+        # whole buffers read over rows in this frame, exchanged at its end (_end_frames)
+        self._exchanges: list[_Exchange] = []
 
     @classmethod
     def skin(
@@ -413,6 +479,7 @@ class EcatChain:
         bounded by what the frame asks of each ESC, mostly by the frame alone.
         """
         devices = self.devices
+        self._exchanges.clear()  # (none left by a frame before)
         reach, lost = len(devices), False
         for p, dev in enumerate(devices):
             onward = dev.onward
@@ -508,6 +575,15 @@ class EcatChain:
         :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
+        if cmd in LRD_OR_LRW:
+            image = self._image_read(line, targets, cmd, lad, n)
+            if image is not None:
+                assert image.devices is not None
+                changed = read_buffers(
+                    image.devices, image.sms, at, image.offsets, self.memory, image.rows, buf
+                )
+                self._exchanges.append(_Exchange(image.devices, image.sms, image.rows))
+                return len(image.devices), changed
         wkc_inc, changed = 0, False
         lrd = cmd == LRD  # its plain ESCs need not share a plan (last_readers)
         run: list[int] = []  # consecutive targets whose plan cut is run_plan, not done yet
@@ -544,8 +620,41 @@ class EcatChain:
         areas: object = None
         pdi = False
         writes: object = None
+        # whole buffers read, not done yet: each ESC's position, SyncManager and frame offset
+        # (EscDevice.buffer_read), one index, start and length, ascending offsets apart
+        reads: list[int] = []
+        read_sms: list[SmRun] = []
+        read_ats: list[int] = []
+        reading = cmd in LRD_OR_LRW
+
+        def whole() -> bool:  # the whole buffers: over their rows
+            devices, rows = [line[q] for q in reads], np.array(reads, np.intp)
+            changed = read_buffers(devices, read_sms, 0, read_ats, self.memory, rows, buf)
+            self._exchanges.append(_Exchange(devices, list(read_sms), rows))
+            reads.clear()
+            read_sms.clear()
+            read_ats.clear()
+            return changed
+
         for p in targets:
             dev = line[p]
+            if reading and not run:
+                plan = dev.buffer_read(lad, n, cmd)
+                if plan is not None:
+                    sm, to = plan[1], at + plan[0]
+                    if read_sms and not (
+                        to >= read_ats[-1] + read_sms[-1].length
+                        and sm.index == read_sms[-1].index
+                        and sm.start == read_sms[-1].start
+                        and sm.length == read_sms[-1].length
+                    ):
+                        wkc_inc, changed = wkc_inc + len(reads), whole() or changed
+                    reads.append(p)
+                    read_sms.append(sm)
+                    read_ats.append(to)
+                    continue
+            if reads:
+                wkc_inc, changed = wkc_inc + len(reads), whole() or changed
             if run:
                 if found is None or not (
                     dev.fmmu_decoded is fmmus
@@ -603,7 +712,35 @@ class EcatChain:
         if run:
             inc, cleared = plain()
             wkc_inc, changed = wkc_inc + inc, changed or cleared
+        if reads:
+            wkc_inc, changed = wkc_inc + len(reads), whole() or changed
         return wkc_inc, changed
+
+    def _image_read(
+        self, line: list[EscDevice], targets: list[int], cmd: int, lad: int, n: int
+    ) -> _ImageRead | None:
+        """An LRD (or LRW) of ``n`` bytes at ``lad`` that every ESC of ``targets`` reads as one
+        whole buffer (:meth:`EscDevice.buffer_read`), all of one SyncManager index, start and
+        length and apart in the frame (a master's read of the process image): its plan, worked
+        out once while the ESCs' FMMUs and SyncManagers stay (:attr:`Caches.layouts`), unless an
+        ESC samples its inputs at SYNC0 now (:attr:`EscDevice.dc_sampling`); else None."""
+        key = (cmd, lad, n, len(line))
+        found = self._image_reads.get(key)
+        if found is None or found.layouts != self.caches.layouts:
+            found = remember(
+                self._image_reads,
+                key,
+                _plan_image([line[p] for p in targets], targets, cmd, lad, n, self.caches.layouts),
+                PLAN_CACHE_ENTRIES,
+            )
+        if found.devices is None:
+            return None
+        if (
+            found.sync0 is not None
+            and ((self.memory[found.sync0, REG_DC_ACTIVATION] & 0x03) == 0x03).any()
+        ):
+            return None
+        return found
 
     def _everyone(
         self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
@@ -1143,6 +1280,9 @@ class EcatChain:
                 continue
             for dev in together:
                 dev.end_frame()
+        for exchange in self._exchanges:  # whole buffers read over rows, after the commits
+            finish_reads(exchange.devices, exchange.sms, self.memory, exchange.rows)
+        self._exchanges.clear()
 
     def _commit(self, line: list[EscDevice], positions: list[int], *, alike: bool) -> None:
         """The ESCs of ``line`` at ``positions`` commit their register writes together and end

@@ -210,7 +210,7 @@ class TraceCopy:
     length: int
 
 
-class _Sm:
+class SmRun:
     """Run-time state of one enabled SyncManager (datasheet I 8.1/8.2)."""
 
     __slots__ = (
@@ -222,7 +222,6 @@ class _Sm:
         "end",
         "full",
         "index",
-        "latest",
         "length",
         "locked",
         "mailbox",
@@ -254,10 +253,10 @@ class _Sm:
         # ECAT side opened the buffer (accessed the start address); accessed the end address
         # in this frame; the mailbox is full (mailbox mode)
         self.open = self.complete = self.full = False
-        # read SM: last buffer the PDI wrote completely, never changed in place (a bytearray:
-        # copied into a frame as it is, where bytes are first made one, EscDevice._read_buffer)
-        self.latest: bytearray | None = None
-        self.buf: bytes | bytearray | None = None  # ECAT's buffer while open
+        # ECAT's buffer while open: a write SyncManager's, written at the end of the frame
+        # that completes it; a read SyncManager's as it was opened (its bytes in memory, the
+        # buffer the PDI completed last: the PDI writes a read buffer whole, pdi_write)
+        self.buf: bytes | bytearray | None = None
 
 
 def _bits_written(
@@ -432,9 +431,9 @@ class EscDevice:
         # register writes of the current frame, committed at its end (datasheet I 3.4); the chain
         # appends a broadcast's one (address, data) to every ESC's list
         self.pending: list[tuple[int, bytes]] = []
-        self._completed: list[_Sm] = []
-        self._sms: list[_Sm | None] = []
-        self._active: list[_Sm] = []  # enabled SMs with a buffer, sorted by start
+        self._completed: list[SmRun] = []
+        self._sms: list[SmRun | None] = []
+        self._active: list[SmRun] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[Fmmu, ...] = ()
         self._logical_plans = Plans()
         self.fmmu_span = (0, 0)
@@ -448,7 +447,7 @@ class EscDevice:
         # SyncManager, whether an FMMU writes there) per (address, length, first), or None
         # where the general path decides; worked out per FMMU and SyncManager configuration
         # by _lrd_key(address, length, first)
-        self._lrd_plans: dict[int, tuple[int, _Sm, bool] | None] = {}
+        self._lrd_plans: dict[int, tuple[int, SmRun, bool] | None] = {}
         # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
         self.sm_areas: SmTable = ()
         # SyncManagers changed but not made yet, made when first needed (_make_sms); until
@@ -498,7 +497,7 @@ class EscDevice:
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self.latch_due = self.al_control_full = False
         self._logical_plans = Plans()
-        self._lrd_plans.clear()
+        self._forget_lrd_plans()
         self.sm_areas = ()
         self._set_span((0, 0))
         self.fmmu_decoded = FmmuTable((), (0, 0), self._logical_plans)
@@ -634,7 +633,6 @@ class EscDevice:
         for sm in self._active:
             if sm.start == addr and sm.length == len(data) and not sm.ecat_writes:
                 sm = self._own(sm)  # the ESC's own, in the list's place
-                sm.latest = bytearray(data)
                 st = REG_SM + SM_BYTES * sm.index + 5
                 if sm.mailbox:
                     sm.full = True
@@ -868,7 +866,7 @@ class EscDevice:
             out.append((lo - addr, bytes(self.mem[lo:hi]), -1, lo))
 
     def _sm_read(
-        self, out: list[tuple[int, bytes, int, int]], sm: _Sm, addr: int, lo: int, hi: int
+        self, out: list[tuple[int, bytes, int, int]], sm: SmRun, addr: int, lo: int, hi: int
     ) -> None:
         if sm.ecat_writes or sm.locked:
             return  # a write SyncManager's buffer is not readable from ECAT; a locked one at all
@@ -882,20 +880,14 @@ class EscDevice:
                 if pulse is not None:  # a SYNC0 pulse since the last sample (dc.py)
                     self.app.sync0(self, pulse)  # type: ignore[attr-defined]
             sm.open = True
-            sm.buf = (
-                sm.latest
-                if (sm.latest is not None and not sm.mailbox)
-                else bytes(self.mem[sm.start : sm.end])
-            )
+            sm.buf = bytes(self.mem[sm.start : sm.end])
             self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
             if sm.ecat_interrupt:
                 self._sm_event(sm.index)
         elif not sm.open:
             return  # "a buffer has to be accessed beginning with the start address"
-        assert sm.buf is not None
-        out.append(
-            (lo - addr, bytes(sm.buf[lo - sm.start : hi - sm.start]), sm.index, lo - sm.start)
-        )
+        data = self.mem[lo:hi] if sm.buf is None else sm.buf[lo - sm.start : hi - sm.start]
+        out.append((lo - addr, bytes(data), sm.index, lo - sm.start))
         if hi == sm.end and not sm.complete:
             sm.complete = True
             self._completed.append(sm)
@@ -939,7 +931,7 @@ class EscDevice:
         self.mem[lo:hi] = data[lo - addr : hi - addr]  # user and process RAM: no shadow buffer
         return 1
 
-    def _sm_write(self, sm: _Sm, addr: int, data: bytes, lo: int, hi: int) -> int:
+    def _sm_write(self, sm: SmRun, addr: int, data: bytes, lo: int, hi: int) -> int:
         if not sm.ecat_writes or sm.locked:
             return 0  # a read SyncManager's buffer is written by the PDI only
         st = REG_SM + SM_BYTES * sm.index + 5
@@ -961,38 +953,40 @@ class EscDevice:
             self._completed.append(sm)
         return 1
 
-    def _finish_buffer(self, sm: _Sm) -> None:
-        """Buffer exchange after the frame that accessed the end address (datasheet I 8.1)."""
+    def _finish_buffer(self, sm: SmRun) -> None:
+        """Buffer exchange after the frame that accessed the end address (datasheet I 8.1); a
+        read SyncManager's is :func:`finish_reads`."""
+        if not sm.ecat_writes:
+            finish_reads([self], [sm], *self._rows)
+            return
         sm.complete = False
-        if self._unmade is not None:
-            if self._unmade.fresh is None:
-                return  # every SyncManager starts anew
-            self._make_sms()
-        if self._sms[sm.index] is not sm:
-            return  # the SyncManager was reset in the meantime
+        if not self._still(sm):
+            return
         st = REG_SM + SM_BYTES * sm.index + 5
         sm.open = False
         self._mailbox_due = self._mailbox_due or sm.mailbox
-        if sm.ecat_writes:
-            assert isinstance(sm.buf, bytearray)
-            self.mem[sm.start : sm.end] = sm.buf
-            status = (self.mem[st] & ~SM_WRITE_OPEN) | SM_IRQ_WRITE
-            if sm.mailbox:
-                sm.full = True
-                status |= SM_MAILBOX_FULL
-            else:
-                last = (status >> 4) & 0x03
-                status = (status & 0xCF) | ((last + 1) % 3 if last < 3 else 0) << 4
-                if self._outputs_hook is not None:  # the SyncManager's event for the PDI
-                    self._react(_OUTPUTS_EVENT - sm.index)
-            self.mem[st] = status
+        assert isinstance(sm.buf, bytearray)
+        self.mem[sm.start : sm.end] = sm.buf
+        status = (self.mem[st] & ~SM_WRITE_OPEN) | SM_IRQ_WRITE
+        if sm.mailbox:
+            sm.full = True
+            status |= SM_MAILBOX_FULL
         else:
-            self.mem[st] = (self.mem[st] & ~SM_READ_OPEN) | SM_IRQ_READ
-            if sm.mailbox:
-                sm.full = False
-                sm.latest = None
-                self.mem[st] &= ~SM_MAILBOX_FULL
+            last = (status >> 4) & 0x03
+            status = (status & 0xCF) | ((last + 1) % 3 if last < 3 else 0) << 4
+            if self._outputs_hook is not None:  # the SyncManager's event for the PDI
+                self._react(_OUTPUTS_EVENT - sm.index)
+        self.mem[st] = status
         sm.buf = None  # (the interrupt for ECAT, 0x0210, is as it was: _sm_event)
+
+    def _still(self, sm: SmRun) -> bool:
+        """Whether ``sm`` is still this ESC's SyncManager at the end of the frame that completed
+        its buffer: not started anew by a change of the table the frame wrote (nor by a reset)."""
+        if self._unmade is not None:
+            if self._unmade.fresh is None:
+                return False  # every SyncManager starts anew
+            self._make_sms()
+        return self._sms[sm.index] is sm
 
     # --- logical access through the FMMUs ------------------------------------------------------
     def read_buffered(self, lad: int, buf: bytearray, off: int, n: int, cmd: int = LRD) -> bool:
@@ -1002,15 +996,10 @@ class EscDevice:
         first, for every ESC an LRD or LRW of the process image reaches). An LRW (``cmd``) that
         no FMMU of this ESC writes is that LRD: it reads alike and counts 1 (ETG.1000.4 Table 14,
         +1 for a read, +2 for a write)."""
-        if self.trace is not None:
+        found = self.buffer_read(lad, n, cmd)
+        if found is None:
             return False
-        key = _lrd_key(lad, n, False)
-        plan = self._lrd_plans.get(key)  # one look-up where a plan is known
-        if plan is None and key not in self._lrd_plans:
-            plan = self._plan_lrd(key)
-        if plan is None or plan[1].locked or self.dc_sampling or (cmd != LRD and plan[2]):
-            return False
-        self._read_buffer(plan[1], buf, off + plan[0])
+        self._read_whole(found[1], buf, off + found[0])
         return True
 
     def read_first_buffer(self, lad: int, n: int) -> tuple[int, bytes] | None:
@@ -1029,8 +1018,16 @@ class EscDevice:
         if plan is None or plan[1].locked:
             return None
         data = bytearray(plan[1].length)
-        self._read_buffer(plan[1], data, 0)
+        self._read_whole(plan[1], data, 0)
         return plan[0], bytes(data)
+
+    def _read_whole(self, sm: SmRun, buf: bytearray, at: int) -> None:
+        """:func:`read_buffers` at this ESC alone, its buffer exchange at the end of the frame
+        (:meth:`finish_frame`)."""
+        due = not sm.complete
+        read_buffers([self], [sm], 0, [at], *self._rows, buf)
+        if due:
+            self._completed.append(sm)
 
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
@@ -1271,7 +1268,7 @@ class EscDevice:
         buf[off : off + n] = frame.to_bytes(n, "little")
         return 1
 
-    def _plan_lrd(self, key: int) -> tuple[int, _Sm, bool] | None:
+    def _plan_lrd(self, key: int) -> tuple[int, SmRun, bool] | None:
         """How an LRD of ``key`` = :func:`_lrd_key` (address, length, first) reads, when it is
         the common case the general path (:func:`plan_logical`, :meth:`_read_phys`,
         :meth:`_sm_read`) would take one way: one read FMMU (with ``first``, the first of them, which claims its bytes
@@ -1280,7 +1277,7 @@ class EscDevice:
         overlaps: the frame offset, the SyncManager, and whether a write FMMU meets it too (an
         LRW there is not that LRD)."""
         lad, n, first = key >> _LRD_KEY_SHIFT, (key >> 1) & 0xFFFF, bool(key & 1)
-        plan: tuple[int, _Sm, bool] | None = None
+        plan: tuple[int, SmRun, bool] | None = None
         reads = [f for f in self._fmmus if f.reads and f.log_start < lad + n and f.log_end > lad]
         if first:
             reads = reads[:1]
@@ -1303,21 +1300,29 @@ class EscDevice:
                 plan = (lo - lad, self._own(hit[0]), writes)  # whose state the reads change
         return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
-    def _read_buffer(self, sm: _Sm, buf: bytearray, at: int) -> None:
-        """ECAT reads a whole buffer of a read SyncManager, opening and completing it in one
-        access (datasheet I 8.1; what :meth:`_sm_read` does for that access)."""
-        mem = self.mem
-        st = REG_SM + SM_BYTES * sm.index + 5
-        sm.open = True
-        data = sm.latest if sm.latest is not None else bytearray(mem[sm.start : sm.end])
-        sm.buf = data
-        mem[st] = (mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
-        if sm.ecat_interrupt:
-            self._sm_event(sm.index)
-        buf[at : at + sm.length] = data
-        if not sm.complete:
-            sm.complete = True
-            self._completed.append(sm)
+    def buffer_read(self, lad: int, n: int, cmd: int = LRD) -> tuple[int, SmRun] | None:
+        """Whether an LRD (or an LRW, ``cmd``) of ``n`` bytes at ``lad`` is, at this ESC, its
+        common case, the whole buffer of one read SyncManager (:meth:`_plan_lrd`), which
+        :func:`read_buffers` reads (here and over rows of ESCs): (the buffer's offset in the
+        datagram's data, the SyncManager); else None. An LRW that no FMMU of this ESC writes is
+        that LRD: it reads alike and counts 1 (ETG.1000.4 Table 14, +1 for a read, +2 for a
+        write)."""
+        found = self.whole_plan(lad, n, cmd)
+        return None if found is None or self.dc_sampling else found
+
+    def whole_plan(self, lad: int, n: int, cmd: int = LRD) -> tuple[int, SmRun] | None:
+        """:meth:`buffer_read` but for the state of distributed clocks, which frames change
+        (:attr:`dc_sampling`): what holds while the FMMUs and SyncManagers do
+        (:attr:`emulator.esc.mapping.Caches.layouts`)."""
+        if self.trace is not None:
+            return None
+        key = _lrd_key(lad, n, False)
+        plan = self._lrd_plans.get(key)  # one look-up where a plan is known
+        if plan is None and key not in self._lrd_plans:
+            plan = self._plan_lrd(key)
+        if plan is None or plan[1].locked or (cmd != LRD and plan[2]):
+            return None
+        return plan[0], plan[1]
 
     # --- shadow registers and their side effects ------------------------------------------------
     def _commit_registers(self) -> None:
@@ -1402,7 +1407,13 @@ class EscDevice:
         self._fmmus, span, self._logical_plans = decoded
         self._set_span(span)
         self.fmmu_decoded = decoded
+        self._forget_lrd_plans()
+
+    def _forget_lrd_plans(self) -> None:
+        """The FMMUs or SyncManagers changed: the LRD plans (:meth:`_plan_lrd`) no longer hold,
+        here nor in the chain's plans made of them (:attr:`Caches.layouts`)."""
         self._lrd_plans.clear()
+        self._caches.layouts += 1
 
     def _set_span(self, span: tuple[int, int]) -> None:
         """:attr:`fmmu_span` and its row of the chain's array (:meth:`use_span_row`)."""
@@ -1447,7 +1458,7 @@ class EscDevice:
 
     def _change_sms(self, change: SmChange, decoded: SmTable, fresh: frozenset[int]) -> None:
         """:meth:`change_syncmanagers`, ``fresh`` the indices of those the change starts anew."""
-        self._lrd_plans.clear()
+        self._forget_lrd_plans()
         self.sm_areas = decoded
         unmade = self._unmade
         if not change.kept or (unmade is not None and unmade.fresh is None):  # all start anew
@@ -1481,27 +1492,27 @@ class EscDevice:
         sms[:] = made
         self._active = [sms[y] for y in by_start]  # type: ignore[misc]  # each set above
 
-    def _as_new(self, decoded: SmTable) -> list[_Sm | None]:
+    def _as_new(self, decoded: SmTable) -> list[SmRun | None]:
         """The SyncManagers of the decoded table ``decoded`` as new, by index (None where
         none), in a list of the ESC's own: objects shared by every ESC that makes them
         (:attr:`emulator.esc.mapping.Caches.as_new`), each until the ESC changes its state
         (:meth:`_own`); making them at 160 ESCs had taken up to 600 us in a frame."""
         key = (decoded, len(self._sms))
         cache = self._caches.as_new
-        found: list[_Sm | None] | None = cache.get(key)
+        found: list[SmRun | None] | None = cache.get(key)
         if found is None:
             found = [None] * len(self._sms)
             for y, start, length, control, locked in decoded:
-                found[y] = _Sm(y, start, length, control, locked != 0, shared=True)
+                found[y] = SmRun(y, start, length, control, locked != 0, shared=True)
             remember(cache, key, found)
         return list(found)
 
-    def _own(self, sm: _Sm) -> _Sm:
+    def _own(self, sm: SmRun) -> SmRun:
         """``sm``, or where it is shared (:meth:`_as_new`) a copy of the ESC's own in its
         place: what every change of a SyncManager's state goes through."""
         if not sm.shared:
             return sm
-        mine = _Sm(sm.index, sm.start, sm.length, sm.control, sm.locked)
+        mine = SmRun(sm.index, sm.start, sm.length, sm.control, sm.locked)
         self._sms[sm.index] = mine
         active = self._active
         active[active.index(sm)] = mine
@@ -2013,6 +2024,73 @@ def react_together(work: Sequence[tuple[EscDevice, int]], memory: npt.NDArray[np
             unique = list({id(dev): dev for dev in changed}.values())
             rows = np.fromiter((dev._rows[1][0] for dev in unique), np.intp, len(unique))
             _event_requests(unique, memory, rows)
+
+
+def read_buffers(
+    devices: Sequence[EscDevice],
+    sms: Sequence[SmRun],
+    base: int,
+    ats: Sequence[int],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows,
+    buf: bytearray,
+) -> bool:
+    """ECAT reads whole buffers of read SyncManagers, each access opening and completing one
+    (datasheet I 8.1; what :meth:`EscDevice._sm_read` does for such an access): at each of
+    ``devices``, whose memory is ``memory[rows]``, its SyncManager of ``sms`` into ``buf`` at
+    ``base`` plus its offset of ``ats``. The SyncManagers have one index, start and length;
+    the offsets ascend, the buffers apart (a later ESC's read of the same bytes is another
+    call). The bytes are the buffer the PDI completed last (:meth:`EscDevice.pdi_write`),
+    taken from the rows at once. The buffers change at the end of the frame, the caller's
+    :func:`finish_reads` of them. Whether an ESC's event request changed (a SyncManager's
+    interrupt for ECAT, control bit 4)."""
+    sm = sms[0]
+    start, length, st = sm.start, sm.length, REG_SM + SM_BYTES * sm.index + 5
+    at = consecutive(rows)
+    first = base + ats[0]
+    if ats[-1] - ats[0] == (len(ats) - 1) * length:  # one after the other: one copy
+        buf[first : first + len(ats) * length] = memory[at, start : start + length].tobytes()
+    else:
+        to = np.add.outer(np.array(ats, np.intp) + base, np.arange(length, dtype=np.intp))
+        np.frombuffer(buf, np.uint8)[to] = memory[at, start : start + length]
+    memory[at, st] = (memory[at, st] & (0xFF ^ SM_IRQ_WRITE)) | SM_READ_OPEN
+    changed = False
+    for dev, sm in zip(devices, sms, strict=True):
+        sm.open = sm.complete = True
+        sm.buf = None  # the bytes in memory, which no frame changes before the buffer changes
+        if sm.ecat_interrupt:
+            before = dev.irq
+            dev._sm_event(sm.index)
+            changed = changed or dev.irq != before
+    return changed
+
+
+def finish_reads(
+    devices: Sequence[EscDevice], sms: Sequence[SmRun], memory: npt.NDArray[np.uint8], rows: _Rows
+) -> None:
+    """Buffer exchange of read SyncManagers after the frame that completed their buffers
+    (datasheet I 8.1): at each of ``devices``, whose memory is ``memory[rows]``, its
+    SyncManager of ``sms`` (one index for all) unless the frame started it anew
+    (:meth:`EscDevice._still`): the buffer is free for the PDI (status bit 0 cleared, its
+    read interrupt set), a mailbox empty. After the frame's register writes took effect; a
+    second exchange of one buffer in a frame changes nothing more."""
+    kept: list[int] = []
+    for k, (dev, sm) in enumerate(zip(devices, sms, strict=True)):
+        sm.complete = False
+        if not dev._still(sm):
+            continue
+        sm.open = False
+        sm.buf = None  # (the interrupt for ECAT, 0x0210, is as it was: _sm_event)
+        kept.append(k)
+        if sm.mailbox:
+            dev._mailbox_due = True
+            sm.full = False
+    if not kept:
+        return
+    at = consecutive(rows if len(kept) == len(rows) else rows[kept])
+    st = REG_SM + SM_BYTES * sms[0].index + 5
+    done = 0xFF ^ (SM_READ_OPEN | (SM_MAILBOX_FULL if sms[0].mailbox else 0))
+    memory[at, st] = (memory[at, st] & done) | SM_IRQ_READ
 
 
 def finish_together(

@@ -190,6 +190,7 @@ class Caches:
         "fmmu",
         "fmmu_parts",
         "joined",
+        "layouts",
         "parts",
         "sm",
         "sm_change",
@@ -212,6 +213,9 @@ class Caches:
         # (table_access)
         self.joined: dict[tuple[object, ...], Access] = {}
         self.sm: dict[bytes, SmFound] = {}  # decoded SyncManager tables (sm_table)
+        # how many times an ESC's FMMUs or SyncManagers changed: what the chain planned from
+        # them before holds while this stays (emulator.esc.chain.EcatChain's image reads)
+        self.layouts = 0
         # changes of the decoded SyncManager table (sm_change)
         self.sm_change: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
         # per decoded SyncManager table and SyncManager count, its SyncManagers as new, by

@@ -18,7 +18,7 @@ from emulator.errors import TopologyError
 from emulator.esc import device as esc_device
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.device import EscDevice, _Sm
+from emulator.esc.device import EscDevice, SmRun
 from emulator.esc.hostile import hostile_frames, master_reset_frames
 from emulator.esc.mapping import decode_sms
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_NO_BUFFER
@@ -361,7 +361,7 @@ def rebuild_one_by_one(dev: EscDevice, enabled_before: bytes | None = None) -> N
             or old.start != start
             or old.length != length
         ):
-            old = sms[y] = _Sm(y, start, length, control)
+            old = sms[y] = SmRun(y, start, length, control)
             mem[REG_SM + SM_BYTES * y + 5] = SM_NO_BUFFER
         old.locked = pdi_locked != 0
         controlling.append(old)
@@ -437,8 +437,8 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     assert calls["written"] - calls["changed"] > 500  # and bytes that set none, often
     shared = [sm for made in fast.caches.as_new.values() for sm in made if sm is not None]
     assert len(shared) > 100  # ESCs shared SyncManagers as new, and none of them changed
-    assert {(sm.open, sm.complete, sm.full, sm.latest, sm.buf) for sm in shared} == {
-        (False, False, False, None, None)
+    assert {(sm.open, sm.complete, sm.full, sm.buf) for sm in shared} == {
+        (False, False, False, None)
     }
 
 
