@@ -57,6 +57,7 @@ from emulator.esc.device import (
     SmRun,
     TraceCopy,
     commit_apart,
+    consecutive,
     finish_reads,
     latches,
     react_together,
@@ -222,8 +223,8 @@ class _ImageRead(NamedTuple):
     devices: list[EscDevice] | None  # the ESCs; None: not such a datagram
     sms: list[SmRun]  # each one's read SyncManager
     offsets: list[int]  # each one's buffer in the datagram's data, ascending, apart
-    rows: npt.NDArray[np.intp]  # each one's row of the chain's memory
-    sync0: npt.NDArray[np.intp] | None  # the rows whose applications sample at SYNC0
+    rows: npt.NDArray[np.intp] | slice  # each one's row of the chain's memory
+    sync0: npt.NDArray[np.intp] | slice | None  # the rows whose applications sample at SYNC0
 
 
 class _Exchange(NamedTuple):
@@ -232,7 +233,7 @@ class _Exchange(NamedTuple):
 
     devices: list[EscDevice]
     sms: list[SmRun]
-    rows: npt.NDArray[np.intp]
+    rows: npt.NDArray[np.intp] | slice
 
 
 def _plan_image(
@@ -257,8 +258,9 @@ def _plan_image(
     if not sms:
         return none
     sampling = [p for p, dev in zip(targets, devices, strict=True) if hasattr(dev.app, "sync0")]
-    sync0 = np.array(sampling, np.intp) if sampling else None
-    return _ImageRead(layouts, devices, sms, offsets, np.array(targets, np.intp), sync0)
+    sync0 = consecutive(np.array(sampling, np.intp)) if sampling else None
+    rows = consecutive(np.array(targets, np.intp))
+    return _ImageRead(layouts, devices, sms, offsets, rows, sync0)
 
 
 class EcatChain:
@@ -491,7 +493,6 @@ class EcatChain:
         irq_all = 0  # the ESCs' event requests ORed into every IRQ field (datasheet I Table 3)
         for dev in line:
             irq_all |= dev.irq
-        spans: npt.NDArray[np.int64] | None = None
         for k, (cmd, _, ado, data_at, n, irq_at) in enumerate(layout):
             adp = adps[k]
             if cmd in EVERYONE:
@@ -507,11 +508,13 @@ class EcatChain:
                 elif cmd in CONFIGURED:
                     targets = self._addressed(reach, adp)
                 elif cmd in LOGICAL and n:
-                    if spans is None:
-                        spans = self.fmmu_spans[: len(line)]
                     lad = adp | ado << 16
-                    hit = np.flatnonzero((spans[:, 0] < lad + n) & (spans[:, 1] > lad)).tolist()
-                    wkc_inc, changed = self._logical(line, hit, cmd, adp, ado, buf, data_at, n)
+                    image = self._image_read(line, cmd, lad, n) if cmd in LRD_OR_LRW else None
+                    if image is not None:  # (the chain's plan: every ESC reads a whole buffer)
+                        wkc_inc, changed = self._read_image(image, buf, data_at)
+                    else:
+                        hit = self._reached(line, lad, n)
+                        wkc_inc, changed = self._logical(line, hit, cmd, adp, ado, buf, data_at, n)
                 done = None
                 if len(targets) >= TOGETHER_MIN and cmd in CONFIGURED:
                     done = self._configured(line, targets, cmd, ado, buf, data_at, n)
@@ -575,15 +578,6 @@ class EcatChain:
         :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
-        if cmd in LRD_OR_LRW:
-            image = self._image_read(line, targets, cmd, lad, n)
-            if image is not None:
-                assert image.devices is not None
-                changed = read_buffers(
-                    image.devices, image.sms, at, image.offsets, self.memory, image.rows, buf
-                )
-                self._exchanges.append(_Exchange(image.devices, image.sms, image.rows))
-                return len(image.devices), changed
         wkc_inc, changed = 0, False
         lrd = cmd == LRD  # its plain ESCs need not share a plan (last_readers)
         run: list[int] = []  # consecutive targets whose plan cut is run_plan, not done yet
@@ -716,10 +710,14 @@ class EcatChain:
             wkc_inc, changed = wkc_inc + len(reads), whole() or changed
         return wkc_inc, changed
 
-    def _image_read(
-        self, line: list[EscDevice], targets: list[int], cmd: int, lad: int, n: int
-    ) -> _ImageRead | None:
-        """An LRD (or LRW) of ``n`` bytes at ``lad`` that every ESC of ``targets`` reads as one
+    def _reached(self, line: list[EscDevice], lad: int, n: int) -> list[int]:
+        """The positions in ``line`` whose FMMUs map part of ``n`` logical bytes at ``lad``
+        (their spans, :attr:`fmmu_spans`)."""
+        spans = self.fmmu_spans[: len(line)]
+        return np.flatnonzero((spans[:, 0] < lad + n) & (spans[:, 1] > lad)).tolist()
+
+    def _image_read(self, line: list[EscDevice], cmd: int, lad: int, n: int) -> _ImageRead | None:
+        """An LRD (or LRW) of ``n`` bytes at ``lad`` that every ESC it reaches reads as one
         whole buffer (:meth:`EscDevice.buffer_read`), all of one SyncManager index, start and
         length and apart in the frame (a master's read of the process image): its plan, worked
         out once while the ESCs' FMMUs and SyncManagers stay (:attr:`Caches.layouts`), unless an
@@ -727,20 +725,27 @@ class EcatChain:
         key = (cmd, lad, n, len(line))
         found = self._image_reads.get(key)
         if found is None or found.layouts != self.caches.layouts:
-            found = remember(
-                self._image_reads,
-                key,
-                _plan_image([line[p] for p in targets], targets, cmd, lad, n, self.caches.layouts),
-                PLAN_CACHE_ENTRIES,
-            )
+            reached = self._reached(line, lad, n)
+            devices = [line[p] for p in reached]
+            plan = _plan_image(devices, reached, cmd, lad, n, self.caches.layouts)
+            found = remember(self._image_reads, key, plan, PLAN_CACHE_ENTRIES)
         if found.devices is None:
             return None
-        if (
-            found.sync0 is not None
-            and ((self.memory[found.sync0, REG_DC_ACTIVATION] & 0x03) == 0x03).any()
-        ):
+        sync0 = found.sync0  # 0x0981 bits 0-1 both set at one of them (dc_sampling)
+        if sync0 is not None and np.maximum.reduce(self.memory[sync0, REG_DC_ACTIVATION] & 3) == 3:
             return None
         return found
+
+    def _read_image(self, image: _ImageRead, buf: bytearray, at: int) -> tuple[int, bool]:
+        """The whole buffers of ``image`` read into the datagram's data at ``buf[at:]``, over
+        the rows (:func:`read_buffers`), exchanged at the end of the frame: (the working
+        counter's increment, whether an ESC's event request changed)."""
+        assert image.devices is not None
+        changed = read_buffers(
+            image.devices, image.sms, at, image.offsets, self.memory, image.rows, buf
+        )
+        self._exchanges.append(_Exchange(image.devices, image.sms, image.rows))
+        return len(image.devices), changed
 
     def _everyone(
         self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int

@@ -1780,9 +1780,12 @@ def _commit_slots(
         EscDevice.al_control_together(writers, value.tolist(), control)
 
 
-def consecutive(rows: _Rows) -> _Rows | slice:
+def consecutive(rows: _Rows | slice) -> _Rows | slice:
     """``rows`` (ascending, distinct), or the slice of them where they are consecutive: views
-    of the memory instead of copies, assignments without fancy indexing (a few us less each)."""
+    of the memory instead of copies, assignments without fancy indexing (a few us less each);
+    a slice as it is."""
+    if isinstance(rows, slice):
+        return rows
     if len(rows) and rows[-1] - rows[0] == len(rows) - 1:
         return slice(int(rows[0]), int(rows[-1]) + 1)
     return rows
@@ -2027,12 +2030,12 @@ def react_together(work: Sequence[tuple[EscDevice, int]], memory: npt.NDArray[np
 
 
 def read_buffers(
-    devices: Sequence[EscDevice],
-    sms: Sequence[SmRun],
+    devices: list[EscDevice],
+    sms: list[SmRun],
     base: int,
-    ats: Sequence[int],
+    ats: list[int],
     memory: npt.NDArray[np.uint8],
-    rows: _Rows,
+    rows: _Rows | slice,
     buf: bytearray,
 ) -> bool:
     """ECAT reads whole buffers of read SyncManagers, each access opening and completing one
@@ -2055,10 +2058,12 @@ def read_buffers(
         np.frombuffer(buf, np.uint8)[to] = memory[at, start : start + length]
     memory[at, st] = (memory[at, st] & (0xFF ^ SM_IRQ_WRITE)) | SM_READ_OPEN
     changed = False
-    for dev, sm in zip(devices, sms, strict=True):
+    for k in range(len(sms)):  # (indices: mypyc's loop over a list, not an iterator's)
+        sm = sms[k]
         sm.open = sm.complete = True
         sm.buf = None  # the bytes in memory, which no frame changes before the buffer changes
         if sm.ecat_interrupt:
+            dev = devices[k]
             before = dev.irq
             dev._sm_event(sm.index)
             changed = changed or dev.irq != before
@@ -2066,7 +2071,7 @@ def read_buffers(
 
 
 def finish_reads(
-    devices: Sequence[EscDevice], sms: Sequence[SmRun], memory: npt.NDArray[np.uint8], rows: _Rows
+    devices: list[EscDevice], sms: list[SmRun], memory: npt.NDArray[np.uint8], rows: _Rows | slice
 ) -> None:
     """Buffer exchange of read SyncManagers after the frame that completed their buffers
     (datasheet I 8.1): at each of ``devices``, whose memory is ``memory[rows]``, its
@@ -2074,20 +2079,23 @@ def finish_reads(
     (:meth:`EscDevice._still`): the buffer is free for the PDI (status bit 0 cleared, its
     read interrupt set), a mailbox empty. After the frame's register writes took effect; a
     second exchange of one buffer in a frame changes nothing more."""
-    kept: list[int] = []
-    for k, (dev, sm) in enumerate(zip(devices, sms, strict=True)):
+    gone: list[int] = []  # those started anew
+    for k in range(len(sms)):
+        sm, dev = sms[k], devices[k]
         sm.complete = False
         if not dev._still(sm):
+            gone.append(k)
             continue
         sm.open = False
         sm.buf = None  # (the interrupt for ECAT, 0x0210, is as it was: _sm_event)
-        kept.append(k)
         if sm.mailbox:
             dev._mailbox_due = True
             sm.full = False
-    if not kept:
+    if len(gone) == len(sms):
         return
-    at = consecutive(rows if len(kept) == len(rows) else rows[kept])
+    if gone:
+        rows = np.delete(np.arange(memory.shape[0])[rows], gone)
+    at = consecutive(rows)
     st = REG_SM + SM_BYTES * sms[0].index + 5
     done = 0xFF ^ (SM_READ_OPEN | (SM_MAILBOX_FULL if sms[0].mailbox else 0))
     memory[at, st] = (memory[at, st] & done) | SM_IRQ_READ
