@@ -215,52 +215,61 @@ def _frozen_clock() -> int:
     return 0
 
 
+class _Reads(NamedTuple):
+    """Whole buffers of one SyncManager index, start and length read over rows
+    (:func:`read_buffers`), exchanged at the end of the frame (:func:`finish_reads`)."""
+
+    devices: list[EscDevice]
+    sms: list[SmRun]  # each one's read SyncManager
+    offsets: list[int]  # each one's buffer in the datagram's data, ascending, apart
+    rows: npt.NDArray[np.intp] | slice  # each one's row of the chain's memory
+
+
 class _ImageRead(NamedTuple):
     """An LRD (or LRW) every ESC it reaches reads as one whole buffer
     (:meth:`EcatChain._image_read`)."""
 
     layouts: int  # Caches.layouts when planned: the plan holds while it stays
-    devices: list[EscDevice] | None  # the ESCs; None: not such a datagram
-    sms: list[SmRun]  # each one's read SyncManager
-    offsets: list[int]  # each one's buffer in the datagram's data, ascending, apart
-    rows: npt.NDArray[np.intp] | slice  # each one's row of the chain's memory
+    groups: list[_Reads] | None  # the ESCs, by runs of one SyncManager; None: not such a datagram
+    escs: int  # how many ESCs
     sync0: npt.NDArray[np.intp] | slice | None  # the rows whose applications sample at SYNC0
-
-
-class _Exchange(NamedTuple):
-    """Whole buffers read over rows (:func:`read_buffers`), exchanged at the end of the frame
-    (:func:`finish_reads`)."""
-
-    devices: list[EscDevice]
-    sms: list[SmRun]
-    rows: npt.NDArray[np.intp] | slice
 
 
 def _plan_image(
     devices: list[EscDevice], targets: list[int], cmd: int, lad: int, n: int, layouts: int
 ) -> _ImageRead:
-    """:meth:`EcatChain._image_read`'s plan for ``devices`` at ``targets``."""
-    none = _ImageRead(layouts, None, [], [], np.zeros(0, np.intp), None)
-    sms: list[SmRun] = []
-    offsets: list[int] = []
+    """:meth:`EcatChain._image_read`'s plan for ``devices`` at ``targets``: runs of ESCs whose
+    buffers have one SyncManager index, start and length, all buffers apart in the frame."""
+    none = _ImageRead(layouts, None, 0, None)
+    groups: list[_Reads] = []
+    end = 0  # where the buffer before ends in the data
     for dev in devices:
         plan = dev.whole_plan(lad, n, cmd)
-        if plan is None:
+        if plan is None or plan[0] < end:
             return none
         at, sm = plan
-        if sms and not (
-            at >= offsets[-1] + sm.length
-            and (sm.index, sm.start, sm.length) == (sms[0].index, sms[0].start, sms[0].length)
+        end = at + sm.length
+        last = groups[-1] if groups else None
+        if last is None or (sm.index, sm.start, sm.length) != (
+            last.sms[0].index,
+            last.sms[0].start,
+            last.sms[0].length,
         ):
-            return none
-        sms.append(sm)
-        offsets.append(at)
-    if not sms:
+            last = _Reads([], [], [], slice(0))  # (its rows below, once the runs are known)
+            groups.append(last)
+        last.devices.append(dev)
+        last.sms.append(sm)
+        last.offsets.append(at)
+    if not groups:
         return none
+    at = 0
+    for k, group in enumerate(groups):
+        size = len(group.devices)
+        groups[k] = group._replace(rows=consecutive(np.array(targets[at : at + size], np.intp)))
+        at += size
     sampling = [p for p, dev in zip(targets, devices, strict=True) if hasattr(dev.app, "sync0")]
     sync0 = consecutive(np.array(sampling, np.intp)) if sampling else None
-    rows = consecutive(np.array(targets, np.intp))
-    return _ImageRead(layouts, devices, sms, offsets, rows, sync0)
+    return _ImageRead(layouts, groups, len(devices), sync0)
 
 
 class EcatChain:
@@ -310,7 +319,7 @@ class EcatChain:
         # the ESCs the frame reaches
         self._image_reads: dict[tuple[int, int, int, int], _ImageRead] = {}
         # whole buffers read over rows in this frame, exchanged at its end (_end_frames)
-        self._exchanges: list[_Exchange] = []
+        self._exchanges: list[_Reads] = []
 
     @classmethod
     def skin(
@@ -614,41 +623,8 @@ class EcatChain:
         areas: object = None
         pdi = False
         writes: object = None
-        # whole buffers read, not done yet: each ESC's position, SyncManager and frame offset
-        # (EscDevice.buffer_read), one index, start and length, ascending offsets apart
-        reads: list[int] = []
-        read_sms: list[SmRun] = []
-        read_ats: list[int] = []
-        reading = cmd in LRD_OR_LRW
-
-        def whole() -> bool:  # the whole buffers: over their rows
-            devices, rows = [line[q] for q in reads], np.array(reads, np.intp)
-            changed = read_buffers(devices, read_sms, 0, read_ats, self.memory, rows, buf)
-            self._exchanges.append(_Exchange(devices, list(read_sms), rows))
-            reads.clear()
-            read_sms.clear()
-            read_ats.clear()
-            return changed
-
         for p in targets:
             dev = line[p]
-            if reading and not run:
-                plan = dev.buffer_read(lad, n, cmd)
-                if plan is not None:
-                    sm, to = plan[1], at + plan[0]
-                    if read_sms and not (
-                        to >= read_ats[-1] + read_sms[-1].length
-                        and sm.index == read_sms[-1].index
-                        and sm.start == read_sms[-1].start
-                        and sm.length == read_sms[-1].length
-                    ):
-                        wkc_inc, changed = wkc_inc + len(reads), whole() or changed
-                    reads.append(p)
-                    read_sms.append(sm)
-                    read_ats.append(to)
-                    continue
-            if reads:
-                wkc_inc, changed = wkc_inc + len(reads), whole() or changed
             if run:
                 if found is None or not (
                     dev.fmmu_decoded is fmmus
@@ -706,8 +682,6 @@ class EcatChain:
         if run:
             inc, cleared = plain()
             wkc_inc, changed = wkc_inc + inc, changed or cleared
-        if reads:
-            wkc_inc, changed = wkc_inc + len(reads), whole() or changed
         return wkc_inc, changed
 
     def _reached(self, line: list[EscDevice], lad: int, n: int) -> list[int]:
@@ -729,7 +703,7 @@ class EcatChain:
             devices = [line[p] for p in reached]
             plan = _plan_image(devices, reached, cmd, lad, n, self.caches.layouts)
             found = remember(self._image_reads, key, plan, PLAN_CACHE_ENTRIES)
-        if found.devices is None:
+        if found.groups is None:
             return None
         sync0 = found.sync0  # 0x0981 bits 0-1 both set at one of them (dc_sampling)
         if sync0 is not None and np.maximum.reduce(self.memory[sync0, REG_DC_ACTIVATION] & 3) == 3:
@@ -740,12 +714,17 @@ class EcatChain:
         """The whole buffers of ``image`` read into the datagram's data at ``buf[at:]``, over
         the rows (:func:`read_buffers`), exchanged at the end of the frame: (the working
         counter's increment, whether an ESC's event request changed)."""
-        assert image.devices is not None
-        changed = read_buffers(
-            image.devices, image.sms, at, image.offsets, self.memory, image.rows, buf
-        )
-        self._exchanges.append(_Exchange(image.devices, image.sms, image.rows))
-        return len(image.devices), changed
+        assert image.groups is not None
+        changed = False
+        for reads in image.groups:
+            changed = (
+                read_buffers(
+                    reads.devices, reads.sms, at, reads.offsets, self.memory, reads.rows, buf
+                )
+                or changed
+            )
+        self._exchanges.extend(image.groups)
+        return image.escs, changed
 
     def _everyone(
         self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int

@@ -371,6 +371,7 @@ class EscDevice:
         "_outputs_hook",
         "_reset_progress",
         "_reset_written",
+        "_row",
         "_rows",
         "_sii_image",
         "_sms",
@@ -426,6 +427,7 @@ class EscDevice:
         # the memory as rows, and this ESC's row: what the behaviours written over rows of ESCs
         # take (a single ESC is a line of one; in a chain, a view of its row, use_memory)
         self._rows = (np.frombuffer(self.mem, np.uint8).reshape(1, -1), np.zeros(1, np.intp))
+        self._row = slice(0, 1)  # the row as a slice: a view of it, no fancy indexing
         self.sii = bytearray(self._sii_image)  # non-volatile: survives an ESC reset
         self.pdi_operational = False
         # register writes of the current frame, committed at its end (datasheet I 3.4); the chain
@@ -565,8 +567,10 @@ class EscDevice:
         self.mem = row
         if line is None:
             self._rows = (np.frombuffer(row, np.uint8).reshape(1, -1), np.zeros(1, np.intp))
+            self._row = slice(0, 1)
         else:
             self._rows = (line, np.full(1, index, np.intp))
+            self._row = slice(index, index + 1)
 
     def use_span_row(self, row: npt.NDArray[np.int64]) -> None:
         """Keep :attr:`fmmu_span` in ``row`` (two int64) too, from now on: the chain holds every
@@ -957,7 +961,7 @@ class EscDevice:
         """Buffer exchange after the frame that accessed the end address (datasheet I 8.1); a
         read SyncManager's is :func:`finish_reads`."""
         if not sm.ecat_writes:
-            finish_reads([self], [sm], *self._rows)
+            finish_reads([self], [sm], self._rows[0], self._row)
             return
         sm.complete = False
         if not self._still(sm):
@@ -1025,7 +1029,7 @@ class EscDevice:
         """:func:`read_buffers` at this ESC alone, its buffer exchange at the end of the frame
         (:meth:`finish_frame`)."""
         due = not sm.complete
-        read_buffers([self], [sm], 0, [at], *self._rows, buf)
+        read_buffers([self], [sm], 0, [at], self._rows[0], self._row, buf)
         if due:
             self._completed.append(sm)
 
@@ -2056,7 +2060,7 @@ def read_buffers(
     else:
         to = np.add.outer(np.array(ats, np.intp) + base, np.arange(length, dtype=np.intp))
         np.frombuffer(buf, np.uint8)[to] = memory[at, start : start + length]
-    memory[at, st] = (memory[at, st] & (0xFF ^ SM_IRQ_WRITE)) | SM_READ_OPEN
+    _through(memory, at, st, _OPENED)
     changed = False
     for k in range(len(sms)):  # (indices: mypyc's loop over a list, not an iterator's)
         sm = sms[k]
@@ -2097,8 +2101,34 @@ def finish_reads(
         rows = np.delete(np.arange(memory.shape[0])[rows], gone)
     at = consecutive(rows)
     st = REG_SM + SM_BYTES * sms[0].index + 5
-    done = 0xFF ^ (SM_READ_OPEN | (SM_MAILBOX_FULL if sms[0].mailbox else 0))
-    memory[at, st] = (memory[at, st] & done) | SM_IRQ_READ
+    _through(memory, at, st, _EMPTIED if sms[0].mailbox else _READ)
+
+
+def _status_table(clear: int, put: int) -> npt.NDArray[np.uint8]:
+    """The 256 values of a status byte with the bits of ``clear`` cleared and those of ``put``
+    set: every ESC's byte changed in one look-up (:func:`_through`); read-only."""
+    table = np.array([(b & ~clear | put) & 0xFF for b in range(256)], np.uint8)
+    table.flags.writeable = False
+    return table
+
+
+# a read SyncManager's status 0x0805+: ECAT opened the buffer (its write interrupt cleared,
+# read buffer open); ECAT read it (no longer open, the read interrupt for the PDI), a mailbox's
+# also empty (datasheet II 0x0805)
+_OPENED: Final = _status_table(SM_IRQ_WRITE, SM_READ_OPEN)
+_READ: Final = _status_table(SM_READ_OPEN, SM_IRQ_READ)
+_EMPTIED: Final = _status_table(SM_READ_OPEN | SM_MAILBOX_FULL, SM_IRQ_READ)
+
+
+def _through(
+    memory: npt.NDArray[np.uint8], at: _Rows | slice, column: int, table: npt.NDArray[np.uint8]
+) -> None:
+    """The bytes ``memory[at, column]`` through ``table`` (256 values), in place."""
+    if isinstance(at, slice):
+        view = memory[at, column]
+        table.take(view, out=view)
+    else:
+        memory[at, column] = table.take(memory[at, column])
 
 
 def finish_together(

@@ -12,9 +12,10 @@ from collections.abc import Callable
 import numpy as np
 import pytest
 
-from emulator.esc.chain import EcatChain, configure_frames
+from emulator.esc.chain import EcatChain, configure_frames, skin_devices
 from emulator.esc.device import REG_SM
 from emulator.esc.hostile import hostile_frames, master_reset_frames
+from emulator.esc.sii import SyncManagerType
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 
@@ -119,3 +120,24 @@ def test_planned_lrds_answer_as_the_general_path_under_hostile_frames() -> None:
         same(planned, reference, [f, *ordinary, *(setup if i % 100 == 99 else [])])
     for a, b in zip(planned.devices, reference.devices, strict=True):
         assert a.registers(0, 0x10000) == b.registers(0, 0x10000)
+
+
+def test_a_line_of_two_buffer_sizes_reads_every_patch_in_one_lrd() -> None:
+    # three patches of 4 input bytes, then two of 6: the LRD of the 24-byte image reads each
+    # patch's buffer where its FMMU maps it (4 bytes a patch, then 6), each counting 1
+    # (ETG.1000.4 Table 14), and reads it again unchanged until the PDI writes a new one
+    chain = EcatChain.configured(3, 4, devices=skin_devices(2, 6))
+    inputs = [bytes([0x10 * (p + 1) + i for i in range(4 if p < 3 else 6)]) for p in range(5)]
+    for dev, data in zip(chain.devices, inputs, strict=True):
+        dev.app.publish(dev, data)  # type: ignore[attr-defined]
+    for _ in range(2):
+        (d,) = ethercat.decode(chain.process_frame(lrd(0, 24))[14:])[0].datagrams
+        assert (d.data, d.wkc) == (b"".join(inputs), 5)
+        for dev in chain.devices:  # SyncManager status 0x0805+: read, closed (datasheet II)
+            index = dev.info.sm_of_type(SyncManagerType.INPUTS)
+            assert index is not None
+            status = dev.registers(REG_SM + 8 * index + 5, 1)[0]
+            assert (status & 0x42, status & 0x01) == (0x02, 0)  # read IRQ, not open; no write IRQ
+    chain.devices[4].app.publish(chain.devices[4], b"\xaa" * 6)  # type: ignore[attr-defined]
+    (d,) = ethercat.decode(chain.process_frame(lrd(0, 24))[14:])[0].datagrams
+    assert d.data == b"".join(inputs[:4]) + b"\xaa" * 6
