@@ -6,7 +6,10 @@ one or several. Each device carries its identity (``Type`` with ``ProductCode`` 
 ``RevisionNo``), names per language (``Name LcId``), FMMUs, SyncManagers (``Sm``), PDOs
 (``RxPdo``/``TxPdo``), the mailbox protocols, distributed-clock op modes (``Dc/OpMode``), the
 EEPROM (``Eeprom``: ByteSize, ConfigData, BootStrap, Category) and, under ``Profile``, the CoE
-object dictionary (``Dictionary``: DataTypes and Objects).
+object dictionary (``Dictionary``: DataTypes and Objects). A modular device (ETG.2000
+``Device/Slots``; ETG.5001 Modular Device Profile) names the modules each slot may hold, by
+``ModuleIdent`` or ``ModuleClass``; the modules themselves (``Descriptions/Modules/Module``:
+identity, PDOs, objects) are listed once for the whole file.
 
 Numbers are written as in ESI: decimal (``128``) or hexadecimal with the prefix ``#x``
 (``#x1000``); booleans as ``1``/``0`` or ``true``/``false``; binary data (ConfigData,
@@ -14,7 +17,7 @@ BootStrap, DefaultData) as hex digits, byte by byte in EEPROM order.
 
 The reader is expat with line numbers recorded on every element, so that anything it cannot use
 raises :class:`~skinframes.errors.EsiFormatError` naming the element and its line. Elements it
-does not model (vendor specials, images, modules) are skipped without a word.
+does not model (vendor specials, images) are skipped without a word.
 """
 
 from __future__ import annotations
@@ -43,10 +46,13 @@ __all__ = [
     "EsiFile",
     "EsiFmmu",
     "EsiMailbox",
+    "EsiModule",
     "EsiObject",
     "EsiObjectSubItem",
     "EsiPdo",
     "EsiPdoEntry",
+    "EsiSlot",
+    "EsiSlots",
     "EsiSyncManager",
     "EsiVendor",
     "parse_esi",
@@ -100,13 +106,18 @@ class EsiFmmu:
 
 @dataclass(frozen=True, slots=True)
 class EsiPdoEntry:
-    """``Entry`` of a PDO: the mapped object (index 0: padding), its width and type name."""
+    """``Entry`` of a PDO: the mapped object (index 0: padding), its width and type name.
+
+    ``depend_on_slot``: the ``Index`` attribute ``DependOnSlot`` (a module's entry: the index
+    is a base, moved by the slot's SlotIndexIncrement; ETG.2000 ModuleType).
+    """
 
     index: int
     subindex: int
     bit_length: int
     name: str
     data_type: str
+    depend_on_slot: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,7 +125,9 @@ class EsiPdo:
     """``RxPdo``/``TxPdo`` (ETG.2000, PdoType).
 
     ``sync_manager`` is the Sm it is assigned to by default (None: not assigned);
-    ``excludes`` the PDOs that cannot be assigned beside it (``Exclude``).
+    ``excludes`` the PDOs that cannot be assigned beside it (``Exclude``);
+    ``depend_on_slot`` the ``Index`` attribute ``DependOnSlot`` (a module's PDO: the index is
+    a base, moved by the slot's SlotPdoIncrement).
     """
 
     index: int
@@ -124,6 +137,7 @@ class EsiPdo:
     mandatory: bool = False
     fixed: bool = False
     excludes: tuple[int, ...] = ()
+    depend_on_slot: bool = False
 
     @property
     def bit_length(self) -> int:
@@ -290,12 +304,78 @@ class EsiDictionary:
 
 
 @dataclass(frozen=True, slots=True)
+class EsiSlot:
+    """``Slots/Slot`` (ETG.2000 SlotType): a place for ``min_instances``..``max_instances``
+    modules, named by ``ModuleIdent`` (``module_idents``; the one with ``Default`` = 1 is
+    ``default_module_ident``) or by ``ModuleClass/Class`` (``module_classes``), and the
+    slot's own SlotIndexIncrement/SlotPdoIncrement where it gives them (None: the Slots').
+    """
+
+    name: str
+    min_instances: int
+    max_instances: int
+    module_idents: tuple[int, ...] = ()
+    default_module_ident: int | None = None
+    module_classes: tuple[str, ...] = ()
+    slot_index_increment: int | None = None
+    slot_pdo_increment: int | None = None
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class EsiSlots:
+    """``Device/Slots`` of a modular device (ETG.2000; ETG.5001 Modular Device Profile).
+
+    ``slot_index_increment``/``slot_pdo_increment`` move a module's objects and PDOs whose
+    ``Index`` has ``DependOnSlot`` by that much per slot (0 where the ESI gives none);
+    ``download_module_ident_list``: the master writes the configured modules' idents to
+    0xF030 (ETG.5001) before SAFE-OP.
+    """
+
+    slots: tuple[EsiSlot, ...]
+    slot_index_increment: int = 0
+    slot_pdo_increment: int = 0
+    max_slot_count: int | None = None
+    download_module_ident_list: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class EsiModule:
+    """``Modules/Module`` (ETG.2000 ModuleType): a module a slot of a modular device holds.
+
+    ``module_ident`` is the ``Type`` attribute ``ModuleIdent`` (what 0xF030/0xF050 carry,
+    ETG.5001), ``type_name`` the ``Type`` text; ``module_class`` and ``module_pdo_group`` its
+    attributes ``ModuleClass`` and ``ModulePdoGroup``; its PDOs and its ``Profile/Dictionary``
+    are the module's own. ``line`` is where the ``Module`` element starts.
+    """
+
+    module_ident: int
+    type_name: str
+    names: tuple[tuple[int | None, str], ...]
+    rx_pdos: tuple[EsiPdo, ...]
+    tx_pdos: tuple[EsiPdo, ...]
+    dictionary: EsiDictionary | None = None
+    module_class: str | None = None
+    module_pdo_group: int | None = None
+    line: int = 0
+
+    @property
+    def name(self) -> str:
+        """The English name (LcId 1033), else the first one, else the type name."""
+        for lcid, text in self.names:
+            if lcid in (None, ENGLISH_LCID):
+                return text
+        return self.names[0][1] if self.names else self.type_name
+
+
+@dataclass(frozen=True, slots=True)
 class EsiDevice:
     """``Devices/Device``: one device type of the file.
 
     ``type_name`` is the ``Type`` text (the order number); ``names`` holds (LcId, text) per
     ``Name``; ``physics`` the ``Physics`` attribute (one letter per port, ``Y`` = 100BASE-TX).
-    ``line`` is where the ``Device`` element starts in the file.
+    ``line`` is where the ``Device`` element starts in the file; ``slots`` the ``Slots`` of a
+    modular device (None: not modular).
     """
 
     type_name: str
@@ -315,6 +395,7 @@ class EsiDevice:
     alternative_sm_mappings: tuple[EsiAlternativeSmMapping, ...] = ()
     ebus_current_ma: int = 0
     line: int = 0
+    slots: EsiSlots | None = None
 
     @property
     def name(self) -> str:
@@ -327,11 +408,24 @@ class EsiDevice:
 
 @dataclass(frozen=True, slots=True)
 class EsiFile:
-    """A whole ESI file: the vendor, its groups (Type -> name) and its devices."""
+    """A whole ESI file: the vendor, its groups (Type -> name), its devices and the modules
+    (``Descriptions/Modules``) the slots of its modular devices hold."""
 
     vendor: EsiVendor
     groups: tuple[tuple[str, str], ...]
     devices: tuple[EsiDevice, ...]
+    modules: tuple[EsiModule, ...] = ()
+
+    def slot_modules(self, device: EsiDevice) -> tuple[EsiModule, ...]:
+        """The modules of the file that a slot of ``device`` may hold (by ModuleIdent or
+        ModuleClass), in file order; none for a device without slots."""
+        if device.slots is None:
+            return ()
+        idents = {i for s in device.slots.slots for i in s.module_idents}
+        classes = {c for s in device.slots.slots for c in s.module_classes}
+        return tuple(
+            m for m in self.modules if m.module_ident in idents or m.module_class in classes
+        )
 
     def group_name(self, group_type: str) -> str:
         """The name of the group ``group_type`` names, or ``""``."""
@@ -425,7 +519,8 @@ def parse_esi(data: bytes, source: str = "ESI") -> EsiFile:
     devices = tuple(ctx.device(d) for d in devices_el.iterfind("Device"))
     if not devices:
         raise ctx.error(devices_el, "no <Device>")
-    return EsiFile(vendor, tuple(groups), devices)
+    modules = tuple(ctx.module(m) for m in descriptions.iterfind("Modules/Module"))
+    return EsiFile(vendor, tuple(groups), devices, modules)
 
 
 def parse_number(text: str) -> int:
@@ -582,6 +677,60 @@ class _Context:
             ),
             ebus_current_ma=ebus,
             line=getattr(d, "line", 0),
+            slots=self.slots(d.find("Slots")),
+        )
+
+    def slots(self, s: ET.Element | None) -> EsiSlots | None:
+        """``Slots`` (ETG.2000); a slot naming no module, or fewer MaxInstances than
+        MinInstances, is an error."""
+        if s is None:
+            return None
+        return EsiSlots(
+            slots=tuple(self.slot(x) for x in s.iterfind("Slot")),
+            slot_index_increment=self.attr_number(s, "SlotIndexIncrement", 0),
+            slot_pdo_increment=self.attr_number(s, "SlotPdoIncrement", 0),
+            max_slot_count=self.attr_optional(s, "MaxSlotCount"),
+            download_module_ident_list=self.flag(s, "DownloadModuleIdentList"),
+        )
+
+    def slot(self, s: ET.Element) -> EsiSlot:
+        low, high = self.attr_number(s, "MinInstances"), self.attr_number(s, "MaxInstances")
+        if not 0 <= low <= high:
+            raise self.error(s, f"MinInstances {low}, MaxInstances {high}: not 0 <= min <= max")
+        idents = s.findall("ModuleIdent")
+        classes = [self.text(self.required(c, "Class")) for c in s.iterfind("ModuleClass")]
+        if not idents and not classes:
+            raise self.error(s, "names no <ModuleIdent> and no <ModuleClass>")
+        defaults = [self.number(i) for i in idents if self.attr_number(i, "Default", 0)]
+        if len(defaults) > 1:
+            raise self.error(s, f"{len(defaults)} <ModuleIdent> with Default=1, at most 1")
+        names = _names(s)
+        return EsiSlot(
+            name=next((t for lcid, t in names if lcid in (None, ENGLISH_LCID)), ""),
+            min_instances=low,
+            max_instances=high,
+            module_idents=tuple(self.number(i) for i in idents),
+            default_module_ident=defaults[0] if defaults else None,
+            module_classes=tuple(classes),
+            slot_index_increment=self.attr_optional(s, "SlotIndexIncrement"),
+            slot_pdo_increment=self.attr_optional(s, "SlotPdoIncrement"),
+            line=getattr(s, "line", 0),
+        )
+
+    def module(self, m: ET.Element) -> EsiModule:
+        """``Modules/Module`` (ETG.2000 ModuleType)."""
+        type_el = self.required(m, "Type")
+        group = type_el.get("ModulePdoGroup")
+        return EsiModule(
+            module_ident=self.attr_number(type_el, "ModuleIdent"),
+            type_name=self.text(type_el),
+            names=tuple(_names(m)),
+            rx_pdos=tuple(self.pdo(p) for p in m.iterfind("RxPdo")),
+            tx_pdos=tuple(self.pdo(p) for p in m.iterfind("TxPdo")),
+            dictionary=self.dictionary(m.find("Profile/Dictionary")),
+            module_class=type_el.get("ModuleClass"),
+            module_pdo_group=None if group is None else self.attr_number(type_el, "ModulePdoGroup"),
+            line=getattr(m, "line", 0),
         )
 
     def fmmu(self, f: ET.Element) -> EsiFmmu:
@@ -606,6 +755,7 @@ class _Context:
         entries = []
         for e in p.iterfind("Entry"):
             index = self.child_number(e, "Index")
+            index_el = e.find("Index")
             data_type = e.find("DataType")
             entries.append(
                 EsiPdoEntry(
@@ -614,6 +764,7 @@ class _Context:
                     bit_length=self.child_number(e, "BitLen"),
                     name=_flag_text(e, "Name") or "",
                     data_type="" if data_type is None else self.text(data_type),
+                    depend_on_slot=index_el is not None and self.flag(index_el, "DependOnSlot"),
                 )
             )
         names = _names(p)
@@ -625,6 +776,7 @@ class _Context:
             mandatory=self.flag(p, "Mandatory"),
             fixed=self.flag(p, "Fixed"),
             excludes=tuple(self.number(x) for x in p.iterfind("Exclude")),
+            depend_on_slot=self.flag(self.required(p, "Index"), "DependOnSlot"),
         )
 
     def alternative(self, a: ET.Element) -> EsiAlternativeSmMapping:
