@@ -55,6 +55,7 @@ __all__ = [
     "EsiSlots",
     "EsiSyncManager",
     "EsiVendor",
+    "missing_sync_manager_objects",
     "parse_esi",
     "parse_number",
     "read_esi",
@@ -62,6 +63,8 @@ __all__ = [
 
 ENGLISH_LCID: Final = 1033  # the language whose Name is the device's name, when present
 SM_KINDS: Final = ("MBoxOut", "MBoxIn", "Outputs", "Inputs")  # ETG.2000 SmType text
+SM_COMMUNICATION_TYPES: Final = 0x1C00  # ETG.1000.6 5.6.7.4: one type a SyncManager
+PDO_ASSIGNMENT_BASE: Final = 0x1C10  # + n: the PDO assignment of SyncManager n
 FMMU_KINDS: Final = ("Outputs", "Inputs", "MBoxState")  # ETG.2000 FmmuType text
 
 
@@ -521,6 +524,27 @@ def parse_esi(data: bytes, source: str = "ESI") -> EsiFile:
         raise ctx.error(devices_el, "no <Device>")
     modules = tuple(ctx.module(m) for m in descriptions.iterfind("Modules/Module"))
     return EsiFile(vendor, tuple(groups), devices, modules)
+
+
+def missing_sync_manager_objects(device: EsiDevice) -> tuple[int, ...]:
+    """The SyncManager objects a CoE slave serves that the ESI's ``Profile/Dictionary`` lacks.
+
+    Every CoE slave with SyncManagers has 0x1C00, their communication types, and 0x1C10 + n,
+    the PDO assignment of each process-data SyncManager n (ETG.1000.6 5.6.7.4; masters read
+    them to size the process data, SOEM's ``ecx_readPDOmap`` first of all), yet some vendors'
+    ESI files leave them out. These are: 0x1C00 when the device has an ``Sm``, and 0x1C10 + n
+    for each ``Outputs``/``Inputs`` Sm n that an RxPdo/TxPdo may be assigned to (its ``Sm`` is
+    n, or it has none). None without CoE.
+    """
+    if device.mailbox is None or device.mailbox.coe is None or not device.sync_managers:
+        return ()
+    have = set() if device.dictionary is None else {o.index for o in device.dictionary.objects}
+    wanted = [SM_COMMUNICATION_TYPES]
+    for n, sm in enumerate(device.sync_managers):
+        pdos = {"Outputs": device.rx_pdos, "Inputs": device.tx_pdos}.get(sm.kind, ())
+        if any(p.sync_manager in (None, n) for p in pdos):
+            wanted.append(PDO_ASSIGNMENT_BASE + n)
+    return tuple(i for i in wanted if i not in have)
 
 
 def parse_number(text: str) -> int:

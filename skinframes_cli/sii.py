@@ -10,7 +10,13 @@ from typing import Any
 
 from skinframes.atomic_file import check_target
 from skinframes.errors import DecodeError, SkinframesError
-from skinframes.esi import EsiModule, EsiPdo, EsiSlots, parse_esi
+from skinframes.esi import (
+    EsiModule,
+    EsiPdo,
+    EsiSlots,
+    missing_sync_manager_objects,
+    parse_esi,
+)
 from skinframes.sii import (
     DecodedSii,
     FmmuUsage,
@@ -108,6 +114,7 @@ def _build(args: argparse.Namespace, data: bytes) -> int:
             "type": device.type_name,
             "objects": None if dictionary is None else len(dictionary.objects),
             "left_out": list(built.omitted),
+            "added_objects": list(missing_sync_manager_objects(device)),
             "slots": _slots(device.slots),
             "modules": [_module(m) for m in esi.slot_modules(device)],
         }

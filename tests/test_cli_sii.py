@@ -127,6 +127,7 @@ def test_json_of_an_esi(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
         "type": "A-1",
         "objects": None,
         "left_out": [],
+        "added_objects": [],  # no CoE
         "slots": None,
         "modules": [],
     }

@@ -81,6 +81,23 @@ def english(el: ET.Element) -> str:
     return ""
 
 
+def lacking_sm_objects(device: ET.Element) -> list[int]:
+    """0x1C00 and 0x1C10 + n (n: an Outputs/Inputs Sm that an RxPdo/TxPdo with that Sm or with
+    none may go to) that a CoE device's Dictionary lacks (docs/interface.md, skinframes sii)."""
+    sms = [(s.text or "").strip() for s in device.iterfind("Sm")]
+    if device.find("Mailbox/CoE") is None or not sms:
+        return []
+    have = {
+        number(o.findtext("Index")) for o in device.iterfind("Profile/Dictionary/Objects/Object")
+    }
+    wanted = [0x1C00]
+    for k, kind in enumerate(sms):
+        tag = {"Outputs": "RxPdo", "Inputs": "TxPdo"}.get(kind)
+        if tag and any(p.get("Sm") in (None, str(k)) for p in device.iterfind(tag)):
+            wanted.append(0x1C10 + k)
+    return [i for i in wanted if i not in have]
+
+
 def xml_slots(device: ET.Element) -> dict[str, Any] | None:
     """``Slots`` as ETG.2000 writes them (EtherCATInfo.xsd SlotType)."""
     s = device.find("Slots")
@@ -277,6 +294,7 @@ def test_sii_json_shows_what_the_xml_says(
     assert doc["esi"]["objects"] == (
         None if dictionary is None else len(dictionary.findall("Objects/Object"))
     )
+    assert doc["esi"]["added_objects"] == lacking_sm_objects(device)
     slots = xml_slots(device)
     assert doc["esi"]["slots"] == slots
     assert shown_modules(doc["esi"]["modules"]) == xml_modules(root, slots)

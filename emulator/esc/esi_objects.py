@@ -14,6 +14,11 @@ as the SDO server of :mod:`emulator.esc.objects` serves it (ETG.1000.6 5.6.2, 5.
   (``PreOP``, ``PreOP_SafeOP``, ``SafeOP_OP``, ...; ETG.1000.6 Table 48 bits per state);
   ``PdoMapping`` ``R``/``T``, and every entry the ESI's RxPdo/TxPdo elements map, are mappable;
 * the identity 0x1018 holds the ESI's vendor, product code and revision and the SII's serial;
+* 0x1C00 and the PDO assignments 0x1C10 + n a CoE slave always has (ETG.1000.6 5.6.7.4) are
+  made when the ESI's dictionary lacks them (:func:`skinframes.esi.missing_sync_manager_objects`):
+  0x1C00 the types of the ESI's Sm elements (1 MBoxOut, 2 MBoxIn, 3 Outputs, 4 Inputs, 0 an
+  unused one), read-only; 0x1C10 + n with room for every PDO that may be assigned to Sm n and
+  holding the default assignment, as the ESI's own would;
 * the PDO assignment 0x1C10 + n of each process-data SyncManager n holds the PDOs the ESI
   assigns to it by default (their ``Sm`` attribute; ETG.2000 "default assignment", the SII's
   PdoDefault flag) and the PDO mapping objects the entries of the ESI's RxPdo/TxPdo elements,
@@ -38,6 +43,8 @@ from typing import Final
 
 from emulator.errors import TopologyError
 from emulator.esc.objects import (
+    ACCESS_RO,
+    ACCESS_RW_PREOP,
     READ_OP,
     READ_PREOP,
     READ_SAFEOP,
@@ -59,9 +66,10 @@ from skinframes.esi import (
     EsiObject,
     EsiObjectSubItem,
     EsiPdo,
+    missing_sync_manager_objects,
     parse_number,
 )
-from skinframes.sii import DATA_TYPE_CODES
+from skinframes.sii import DATA_TYPE_CODES, ESI_SM_TYPES
 
 __all__ = ["EsiDictionary", "PdoAssignment", "PdoMapping", "esi_dictionary", "pdo_assign_index"]
 
@@ -70,6 +78,9 @@ IDENTITY: Final = 0x1018
 ERROR_REGISTER: Final = 0x1001
 DATA_TYPE_PDO_MAPPING: Final = 0x0021  # ETG.1000.6 Table 64
 DATA_TYPE_IDENTITY: Final = 0x0023
+UNSIGNED8: Final = 0x0005  # ETG.1000.6 Table 63
+UNSIGNED16: Final = 0x0006
+SM_COMMUNICATION_TYPES: Final = 0x1C00
 MAX_SUBINDEX: Final = 0xFF  # a CoE subindex is one byte (ETG.1000.6 SDO header)
 _STRINGS: Final = re.compile(r"^(STRING|OCTET_STRING|UNICODE_STRING)\((\d+)\)$")
 _STRING_CODES: Final = {"STRING": 0x09, "OCTET_STRING": 0x0A, "UNICODE_STRING": 0x0B}
@@ -325,8 +336,8 @@ class _Builder:
     """Turns the ESI's objects into :class:`OdObject`; errors name the object."""
 
     def __init__(self, device: EsiDevice) -> None:
-        assert device.dictionary is not None
-        self.types = {t.name: t for t in device.dictionary.data_types}
+        types = () if device.dictionary is None else device.dictionary.data_types
+        self.types = {t.name: t for t in types}
         self.rx_entries = {(e.index, e.subindex) for p in device.rx_pdos for e in p.entries}
         self.tx_entries = {(e.index, e.subindex) for p in device.tx_pdos for e in p.entries}
 
@@ -446,6 +457,30 @@ class _Builder:
         return OdObject(o.index, o.name, code, data_type, entries)
 
 
+def _sync_manager_object(device: EsiDevice, index: int) -> OdObject:
+    """0x1C00 or 0x1C10 + n made from the ESI's Sm elements and PDOs, where its dictionary
+    lacks them (ETG.1000.6 5.6.7.4): the communication types (read-only), or an assignment with
+    one subindex for each PDO that may be assigned to SyncManager n (:class:`PdoAssignment`
+    fills it in with the default assignment)."""
+    if index == SM_COMMUNICATION_TYPES:
+        types = [int(ESI_SM_TYPES[sm.kind]) for sm in device.sync_managers]
+        obj = OdObject(index, "Sync manager type", ObjectCode.ARRAY, UNSIGNED8)
+        obj.entries.append(Entry("SubIndex 000", UNSIGNED8, 8, ACCESS_RO, bytes([len(types)])))
+        for k, t in enumerate(types, start=1):
+            obj.entries.append(Entry(f"SubIndex {k:03d}", UNSIGNED8, 8, ACCESS_RO, bytes([t])))
+        return obj
+    n = index - PDO_ASSIGN_BASE
+    kind = device.sync_managers[n].kind
+    pdos = device.rx_pdos if kind == "Outputs" else device.tx_pdos
+    room = sum(1 for p in pdos if p.sync_manager in (None, n))
+    name = f"{'RxPDO' if kind == 'Outputs' else 'TxPDO'} assign"
+    obj = OdObject(index, name, ObjectCode.ARRAY, UNSIGNED16)
+    obj.entries.append(Entry("SubIndex 000", UNSIGNED8, 8, ACCESS_RW_PREOP, b"\x00"))
+    for k in range(1, room + 1):
+        obj.entries.append(Entry(f"SubIndex {k:03d}", UNSIGNED16, 16, ACCESS_RW_PREOP, bytes(2)))
+    return obj
+
+
 def _info_for(
     infos: list[EsiObjectSubItem], parts: int, position: int, name: str
 ) -> EsiObjectSubItem | None:
@@ -475,10 +510,11 @@ def esi_dictionary(
     Raises:
         TopologyError: a default that is no number, a record type without subindex 0.
     """
-    if device.dictionary is None:
-        return EsiDictionary([], {}, {})
     builder = _Builder(device)
-    objects = {o.index: builder.build(o) for o in device.dictionary.objects}
+    esi_objects = () if device.dictionary is None else device.dictionary.objects
+    objects = {o.index: builder.build(o) for o in esi_objects}
+    for index in missing_sync_manager_objects(device):
+        objects[index] = _sync_manager_object(device, index)
     identity = objects.get(IDENTITY)
     if identity is not None:
         values = (esi.vendor.vendor_id, device.product_code, device.revision, serial)

@@ -8,7 +8,8 @@ the mailbox and CoE server, the SyncManager checks) with what the ESI describes:
   writes, serial number 0), so a master reads the ESI's identity, mailbox, SyncManagers, FMMUs
   and PDOs from the EEPROM;
 * the CoE dictionary of :mod:`emulator.esc.esi_objects` when the ESI has CoE (SDO upload and
-  download, complete access, SDO information listing the ESI's objects);
+  download, complete access, SDO information listing the ESI's objects, and 0x1C00/0x1C1n
+  where the ESI lacks them);
 * the PDO assignment and mapping a master sets in PRE-OP, checked in PRE-OP -> SAFE-OP against
   the SyncManagers' lengths (ETG.1000.6 6.4, AL status codes 0x001D/0x001E);
 * inputs that change: every entry the assigned TxPDOs map holds the number of publications so
