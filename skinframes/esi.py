@@ -55,7 +55,7 @@ __all__ = [
     "EsiSlots",
     "EsiSyncManager",
     "EsiVendor",
-    "missing_sync_manager_objects",
+    "missing_communication_objects",
     "parse_esi",
     "parse_number",
     "read_esi",
@@ -526,25 +526,27 @@ def parse_esi(data: bytes, source: str = "ESI") -> EsiFile:
     return EsiFile(vendor, tuple(groups), devices, modules)
 
 
-def missing_sync_manager_objects(device: EsiDevice) -> tuple[int, ...]:
-    """The SyncManager objects a CoE slave serves that the ESI's ``Profile/Dictionary`` lacks.
+def missing_communication_objects(device: EsiDevice) -> tuple[int, ...]:
+    """The communication objects a CoE slave serves that the ESI's ``Profile/Dictionary`` lacks.
 
-    Every CoE slave with SyncManagers has 0x1C00, their communication types, and 0x1C10 + n,
-    the PDO assignment of each process-data SyncManager n (ETG.1000.6 5.6.7.4; masters read
-    them to size the process data, SOEM's ``ecx_readPDOmap`` first of all), yet some vendors'
-    ESI files leave them out. These are: 0x1C00 when the device has an ``Sm``, and 0x1C10 + n
-    for each ``Outputs``/``Inputs`` Sm n that an RxPdo/TxPdo may be assigned to (its ``Sm`` is
-    n, or it has none). None without CoE.
+    Every CoE slave with SyncManagers has 0x1C00, their communication types, the PDO
+    assignment 0x1C10 + n of each process-data SyncManager n, and the mapping object of each of
+    its PDOs (ETG.1000.6 5.6.7.3, 5.6.7.4; masters read them to size the process data, SOEM's
+    ``ecx_readPDOmap`` first of all), yet some vendors' ESI files leave them out. These are:
+    0x1C00 when the device has an ``Sm``, 0x1C10 + n for each ``Outputs``/``Inputs`` Sm n, and
+    the ``Index`` of each RxPdo/TxPdo of the device, in that order. None without CoE.
     """
     if device.mailbox is None or device.mailbox.coe is None or not device.sync_managers:
         return ()
     have = set() if device.dictionary is None else {o.index for o in device.dictionary.objects}
     wanted = [SM_COMMUNICATION_TYPES]
-    for n, sm in enumerate(device.sync_managers):
-        pdos = {"Outputs": device.rx_pdos, "Inputs": device.tx_pdos}.get(sm.kind, ())
-        if any(p.sync_manager in (None, n) for p in pdos):
-            wanted.append(PDO_ASSIGNMENT_BASE + n)
-    return tuple(i for i in wanted if i not in have)
+    wanted += [
+        PDO_ASSIGNMENT_BASE + n
+        for n, sm in enumerate(device.sync_managers)
+        if sm.kind in ("Outputs", "Inputs")
+    ]
+    wanted += [p.index for p in device.rx_pdos + device.tx_pdos]
+    return tuple(dict.fromkeys(i for i in wanted if i not in have))
 
 
 def parse_number(text: str) -> int:

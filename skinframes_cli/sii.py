@@ -14,7 +14,7 @@ from skinframes.esi import (
     EsiModule,
     EsiPdo,
     EsiSlots,
-    missing_sync_manager_objects,
+    missing_communication_objects,
     parse_esi,
 )
 from skinframes.sii import (
@@ -114,7 +114,7 @@ def _build(args: argparse.Namespace, data: bytes) -> int:
             "type": device.type_name,
             "objects": None if dictionary is None else len(dictionary.objects),
             "left_out": list(built.omitted),
-            "added_objects": list(missing_sync_manager_objects(device)),
+            "added_objects": list(missing_communication_objects(device)),
             "slots": _slots(device.slots),
             "modules": [_module(m) for m in esi.slot_modules(device)],
         }

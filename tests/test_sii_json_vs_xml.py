@@ -82,20 +82,18 @@ def english(el: ET.Element) -> str:
 
 
 def lacking_sm_objects(device: ET.Element) -> list[int]:
-    """0x1C00 and 0x1C10 + n (n: an Outputs/Inputs Sm that an RxPdo/TxPdo with that Sm or with
-    none may go to) that a CoE device's Dictionary lacks (docs/interface.md, skinframes sii)."""
+    """0x1C00, 0x1C10 + n (n: an Outputs/Inputs Sm) and the Index of each RxPdo/TxPdo, those a
+    CoE device's Dictionary lacks (docs/interface.md, skinframes sii)."""
     sms = [(s.text or "").strip() for s in device.iterfind("Sm")]
     if device.find("Mailbox/CoE") is None or not sms:
         return []
-    have = {
-        number(o.findtext("Index")) for o in device.iterfind("Profile/Dictionary/Objects/Object")
-    }
-    wanted = [0x1C00]
-    for k, kind in enumerate(sms):
-        tag = {"Outputs": "RxPdo", "Inputs": "TxPdo"}.get(kind)
-        if tag and any(p.get("Sm") in (None, str(k)) for p in device.iterfind(tag)):
-            wanted.append(0x1C10 + k)
-    return [i for i in wanted if i not in have]
+    objects = device.iterfind("Profile/Dictionary/Objects/Object")
+    have = {number(o.findtext("Index")) for o in objects}
+    wanted = [0x1C00] + [0x1C10 + k for k, kind in enumerate(sms) if kind in ("Outputs", "Inputs")]
+    wanted += [
+        number(p.findtext("Index")) for tag in ("RxPdo", "TxPdo") for p in device.iterfind(tag)
+    ]
+    return list(dict.fromkeys(i for i in wanted if i not in have))
 
 
 def xml_slots(device: ET.Element) -> dict[str, Any] | None:

@@ -14,11 +14,12 @@ as the SDO server of :mod:`emulator.esc.objects` serves it (ETG.1000.6 5.6.2, 5.
   (``PreOP``, ``PreOP_SafeOP``, ``SafeOP_OP``, ...; ETG.1000.6 Table 48 bits per state);
   ``PdoMapping`` ``R``/``T``, and every entry the ESI's RxPdo/TxPdo elements map, are mappable;
 * the identity 0x1018 holds the ESI's vendor, product code and revision and the SII's serial;
-* 0x1C00 and the PDO assignments 0x1C10 + n a CoE slave always has (ETG.1000.6 5.6.7.4) are
-  made when the ESI's dictionary lacks them (:func:`skinframes.esi.missing_sync_manager_objects`):
-  0x1C00 the types of the ESI's Sm elements (1 MBoxOut, 2 MBoxIn, 3 Outputs, 4 Inputs, 0 an
-  unused one), read-only; 0x1C10 + n with room for every PDO that may be assigned to Sm n and
-  holding the default assignment, as the ESI's own would;
+* 0x1C00, the PDO assignments 0x1C10 + n and the PDOs' mapping objects, which a CoE slave
+  always has (ETG.1000.6 5.6.7.3, 5.6.7.4), are made when the ESI's dictionary lacks them
+  (:func:`skinframes.esi.missing_communication_objects`): 0x1C00 the types of the ESI's Sm
+  elements (1 MBoxOut, 2 MBoxIn, 3 Outputs, 4 Inputs, 0 an unused one), read-only; 0x1C10 + n
+  with room for every PDO that may be assigned to Sm n (none: subindex 0 alone); a mapping
+  object with room for the PDO's entries; filled in below as the ESI's own would be;
 * the PDO assignment 0x1C10 + n of each process-data SyncManager n holds the PDOs the ESI
   assigns to it by default (their ``Sm`` attribute; ETG.2000 "default assignment", the SII's
   PdoDefault flag) and the PDO mapping objects the entries of the ESI's RxPdo/TxPdo elements,
@@ -66,7 +67,7 @@ from skinframes.esi import (
     EsiObject,
     EsiObjectSubItem,
     EsiPdo,
-    missing_sync_manager_objects,
+    missing_communication_objects,
     parse_number,
 )
 from skinframes.sii import DATA_TYPE_CODES, ESI_SM_TYPES
@@ -80,6 +81,7 @@ DATA_TYPE_PDO_MAPPING: Final = 0x0021  # ETG.1000.6 Table 64
 DATA_TYPE_IDENTITY: Final = 0x0023
 UNSIGNED8: Final = 0x0005  # ETG.1000.6 Table 63
 UNSIGNED16: Final = 0x0006
+UNSIGNED32: Final = 0x0007
 SM_COMMUNICATION_TYPES: Final = 0x1C00
 MAX_SUBINDEX: Final = 0xFF  # a CoE subindex is one byte (ETG.1000.6 SDO header)
 _STRINGS: Final = re.compile(r"^(STRING|OCTET_STRING|UNICODE_STRING)\((\d+)\)$")
@@ -457,11 +459,12 @@ class _Builder:
         return OdObject(o.index, o.name, code, data_type, entries)
 
 
-def _sync_manager_object(device: EsiDevice, index: int) -> OdObject:
-    """0x1C00 or 0x1C10 + n made from the ESI's Sm elements and PDOs, where its dictionary
-    lacks them (ETG.1000.6 5.6.7.4): the communication types (read-only), or an assignment with
-    one subindex for each PDO that may be assigned to SyncManager n (:class:`PdoAssignment`
-    fills it in with the default assignment)."""
+def _communication_object(device: EsiDevice, index: int) -> OdObject:
+    """0x1C00, 0x1C10 + n or a PDO's mapping object made from the ESI's Sm elements and PDOs,
+    where its dictionary lacks them (ETG.1000.6 5.6.7.3, 5.6.7.4): the communication types
+    (read-only), an assignment with one subindex for each PDO that may be assigned to
+    SyncManager n, or a mapping with one for each of the PDO's entries (:class:`PdoAssignment`
+    and :class:`PdoMapping` fill them in)."""
     if index == SM_COMMUNICATION_TYPES:
         types = [int(ESI_SM_TYPES[sm.kind]) for sm in device.sync_managers]
         obj = OdObject(index, "Sync manager type", ObjectCode.ARRAY, UNSIGNED8)
@@ -469,15 +472,23 @@ def _sync_manager_object(device: EsiDevice, index: int) -> OdObject:
         for k, t in enumerate(types, start=1):
             obj.entries.append(Entry(f"SubIndex {k:03d}", UNSIGNED8, 8, ACCESS_RO, bytes([t])))
         return obj
-    n = index - PDO_ASSIGN_BASE
-    kind = device.sync_managers[n].kind
-    pdos = device.rx_pdos if kind == "Outputs" else device.tx_pdos
-    room = sum(1 for p in pdos if p.sync_manager in (None, n))
-    name = f"{'RxPDO' if kind == 'Outputs' else 'TxPDO'} assign"
-    obj = OdObject(index, name, ObjectCode.ARRAY, UNSIGNED16)
+    pdo = next((p for p in device.rx_pdos + device.tx_pdos if p.index == index), None)
+    if pdo is not None:
+        obj = OdObject(index, pdo.name, ObjectCode.RECORD, DATA_TYPE_PDO_MAPPING)
+        room, data_type, bits = len(pdo.entries), UNSIGNED32, 32
+    else:
+        n = index - PDO_ASSIGN_BASE
+        kind = device.sync_managers[n].kind
+        pdos = device.rx_pdos if kind == "Outputs" else device.tx_pdos
+        name = f"{'RxPDO' if kind == 'Outputs' else 'TxPDO'} assign"
+        obj = OdObject(index, name, ObjectCode.ARRAY, UNSIGNED16)
+        room = sum(1 for p in pdos if p.sync_manager in (None, n))
+        data_type, bits = UNSIGNED16, 16
     obj.entries.append(Entry("SubIndex 000", UNSIGNED8, 8, ACCESS_RW_PREOP, b"\x00"))
     for k in range(1, room + 1):
-        obj.entries.append(Entry(f"SubIndex {k:03d}", UNSIGNED16, 16, ACCESS_RW_PREOP, bytes(2)))
+        obj.entries.append(
+            Entry(f"SubIndex {k:03d}", data_type, bits, ACCESS_RW_PREOP, bytes(bits // 8))
+        )
     return obj
 
 
@@ -513,8 +524,8 @@ def esi_dictionary(
     builder = _Builder(device)
     esi_objects = () if device.dictionary is None else device.dictionary.objects
     objects = {o.index: builder.build(o) for o in esi_objects}
-    for index in missing_sync_manager_objects(device):
-        objects[index] = _sync_manager_object(device, index)
+    for index in missing_communication_objects(device):
+        objects[index] = _communication_object(device, index)
     identity = objects.get(IDENTITY)
     if identity is not None:
         values = (esi.vendor.vendor_id, device.product_code, device.revision, serial)
