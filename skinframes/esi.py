@@ -22,8 +22,10 @@ does not model (vendor specials, images) are skipped without a word.
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -55,6 +57,7 @@ __all__ = [
     "EsiSlots",
     "EsiSyncManager",
     "EsiVendor",
+    "configure_slots",
     "missing_communication_objects",
     "parse_esi",
     "parse_number",
@@ -276,7 +279,8 @@ class EsiObject:
     ``Info/DefaultString`` (a STRING object's value). ``access`` (``ro``, ``rw``,
     ...), ``category`` (``m``, ``o``) and ``pdo_mapping`` (``R``, ``T``, ``RT``) are the
     ``Flags``, with the access's ``ReadRestrictions``/``WriteRestrictions``; the access of a
-    record's sub items is in its data type's sub items.
+    record's sub items is in its data type's sub items. ``depend_on_slot``: the ``Index``
+    attribute ``DependOnSlot`` (a module's object, moved by the slot's SlotIndexIncrement).
     """
 
     index: int
@@ -292,6 +296,7 @@ class EsiObject:
     default_string: str | None = None
     read_restrictions: str | None = None
     write_restrictions: str | None = None
+    depend_on_slot: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -378,7 +383,8 @@ class EsiDevice:
     ``type_name`` is the ``Type`` text (the order number); ``names`` holds (LcId, text) per
     ``Name``; ``physics`` the ``Physics`` attribute (one letter per port, ``Y`` = 100BASE-TX).
     ``line`` is where the ``Device`` element starts in the file; ``slots`` the ``Slots`` of a
-    modular device (None: not modular).
+    modular device (None: not modular); ``configured_modules`` the idents of the modules
+    :func:`configure_slots` put in its slots, in slot order (what 0xF030 holds, ETG.5001).
     """
 
     type_name: str
@@ -399,6 +405,7 @@ class EsiDevice:
     ebus_current_ma: int = 0
     line: int = 0
     slots: EsiSlots | None = None
+    configured_modules: tuple[int, ...] = ()
 
     @property
     def name(self) -> str:
@@ -547,6 +554,127 @@ def missing_communication_objects(device: EsiDevice) -> tuple[int, ...]:
     ]
     wanted += [p.index for p in device.rx_pdos + device.tx_pdos]
     return tuple(dict.fromkeys(i for i in wanted if i not in have))
+
+
+def configure_slots(esi: EsiFile, device: EsiDevice, selectors: Sequence[str]) -> EsiDevice:
+    """``device`` with modules in its slots: the modules ``selectors`` name (a ModuleIdent in
+    decimal, ``0x`` or ``#x`` hex, or a Type text), the k-th in slot number k (from 0).
+
+    The modules fill the slots in order (ETG.2000 Slots, ETG.5001 Modular Device Profile): each
+    slot takes modules it names (ModuleIdent or ModuleClass) up to its MaxInstances, and must
+    have its MinInstances. Module k's PDOs and objects join the device's, an ``Index`` with
+    ``DependOnSlot`` moved by k times the slot's SlotPdoIncrement (a PDO's) or
+    SlotIndexIncrement (an entry's or object's; the slot's own where it gives one, else the
+    Slots'); ``configured_modules`` holds their idents.
+
+    Raises:
+        EsiFormatError: the device has no slots, a selector names no module its slots may hold,
+            the modules do not fit the slots, or a moved PDO or object is one the device has.
+    """
+    where = f"ESI device {device.type_name} (line {device.line})"
+    if device.slots is None:
+        raise EsiFormatError(f"{where}: has no <Slots>, so no modules")
+    holdable = esi.slot_modules(device)
+    modules = [_module_named(holdable, s, where) for s in selectors]
+    slots = device.slots.slots
+    placed: list[EsiSlot] = []
+    at, count = 0, 0
+    for k, m in enumerate(modules):
+        while at < len(slots) and (count >= slots[at].max_instances or not _takes(slots[at], m)):
+            _enough(slots[at], count, where)
+            at, count = at + 1, 0
+        if at == len(slots):
+            raise EsiFormatError(
+                f"{where}: module {k + 1} ({m.type_name}): no slot after the ones before takes it"
+            )
+        placed.append(slots[at])
+        count += 1
+    for slot in slots[at:]:
+        _enough(slot, count if slot is slots[at] else 0, where)
+    limit = device.slots.max_slot_count
+    if limit is not None and len(modules) > limit:
+        raise EsiFormatError(f"{where}: {len(modules)} modules, MaxSlotCount is {limit}")
+    rx, tx = list(device.rx_pdos), list(device.tx_pdos)
+    types = list(device.dictionary.data_types) if device.dictionary else []
+    objects = list(device.dictionary.objects) if device.dictionary else []
+    for k, (m, slot) in enumerate(zip(modules, placed, strict=True)):
+        pdo_step = k * _increment(slot.slot_pdo_increment, device.slots.slot_pdo_increment)
+        index_step = k * _increment(slot.slot_index_increment, device.slots.slot_index_increment)
+        for mine, theirs in ((rx, m.rx_pdos), (tx, m.tx_pdos)):
+            for p in theirs:
+                moved = _moved_pdo(p, pdo_step, index_step)
+                if any(q.index == moved.index for q in rx + tx):
+                    raise EsiFormatError(
+                        f"{where}: module {k + 1} ({m.type_name}, line {m.line}): PDO "
+                        f"{moved.index:#06x} is one the device has already"
+                    )
+                mine.append(moved)
+        if m.dictionary is None:
+            continue
+        named = {t.name for t in types}
+        types += [t for t in m.dictionary.data_types if t.name not in named]
+        for o in m.dictionary.objects:
+            index = o.index + (index_step if o.depend_on_slot else 0)
+            if any(x.index == index for x in objects):
+                raise EsiFormatError(
+                    f"{where}: module {k + 1} ({m.type_name}, line {m.line}): object "
+                    f"{index:#06x} is one the device has already"
+                )
+            objects.append(dataclasses.replace(o, index=index, depend_on_slot=False))
+    dictionary = (
+        EsiDictionary(tuple(types), tuple(objects))
+        if device.dictionary is not None or objects
+        else None
+    )
+    return dataclasses.replace(
+        device,
+        rx_pdos=tuple(rx),
+        tx_pdos=tuple(tx),
+        dictionary=dictionary,
+        configured_modules=tuple(m.module_ident for m in modules),
+    )
+
+
+def _module_named(modules: tuple[EsiModule, ...], selector: str, where: str) -> EsiModule:
+    """The module whose Type text, else whose ModuleIdent, is ``selector``."""
+    found = [m for m in modules if m.type_name == selector]
+    if not found:
+        ident = _number_or_none(selector)
+        found = [m for m in modules if ident is not None and m.module_ident == ident]
+    if not found:
+        listing = ", ".join(f"{m.type_name} ({m.module_ident:#x})" for m in modules) or "none"
+        raise EsiFormatError(
+            f"{where}: no module {selector!r} its slots may hold; they may hold: {listing}"
+        )
+    return found[0]
+
+
+def _takes(slot: EsiSlot, module: EsiModule) -> bool:
+    return module.module_ident in slot.module_idents or module.module_class in slot.module_classes
+
+
+def _enough(slot: EsiSlot, count: int, where: str) -> None:
+    if count < slot.min_instances:
+        raise EsiFormatError(
+            f"{where}: slot {slot.name!r} (line {slot.line}) needs {slot.min_instances} "
+            f"module(s) at least, the modules given put {count} in it"
+        )
+
+
+def _increment(own: int | None, common: int) -> int:
+    return common if own is None else own
+
+
+def _moved_pdo(p: EsiPdo, pdo_step: int, index_step: int) -> EsiPdo:
+    """A module's PDO in its slot: ``DependOnSlot`` indices moved (ETG.2000)."""
+    entries = tuple(
+        dataclasses.replace(e, index=e.index + index_step, depend_on_slot=False)
+        if e.depend_on_slot and e.index
+        else e
+        for e in p.entries
+    )
+    index = p.index + pdo_step if p.depend_on_slot else p.index
+    return dataclasses.replace(p, index=index, entries=entries, depend_on_slot=False)
 
 
 def parse_number(text: str) -> int:
@@ -953,6 +1081,7 @@ class _Context:
                     default_string=None if info is None else _flag_text(info, "DefaultString"),
                     read_restrictions=_attribute(o, "Flags/Access", "ReadRestrictions"),
                     write_restrictions=_attribute(o, "Flags/Access", "WriteRestrictions"),
+                    depend_on_slot=self.flag(self.required(o, "Index"), "DependOnSlot"),
                 )
             )
         return EsiDictionary(tuple(types), tuple(objects))

@@ -14,6 +14,8 @@ as the SDO server of :mod:`emulator.esc.objects` serves it (ETG.1000.6 5.6.2, 5.
   (``PreOP``, ``PreOP_SafeOP``, ``SafeOP_OP``, ...; ETG.1000.6 Table 48 bits per state);
   ``PdoMapping`` ``R``/``T``, and every entry the ESI's RxPdo/TxPdo elements map, are mappable;
 * the identity 0x1018 holds the ESI's vendor, product code and revision and the SII's serial;
+* a modular device's 0xF030/0xF050 (configured/detected module idents, ETG.5001) hold the
+  idents of the modules in its slots;
 * 0x1C00, the PDO assignments 0x1C10 + n and the PDOs' mapping objects, which a CoE slave
   always has (ETG.1000.6 5.6.7.3, 5.6.7.4), are made when the ESI's dictionary lacks them
   (:func:`skinframes.esi.missing_communication_objects`): 0x1C00 the types of the ESI's Sm
@@ -83,6 +85,7 @@ UNSIGNED8: Final = 0x0005  # ETG.1000.6 Table 63
 UNSIGNED16: Final = 0x0006
 UNSIGNED32: Final = 0x0007
 SM_COMMUNICATION_TYPES: Final = 0x1C00
+MODULE_IDENT_LISTS: Final = (0xF030, 0xF050)  # configured / detected module idents (ETG.5001)
 MAX_SUBINDEX: Final = 0xFF  # a CoE subindex is one byte (ETG.1000.6 SDO header)
 _STRINGS: Final = re.compile(r"^(STRING|OCTET_STRING|UNICODE_STRING)\((\d+)\)$")
 _STRING_CODES: Final = {"STRING": 0x09, "OCTET_STRING": 0x0A, "UNICODE_STRING": 0x0B}
@@ -492,6 +495,25 @@ def _communication_object(device: EsiDevice, index: int) -> OdObject:
     return obj
 
 
+def _module_idents(obj: OdObject | None, idents: tuple[int, ...]) -> None:
+    """0xF030/0xF050 of a modular device (ETG.5001): subindex 0 the number of modules in its
+    slots, subindex k the ident of module k (UDINT); left as the ESI has it without modules.
+
+    Raises:
+        TopologyError: the object has fewer subindices than there are modules.
+    """
+    if obj is None or not idents or obj.code == ObjectCode.VAR:
+        return
+    if obj.max_subindex < len(idents):
+        raise TopologyError(
+            f"ESI dictionary: object {obj.index:#06x} has room for {obj.max_subindex} module "
+            f"idents, {len(idents)} modules are in the slots"
+        )
+    obj.entries[0].value = bytes([len(idents)]).ljust(len(obj.entries[0].value), b"\0")
+    for k, ident in enumerate(idents, start=1):
+        obj.entries[k].value = struct.pack("<I", ident)
+
+
 def _info_for(
     infos: list[EsiObjectSubItem], parts: int, position: int, name: str
 ) -> EsiObjectSubItem | None:
@@ -526,6 +548,8 @@ def esi_dictionary(
     objects = {o.index: builder.build(o) for o in esi_objects}
     for index in missing_communication_objects(device):
         objects[index] = _communication_object(device, index)
+    for list_index in MODULE_IDENT_LISTS:
+        _module_idents(objects.get(list_index), device.configured_modules)
     identity = objects.get(IDENTITY)
     if identity is not None:
         values = (esi.vendor.vendor_id, device.product_code, device.revision, serial)

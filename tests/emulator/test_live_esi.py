@@ -225,3 +225,33 @@ def test_pysoem_maps_an_esi_slave_whose_dictionary_lacks_0x1c00(net: VethPair) -
     counters = [int.from_bytes(bytes.fromhex(row[0])[:2], "little") for row in doc["inputs"]]
     assert counts_up(counters, 1 << 16)  # 0x6000:1, the first 16 bits (UINT, little-endian)
     print(f"\n{x['type']}: 0x1C00 {types}, assigned {assigned}, io {doc['io_bytes']}")
+
+
+def test_pysoem_maps_a_modular_device_with_modules_in_its_slots(net: VethPair) -> None:
+    """``--esi-modules HEAD-A,DI-8,DO-4`` on tests/data/esi/modular_coupler.xml (ours), by hand
+    from the XML: HEAD-A is slot 0 of the Head slot, DI-8 slot 1 and DO-4 slot 2 of the IO slot
+    (SlotPdoIncrement 2, SlotIndexIncrement 0x20). SOEM reads 0x1C12 = [0x1601 + 2 * 2] and
+    0x1C13 = [0x1AFF (the coupler's), 0x1A00 (HEAD-A), 0x1A01 + 1 * 2 (DI-8)] and their
+    mappings: outputs 4 + 4 bits = 1 byte, inputs 16 + 8 + (1 + 1 + 6) bits = 4 bytes. 0xF030
+    holds the three idents (ETG.5001); the SII has the coupler's 0x1AFF alone."""
+    path = ROOT / "tests" / "data" / "esi" / "modular_coupler.xml"
+    x = from_xml(path)
+    reads = ["0x1C12:1", "0x1C13:0", "0x1C13:1", "0x1C13:2", "0x1C13:3", "0xF030:0"]
+    reads += ["0xF030:1", "0xF030:2", "0xF030:3", "0x1A03:1", "0x1605:1"]
+    with serving(
+        net, "--nodes", "0", "--esi", str(path), "--esi-modules", "HEAD-A,DI-8,DO-4"
+    ) as server:
+        doc = run_master(
+            net, "--image-bytes", str(x["byte_size"]), *(a for r in reads for a in ("--sdo", r))
+        )
+    assert server["rc"] == 0, server["stderr"]
+    sdo = {k: int.from_bytes(bytes.fromhex(v), "little") for k, v in doc["coe"][0]["sdo"].items()}
+    assert sdo["0x1C12:1"] == 0x1605
+    assert [sdo[f"0x1C13:{k}"] for k in range(4)] == [3, 0x1AFF, 0x1A00, 0x1A03]
+    assert [sdo[f"0xF030:{k}"] for k in range(4)] == [3, 0x00010001, 0x00020001, 0x00020002]
+    assert sdo["0x1A03:1"] == 0x6030_01_01  # DI-8's 0x6010:1, moved by 0x20
+    assert sdo["0x1605:1"] == 0x7050_01_04  # DO-4's 0x7010:1, moved by 2 * 0x20
+    assert doc["io_bytes"] == [[1, 4]]
+    assert (doc["safeop"], doc["op"], doc["states"], doc["al_status_codes"]) == (4, 8, [8], [0])
+    assert doc["wkc"] == [3] * len(doc["wkc"])
+    print(f"\n{x['type']} with HEAD-A, DI-8, DO-4: io {doc['io_bytes']}, 0x1C13 {sdo['0x1C13:0']}")

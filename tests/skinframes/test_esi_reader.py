@@ -19,6 +19,7 @@ from skinframes.esi import (
     EsiFmmu,
     EsiPdoEntry,
     EsiSyncManager,
+    configure_slots,
     parse_esi,
     parse_number,
     read_esi,
@@ -375,3 +376,47 @@ def test_a_slot_naming_no_module_is_an_error() -> None:
     bare = text[:start] + text[end:]
     with pytest.raises(EsiFormatError, match=r"line 93: <Slot>: names no <ModuleIdent>"):
         parse_esi(bare, source="x.xml")
+
+
+def test_modules_in_the_slots_join_the_device_moved_by_their_slot() -> None:
+    """ETG.2000/ETG.5001, by hand from modular_coupler.xml: module k is slot number k; a
+    DependOnSlot index moves by k times the slot's increment (the IO slot's own: PDOs 2,
+    objects 0x20; the Head slot has none, so the Slots': 1 and 0x10)."""
+    esi = read_esi(MODULAR)
+    d = configure_slots(esi, esi.device(), ["HEAD-B", "#x20002", "DI-8"])
+    assert d.configured_modules == (0x10002, 0x20002, 0x20001)
+    assert [p.index for p in d.rx_pdos] == [0x1601 + 1 * 2]
+    assert [(e.index, e.subindex, e.bit_length) for e in d.rx_pdos[0].entries] == [
+        (0x7010 + 1 * 0x20, 1, 4),
+        (0, 0, 4),  # padding: index 0 is not moved
+    ]
+    assert [p.index for p in d.tx_pdos] == [0x1AFF, 0x1A01 + 2 * 2]
+    assert [e.index for e in d.tx_pdos[1].entries] == [0x6010 + 2 * 0x20] * 2 + [0]
+    assert d.dictionary is not None
+    assert [o.index for o in d.dictionary.objects][-1] == 0x8010 + 2 * 0x20
+    assert not any(p.depend_on_slot for p in d.tx_pdos + d.rx_pdos)
+    # the device itself is unchanged (its SII is built from it)
+    assert esi.device().configured_modules == () and len(esi.device().tx_pdos) == 1
+
+
+@pytest.mark.parametrize(
+    ("modules", "message"),
+    [
+        ([], r"slot 'Head' \(line 87\) needs 1 module\(s\) at least, the modules given put 0"),
+        (["DI-8"], r"slot 'Head' \(line 87\) needs 1"),
+        (["HEAD-A", "HEAD-B"], r"module 2 \(HEAD-B\): no slot after the ones before takes it"),
+        (["HEAD-A", *["DI-8"] * 4], r"module 5 \(DI-8\): no slot"),
+        (["HEAD-A", "AI-2"], r"no module 'AI-2' its slots may hold; they may hold: HEAD-A"),
+        (["HEAD-A", "0x19999"], r"no module '0x19999'"),
+    ],
+)
+def test_modules_that_do_not_fit_the_slots_are_refused(modules: list[str], message: str) -> None:
+    esi = read_esi(MODULAR)
+    with pytest.raises(EsiFormatError, match=message):
+        configure_slots(esi, esi.device(), modules)
+
+
+def test_a_device_without_slots_takes_no_modules(shared_esi: Path) -> None:
+    esi = read_esi(shared_esi / "soes_linux_lan9252demo.xml")
+    with pytest.raises(EsiFormatError, match=r"has no <Slots>, so no modules"):
+        configure_slots(esi, esi.device(), [])
