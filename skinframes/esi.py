@@ -133,7 +133,8 @@ class EsiPdo:
     ``sync_manager`` is the Sm it is assigned to by default (None: not assigned);
     ``excludes`` the PDOs that cannot be assigned beside it (``Exclude``);
     ``depend_on_slot`` the ``Index`` attribute ``DependOnSlot`` (a module's PDO: the index is
-    a base, moved by the slot's SlotPdoIncrement).
+    a base, moved by the slot's SlotPdoIncrement), ``excludes_depend_on_slot`` that of each
+    ``Exclude``.
     """
 
     index: int
@@ -144,6 +145,7 @@ class EsiPdo:
     fixed: bool = False
     excludes: tuple[int, ...] = ()
     depend_on_slot: bool = False
+    excludes_depend_on_slot: tuple[bool, ...] = ()
 
     @property
     def bit_length(self) -> int:
@@ -562,8 +564,8 @@ def configure_slots(esi: EsiFile, device: EsiDevice, selectors: Sequence[str]) -
 
     The modules fill the slots in order (ETG.2000 Slots, ETG.5001 Modular Device Profile): each
     slot takes modules it names (ModuleIdent or ModuleClass) up to its MaxInstances, and must
-    have its MinInstances. Module k's PDOs and objects join the device's, an ``Index`` with
-    ``DependOnSlot`` moved by k times the slot's SlotPdoIncrement (a PDO's) or
+    have its MinInstances. Module k's PDOs and objects join the device's, an ``Index`` or
+    ``Exclude`` with ``DependOnSlot`` moved by k times the slot's SlotPdoIncrement (a PDO's) or
     SlotIndexIncrement (an entry's or object's; the slot's own where it gives one, else the
     Slots'); ``configured_modules`` holds their idents.
 
@@ -674,7 +676,18 @@ def _moved_pdo(p: EsiPdo, pdo_step: int, index_step: int) -> EsiPdo:
         for e in p.entries
     )
     index = p.index + pdo_step if p.depend_on_slot else p.index
-    return dataclasses.replace(p, index=index, entries=entries, depend_on_slot=False)
+    excludes = tuple(
+        x + pdo_step if moves else x
+        for x, moves in zip(p.excludes, p.excludes_depend_on_slot, strict=True)
+    )
+    return dataclasses.replace(
+        p,
+        index=index,
+        entries=entries,
+        excludes=excludes,
+        depend_on_slot=False,
+        excludes_depend_on_slot=(False,) * len(excludes),
+    )
 
 
 def parse_number(text: str) -> int:
@@ -931,6 +944,9 @@ class _Context:
             fixed=self.flag(p, "Fixed"),
             excludes=tuple(self.number(x) for x in p.iterfind("Exclude")),
             depend_on_slot=self.flag(self.required(p, "Index"), "DependOnSlot"),
+            excludes_depend_on_slot=tuple(
+                self.flag(x, "DependOnSlot") for x in p.iterfind("Exclude")
+            ),
         )
 
     def alternative(self, a: ET.Element) -> EsiAlternativeSmMapping:

@@ -392,6 +392,7 @@ def test_modules_in_the_slots_join_the_device_moved_by_their_slot() -> None:
     ]
     assert [p.index for p in d.tx_pdos] == [0x1AFF, 0x1A01 + 2 * 2]
     assert [e.index for e in d.tx_pdos[1].entries] == [0x6010 + 2 * 0x20] * 2 + [0]
+    assert d.tx_pdos[1].excludes == (0x1A02 + 2 * 2,)  # Exclude DependOnSlot="true"
     assert d.dictionary is not None
     assert [o.index for o in d.dictionary.objects][-1] == 0x8010 + 2 * 0x20
     assert not any(p.depend_on_slot for p in d.tx_pdos + d.rx_pdos)
