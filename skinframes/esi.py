@@ -564,14 +564,17 @@ def configure_slots(esi: EsiFile, device: EsiDevice, selectors: Sequence[str]) -
 
     The modules fill the slots in order (ETG.2000 Slots, ETG.5001 Modular Device Profile): each
     slot takes modules it names (ModuleIdent or ModuleClass) up to its MaxInstances, and must
-    have its MinInstances. Module k's PDOs and objects join the device's, an ``Index`` or
-    ``Exclude`` with ``DependOnSlot`` moved by k times the slot's SlotPdoIncrement (a PDO's) or
+    have its MinInstances (and there may be MaxSlotCount modules at most, unless it is 0).
+    Module k's PDOs and objects join the device's, an ``Index`` or ``Exclude`` with
+    ``DependOnSlot`` moved by k times the slot's SlotPdoIncrement (a PDO's) or
     SlotIndexIncrement (an entry's or object's; the slot's own where it gives one, else the
-    Slots'); ``configured_modules`` holds their idents.
+    Slots'); one with the index of a device's own takes its place (ETG.2000
+    ``OverwrittenByModule``; vendors list the default modules' PDOs in the device too);
+    ``configured_modules`` holds their idents.
 
     Raises:
         EsiFormatError: the device has no slots, a selector names no module its slots may hold,
-            the modules do not fit the slots, or a moved PDO or object is one the device has.
+            the modules do not fit the slots, or two modules have a PDO or object of one index.
     """
     where = f"ESI device {device.type_name} (line {device.line})"
     if device.slots is None:
@@ -594,44 +597,42 @@ def configure_slots(esi: EsiFile, device: EsiDevice, selectors: Sequence[str]) -
     for slot in slots[at:]:
         _enough(slot, count if slot is slots[at] else 0, where)
     limit = device.slots.max_slot_count
-    if limit is not None and len(modules) > limit:
+    if limit and len(modules) > limit:  # 0, as some vendors write it: no limit given
         raise EsiFormatError(f"{where}: {len(modules)} modules, MaxSlotCount is {limit}")
-    rx, tx = list(device.rx_pdos), list(device.tx_pdos)
+    pdos: dict[int, tuple[bool, EsiPdo, str]] = {p.index: (True, p, "") for p in device.rx_pdos}
+    pdos |= {p.index: (False, p, "") for p in device.tx_pdos}
     types = list(device.dictionary.data_types) if device.dictionary else []
-    objects = list(device.dictionary.objects) if device.dictionary else []
+    objects = {o.index: (o, "") for o in device.dictionary.objects} if device.dictionary else {}
     for k, (m, slot) in enumerate(zip(modules, placed, strict=True)):
         pdo_step = k * _increment(slot.slot_pdo_increment, device.slots.slot_pdo_increment)
         index_step = k * _increment(slot.slot_index_increment, device.slots.slot_index_increment)
-        for mine, theirs in ((rx, m.rx_pdos), (tx, m.tx_pdos)):
+        mine = f"module {k + 1} ({m.type_name}, line {m.line})"
+        for rx, theirs in ((True, m.rx_pdos), (False, m.tx_pdos)):
             for p in theirs:
                 moved = _moved_pdo(p, pdo_step, index_step)
-                if any(q.index == moved.index for q in rx + tx):
-                    raise EsiFormatError(
-                        f"{where}: module {k + 1} ({m.type_name}, line {m.line}): PDO "
-                        f"{moved.index:#06x} is one the device has already"
-                    )
-                mine.append(moved)
+                other = pdos.get(moved.index, (rx, p, ""))[2]
+                if other:
+                    raise EsiFormatError(f"{where}: {mine}: PDO {moved.index:#06x} is {other}'s")
+                pdos[moved.index] = (rx, moved, mine)
         if m.dictionary is None:
             continue
         named = {t.name for t in types}
         types += [t for t in m.dictionary.data_types if t.name not in named]
         for o in m.dictionary.objects:
             index = o.index + (index_step if o.depend_on_slot else 0)
-            if any(x.index == index for x in objects):
-                raise EsiFormatError(
-                    f"{where}: module {k + 1} ({m.type_name}, line {m.line}): object "
-                    f"{index:#06x} is one the device has already"
-                )
-            objects.append(dataclasses.replace(o, index=index, depend_on_slot=False))
+            other = objects.get(index, (o, ""))[1]
+            if other:
+                raise EsiFormatError(f"{where}: {mine}: object {index:#06x} is {other}'s")
+            objects[index] = (dataclasses.replace(o, index=index, depend_on_slot=False), mine)
     dictionary = (
-        EsiDictionary(tuple(types), tuple(objects))
+        EsiDictionary(tuple(types), tuple(o for o, _ in objects.values()))
         if device.dictionary is not None or objects
         else None
     )
     return dataclasses.replace(
         device,
-        rx_pdos=tuple(rx),
-        tx_pdos=tuple(tx),
+        rx_pdos=tuple(p for rx, p, _ in pdos.values() if rx),
+        tx_pdos=tuple(p for rx, p, _ in pdos.values() if not rx),
         dictionary=dictionary,
         configured_modules=tuple(m.module_ident for m in modules),
     )

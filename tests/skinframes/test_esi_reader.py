@@ -421,3 +421,30 @@ def test_a_device_without_slots_takes_no_modules(shared_esi: Path) -> None:
     esi = read_esi(shared_esi / "soes_linux_lan9252demo.xml")
     with pytest.raises(EsiFormatError, match=r"has no <Slots>, so no modules"):
         configure_slots(esi, esi.device(), [])
+
+
+def test_a_module_s_pdo_or_object_takes_the_place_of_the_device_s_of_its_index() -> None:
+    """ETG.2000 OverwrittenByModule; vendors (Beckhoff's EP6228 and EL1904 ESIs) list the
+    default modules' PDOs in the device as well. Two modules of one index are an error."""
+    text = MODULAR.read_bytes()
+    head_a = b'<Index DependOnSlot="1">#x1A00</Index>'
+    filter_time = b'<Index DependOnSlot="true">#x8010</Index>'
+    assert text.count(head_a) == 1 and text.count(filter_time) == 1
+    esi = parse_esi(
+        text.replace(head_a, b"<Index>#x1AFF</Index>").replace(
+            filter_time, b"<Index>#x1000</Index>"
+        )
+    )
+    d = configure_slots(esi, esi.device(), ["HEAD-A", "DI-8"])
+    assert [(p.index, p.name) for p in d.tx_pdos] == [(0x1AFF, "Head A inputs"), (0x1A03, "DI-8")]
+    assert d.dictionary is not None
+    assert [(o.index, o.name) for o in d.dictionary.objects if o.index == 0x1000] == [
+        (0x1000, "DI-8 filter time")
+    ]
+    do_4 = b'<Index DependOnSlot="1">#x1601</Index>'
+    esi = parse_esi(text.replace(do_4, b"<Index>#x1601</Index>"), source="x.xml")
+    with pytest.raises(
+        EsiFormatError,
+        match=r"module 3 \(DO-4, line \d+\): PDO 0x1601 is module 2 \(DO-4, line \d+\)'s",
+    ):
+        configure_slots(esi, esi.device(), ["HEAD-A", "DO-4", "DO-4"])
