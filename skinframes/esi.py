@@ -6,7 +6,10 @@ one or several. Each device carries its identity (``Type`` with ``ProductCode`` 
 ``RevisionNo``), names per language (``Name LcId``), FMMUs, SyncManagers (``Sm``), PDOs
 (``RxPdo``/``TxPdo``), the mailbox protocols, distributed-clock op modes (``Dc/OpMode``), the
 EEPROM (``Eeprom``: ByteSize, ConfigData, BootStrap, Category) and, under ``Profile``, the CoE
-object dictionary (``Dictionary``: DataTypes and Objects).
+object dictionary (``Dictionary``: DataTypes and Objects). A modular device (ETG.2000
+``Device/Slots``; ETG.5001 Modular Device Profile) names the modules each slot may hold, by
+``ModuleIdent`` or ``ModuleClass``; the modules themselves (``Descriptions/Modules/Module``:
+identity, PDOs, objects) are listed once for the whole file.
 
 Numbers are written as in ESI: decimal (``128``) or hexadecimal with the prefix ``#x``
 (``#x1000``); booleans as ``1``/``0`` or ``true``/``false``; binary data (ConfigData,
@@ -14,13 +17,15 @@ BootStrap, DefaultData) as hex digits, byte by byte in EEPROM order.
 
 The reader is expat with line numbers recorded on every element, so that anything it cannot use
 raises :class:`~skinframes.errors.EsiFormatError` naming the element and its line. Elements it
-does not model (vendor specials, images, modules) are skipped without a word.
+does not model (vendor specials, images) are skipped without a word.
 """
 
 from __future__ import annotations
 
+import dataclasses
 import os
 import xml.etree.ElementTree as ET
+from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Final
@@ -43,12 +48,17 @@ __all__ = [
     "EsiFile",
     "EsiFmmu",
     "EsiMailbox",
+    "EsiModule",
     "EsiObject",
     "EsiObjectSubItem",
     "EsiPdo",
     "EsiPdoEntry",
+    "EsiSlot",
+    "EsiSlots",
     "EsiSyncManager",
     "EsiVendor",
+    "configure_slots",
+    "missing_communication_objects",
     "parse_esi",
     "parse_number",
     "read_esi",
@@ -56,6 +66,8 @@ __all__ = [
 
 ENGLISH_LCID: Final = 1033  # the language whose Name is the device's name, when present
 SM_KINDS: Final = ("MBoxOut", "MBoxIn", "Outputs", "Inputs")  # ETG.2000 SmType text
+SM_COMMUNICATION_TYPES: Final = 0x1C00  # ETG.1000.6 5.6.7.4: one type a SyncManager
+PDO_ASSIGNMENT_BASE: Final = 0x1C10  # + n: the PDO assignment of SyncManager n
 FMMU_KINDS: Final = ("Outputs", "Inputs", "MBoxState")  # ETG.2000 FmmuType text
 
 
@@ -100,13 +112,18 @@ class EsiFmmu:
 
 @dataclass(frozen=True, slots=True)
 class EsiPdoEntry:
-    """``Entry`` of a PDO: the mapped object (index 0: padding), its width and type name."""
+    """``Entry`` of a PDO: the mapped object (index 0: padding), its width and type name.
+
+    ``depend_on_slot``: the ``Index`` attribute ``DependOnSlot`` (a module's entry: the index
+    is a base, moved by the slot's SlotIndexIncrement; ETG.2000 ModuleType).
+    """
 
     index: int
     subindex: int
     bit_length: int
     name: str
     data_type: str
+    depend_on_slot: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -114,7 +131,10 @@ class EsiPdo:
     """``RxPdo``/``TxPdo`` (ETG.2000, PdoType).
 
     ``sync_manager`` is the Sm it is assigned to by default (None: not assigned);
-    ``excludes`` the PDOs that cannot be assigned beside it (``Exclude``).
+    ``excludes`` the PDOs that cannot be assigned beside it (``Exclude``);
+    ``depend_on_slot`` the ``Index`` attribute ``DependOnSlot`` (a module's PDO: the index is
+    a base, moved by the slot's SlotPdoIncrement), ``excludes_depend_on_slot`` that of each
+    ``Exclude``.
     """
 
     index: int
@@ -124,6 +144,8 @@ class EsiPdo:
     mandatory: bool = False
     fixed: bool = False
     excludes: tuple[int, ...] = ()
+    depend_on_slot: bool = False
+    excludes_depend_on_slot: tuple[bool, ...] = ()
 
     @property
     def bit_length(self) -> int:
@@ -259,7 +281,8 @@ class EsiObject:
     ``Info/DefaultString`` (a STRING object's value). ``access`` (``ro``, ``rw``,
     ...), ``category`` (``m``, ``o``) and ``pdo_mapping`` (``R``, ``T``, ``RT``) are the
     ``Flags``, with the access's ``ReadRestrictions``/``WriteRestrictions``; the access of a
-    record's sub items is in its data type's sub items.
+    record's sub items is in its data type's sub items. ``depend_on_slot``: the ``Index``
+    attribute ``DependOnSlot`` (a module's object, moved by the slot's SlotIndexIncrement).
     """
 
     index: int
@@ -275,6 +298,7 @@ class EsiObject:
     default_string: str | None = None
     read_restrictions: str | None = None
     write_restrictions: str | None = None
+    depend_on_slot: bool = False
 
 
 @dataclass(frozen=True, slots=True)
@@ -290,12 +314,79 @@ class EsiDictionary:
 
 
 @dataclass(frozen=True, slots=True)
+class EsiSlot:
+    """``Slots/Slot`` (ETG.2000 SlotType): a place for ``min_instances``..``max_instances``
+    modules, named by ``ModuleIdent`` (``module_idents``; the one with ``Default`` = 1 is
+    ``default_module_ident``) or by ``ModuleClass/Class`` (``module_classes``), and the
+    slot's own SlotIndexIncrement/SlotPdoIncrement where it gives them (None: the Slots').
+    """
+
+    name: str
+    min_instances: int
+    max_instances: int
+    module_idents: tuple[int, ...] = ()
+    default_module_ident: int | None = None
+    module_classes: tuple[str, ...] = ()
+    slot_index_increment: int | None = None
+    slot_pdo_increment: int | None = None
+    line: int = 0
+
+
+@dataclass(frozen=True, slots=True)
+class EsiSlots:
+    """``Device/Slots`` of a modular device (ETG.2000; ETG.5001 Modular Device Profile).
+
+    ``slot_index_increment``/``slot_pdo_increment`` move a module's objects and PDOs whose
+    ``Index`` has ``DependOnSlot`` by that much per slot (0 where the ESI gives none);
+    ``download_module_ident_list``: the master writes the configured modules' idents to
+    0xF030 (ETG.5001) before SAFE-OP.
+    """
+
+    slots: tuple[EsiSlot, ...]
+    slot_index_increment: int = 0
+    slot_pdo_increment: int = 0
+    max_slot_count: int | None = None
+    download_module_ident_list: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class EsiModule:
+    """``Modules/Module`` (ETG.2000 ModuleType): a module a slot of a modular device holds.
+
+    ``module_ident`` is the ``Type`` attribute ``ModuleIdent`` (what 0xF030/0xF050 carry,
+    ETG.5001), ``type_name`` the ``Type`` text; ``module_class`` and ``module_pdo_group`` its
+    attributes ``ModuleClass`` and ``ModulePdoGroup``; its PDOs and its ``Profile/Dictionary``
+    are the module's own. ``line`` is where the ``Module`` element starts.
+    """
+
+    module_ident: int
+    type_name: str
+    names: tuple[tuple[int | None, str], ...]
+    rx_pdos: tuple[EsiPdo, ...]
+    tx_pdos: tuple[EsiPdo, ...]
+    dictionary: EsiDictionary | None = None
+    module_class: str | None = None
+    module_pdo_group: int | None = None
+    line: int = 0
+
+    @property
+    def name(self) -> str:
+        """The English name (LcId 1033), else the first one, else the type name."""
+        for lcid, text in self.names:
+            if lcid in (None, ENGLISH_LCID):
+                return text
+        return self.names[0][1] if self.names else self.type_name
+
+
+@dataclass(frozen=True, slots=True)
 class EsiDevice:
     """``Devices/Device``: one device type of the file.
 
     ``type_name`` is the ``Type`` text (the order number); ``names`` holds (LcId, text) per
     ``Name``; ``physics`` the ``Physics`` attribute (one letter per port, ``Y`` = 100BASE-TX).
-    ``line`` is where the ``Device`` element starts in the file.
+    ``line`` is where the ``Device`` element starts in the file; ``slots`` the ``Slots`` of a
+    modular device (None: not modular); ``configured_modules`` the idents of the modules
+    :func:`configure_slots` put in its slots, in slot order (what 0xF030 holds, ETG.5001).
     """
 
     type_name: str
@@ -315,6 +406,8 @@ class EsiDevice:
     alternative_sm_mappings: tuple[EsiAlternativeSmMapping, ...] = ()
     ebus_current_ma: int = 0
     line: int = 0
+    slots: EsiSlots | None = None
+    configured_modules: tuple[int, ...] = ()
 
     @property
     def name(self) -> str:
@@ -327,11 +420,24 @@ class EsiDevice:
 
 @dataclass(frozen=True, slots=True)
 class EsiFile:
-    """A whole ESI file: the vendor, its groups (Type -> name) and its devices."""
+    """A whole ESI file: the vendor, its groups (Type -> name), its devices and the modules
+    (``Descriptions/Modules``) the slots of its modular devices hold."""
 
     vendor: EsiVendor
     groups: tuple[tuple[str, str], ...]
     devices: tuple[EsiDevice, ...]
+    modules: tuple[EsiModule, ...] = ()
+
+    def slot_modules(self, device: EsiDevice) -> tuple[EsiModule, ...]:
+        """The modules of the file that a slot of ``device`` may hold (by ModuleIdent or
+        ModuleClass), in file order; none for a device without slots."""
+        if device.slots is None:
+            return ()
+        idents = {i for s in device.slots.slots for i in s.module_idents}
+        classes = {c for s in device.slots.slots for c in s.module_classes}
+        return tuple(
+            m for m in self.modules if m.module_ident in idents or m.module_class in classes
+        )
 
     def group_name(self, group_type: str) -> str:
         """The name of the group ``group_type`` names, or ``""``."""
@@ -425,7 +531,164 @@ def parse_esi(data: bytes, source: str = "ESI") -> EsiFile:
     devices = tuple(ctx.device(d) for d in devices_el.iterfind("Device"))
     if not devices:
         raise ctx.error(devices_el, "no <Device>")
-    return EsiFile(vendor, tuple(groups), devices)
+    modules = tuple(ctx.module(m) for m in descriptions.iterfind("Modules/Module"))
+    return EsiFile(vendor, tuple(groups), devices, modules)
+
+
+def missing_communication_objects(device: EsiDevice) -> tuple[int, ...]:
+    """The communication objects a CoE slave serves that the ESI's ``Profile/Dictionary`` lacks.
+
+    Every CoE slave with SyncManagers has 0x1C00, their communication types, the PDO
+    assignment 0x1C10 + n of each process-data SyncManager n, and the mapping object of each of
+    its PDOs (ETG.1000.6 5.6.7.3, 5.6.7.4; masters read them to size the process data, SOEM's
+    ``ecx_readPDOmap`` first of all), yet some vendors' ESI files leave them out. These are:
+    0x1C00 when the device has an ``Sm``, 0x1C10 + n for each ``Outputs``/``Inputs`` Sm n, and
+    the ``Index`` of each RxPdo/TxPdo of the device, in that order. None without CoE.
+    """
+    if device.mailbox is None or device.mailbox.coe is None or not device.sync_managers:
+        return ()
+    have = set() if device.dictionary is None else {o.index for o in device.dictionary.objects}
+    wanted = [SM_COMMUNICATION_TYPES]
+    wanted += [
+        PDO_ASSIGNMENT_BASE + n
+        for n, sm in enumerate(device.sync_managers)
+        if sm.kind in ("Outputs", "Inputs")
+    ]
+    wanted += [p.index for p in device.rx_pdos + device.tx_pdos]
+    return tuple(dict.fromkeys(i for i in wanted if i not in have))
+
+
+def configure_slots(esi: EsiFile, device: EsiDevice, selectors: Sequence[str]) -> EsiDevice:
+    """``device`` with modules in its slots: the modules ``selectors`` name (a ModuleIdent in
+    decimal, ``0x`` or ``#x`` hex, or a Type text), the k-th in slot number k (from 0).
+
+    The modules fill the slots in order (ETG.2000 Slots, ETG.5001 Modular Device Profile): each
+    slot takes modules it names (ModuleIdent or ModuleClass) up to its MaxInstances, and must
+    have its MinInstances (and there may be MaxSlotCount modules at most, unless it is 0).
+    Module k's PDOs and objects join the device's, an ``Index`` or ``Exclude`` with
+    ``DependOnSlot`` moved by k times the slot's SlotPdoIncrement (a PDO's) or
+    SlotIndexIncrement (an entry's or object's; the slot's own where it gives one, else the
+    Slots'); one with the index of a device's own takes its place (ETG.2000
+    ``OverwrittenByModule``; vendors list the default modules' PDOs in the device too);
+    ``configured_modules`` holds their idents.
+
+    Raises:
+        EsiFormatError: the device has no slots, a selector names no module its slots may hold,
+            the modules do not fit the slots, or two modules have a PDO or object of one index.
+    """
+    where = f"ESI device {device.type_name} (line {device.line})"
+    if device.slots is None:
+        raise EsiFormatError(f"{where}: has no <Slots>, so no modules")
+    holdable = esi.slot_modules(device)
+    modules = [_module_named(holdable, s, where) for s in selectors]
+    slots = device.slots.slots
+    placed: list[EsiSlot] = []
+    at, count = 0, 0
+    for k, m in enumerate(modules):
+        while at < len(slots) and (count >= slots[at].max_instances or not _takes(slots[at], m)):
+            _enough(slots[at], count, where)
+            at, count = at + 1, 0
+        if at == len(slots):
+            raise EsiFormatError(
+                f"{where}: module {k + 1} ({m.type_name}): no slot after the ones before takes it"
+            )
+        placed.append(slots[at])
+        count += 1
+    for slot in slots[at:]:
+        _enough(slot, count if slot is slots[at] else 0, where)
+    limit = device.slots.max_slot_count
+    if limit and len(modules) > limit:  # 0, as some vendors write it: no limit given
+        raise EsiFormatError(f"{where}: {len(modules)} modules, MaxSlotCount is {limit}")
+    pdos: dict[int, tuple[bool, EsiPdo, str]] = {p.index: (True, p, "") for p in device.rx_pdos}
+    pdos |= {p.index: (False, p, "") for p in device.tx_pdos}
+    types = list(device.dictionary.data_types) if device.dictionary else []
+    objects = {o.index: (o, "") for o in device.dictionary.objects} if device.dictionary else {}
+    for k, (m, slot) in enumerate(zip(modules, placed, strict=True)):
+        pdo_step = k * _increment(slot.slot_pdo_increment, device.slots.slot_pdo_increment)
+        index_step = k * _increment(slot.slot_index_increment, device.slots.slot_index_increment)
+        mine = f"module {k + 1} ({m.type_name}, line {m.line})"
+        for rx, theirs in ((True, m.rx_pdos), (False, m.tx_pdos)):
+            for p in theirs:
+                moved = _moved_pdo(p, pdo_step, index_step)
+                other = pdos.get(moved.index, (rx, p, ""))[2]
+                if other:
+                    raise EsiFormatError(f"{where}: {mine}: PDO {moved.index:#06x} is {other}'s")
+                pdos[moved.index] = (rx, moved, mine)
+        if m.dictionary is None:
+            continue
+        named = {t.name for t in types}
+        types += [t for t in m.dictionary.data_types if t.name not in named]
+        for o in m.dictionary.objects:
+            index = o.index + (index_step if o.depend_on_slot else 0)
+            other = objects.get(index, (o, ""))[1]
+            if other:
+                raise EsiFormatError(f"{where}: {mine}: object {index:#06x} is {other}'s")
+            objects[index] = (dataclasses.replace(o, index=index, depend_on_slot=False), mine)
+    dictionary = (
+        EsiDictionary(tuple(types), tuple(o for o, _ in objects.values()))
+        if device.dictionary is not None or objects
+        else None
+    )
+    return dataclasses.replace(
+        device,
+        rx_pdos=tuple(p for rx, p, _ in pdos.values() if rx),
+        tx_pdos=tuple(p for rx, p, _ in pdos.values() if not rx),
+        dictionary=dictionary,
+        configured_modules=tuple(m.module_ident for m in modules),
+    )
+
+
+def _module_named(modules: tuple[EsiModule, ...], selector: str, where: str) -> EsiModule:
+    """The module whose Type text, else whose ModuleIdent, is ``selector``."""
+    found = [m for m in modules if m.type_name == selector]
+    if not found:
+        ident = _number_or_none(selector)
+        found = [m for m in modules if ident is not None and m.module_ident == ident]
+    if not found:
+        listing = ", ".join(f"{m.type_name} ({m.module_ident:#x})" for m in modules) or "none"
+        raise EsiFormatError(
+            f"{where}: no module {selector!r} its slots may hold; they may hold: {listing}"
+        )
+    return found[0]
+
+
+def _takes(slot: EsiSlot, module: EsiModule) -> bool:
+    return module.module_ident in slot.module_idents or module.module_class in slot.module_classes
+
+
+def _enough(slot: EsiSlot, count: int, where: str) -> None:
+    if count < slot.min_instances:
+        raise EsiFormatError(
+            f"{where}: slot {slot.name!r} (line {slot.line}) needs {slot.min_instances} "
+            f"module(s) at least, the modules given put {count} in it"
+        )
+
+
+def _increment(own: int | None, common: int) -> int:
+    return common if own is None else own
+
+
+def _moved_pdo(p: EsiPdo, pdo_step: int, index_step: int) -> EsiPdo:
+    """A module's PDO in its slot: ``DependOnSlot`` indices moved (ETG.2000)."""
+    entries = tuple(
+        dataclasses.replace(e, index=e.index + index_step, depend_on_slot=False)
+        if e.depend_on_slot and e.index
+        else e
+        for e in p.entries
+    )
+    index = p.index + pdo_step if p.depend_on_slot else p.index
+    excludes = tuple(
+        x + pdo_step if moves else x
+        for x, moves in zip(p.excludes, p.excludes_depend_on_slot, strict=True)
+    )
+    return dataclasses.replace(
+        p,
+        index=index,
+        entries=entries,
+        excludes=excludes,
+        depend_on_slot=False,
+        excludes_depend_on_slot=(False,) * len(excludes),
+    )
 
 
 def parse_number(text: str) -> int:
@@ -582,6 +845,60 @@ class _Context:
             ),
             ebus_current_ma=ebus,
             line=getattr(d, "line", 0),
+            slots=self.slots(d.find("Slots")),
+        )
+
+    def slots(self, s: ET.Element | None) -> EsiSlots | None:
+        """``Slots`` (ETG.2000); a slot naming no module, or fewer MaxInstances than
+        MinInstances, is an error."""
+        if s is None:
+            return None
+        return EsiSlots(
+            slots=tuple(self.slot(x) for x in s.iterfind("Slot")),
+            slot_index_increment=self.attr_number(s, "SlotIndexIncrement", 0),
+            slot_pdo_increment=self.attr_number(s, "SlotPdoIncrement", 0),
+            max_slot_count=self.attr_optional(s, "MaxSlotCount"),
+            download_module_ident_list=self.flag(s, "DownloadModuleIdentList"),
+        )
+
+    def slot(self, s: ET.Element) -> EsiSlot:
+        low, high = self.attr_number(s, "MinInstances"), self.attr_number(s, "MaxInstances")
+        if not 0 <= low <= high:
+            raise self.error(s, f"MinInstances {low}, MaxInstances {high}: not 0 <= min <= max")
+        idents = s.findall("ModuleIdent")
+        classes = [self.text(self.required(c, "Class")) for c in s.iterfind("ModuleClass")]
+        if not idents and not classes:
+            raise self.error(s, "names no <ModuleIdent> and no <ModuleClass>")
+        defaults = [self.number(i) for i in idents if self.attr_number(i, "Default", 0)]
+        if len(defaults) > 1:
+            raise self.error(s, f"{len(defaults)} <ModuleIdent> with Default=1, at most 1")
+        names = _names(s)
+        return EsiSlot(
+            name=next((t for lcid, t in names if lcid in (None, ENGLISH_LCID)), ""),
+            min_instances=low,
+            max_instances=high,
+            module_idents=tuple(self.number(i) for i in idents),
+            default_module_ident=defaults[0] if defaults else None,
+            module_classes=tuple(classes),
+            slot_index_increment=self.attr_optional(s, "SlotIndexIncrement"),
+            slot_pdo_increment=self.attr_optional(s, "SlotPdoIncrement"),
+            line=getattr(s, "line", 0),
+        )
+
+    def module(self, m: ET.Element) -> EsiModule:
+        """``Modules/Module`` (ETG.2000 ModuleType)."""
+        type_el = self.required(m, "Type")
+        group = type_el.get("ModulePdoGroup")
+        return EsiModule(
+            module_ident=self.attr_number(type_el, "ModuleIdent"),
+            type_name=self.text(type_el),
+            names=tuple(_names(m)),
+            rx_pdos=tuple(self.pdo(p) for p in m.iterfind("RxPdo")),
+            tx_pdos=tuple(self.pdo(p) for p in m.iterfind("TxPdo")),
+            dictionary=self.dictionary(m.find("Profile/Dictionary")),
+            module_class=type_el.get("ModuleClass"),
+            module_pdo_group=None if group is None else self.attr_number(type_el, "ModulePdoGroup"),
+            line=getattr(m, "line", 0),
         )
 
     def fmmu(self, f: ET.Element) -> EsiFmmu:
@@ -606,6 +923,7 @@ class _Context:
         entries = []
         for e in p.iterfind("Entry"):
             index = self.child_number(e, "Index")
+            index_el = e.find("Index")
             data_type = e.find("DataType")
             entries.append(
                 EsiPdoEntry(
@@ -614,6 +932,7 @@ class _Context:
                     bit_length=self.child_number(e, "BitLen"),
                     name=_flag_text(e, "Name") or "",
                     data_type="" if data_type is None else self.text(data_type),
+                    depend_on_slot=index_el is not None and self.flag(index_el, "DependOnSlot"),
                 )
             )
         names = _names(p)
@@ -625,6 +944,10 @@ class _Context:
             mandatory=self.flag(p, "Mandatory"),
             fixed=self.flag(p, "Fixed"),
             excludes=tuple(self.number(x) for x in p.iterfind("Exclude")),
+            depend_on_slot=self.flag(self.required(p, "Index"), "DependOnSlot"),
+            excludes_depend_on_slot=tuple(
+                self.flag(x, "DependOnSlot") for x in p.iterfind("Exclude")
+            ),
         )
 
     def alternative(self, a: ET.Element) -> EsiAlternativeSmMapping:
@@ -775,6 +1098,7 @@ class _Context:
                     default_string=None if info is None else _flag_text(info, "DefaultString"),
                     read_restrictions=_attribute(o, "Flags/Access", "ReadRestrictions"),
                     write_restrictions=_attribute(o, "Flags/Access", "WriteRestrictions"),
+                    depend_on_slot=self.flag(self.required(o, "Index"), "DependOnSlot"),
                 )
             )
         return EsiDictionary(tuple(types), tuple(objects))

@@ -830,6 +830,9 @@ def image_from_esi(
     the ports from ``Physics``. FMMU, SYNCM (DefaultSize 0 where absent), TXPDO, RXPDO
     (flags mandatory 0x01, default 0x02 (an Sm given) and fixed 0x10; SM 0xFF where none is
     assigned), DC (the op modes), then any ``Eeprom/Category`` the ESI gives ready-made.
+    A modular device's image has only the ``Device``'s own PDOs: its modules' PDOs depend on
+    the slot configuration the master downloads at run time (ETG.5001: 0xF030, and the
+    PDO assignment 0x1C12/0x1C13), which no SII can hold.
 
     Raises:
         FieldRangeError: the device has no ``Eeprom`` element, ConfigData longer than 14

@@ -98,6 +98,15 @@ def add_parser(sub: Any) -> None:
         "repeatable (ecat)",
     )
     p.add_argument(
+        "--esi-modules",
+        action="append",
+        default=[],
+        metavar="LIST",
+        help="the modules in the slots of the n-th --esi slave, a modular device: its n-th "
+        "comma-separated LIST of module Type texts or ModuleIdents, in slot order ('' for "
+        "none); repeatable (ecat)",
+    )
+    p.add_argument(
         "--seed",
         type=bounded_int(0, 2**32 - 1),
         default=0,
@@ -201,7 +210,7 @@ def run(args: argparse.Namespace) -> int:
     if args.drift_ppm is None:
         args.drift_ppm = DEFAULT_DRIFT_PPM
     period_s = args.period_ms / 1000.0
-    esi = check_esi_slaves(args.esi, args.esi_inputs)
+    esi = check_esi_slaves(args.esi, args.esi_inputs, args.esi_modules)
     if args.nodes or not esi:
         if args.bytes is None and args.nodes:
             raise TopologyError("serve ecat: --bytes is required with --nodes > 0")
@@ -320,6 +329,8 @@ def run_epl(args: argparse.Namespace) -> int:
         raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
     if args.esi_inputs:
         raise SkinframesError("--esi-inputs applies to serve ecat only")
+    if args.esi_modules:
+        raise SkinframesError("--esi-modules applies to serve ecat only")
     if args.nodes is None:
         raise SkinframesError("serve epl: --nodes is required")
     if args.bytes is None:
@@ -427,6 +438,8 @@ def run_epl_mn(args: argparse.Namespace) -> int:
         raise SkinframesError("--no-mailbox, --drift-ppm and --esi apply to serve ecat only")
     if args.esi_inputs:
         raise SkinframesError("--esi-inputs applies to serve ecat only")
+    if args.esi_modules:
+        raise SkinframesError("--esi-modules applies to serve ecat only")
     if args.pcap == "":
         raise CaptureError("--pcap: an empty file name")
     config = _mn_config(args)

@@ -10,7 +10,13 @@ from typing import Any
 
 from skinframes.atomic_file import check_target
 from skinframes.errors import DecodeError, SkinframesError
-from skinframes.esi import parse_esi
+from skinframes.esi import (
+    EsiModule,
+    EsiPdo,
+    EsiSlots,
+    missing_communication_objects,
+    parse_esi,
+)
 from skinframes.sii import (
     DecodedSii,
     FmmuUsage,
@@ -108,9 +114,74 @@ def _build(args: argparse.Namespace, data: bytes) -> int:
             "type": device.type_name,
             "objects": None if dictionary is None else len(dictionary.objects),
             "left_out": list(built.omitted),
+            "added_objects": list(missing_communication_objects(device)),
+            "slots": _slots(device.slots),
+            "modules": [_module(m) for m in esi.slot_modules(device)],
         }
         print(json.dumps(doc))
     return 0
+
+
+def _slots(slots: EsiSlots | None) -> dict[str, Any] | None:
+    """A modular device's ``Slots`` as the ESI gives them (None: not modular)."""
+    if slots is None:
+        return None
+    return {
+        "slot_index_increment": slots.slot_index_increment,
+        "slot_pdo_increment": slots.slot_pdo_increment,
+        "max_slot_count": slots.max_slot_count,
+        "download_module_ident_list": slots.download_module_ident_list,
+        "slots": [
+            {
+                "name": s.name,
+                "min_instances": s.min_instances,
+                "max_instances": s.max_instances,
+                "module_idents": list(s.module_idents),
+                "default_module_ident": s.default_module_ident,
+                "module_classes": list(s.module_classes),
+                "slot_index_increment": s.slot_index_increment,
+                "slot_pdo_increment": s.slot_pdo_increment,
+            }
+            for s in slots.slots
+        ],
+    }
+
+
+def _esi_pdos(pdos: tuple[EsiPdo, ...]) -> list[dict[str, Any]]:
+    """A module's PDOs as the ESI gives them (the SII has no place for them)."""
+    return [
+        {
+            "index": p.index,
+            "sm": p.sync_manager,
+            "name": p.name,
+            "depend_on_slot": p.depend_on_slot,
+            "entries": [
+                {
+                    "index": e.index,
+                    "subindex": e.subindex,
+                    "bits": e.bit_length,
+                    "data_type": e.data_type,
+                    "name": e.name,
+                    "depend_on_slot": e.depend_on_slot,
+                }
+                for e in p.entries
+            ],
+        }
+        for p in pdos
+    ]
+
+
+def _module(m: EsiModule) -> dict[str, Any]:
+    return {
+        "module_ident": m.module_ident,
+        "type": m.type_name,
+        "name": m.name,
+        "module_class": m.module_class,
+        "module_pdo_group": m.module_pdo_group,
+        "txpdos": _esi_pdos(m.tx_pdos),
+        "rxpdos": _esi_pdos(m.rx_pdos),
+        "objects": None if m.dictionary is None else len(m.dictionary.objects),
+    }
 
 
 def _check_out(args: argparse.Namespace) -> None:

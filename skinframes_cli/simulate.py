@@ -207,6 +207,15 @@ def add_parser(sub: Any) -> None:
         "its other entries count the cycles; repeatable",
     )
     p.add_argument(
+        "--esi-modules",
+        action="append",
+        default=[],
+        metavar="LIST",
+        help="EtherCAT: the modules in the slots of the n-th --esi slave, a modular device: its "
+        "n-th comma-separated LIST of module Type texts or ModuleIdents, in slot order ('' for "
+        "none; as serve ecat --esi-modules); repeatable",
+    )
+    p.add_argument(
         "--seed",
         type=bounded_int(0, MAX_SEED),
         default=0,
@@ -227,11 +236,11 @@ def _esi_slaves(args: argparse.Namespace) -> list[Any]:
     line for a bad one); ``--nodes 0`` only with them, EtherCAT only."""
     from emulator.esc.esi_slave import check_esi_slaves
 
-    if (args.esi or args.esi_inputs) and args.protocol != "ecat":
-        raise SkinframesError("--esi and --esi-inputs apply to EtherCAT only")
+    if (args.esi or args.esi_inputs or args.esi_modules) and args.protocol != "ecat":
+        raise SkinframesError("--esi, --esi-inputs and --esi-modules apply to EtherCAT only")
     if args.nodes == 0 and not args.esi:
         raise SkinframesError("--nodes 0: only with --esi (EPL: 1..239, EtherCAT: 1..1024)")
-    slaves = check_esi_slaves(args.esi, args.esi_inputs)
+    slaves = check_esi_slaves(args.esi, args.esi_inputs, args.esi_modules)
     if args.nodes + len(slaves) > MAX_SLAVES:
         raise SkinframesError(
             f"--nodes {args.nodes} and {len(slaves)} --esi: {args.nodes + len(slaves)} slaves "

@@ -5,7 +5,9 @@ prints one JSON document: what SOEM found per slave (identity and name from the 
 SII image through SOEM's EEPROM reads, ``slave.od``, ``sdo_read(0x1018, 1)``, the input and
 output bytes ``config_map`` gave it), the states reached and each cycle's working counter and
 input bytes. The ESI slaves are the last of the line, one ``--image-bytes N`` each (the SII
-bytes to read from it).
+bytes to read from it); ``--sdo INDEX:SUB`` (repeatable) reads that entry of each after
+``config_map`` (which reads them itself first), one subindex at a time as SOEM's PDO-map
+reader does.
 """
 
 from __future__ import annotations
@@ -24,6 +26,7 @@ def main() -> None:
     p.add_argument("--cycles", type=int, default=200)
     p.add_argument("--image-bytes", type=int, nargs="*", default=[])
     p.add_argument("--timeout-us", type=int, default=1_000_000)
+    p.add_argument("--sdo", action="append", default=[], metavar="INDEX:SUB")
     args = p.parse_args()
     t = pysoem.settings.timeouts
     t.ret, t.safe, t.eeprom, t.state = 50_000, 500_000, 500_000, 20_000_000
@@ -49,6 +52,10 @@ def main() -> None:
             coe.append(entry)
         out["coe"] = coe
         out["iomap_bytes"] = master.config_map()
+        for s, entry in zip(esi, coe, strict=True):
+            for spec in args.sdo:
+                index, sub = (int(x, 0) for x in spec.split(":"))
+                entry.setdefault("sdo", {})[spec] = s.sdo_read(index, sub).hex()
         out["expected_wkc"] = master.expected_wkc
         out["io_bytes"] = [[len(bytes(s.output)), len(bytes(s.input))] for s in slaves]
         out["safeop"] = master.state_check(pysoem.SAFEOP_STATE, 10_000_000)

@@ -113,7 +113,8 @@ def test_a_negative_dc_shift_time(tmp_path: Path, capsys: pytest.CaptureFixture[
 
 def test_json_of_an_esi(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
     """``sii ESI --json``: the image's document (as decoding the --out file gives it) and
-    ``esi``: the Type text, the dictionary's objects (null without one), what was left out."""
+    ``esi``: the Type text, the dictionary's objects (null without one), what was left out,
+    and (a device without ``Slots``) no slots and no modules."""
     esi = tmp_path / "multi.xml"
     esi.write_bytes(MULTI)
     out = tmp_path / "a.bin"
@@ -122,7 +123,14 @@ def test_json_of_an_esi(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> N
     )
     assert code == 0 and "wrote" in err
     doc = json.loads(text)
-    assert doc.pop("esi") == {"type": "A-1", "objects": None, "left_out": []}
+    assert doc.pop("esi") == {
+        "type": "A-1",
+        "objects": None,
+        "left_out": [],
+        "added_objects": [],  # no CoE
+        "slots": None,
+        "modules": [],
+    }
     assert _run(capsys, "sii", str(out), "--json")[:2] == (0, json.dumps(doc) + "\n")
     assert (doc["product_code"], doc["config_data"]) == (0x10, "0500" + "00" * 12)
     code, _, err = _run(capsys, "sii", str(esi), "--device", "A-1@1", "--json", "--out", "-")

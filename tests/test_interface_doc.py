@@ -168,6 +168,10 @@ def test_sii_json_keys_are_documented(tmp_path: Path, capsys: pytest.CaptureFixt
     image.write_bytes(build_sii(SlaveInfo.skin_patch(16, mailbox=True, output_bytes=2)))
     found = keys(run_json(capsys, "sii", str(image), "--json"))
     assert {"syncmanagers", "txpdos", "rxpdos", "entries", "bits"} <= found
+    # an ESI input adds "esi", with a modular device's slots and modules
+    modular = ROOT / "tests" / "data" / "esi" / "modular_coupler.xml"
+    found |= keys(run_json(capsys, "sii", str(modular), "--json"))
+    assert {"esi", "slots", "modules", "module_idents", "depend_on_slot"} <= found
     assert_documented("sii", found)
 
 

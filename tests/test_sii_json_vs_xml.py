@@ -1,12 +1,14 @@
 """``skinframes sii ESI.xml --device SEL --json`` shows what the XML says, device by device.
 
-For every device of every ESI file in ../shared/esi (and, for a local check, of every ``*.xml``
-in the folder ``$SKINFRAMES_MORE_ESI`` names: vendor files that may not be committed here), the
+For every device of every ESI file in ../shared/esi and tests/data/esi (ours: a modular coupler,
+a CoE device without 0x1C00) and, for a local check, of every ``*.xml`` in the folder
+``$SKINFRAMES_MORE_ESI`` names (vendor files that may not be committed here), the
 JSON document of the image the command builds is compared with the XML read here with
 ElementTree and XPath of its own (not with skinframes.esi): identity, ConfigData, EEPROM size,
 mailbox protocols, standard and bootstrap mailboxes, SyncManagers, FMMUs, PDOs with their
-entries (unless the command says it left the PDO categories out to fit ByteSize) and the number
-of dictionary objects. Each device is picked as ``PRODUCTCODE@REVISION``, which names one device
+entries (unless the command says it left the PDO categories out to fit ByteSize), the number
+of dictionary objects and, for a modular device (ETG.2000 ``Slots``), its slots and the modules
+of the file they may hold, with the modules' PDOs. Each device is picked as ``PRODUCTCODE@REVISION``, which names one device
 even in files that describe several revisions of a type.
 """
 
@@ -19,11 +21,12 @@ from pathlib import Path
 from typing import Any
 
 import pytest
-from conftest import SHARED_ESI
+from conftest import ROOT, SHARED_ESI
 
 from skinframes_cli import main
 
 MORE = os.environ.get("SKINFRAMES_MORE_ESI", "")
+OURS = ROOT / "tests" / "data" / "esi"
 # ETG.2000 names -> the names sii --json gives (docs/interface.md, skinframes sii)
 SM_TYPES = {
     "MBoxOut": "mailbox_out",
@@ -37,7 +40,7 @@ CONFIG_AREA = 14  # words 0-6
 
 
 def esi_files() -> list[Path]:
-    folders = [SHARED_ESI] + ([Path(MORE)] if MORE else [])
+    folders = [SHARED_ESI, OURS] + ([Path(MORE)] if MORE else [])
     return sorted(p for f in folders if f.is_dir() for p in f.glob("*.xml"))
 
 
@@ -58,6 +61,143 @@ def devices() -> list[Any]:
                 f"{number(t.get('ProductCode', '0')):#x}@{number(t.get('RevisionNo', '0')):#x}"
             )
             out.append(pytest.param(path, k, selector, id=f"{path.stem}[{k}]"))
+    return out
+
+
+def flag(el: ET.Element, name: str) -> bool:
+    return (el.get(name) or "0").strip().lower() in ("1", "true")
+
+
+def optional(el: ET.Element, name: str) -> int | None:
+    text = el.get(name)
+    return None if text is None else number(text)
+
+
+def english(el: ET.Element) -> str:
+    """The text of the first ``Name`` in English (LcId 1033) or without LcId, else ""."""
+    for n in el.iterfind("Name"):
+        if n.get("LcId") in (None, "1033"):
+            return (n.text or "").strip()
+    return ""
+
+
+def lacking_sm_objects(device: ET.Element) -> list[int]:
+    """0x1C00, 0x1C10 + n (n: an Outputs/Inputs Sm) and the Index of each RxPdo/TxPdo, those a
+    CoE device's Dictionary lacks (docs/interface.md, skinframes sii)."""
+    sms = [(s.text or "").strip() for s in device.iterfind("Sm")]
+    if device.find("Mailbox/CoE") is None or not sms:
+        return []
+    objects = device.iterfind("Profile/Dictionary/Objects/Object")
+    have = {number(o.findtext("Index")) for o in objects}
+    wanted = [0x1C00] + [0x1C10 + k for k, kind in enumerate(sms) if kind in ("Outputs", "Inputs")]
+    wanted += [
+        number(p.findtext("Index")) for tag in ("RxPdo", "TxPdo") for p in device.iterfind(tag)
+    ]
+    return list(dict.fromkeys(i for i in wanted if i not in have))
+
+
+def xml_slots(device: ET.Element) -> dict[str, Any] | None:
+    """``Slots`` as ETG.2000 writes them (EtherCATInfo.xsd SlotType)."""
+    s = device.find("Slots")
+    if s is None:
+        return None
+    slots = []
+    for slot in s.iterfind("Slot"):
+        idents = slot.findall("ModuleIdent")
+        defaults = [number(i.text) for i in idents if number(i.get("Default", "0"))]
+        slots.append(
+            {
+                "name": english(slot),
+                "min_instances": number(slot.get("MinInstances")),
+                "max_instances": number(slot.get("MaxInstances")),
+                "module_idents": [number(i.text) for i in idents],
+                "default_module_ident": defaults[0] if defaults else None,
+                "module_classes": [
+                    (c.findtext("Class") or "").strip() for c in slot.iterfind("ModuleClass")
+                ],
+                "slot_index_increment": optional(slot, "SlotIndexIncrement"),
+                "slot_pdo_increment": optional(slot, "SlotPdoIncrement"),
+            }
+        )
+    return {
+        "slot_index_increment": number(s.get("SlotIndexIncrement", "0")),
+        "slot_pdo_increment": number(s.get("SlotPdoIncrement", "0")),
+        "max_slot_count": optional(s, "MaxSlotCount"),
+        "download_module_ident_list": flag(s, "DownloadModuleIdentList"),
+        "slots": slots,
+    }
+
+
+def xml_modules(root: ET.Element, slots: dict[str, Any] | None) -> list[dict[str, Any]]:
+    """The file's modules a slot may hold: by ModuleIdent or by ModuleClass, in file order."""
+    if slots is None:
+        return []
+    idents = {i for s in slots["slots"] for i in s["module_idents"]}
+    classes = {c for s in slots["slots"] for c in s["module_classes"]}
+    out = []
+    for m in root.iterfind("Descriptions/Modules/Module"):
+        t = m.find("Type")
+        assert t is not None
+        if number(t.get("ModuleIdent")) not in idents and t.get("ModuleClass") not in classes:
+            continue
+        out.append(
+            {
+                "module_ident": number(t.get("ModuleIdent")),
+                "type": (t.text or "").strip(),
+                "module_class": t.get("ModuleClass"),
+                "module_pdo_group": optional(t, "ModulePdoGroup"),
+                "txpdos": module_pdos(m, "TxPdo"),
+                "rxpdos": module_pdos(m, "RxPdo"),
+                "objects": None
+                if m.find("Profile/Dictionary") is None
+                else len(m.findall("Profile/Dictionary/Objects/Object")),
+            }
+        )
+    return out
+
+
+def module_pdos(module: ET.Element, tag: str) -> list[Any]:
+    """(index, Sm, DependOnSlot, [(index, subindex, bits, DependOnSlot)]) of each PDO."""
+    out = []
+    for p in module.iterfind(tag):
+        index = p.find("Index")
+        assert index is not None
+        entries = []
+        for e in p.iterfind("Entry"):
+            e_index = e.find("Index")
+            assert e_index is not None
+            entries.append(
+                (
+                    number(e_index.text),
+                    number(e.findtext("SubIndex") or "0"),
+                    number(e.findtext("BitLen")),
+                    flag(e_index, "DependOnSlot"),
+                )
+            )
+        out.append((number(index.text), optional(p, "Sm"), flag(index, "DependOnSlot"), entries))
+    return out
+
+
+def shown_modules(modules: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The keys :func:`xml_modules` gives, from the command's ``esi.modules``."""
+    out = []
+    for m in modules:
+        shown = {k: m[k] for k in ("module_ident", "type", "module_class", "module_pdo_group")}
+        for key in ("txpdos", "rxpdos"):
+            shown[key] = [
+                (
+                    p["index"],
+                    p["sm"],
+                    p["depend_on_slot"],
+                    [
+                        (e["index"], e["subindex"], e["bits"], e["depend_on_slot"])
+                        for e in p["entries"]
+                    ],
+                )
+                for p in m[key]
+            ]
+        shown["objects"] = m["objects"]
+        out.append(shown)
     return out
 
 
@@ -152,7 +292,37 @@ def test_sii_json_shows_what_the_xml_says(
     assert doc["esi"]["objects"] == (
         None if dictionary is None else len(dictionary.findall("Objects/Object"))
     )
+    assert doc["esi"]["added_objects"] == lacking_sm_objects(device)
+    slots = xml_slots(device)
+    assert doc["esi"]["slots"] == slots
+    assert shown_modules(doc["esi"]["modules"]) == xml_modules(root, slots)
     print(
         f"\n{path.name} {selector} {doc['esi']['type']}: {doc['esi']['objects']} objects, "
-        f"{len(doc['txpdos'])}+{len(doc['rxpdos'])} PDOs, left out {doc['esi']['left_out']}"
+        f"{len(doc['txpdos'])}+{len(doc['rxpdos'])} PDOs, left out {doc['esi']['left_out']}, "
+        f"{len(doc['esi']['modules'])} modules"
+    )
+
+
+def test_a_modular_device_s_image_holds_its_own_pdos_and_the_json_its_modules(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """tests/data/esi/modular_coupler.xml, read by eye: the SII has the coupler's one fixed
+    TxPDO 0x1AFF (module PDOs are the slot configuration's, ETG.5001), and the modules its
+    slots may hold are HEAD-A and HEAD-B (by ident; the third ident, 0x19999, has no Module)
+    and DI-8 and DO-4 (by class); AI-2 is in no slot."""
+    assert main(["sii", str(OURS / "modular_coupler.xml"), "--json"]) == 0
+    doc = json.loads(capsys.readouterr().out)
+    assert [(p["index"], p["sm"]) for p in doc["txpdos"]] == [(0x1AFF, 3)]
+    assert doc["rxpdos"] == []
+    assert [m["type"] for m in doc["esi"]["modules"]] == ["HEAD-A", "HEAD-B", "DI-8", "DO-4"]
+    assert [m["name"] for m in doc["esi"]["modules"]][2] == "DI-8 inputs"  # LcId 1033
+    head, io = doc["esi"]["slots"]["slots"]
+    assert (head["module_idents"], head["default_module_ident"]) == (
+        [0x10002, 0x10001, 0x19999],
+        0x10001,
+    )
+    assert (io["module_classes"], io["slot_index_increment"], io["slot_pdo_increment"]) == (
+        ["DI", "DO"],
+        0x20,
+        2,
     )

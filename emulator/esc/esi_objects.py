@@ -14,6 +14,14 @@ as the SDO server of :mod:`emulator.esc.objects` serves it (ETG.1000.6 5.6.2, 5.
   (``PreOP``, ``PreOP_SafeOP``, ``SafeOP_OP``, ...; ETG.1000.6 Table 48 bits per state);
   ``PdoMapping`` ``R``/``T``, and every entry the ESI's RxPdo/TxPdo elements map, are mappable;
 * the identity 0x1018 holds the ESI's vendor, product code and revision and the SII's serial;
+* a modular device's 0xF030/0xF050 (configured/detected module idents, ETG.5001) hold the
+  idents of the modules in its slots;
+* 0x1C00, the PDO assignments 0x1C10 + n and the PDOs' mapping objects, which a CoE slave
+  always has (ETG.1000.6 5.6.7.3, 5.6.7.4), are made when the ESI's dictionary lacks them
+  (:func:`skinframes.esi.missing_communication_objects`): 0x1C00 the types of the ESI's Sm
+  elements (1 MBoxOut, 2 MBoxIn, 3 Outputs, 4 Inputs, 0 an unused one), read-only; 0x1C10 + n
+  with room for every PDO that may be assigned to Sm n (none: subindex 0 alone); a mapping
+  object with room for the PDO's entries; filled in below as the ESI's own would be;
 * the PDO assignment 0x1C10 + n of each process-data SyncManager n holds the PDOs the ESI
   assigns to it by default (their ``Sm`` attribute; ETG.2000 "default assignment", the SII's
   PdoDefault flag) and the PDO mapping objects the entries of the ESI's RxPdo/TxPdo elements,
@@ -38,6 +46,8 @@ from typing import Final
 
 from emulator.errors import TopologyError
 from emulator.esc.objects import (
+    ACCESS_RO,
+    ACCESS_RW_PREOP,
     READ_OP,
     READ_PREOP,
     READ_SAFEOP,
@@ -59,9 +69,10 @@ from skinframes.esi import (
     EsiObject,
     EsiObjectSubItem,
     EsiPdo,
+    missing_communication_objects,
     parse_number,
 )
-from skinframes.sii import DATA_TYPE_CODES
+from skinframes.sii import DATA_TYPE_CODES, ESI_SM_TYPES
 
 __all__ = ["EsiDictionary", "PdoAssignment", "PdoMapping", "esi_dictionary", "pdo_assign_index"]
 
@@ -70,6 +81,11 @@ IDENTITY: Final = 0x1018
 ERROR_REGISTER: Final = 0x1001
 DATA_TYPE_PDO_MAPPING: Final = 0x0021  # ETG.1000.6 Table 64
 DATA_TYPE_IDENTITY: Final = 0x0023
+UNSIGNED8: Final = 0x0005  # ETG.1000.6 Table 63
+UNSIGNED16: Final = 0x0006
+UNSIGNED32: Final = 0x0007
+SM_COMMUNICATION_TYPES: Final = 0x1C00
+MODULE_IDENT_LISTS: Final = (0xF030, 0xF050)  # configured / detected module idents (ETG.5001)
 MAX_SUBINDEX: Final = 0xFF  # a CoE subindex is one byte (ETG.1000.6 SDO header)
 _STRINGS: Final = re.compile(r"^(STRING|OCTET_STRING|UNICODE_STRING)\((\d+)\)$")
 _STRING_CODES: Final = {"STRING": 0x09, "OCTET_STRING": 0x0A, "UNICODE_STRING": 0x0B}
@@ -325,8 +341,8 @@ class _Builder:
     """Turns the ESI's objects into :class:`OdObject`; errors name the object."""
 
     def __init__(self, device: EsiDevice) -> None:
-        assert device.dictionary is not None
-        self.types = {t.name: t for t in device.dictionary.data_types}
+        types = () if device.dictionary is None else device.dictionary.data_types
+        self.types = {t.name: t for t in types}
         self.rx_entries = {(e.index, e.subindex) for p in device.rx_pdos for e in p.entries}
         self.tx_entries = {(e.index, e.subindex) for p in device.tx_pdos for e in p.entries}
 
@@ -446,6 +462,58 @@ class _Builder:
         return OdObject(o.index, o.name, code, data_type, entries)
 
 
+def _communication_object(device: EsiDevice, index: int) -> OdObject:
+    """0x1C00, 0x1C10 + n or a PDO's mapping object made from the ESI's Sm elements and PDOs,
+    where its dictionary lacks them (ETG.1000.6 5.6.7.3, 5.6.7.4): the communication types
+    (read-only), an assignment with one subindex for each PDO that may be assigned to
+    SyncManager n, or a mapping with one for each of the PDO's entries (:class:`PdoAssignment`
+    and :class:`PdoMapping` fill them in)."""
+    if index == SM_COMMUNICATION_TYPES:
+        types = [int(ESI_SM_TYPES[sm.kind]) for sm in device.sync_managers]
+        obj = OdObject(index, "Sync manager type", ObjectCode.ARRAY, UNSIGNED8)
+        obj.entries.append(Entry("SubIndex 000", UNSIGNED8, 8, ACCESS_RO, bytes([len(types)])))
+        for k, t in enumerate(types, start=1):
+            obj.entries.append(Entry(f"SubIndex {k:03d}", UNSIGNED8, 8, ACCESS_RO, bytes([t])))
+        return obj
+    pdo = next((p for p in device.rx_pdos + device.tx_pdos if p.index == index), None)
+    if pdo is not None:
+        obj = OdObject(index, pdo.name, ObjectCode.RECORD, DATA_TYPE_PDO_MAPPING)
+        room, data_type, bits = len(pdo.entries), UNSIGNED32, 32
+    else:
+        n = index - PDO_ASSIGN_BASE
+        kind = device.sync_managers[n].kind
+        pdos = device.rx_pdos if kind == "Outputs" else device.tx_pdos
+        name = f"{'RxPDO' if kind == 'Outputs' else 'TxPDO'} assign"
+        obj = OdObject(index, name, ObjectCode.ARRAY, UNSIGNED16)
+        room = sum(1 for p in pdos if p.sync_manager in (None, n))
+        data_type, bits = UNSIGNED16, 16
+    obj.entries.append(Entry("SubIndex 000", UNSIGNED8, 8, ACCESS_RW_PREOP, b"\x00"))
+    for k in range(1, room + 1):
+        obj.entries.append(
+            Entry(f"SubIndex {k:03d}", data_type, bits, ACCESS_RW_PREOP, bytes(bits // 8))
+        )
+    return obj
+
+
+def _module_idents(obj: OdObject | None, idents: tuple[int, ...]) -> None:
+    """0xF030/0xF050 of a modular device (ETG.5001): subindex 0 the number of modules in its
+    slots, subindex k the ident of module k (UDINT); left as the ESI has it without modules.
+
+    Raises:
+        TopologyError: the object has fewer subindices than there are modules.
+    """
+    if obj is None or not idents or obj.code == ObjectCode.VAR:
+        return
+    if obj.max_subindex < len(idents):
+        raise TopologyError(
+            f"ESI dictionary: object {obj.index:#06x} has room for {obj.max_subindex} module "
+            f"idents, {len(idents)} modules are in the slots"
+        )
+    obj.entries[0].value = bytes([len(idents)]).ljust(len(obj.entries[0].value), b"\0")
+    for k, ident in enumerate(idents, start=1):
+        obj.entries[k].value = struct.pack("<I", ident)
+
+
 def _info_for(
     infos: list[EsiObjectSubItem], parts: int, position: int, name: str
 ) -> EsiObjectSubItem | None:
@@ -475,10 +543,13 @@ def esi_dictionary(
     Raises:
         TopologyError: a default that is no number, a record type without subindex 0.
     """
-    if device.dictionary is None:
-        return EsiDictionary([], {}, {})
     builder = _Builder(device)
-    objects = {o.index: builder.build(o) for o in device.dictionary.objects}
+    esi_objects = () if device.dictionary is None else device.dictionary.objects
+    objects = {o.index: builder.build(o) for o in esi_objects}
+    for index in missing_communication_objects(device):
+        objects[index] = _communication_object(device, index)
+    for list_index in MODULE_IDENT_LISTS:
+        _module_idents(objects.get(list_index), device.configured_modules)
     identity = objects.get(IDENTITY)
     if identity is not None:
         values = (esi.vendor.vendor_id, device.product_code, device.revision, serial)

@@ -7,8 +7,11 @@ the mailbox and CoE server, the SyncManager checks) with what the ESI describes:
 * the SII image :func:`skinframes.sii.sii_from_esi` builds (what ``skinframes sii ESI.xml``
   writes, serial number 0), so a master reads the ESI's identity, mailbox, SyncManagers, FMMUs
   and PDOs from the EEPROM;
+* a modular device's modules (``--esi-modules``, :func:`skinframes.esi.configure_slots`): their
+  PDOs and objects join the device's, in their slots;
 * the CoE dictionary of :mod:`emulator.esc.esi_objects` when the ESI has CoE (SDO upload and
-  download, complete access, SDO information listing the ESI's objects);
+  download, complete access, SDO information listing the ESI's objects, and 0x1C00/0x1C1n
+  where the ESI lacks them);
 * the PDO assignment and mapping a master sets in PRE-OP, checked in PRE-OP -> SAFE-OP against
   the SyncManagers' lengths (ETG.1000.6 6.4, AL status codes 0x001D/0x001E);
 * inputs that change: every entry the assigned TxPDOs map holds the number of publications so
@@ -43,7 +46,7 @@ from emulator.esc.registers import EscConfig
 from emulator.esc.sii import Pdo, PdoEntry, SlaveInfo, SyncManagerSpec
 from emulator.esc.state_machine import SlaveApplication
 from skinframes.errors import EsiFormatError, SkinframesError
-from skinframes.esi import EsiDevice, EsiFile, EsiPdo, read_esi
+from skinframes.esi import EsiDevice, EsiFile, EsiPdo, configure_slots, read_esi
 from skinframes.sii import (
     DATA_TYPE_CODES,
     ESI_FMMU_USES,
@@ -88,7 +91,7 @@ class EsiSlave:
 
     def summary(self) -> dict[str, str | int]:
         """What ``serve``'s and ``simulate``'s JSON say of it (key ``esi``; ``inputs``, the
-        inputs file, only with one)."""
+        inputs file, only with one; ``modules``, the idents in its slots, only with some)."""
         out: dict[str, str | int] = {
             "file": self.source,
             "type": self.device.type_name,
@@ -99,6 +102,8 @@ class EsiSlave:
         }
         if self.inputs is not None:
             out["inputs"] = self.inputs.source
+        if self.device.configured_modules:
+            out["modules"] = ",".join(f"{m:#x}" for m in self.device.configured_modules)
         return out
 
 
@@ -110,11 +115,14 @@ def parse_esi_spec(spec: str) -> tuple[str, str | None]:
     return path, selector or None
 
 
-def load_esi_slave(spec: str) -> EsiSlave:
-    """Read ``ESI.xml[#TYPE]`` and build the device's SII image.
+def load_esi_slave(spec: str, modules: Sequence[str] | None = None) -> EsiSlave:
+    """Read ``ESI.xml[#TYPE]`` and build the device's SII image; a modular device gets the
+    ``modules`` (selectors, :func:`skinframes.esi.configure_slots`) in its slots, its SII
+    stays the device's own (ETG.5001: the modules' PDOs are read over CoE).
 
     Raises:
-        EsiFormatError: the file is no usable ESI, or TYPE names no device of it.
+        EsiFormatError: the file is no usable ESI, TYPE names no device of it, or the modules
+            do not fit its slots.
         SkinframesError: the image cannot be built (no Eeprom element, too large).
         OSError: the file cannot be read.
     """
@@ -122,6 +130,8 @@ def load_esi_slave(spec: str) -> EsiSlave:
     esi = read_esi(Path(path))
     device = esi.device(selector)
     image = sii_from_esi(esi, device).image
+    if modules is not None:
+        device = configure_slots(esi, device, modules)
     return EsiSlave(esi, device, encode_sii(image), source=path)
 
 
@@ -357,11 +367,22 @@ def esi_device(slave: EsiSlave) -> EscDevice:
     return EscDevice(info, config=config, sii=slave.sii, app=app)
 
 
-def check_esi_slaves(specs: Sequence[str], inputs: Sequence[str] = ()) -> list[EsiSlave]:
+def check_esi_slaves(
+    specs: Sequence[str], inputs: Sequence[str] = (), modules: Sequence[str] = ()
+) -> list[EsiSlave]:
     """:func:`check_esi_slave` of each of ``specs``, the n-th with the inputs file
-    ``inputs[n]`` (:func:`emulator.esc.esi_inputs.read_esi_inputs`), as ``--esi`` and
-    ``--esi-inputs`` name them; every failure one :class:`SkinframesError` naming the file."""
-    slaves = [check_esi_slave(spec) for spec in specs]
+    ``inputs[n]`` (:func:`emulator.esc.esi_inputs.read_esi_inputs`) and the modules of the
+    comma-separated list ``modules[n]`` ("" for none), as ``--esi``, ``--esi-inputs`` and
+    ``--esi-modules`` name them; every failure one :class:`SkinframesError` naming the file."""
+    if len(modules) > len(specs):
+        raise SkinframesError(
+            f"--esi-modules: {len(modules)} lists for {len(specs)} --esi slaves (the n-th "
+            "list is the n-th --esi slave's)"
+        )
+    lists = [[m.strip() for m in x.split(",")] if x.strip() else [] for x in modules]
+    slaves = [
+        check_esi_slave(spec, lists[k] if k < len(lists) else None) for k, spec in enumerate(specs)
+    ]
     if len(inputs) > len(slaves):
         raise SkinframesError(
             f"--esi-inputs: {len(inputs)} files for {len(slaves)} --esi slaves (the n-th "
@@ -378,11 +399,11 @@ def check_esi_slaves(specs: Sequence[str], inputs: Sequence[str] = ()) -> list[E
     return slaves
 
 
-def check_esi_slave(spec: str) -> EsiSlave:
+def check_esi_slave(spec: str, modules: Sequence[str] | None = None) -> EsiSlave:
     """:func:`load_esi_slave` with every failure as one :class:`SkinframesError` or
     :class:`TopologyError` naming the file (for the command line)."""
     try:
-        slave = load_esi_slave(spec)
+        slave = load_esi_slave(spec, modules)
         esi_device(slave)  # what the emulator cannot serve fails here, before serving
     except OSError as exc:
         raise EsiFormatError(f"--esi {spec}: {exc.strerror or exc}") from exc

@@ -24,6 +24,7 @@ from emulator.live import TaxelFeed, mixed_chain
 from skinframes import ecat_mailbox as mb
 from skinframes import ethercat
 from skinframes.ecat_mailbox import SdoAbort, SdoInfoOpcode
+from skinframes.esi import missing_communication_objects, read_esi
 from skinframes.ethercat import Command as C  # noqa: N817
 from skinframes.ethercat import Datagram, EcatFrame
 from skinframes_cli import main
@@ -321,3 +322,87 @@ def test_an_array_beyond_subindex_255_is_refused(shared_esi: Path, tmp_path: Pat
     assert str(info.value).endswith(
         "object 0x2101: subindex 300 (type DT2101); CoE subindices are 0..255"
     )
+
+
+NO_1C00 = Path(__file__).resolve().parent.parent / "data" / "esi" / "coe_without_1c00.xml"
+SM_TYPES = {"MBoxOut": 1, "MBoxIn": 2, "Outputs": 3, "Inputs": 4}  # ETG.1000.6 0x1C00 values
+
+
+def test_a_dictionary_without_0x1c00_gets_it_and_the_assignments_from_the_esi() -> None:
+    """tests/data/esi/coe_without_1c00.xml lacks 0x1C00, 0x1C12 and 0x1C13 (ETG.1000.6 5.6.7.4
+    has them in every CoE slave with SyncManagers): they are made from its Sm elements and
+    default assignment, 0x1C12/0x1C13 with room for each PDO of their direction that may go
+    there, and changed in PRE-OP as ``PdoAssign`` allows and ``Exclude`` forbids."""
+    device = xml_device(NO_1C00)
+    esi_objects = [
+        n(o.findtext("Index")) for o in device.iterfind("Profile/Dictionary/Objects/Object")
+    ]
+    assert not {0x1C00, 0x1C12, 0x1C13} & set(esi_objects)
+    od = esi_device(load_esi_slave(str(NO_1C00))).app.objects
+    assert isinstance(od, EsiDictionary)
+    assert od.indices() == sorted([*esi_objects, 0x1C00, 0x1C12, 0x1C13])
+    types = [SM_TYPES[(s.text or "").strip()] for s in device.iterfind("Sm")]
+    assert od.read(0x1C00, 0, PREOP) == bytes([len(types)]) == b"\x04"
+    assert [od.read(0x1C00, k, OP) for k in range(1, 5)] == [bytes([t]) for t in types]
+    assert od.write(0x1C00, 3, b"\x04", PREOP) == SdoAbort.READ_ONLY
+    # default assignment: the PDOs with an Sm (0x1600 on 2, 0x1A00 on 3); 0x1A01 has none
+    assert (od.assigned(2), od.assigned(3)) == ([0x1600], [0x1A00])
+    assert od.read(0x1C13, 0, PREOP) == b"\x01"
+    assert od.read(0x1C13, 1, PREOP) == struct.pack("<H", 0x1A00)
+    assert od.read(0x1C13, 3, PREOP) == SdoAbort.NO_SUBINDEX  # room for 0x1A00 and 0x1A01
+    assert od.read(0x1C12, 2, PREOP) == SdoAbort.NO_SUBINDEX  # room for 0x1600 alone
+    # PdoAssign="1": 0x1C13 changes in PRE-OP, not in SAFE-OP; 0x1A00 and 0x1A01 exclude each other
+    assert od.write(0x1C13, 0, b"\x00", SAFEOP) == SdoAbort.DEVICE_STATE
+    assert od.write(0x1C13, 0, b"\x00", PREOP) is None
+    assert od.write(0x1C13, 2, struct.pack("<H", 0x1A01), PREOP) is None
+    assert od.write(0x1C13, 0, b"\x02", PREOP) == SdoAbort.INCOMPATIBLE_PARAMETER
+    assert od.write(0x1C13, 1, struct.pack("<H", 0x1A01), PREOP) is None
+    assert od.write(0x1C13, 0, b"\x01", PREOP) is None
+    assert od.assigned(3) == [0x1A01]
+
+
+def test_a_pdo_without_its_mapping_object_gets_one(shared_esi: Path) -> None:
+    """tests/data/esi/modular_coupler.xml: its own TxPdo 0x1AFF (0xF100:0, 16 bits, Fixed) has
+    no mapping object in the Dictionary, nor are 0x1C00/0x1C12/0x1C13 there: all are made
+    (ETG.1000.6 5.6.7.3), 0x1C12 with no room (no RxPdo of the coupler's own)."""
+    path = NO_1C00.parent / "modular_coupler.xml"
+    od = esi_device(load_esi_slave(str(path))).app.objects
+    assert isinstance(od, EsiDictionary)
+    esi_objects = [
+        n(o.findtext("Index"))
+        for o in xml_device(path).iterfind("Profile/Dictionary/Objects/Object")
+    ]
+    assert od.indices() == sorted([*esi_objects, 0x1AFF, 0x1C00, 0x1C12, 0x1C13])
+    assert od.read(0x1AFF, 0, PREOP) == b"\x01"
+    assert od.read(0x1AFF, 1, PREOP) == struct.pack("<I", 0xF100_00_10)
+    assert od.write(0x1AFF, 0, b"\x00", PREOP) == SdoAbort.READ_ONLY  # PdoConfig="0", Fixed
+    assert od.assigned(3) == [0x1AFF] and od.read(0x1C12, 0, PREOP) == b"\x00"
+    assert od.write(0x1C13, 0, b"\x00", PREOP) is None  # PdoAssign="1"
+
+
+def test_only_what_the_dictionary_lacks_is_made(shared_esi: Path, tmp_path: Path) -> None:
+    """An ESI with 0x1C12/0x1C13 and no 0x1C00 (as some drives' ESIs are) gets 0x1C00 alone;
+    a CoE ESI with no dictionary and no PDOs gets 0x1C00 alone; no CoE, nothing."""
+    xml = (shared_esi / f"{LAN9252}.xml").read_text(encoding="utf-8")
+    start = xml.index("<Object>", xml.index("<Index>#x1C00</Index>") - 40)
+    end = xml.index("</Object>", start) + len("</Object>")
+    assert "#x1C00" in xml[start:end] and "#x1C12" not in xml[start:end]
+    path = tmp_path / "lan9252_without_1c00.xml"
+    path.write_text(xml[:start] + xml[end:], encoding="utf-8")
+    _, lan = dictionary(shared_esi, LAN9252)
+    od = esi_device(load_esi_slave(str(path))).app.objects
+    assert isinstance(od, EsiDictionary)
+    assert od.indices() == lan.indices()  # 0x1C00 made again
+    for k in range(5):  # as the ESI's own 0x1C00 (SubIndex 0 = 4, then 1 2 3 4)
+        assert od.read(0x1C00, k, PREOP) == lan.read(0x1C00, k, PREOP)
+    xmc_path = shared_esi / "soes_xmc4300_slavedemo.xml"
+    sms = [(s.text or "").strip() for s in xml_device(xmc_path).iterfind("Sm")]
+    assert sms == ["MBoxOut", "MBoxIn", "Outputs", "Inputs"]  # and no PDO, no Dictionary
+    xmc = esi_device(load_esi_slave(str(xmc_path))).app.objects
+    assert isinstance(xmc, EsiDictionary) and xmc.indices() == [0x1C00, 0x1C12, 0x1C13]
+    assert [xmc.read(0x1C00, k, PREOP) for k in range(5)] == [bytes([t]) for t in (4, 1, 2, 3, 4)]
+    assert xmc.read(0x1C13, 0, PREOP) == b"\x00"  # nothing to assign: subindex 0 alone
+    assert xmc.read(0x1C13, 1, PREOP) == SdoAbort.NO_SUBINDEX
+    assert xmc.write(0x1C13, 0, b"\x01", PREOP) == SdoAbort.READ_ONLY  # no PdoAssign
+    bogus = read_esi(shared_esi / "hw_device_mgr_BogusIO.xml")  # no Mailbox at all
+    assert missing_communication_objects(bogus.device()) == ()

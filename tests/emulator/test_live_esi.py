@@ -11,7 +11,10 @@ and from the SII images their makers shipped beside them (../shared/esi, SOURCES
   inputs count up;
 * 20 skin patches and one ESI slave in one line: SOEM reaches OP, every cycle's working
   counter is the expected one;
-* ``--esi-inputs``: the input entry plays the rows of a file written here, in turn.
+* ``--esi-inputs``: the input entry plays the rows of a file written here, in turn;
+* an ESI whose dictionary lacks 0x1C00, 0x1C12 and 0x1C13 (tests/data/esi/coe_without_1c00.xml,
+  ours): SOEM reads them in PRE-OP as every CoE slave with SyncManagers serves them, and
+  ``config_map`` (which raised ConfigMapError on the SDO aborts) maps the default assignment.
 
 Root (or CAP_NET_RAW, CAP_NET_ADMIN, CAP_SYS_ADMIN), iproute2 and pysoem are needed: without
 them the tests skip with the reason, under CI=true they fail.
@@ -22,16 +25,29 @@ from __future__ import annotations
 import json
 import subprocess
 import sys
+import xml.etree.ElementTree as ET
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
 
 import pytest
-from live_util import ENV, ROOT, TESTS, counts_up, from_xml, in_netns, live_net, serving
+from live_util import (
+    ENV,
+    ROOT,
+    TESTS,
+    counts_up,
+    from_xml,
+    in_netns,
+    live_net,
+    serving,
+    xml_number,
+)
 
 from emulator.live import VethPair
 
 LAN9252, DYNPDO = "soes_linux_lan9252demo", "soes_rtl_xmc4_dynpdo"
+NO_1C00 = ROOT / "tests" / "data" / "esi" / "coe_without_1c00.xml"
+SM_TYPES = {"MBoxOut": 1, "MBoxIn": 2, "Outputs": 3, "Inputs": 4}  # ETG.1000.6 0x1C00 values
 PATCHES, PATCH_BYTES = 20, 192
 
 
@@ -172,3 +188,70 @@ def test_pysoem_reads_inputs_from_a_file(net: VethPair, shared_esi: Path, tmp_pa
     assert counts_up([rows.index(v) for v in seen], len(rows))  # row after row, repeated
     assert server["summary"]["esi"][0]["inputs"] == str(inputs)
     print(f"\n--esi-inputs: {len(set(seen))} of {len(rows)} rows seen in {len(seen)} cycles")
+
+
+def test_pysoem_maps_an_esi_slave_whose_dictionary_lacks_0x1c00(net: VethPair) -> None:
+    """SOEM's PDO-map reader (ec_coe.c, ecx_readPDOmap) reads 0x1C00:0 (how many
+    SyncManagers), each SyncManager's type 0x1C00:n, then 0x1C1n of each process-data one; an
+    SDO abort there left an error pysoem's ``config_map`` raised as ConfigMapError. A real
+    CoE slave serves them (ETG.1000.6 5.6.7.4; SOES always does): the emulated one makes them
+    from the ESI's Sm elements and default assignment (the PDOs with an Sm)."""
+    x = from_xml(NO_1C00)
+    device = ET.parse(NO_1C00).getroot().find("Descriptions/Devices/Device")
+    assert device is not None
+    types = [SM_TYPES[(s.text or "").strip()] for s in device.iterfind("Sm")]
+    assigned = {
+        n: [xml_number(p.findtext("Index")) for p in device.iterfind(tag) if p.get("Sm") == str(n)]
+        for n, tag in ((2, "RxPdo"), (3, "TxPdo"))
+    }
+    assert not {0x1C00, 0x1C12, 0x1C13} & x["objects"]  # what the ESI lacks
+    reads = ["0x1C00:0", *(f"0x1C00:{k}" for k in range(1, len(types) + 1))]
+    reads += ["0x1C12:0", "0x1C12:1", "0x1C13:0", "0x1C13:1"]
+    with serving(net, "--nodes", "0", "--esi", str(NO_1C00)) as server:
+        doc = run_master(
+            net, "--image-bytes", str(x["byte_size"]), *(a for r in reads for a in ("--sdo", r))
+        )
+    assert server["rc"] == 0, server["stderr"]
+    sdo = {k: bytes.fromhex(v) for k, v in doc["coe"][0]["sdo"].items()}
+    assert sdo["0x1C00:0"] == bytes([len(types)])
+    assert [sdo[f"0x1C00:{k}"][0] for k in range(1, len(types) + 1)] == types == [1, 2, 3, 4]
+    for n in (2, 3):
+        assert sdo[f"0x1C1{n}:0"] == bytes([len(assigned[n])])
+        assert int.from_bytes(sdo[f"0x1C1{n}:1"], "little") == assigned[n][0]
+    assert {o[0] for o in doc["coe"][0]["od"]} == x["objects"] | {0x1C00, 0x1C12, 0x1C13}
+    assert doc["io_bytes"] == [[x["output_bytes"], x["input_bytes"]]] == [[3, 3]]
+    assert (doc["safeop"], doc["op"], doc["states"], doc["al_status_codes"]) == (4, 8, [8], [0])
+    assert doc["wkc"] == [3] * len(doc["wkc"])  # outputs 2 + inputs 1 (ETG.1000.4 Table 14)
+    counters = [int.from_bytes(bytes.fromhex(row[0])[:2], "little") for row in doc["inputs"]]
+    assert counts_up(counters, 1 << 16)  # 0x6000:1, the first 16 bits (UINT, little-endian)
+    print(f"\n{x['type']}: 0x1C00 {types}, assigned {assigned}, io {doc['io_bytes']}")
+
+
+def test_pysoem_maps_a_modular_device_with_modules_in_its_slots(net: VethPair) -> None:
+    """``--esi-modules HEAD-A,DI-8,DO-4`` on tests/data/esi/modular_coupler.xml (ours), by hand
+    from the XML: HEAD-A is slot 0 of the Head slot, DI-8 slot 1 and DO-4 slot 2 of the IO slot
+    (SlotPdoIncrement 2, SlotIndexIncrement 0x20). SOEM reads 0x1C12 = [0x1601 + 2 * 2] and
+    0x1C13 = [0x1AFF (the coupler's), 0x1A00 (HEAD-A), 0x1A01 + 1 * 2 (DI-8)] and their
+    mappings: outputs 4 + 4 bits = 1 byte, inputs 16 + 8 + (1 + 1 + 6) bits = 4 bytes. 0xF030
+    holds the three idents (ETG.5001); the SII has the coupler's 0x1AFF alone."""
+    path = ROOT / "tests" / "data" / "esi" / "modular_coupler.xml"
+    x = from_xml(path)
+    reads = ["0x1C12:1", "0x1C13:0", "0x1C13:1", "0x1C13:2", "0x1C13:3", "0xF030:0"]
+    reads += ["0xF030:1", "0xF030:2", "0xF030:3", "0x1A03:1", "0x1605:1"]
+    with serving(
+        net, "--nodes", "0", "--esi", str(path), "--esi-modules", "HEAD-A,DI-8,DO-4"
+    ) as server:
+        doc = run_master(
+            net, "--image-bytes", str(x["byte_size"]), *(a for r in reads for a in ("--sdo", r))
+        )
+    assert server["rc"] == 0, server["stderr"]
+    sdo = {k: int.from_bytes(bytes.fromhex(v), "little") for k, v in doc["coe"][0]["sdo"].items()}
+    assert sdo["0x1C12:1"] == 0x1605
+    assert [sdo[f"0x1C13:{k}"] for k in range(4)] == [3, 0x1AFF, 0x1A00, 0x1A03]
+    assert [sdo[f"0xF030:{k}"] for k in range(4)] == [3, 0x00010001, 0x00020001, 0x00020002]
+    assert sdo["0x1A03:1"] == 0x6030_01_01  # DI-8's 0x6010:1, moved by 0x20
+    assert sdo["0x1605:1"] == 0x7050_01_04  # DO-4's 0x7010:1, moved by 2 * 0x20
+    assert doc["io_bytes"] == [[1, 4]]
+    assert (doc["safeop"], doc["op"], doc["states"], doc["al_status_codes"]) == (4, 8, [8], [0])
+    assert doc["wkc"] == [3] * len(doc["wkc"])
+    print(f"\n{x['type']} with HEAD-A, DI-8, DO-4: io {doc['io_bytes']}, 0x1C13 {sdo['0x1C13:0']}")

@@ -8,6 +8,7 @@ each with its own LRD (index = position), and in cycle c each holds c + 1, cut t
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 import numpy as np
@@ -166,3 +167,48 @@ def test_esi_inputs_from_a_file_in_the_pcap(tshark: str, shared_esi: Path, tmp_p
     assert k2g == [(c + 1).to_bytes(4, "little") for c in range(5)]
     bad = ["simulate", "epl", "--nodes", "1", "--bytes", "8", "--esi-inputs", str(inputs)]
     assert main(bad) == 2
+
+
+MODULAR = Path(__file__).resolve().parent.parent / "data" / "esi" / "modular_coupler.xml"
+
+
+def test_esi_modules_in_the_json(capsys: pytest.CaptureFixture[str]) -> None:
+    argv = ["simulate", "ecat", "--nodes", "0", "--bytes", "1", "--cycles", "2", "--json"]
+    assert main([*argv, "--esi", str(MODULAR), "--esi-modules", "HEAD-A, 0x20002"]) == 0
+    (esi,) = json.loads(capsys.readouterr().out)["esi"]
+    assert esi["modules"] == "0x10001,0x20002"  # HEAD-A's and DO-4's ModuleIdent
+
+
+@pytest.mark.parametrize(
+    ("extra", "message"),
+    [
+        (["--esi-modules", "HEAD-A", "--esi-modules", "HEAD-A"], "2 lists for 1 --esi slaves"),
+        (["--esi-modules", "DI-8"], "slot 'Head' (line 87) needs 1 module(s) at least"),
+        (["--esi-modules", "HEAD-A,AI-2"], "no module 'AI-2' its slots may hold"),
+    ],
+)
+def test_bad_esi_modules_are_one_error_line(
+    capsys: pytest.CaptureFixture[str], extra: list[str], message: str
+) -> None:
+    argv = ["simulate", "ecat", "--nodes", "0", "--bytes", "1", "--esi", str(MODULAR), *extra]
+    assert main(argv) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and err[0].startswith("skinframes: error: ") and message in err[0]
+    assert main(["simulate", "epl", "--nodes", "1", "--bytes", "1", *extra]) == 2
+    assert "--esi-modules apply to EtherCAT only" in capsys.readouterr().err
+
+
+def test_serve_refuses_bad_esi_modules_in_one_line(capsys: pytest.CaptureFixture[str]) -> None:
+    """Checked before any socket is opened: the same loader as simulate's."""
+    for argv, message in (
+        (["--esi", str(MODULAR), "--esi-modules", "HEAD-A,HEAD-A"], "module 2 (HEAD-A): no slot"),
+        (["--esi", str(MODULAR), "--esi-modules", "a", "--esi-modules", "b"], "2 lists for 1"),
+    ):
+        code = main(["serve", "ecat", "--iface", "lo", "--nodes", "0", *argv])
+        err = capsys.readouterr().err
+        assert code == 2 and err.startswith("skinframes: error:") and message in err, err
+        assert err.count("\n") == 1
+    code = main(
+        ["serve", "epl", "--iface", "lo", "--nodes", "1", "--bytes", "8", "--esi-modules", ""]
+    )
+    assert code == 2 and "--esi-modules applies to serve ecat only" in capsys.readouterr().err

@@ -19,6 +19,7 @@ from skinframes.esi import (
     EsiFmmu,
     EsiPdoEntry,
     EsiSyncManager,
+    configure_slots,
     parse_esi,
     parse_number,
     read_esi,
@@ -266,3 +267,184 @@ def test_strings_and_access_restrictions(shared_esi: Path) -> None:
     )
     assert (elements.type_name, elements.write_restrictions) == ("DT1C12ARR", "PreOP")
     assert by_name["DT1018"].sub_items[1].write_restrictions is None  # <Access>ro</Access>
+
+
+MODULAR = Path(__file__).resolve().parent.parent / "data" / "esi" / "modular_coupler.xml"
+
+
+def test_a_modular_device_s_slots_and_the_file_s_modules() -> None:
+    """tests/data/esi/modular_coupler.xml (ETG.2000 Slots and Modules), read by eye."""
+    esi = read_esi(MODULAR)
+    d = esi.device()
+    assert d.slots is not None
+    assert (
+        d.slots.slot_index_increment,
+        d.slots.slot_pdo_increment,
+        d.slots.max_slot_count,
+        d.slots.download_module_ident_list,
+    ) == (0x10, 1, 4, True)
+    head, io = d.slots.slots
+    assert (head.name, head.min_instances, head.max_instances, head.line) == ("Head", 1, 1, 87)
+    assert head.module_idents == (0x10002, 0x10001, 0x19999)
+    assert (head.default_module_ident, head.module_classes) == (0x10001, ())
+    assert (head.slot_index_increment, head.slot_pdo_increment) == (None, None)
+    assert (io.name, io.min_instances, io.max_instances) == ("IO", 0, 3)
+    assert (io.module_idents, io.module_classes, io.default_module_ident) == (
+        (),
+        ("DI", "DO"),
+        None,
+    )
+    assert (io.slot_index_increment, io.slot_pdo_increment) == (0x20, 2)
+    assert [
+        (m.module_ident, m.type_name, m.module_class, m.module_pdo_group) for m in esi.modules
+    ] == [
+        (0x10001, "HEAD-A", "HEAD", None),
+        (0x10002, "HEAD-B", "HEAD", None),
+        (0x20001, "DI-8", "DI", 1),
+        (0x20002, "DO-4", "DO", 0),
+        (0x30001, "AI-2", "AI", None),
+    ]
+    di = esi.modules[2]
+    assert (di.name, di.line) == ("DI-8 inputs", 115)
+    (tx,) = di.tx_pdos
+    assert (tx.index, tx.sync_manager, tx.fixed, tx.depend_on_slot) == (0x1A01, 3, True, True)
+    assert [(e.index, e.subindex, e.bit_length, e.depend_on_slot) for e in tx.entries] == [
+        (0x6010, 1, 1, True),
+        (0x6010, 2, 1, True),
+        (0, 0, 6, False),
+    ]
+    assert di.dictionary is not None and [o.index for o in di.dictionary.objects] == [0x8010]
+    assert esi.modules[0].dictionary is None and esi.modules[3].rx_pdos[0].index == 0x1601
+    assert [m.type_name for m in esi.slot_modules(d)] == ["HEAD-A", "HEAD-B", "DI-8", "DO-4"]
+    # the coupler's own PDO is the device's; no module PDO is
+    assert [p.index for p in d.tx_pdos] == [0x1AFF] and not d.tx_pdos[0].depend_on_slot
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        (
+            b'<Slot MinInstances="0" MaxInstances="3"',
+            b'<Slot MinInstances="4" MaxInstances="3"',
+            r"line 93: <Slot>: MinInstances 4, MaxInstances 3",
+        ),
+        (
+            b'<Slot MinInstances="1" MaxInstances="1">',
+            b'<Slot MaxInstances="1">',
+            r"line 87: <Slot>: missing attribute MinInstances",
+        ),
+        (
+            b"<ModuleIdent>#x00010002</ModuleIdent>",
+            b'<ModuleIdent Default="1">#x00010002</ModuleIdent>',
+            r"line 87: <Slot>: 2 <ModuleIdent> with Default=1",
+        ),
+        (
+            b"<ModuleIdent>#x00019999</ModuleIdent>",
+            b"<ModuleIdent>#x0001999Z</ModuleIdent>",
+            r"line 91: <ModuleIdent>: '#x0001999Z' is not a number",
+        ),
+        (
+            b"<ModuleClass><Class>DO</Class>",
+            b"<ModuleClass><Klass>DO</Klass>",
+            r"line 96: <ModuleClass>: missing <Class>",
+        ),
+        (
+            b'<Type ModuleIdent="#x00010002" ModuleClass="HEAD">',
+            b'<Type ModuleClass="HEAD">',
+            r"line 112: <Type>: missing attribute ModuleIdent",
+        ),
+        (
+            b'<Index DependOnSlot="true">#x1A01',
+            b'<Index DependOnSlot="yes">#x1A01',
+            r"line 120: <Index>: DependOnSlot='yes' is not a boolean",
+        ),
+    ],
+)
+def test_bad_slots_and_modules_name_the_element_and_line(
+    old: bytes, new: bytes, message: str
+) -> None:
+    text = MODULAR.read_bytes()
+    assert text.count(old) == 1
+    with pytest.raises(EsiFormatError, match=message):
+        parse_esi(text.replace(old, new), source="x.xml")
+
+
+def test_a_slot_naming_no_module_is_an_error() -> None:
+    text = MODULAR.read_bytes()
+    start = text.index(b"<ModuleClass><Class>DI")
+    end = text.index(b"</Slot>", start)
+    bare = text[:start] + text[end:]
+    with pytest.raises(EsiFormatError, match=r"line 93: <Slot>: names no <ModuleIdent>"):
+        parse_esi(bare, source="x.xml")
+
+
+def test_modules_in_the_slots_join_the_device_moved_by_their_slot() -> None:
+    """ETG.2000/ETG.5001, by hand from modular_coupler.xml: module k is slot number k; a
+    DependOnSlot index moves by k times the slot's increment (the IO slot's own: PDOs 2,
+    objects 0x20; the Head slot has none, so the Slots': 1 and 0x10)."""
+    esi = read_esi(MODULAR)
+    d = configure_slots(esi, esi.device(), ["HEAD-B", "#x20002", "DI-8"])
+    assert d.configured_modules == (0x10002, 0x20002, 0x20001)
+    assert [p.index for p in d.rx_pdos] == [0x1601 + 1 * 2]
+    assert [(e.index, e.subindex, e.bit_length) for e in d.rx_pdos[0].entries] == [
+        (0x7010 + 1 * 0x20, 1, 4),
+        (0, 0, 4),  # padding: index 0 is not moved
+    ]
+    assert [p.index for p in d.tx_pdos] == [0x1AFF, 0x1A01 + 2 * 2]
+    assert [e.index for e in d.tx_pdos[1].entries] == [0x6010 + 2 * 0x20] * 2 + [0]
+    assert d.tx_pdos[1].excludes == (0x1A02 + 2 * 2,)  # Exclude DependOnSlot="true"
+    assert d.dictionary is not None
+    assert [o.index for o in d.dictionary.objects][-1] == 0x8010 + 2 * 0x20
+    assert not any(p.depend_on_slot for p in d.tx_pdos + d.rx_pdos)
+    # the device itself is unchanged (its SII is built from it)
+    assert esi.device().configured_modules == () and len(esi.device().tx_pdos) == 1
+
+
+@pytest.mark.parametrize(
+    ("modules", "message"),
+    [
+        ([], r"slot 'Head' \(line 87\) needs 1 module\(s\) at least, the modules given put 0"),
+        (["DI-8"], r"slot 'Head' \(line 87\) needs 1"),
+        (["HEAD-A", "HEAD-B"], r"module 2 \(HEAD-B\): no slot after the ones before takes it"),
+        (["HEAD-A", *["DI-8"] * 4], r"module 5 \(DI-8\): no slot"),
+        (["HEAD-A", "AI-2"], r"no module 'AI-2' its slots may hold; they may hold: HEAD-A"),
+        (["HEAD-A", "0x19999"], r"no module '0x19999'"),
+    ],
+)
+def test_modules_that_do_not_fit_the_slots_are_refused(modules: list[str], message: str) -> None:
+    esi = read_esi(MODULAR)
+    with pytest.raises(EsiFormatError, match=message):
+        configure_slots(esi, esi.device(), modules)
+
+
+def test_a_device_without_slots_takes_no_modules(shared_esi: Path) -> None:
+    esi = read_esi(shared_esi / "soes_linux_lan9252demo.xml")
+    with pytest.raises(EsiFormatError, match=r"has no <Slots>, so no modules"):
+        configure_slots(esi, esi.device(), [])
+
+
+def test_a_module_s_pdo_or_object_takes_the_place_of_the_device_s_of_its_index() -> None:
+    """ETG.2000 OverwrittenByModule; vendors (Beckhoff's EP6228 and EL1904 ESIs) list the
+    default modules' PDOs in the device as well. Two modules of one index are an error."""
+    text = MODULAR.read_bytes()
+    head_a = b'<Index DependOnSlot="1">#x1A00</Index>'
+    filter_time = b'<Index DependOnSlot="true">#x8010</Index>'
+    assert text.count(head_a) == 1 and text.count(filter_time) == 1
+    esi = parse_esi(
+        text.replace(head_a, b"<Index>#x1AFF</Index>").replace(
+            filter_time, b"<Index>#x1000</Index>"
+        )
+    )
+    d = configure_slots(esi, esi.device(), ["HEAD-A", "DI-8"])
+    assert [(p.index, p.name) for p in d.tx_pdos] == [(0x1AFF, "Head A inputs"), (0x1A03, "DI-8")]
+    assert d.dictionary is not None
+    assert [(o.index, o.name) for o in d.dictionary.objects if o.index == 0x1000] == [
+        (0x1000, "DI-8 filter time")
+    ]
+    do_4 = b'<Index DependOnSlot="1">#x1601</Index>'
+    esi = parse_esi(text.replace(do_4, b"<Index>#x1601</Index>"), source="x.xml")
+    with pytest.raises(
+        EsiFormatError,
+        match=r"module 3 \(DO-4, line \d+\): PDO 0x1601 is module 2 \(DO-4, line \d+\)'s",
+    ):
+        configure_slots(esi, esi.device(), ["HEAD-A", "DO-4", "DO-4"])
