@@ -320,6 +320,8 @@ class EcatChain:
         self._image_reads: dict[tuple[int, int, int, int], _ImageRead] = {}
         # whole buffers read over rows in this frame, exchanged at its end (_end_frames)
         self._exchanges: list[_Reads] = []
+        # where a well-formed frame's datagrams lie, with their length words (_parse)
+        self._layouts: dict[tuple[int, int, int], list[tuple[int, int]]] = {}
 
     @classmethod
     def skin(
@@ -1301,10 +1303,15 @@ class EcatChain:
         buf[at] |= irq & 0xFF
         buf[at + 1] |= irq >> 8
 
-    @staticmethod
-    def _parse(buf: bytearray) -> list[tuple[int, int, int, int, int, int]] | None:
+    def _parse(self, buf: bytearray) -> list[tuple[int, int, int, int, int, int]] | None:
         """Where the ESC finds each datagram's fields: (cmd, ADP at, ADO, data at, length, IRQ
-        at). None for a non-EtherCAT frame; an empty list for a malformed one."""
+        at). None for a non-EtherCAT frame; an empty list for a malformed one.
+
+        The datagrams are found as :func:`skinframes.ethercat.decode` finds them. Where it found
+        nothing to remark (a well-formed frame), where they lie is kept (:attr:`_layouts`, by
+        frame length, EtherCAT header offset and header word) with each datagram's length word
+        (length, M bit): a frame that has the same words there has its datagrams in the same
+        places (the walk reads nothing else), so it is not decoded again."""
         if len(buf) < _ETH_HEADER + ethercat.FRAME_HEADER_BYTES:
             return []
         at = 12
@@ -1315,18 +1322,38 @@ class EcatChain:
         if ethertype != ethernet.ETHERTYPE_ECAT:
             return None
         payload_at = at + 2
+        key = (len(buf), payload_at, buf[payload_at] | buf[payload_at + 1] << 8)
+        known = self._layouts.get(key)
+        if known is not None and all(
+            buf[pos + 6] | buf[pos + 7] << 8 == word for pos, word in known
+        ):
+            return [
+                (
+                    buf[pos],
+                    pos + 2,
+                    buf[pos + 4] | buf[pos + 5] << 8,
+                    pos + 10,
+                    word & 0x7FF,
+                    pos + 8,
+                )
+                for pos, word in known
+            ]
         try:
-            ecat, _, _ = ethercat.decode(bytes(buf[payload_at:]), strict=False)
+            ecat, _, findings = ethercat.decode(bytes(buf[payload_at:]), strict=False)
         except DecodeError:
             return []
         if ecat.frame_type != ethercat.FrameType.ECAT:
             return None
         layout = []
+        words: list[tuple[int, int]] = []
         pos = payload_at + ethercat.FRAME_HEADER_BYTES
         for d in ecat.datagrams:
             n = len(d.data)
             layout.append((int(d.cmd), pos + 2, d.ado, pos + 10, n, pos + 8))
+            words.append((pos, buf[pos + 6] | buf[pos + 7] << 8))
             pos += ethercat.DATAGRAM_OVERHEAD_BYTES + n
+        if not findings and words:
+            remember(self._layouts, key, words, PLAN_CACHE_ENTRIES)
         return layout
 
     @staticmethod

@@ -180,3 +180,29 @@ def test_each_esc_keeps_its_fmmu_span_in_the_chains_row() -> None:
     assert chain.fmmu_spans.tolist() == [[0x100, 0x108], [0, 0], [0x100, 0x108]]
     assert chain.devices[1].fmmu_span == (0, 0)
     assert _sent(chain, Datagram.logical(C.LRD, 0x100, bytes(8))).wkc == 2
+
+
+def test_frames_of_one_length_and_header_with_other_datagrams_are_read_as_they_are() -> None:
+    # an LRD of 20 bytes and two APRDs of 4 make EtherCAT frames of one length (header length
+    # 32, 60 bytes padded): each is read by its own datagram headers (ETG.1000.4 Table 12), in
+    # any order, however the chain found the one before
+    chain = EcatChain.configured(2, 8)
+    chain.publish([bytes(range(8)), bytes(range(8, 16))])
+    image = ethercat.frame(ethercat.EcatFrame((Datagram.logical(C.LRD, 0, bytes(20)),)))
+    stations = ethercat.frame(
+        ethercat.EcatFrame(
+            (Datagram(C.APRD, 0, 0x0010, bytes(4)), Datagram(C.APRD, 0xFFFF, 0x0010, bytes(4)))
+        )
+    )
+    assert len(image.to_bytes()) == len(stations.to_bytes())
+    for ask in (image, stations, image, stations, stations, image):
+        back = chain.process_frame(ask.to_bytes())
+        assert back is not None
+        got = ethercat.decode(back[14:])[0].datagrams
+        if ask is image:
+            assert [(d.data, d.wkc) for d in got] == [(bytes(range(16)) + bytes(4), 2)]
+        else:  # station address 0x0010 (0x1001, 0x1002), alias 0x0012 zero
+            assert [(d.data, d.wkc) for d in got] == [
+                (b"\x01\x10\x00\x00", 1),
+                (b"\x02\x10\x00\x00", 1),
+            ]
