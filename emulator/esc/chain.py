@@ -123,6 +123,9 @@ STATION_BASE: Final = (
 
 MAX_SLAVES: Final = 0xFFFF  # auto-increment addresses are 16 bits
 _VLAN_TPID: Final = 0x8100
+# the values of DC activation 0x0981 without both SYNC0 bits (0 and 1): deleted from a column
+# of them, what is left are the ESCs that sample at SYNC0 (EscDevice.dc_sampling)
+_NOT_SAMPLING: Final = bytes(b for b in range(256) if b & 0x03 != 0x03)
 _ETH_HEADER: Final = ethernet.HEADER_BYTES
 _U16 = struct.Struct("<H")
 _UNTOUCHED: Final[LogicalPlan] = ((), ())  # the cut plan of an access that does nothing
@@ -707,8 +710,10 @@ class EcatChain:
             found = remember(self._image_reads, key, plan, PLAN_CACHE_ENTRIES)
         if found.groups is None:
             return None
-        sync0 = found.sync0  # 0x0981 bits 0-1 both set at one of them (dc_sampling)
-        if sync0 is not None and np.maximum.reduce(self.memory[sync0, REG_DC_ACTIVATION] & 3) == 3:
+        sync0 = found.sync0  # 0x0981 bits 0-1 both set at one of them (dc_sampling)?
+        if sync0 is not None and self.memory[sync0, REG_DC_ACTIVATION].tobytes().translate(
+            None, _NOT_SAMPLING
+        ):
             return None
         return found
 

@@ -718,7 +718,7 @@ class EscDevice:
         return False
 
     @staticmethod
-    def finish_frames(devices: Iterable[EscDevice]) -> None:
+    def finish_frames(devices: list[EscDevice]) -> None:
         """:meth:`finish_frame` at each of ``devices``, whose reset register 0x0040 the chain
         set to 0 (over the rows): one that is only to run its mailbox handler (no buffer
         completed, no reset written or under way) just has it run (or queued), as
@@ -738,7 +738,7 @@ class EscDevice:
             power_on_together(resets)
 
     @staticmethod
-    def unfinished(devices: Iterable[EscDevice]) -> list[EscDevice]:
+    def unfinished(devices: list[EscDevice]) -> list[EscDevice]:
         """Those of ``devices`` whose :meth:`finish_frame` does more than show no reset under
         way (0x0040 = 0): a buffer completed, the mailbox handler due, the reset register
         written or a reset sequence under way (the chain sets 0x0040 of the others at once)."""
@@ -2131,9 +2131,7 @@ def _through(
         memory[at, column] = table.take(memory[at, column])
 
 
-def finish_together(
-    devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows
-) -> None:
+def finish_together(devices: list[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:
     """:meth:`EscDevice.finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
     :func:`commit_together`: 0x0040 shows no reset under way at every row, and the ESCs with
     more to finish (:meth:`EscDevice.unfinished`) finish the frame (:meth:`EscDevice.finish_frames`)."""
