@@ -536,6 +536,16 @@ def _abandon_frame(chain: EcatChain) -> None:
     chain.firmware.clear()
 
 
+def _count_cpu(stats: ServeStats, cpu_us: float, keep_times: int) -> None:
+    """One frame's CPU until its answer (or its internal error): kept, the maximum, the budget."""
+    if len(stats.cpu_us) < keep_times:
+        stats.cpu_us.append(cpu_us)
+    if cpu_us > stats.cpu_us_max:
+        stats.cpu_us_max = cpu_us
+    if cpu_us > CPU_BUDGET_US:
+        stats.over_budget += 1
+
+
 def _count_error(
     stats: ServeStats,
     exc: BaseException,
@@ -596,32 +606,28 @@ def serve(
                 try:
                     back = chain.answer(frame)
                 except Exception as exc:  # every frame is legal input: count it and go on
+                    _count_cpu(stats, (cpu() - c0) / 1000.0, keep_times)
                     _abandon_frame(chain)
                     _count_error(stats, exc, frame, on_error)
                     continue
-                finally:
-                    cpu_us = (cpu() - c0) / 1000.0
-                    if len(stats.cpu_us) < keep_times:
-                        stats.cpu_us.append(cpu_us)
-                    if cpu_us > stats.cpu_us_max:
-                        stats.cpu_us_max = cpu_us
-                    if cpu_us > CPU_BUDGET_US:
-                        stats.over_budget += 1
+                cpu_us = (cpu() - c0) / 1000.0  # until the answer; counted once it is sent
                 if back is None:
                     stats.dropped += 1
                 else:
                     sock.send(back)
+                    if len(stats.process_us) < keep_times:
+                        stats.process_us.append((clock() - t0) * 1e6)
                     if capture is not None:
                         capture.write(wall_ns(), back, outbound=True)
                     stats.frames_out += 1
-                    if len(stats.process_us) < keep_times:
-                        stats.process_us.append((clock() - t0) * 1e6)
-                c0 = cpu()  # the slaves' firmware reacts once the frame has passed
-                try:
-                    chain.run_firmware()
-                except Exception as exc:
-                    chain.firmware.clear()
-                    _count_error(stats, exc, frame, on_error)
-                stats.firmware_us_max = max(stats.firmware_us_max, (cpu() - c0) / 1000.0)
+                _count_cpu(stats, cpu_us, keep_times)
+                if chain.firmware:  # the slaves' firmware reacts once the frame has passed
+                    c0 = cpu()
+                    try:
+                        chain.run_firmware()
+                    except Exception as exc:
+                        chain.firmware.clear()
+                        _count_error(stats, exc, frame, on_error)
+                    stats.firmware_us_max = max(stats.firmware_us_max, (cpu() - c0) / 1000.0)
                 collector.after_frame()
     return stats

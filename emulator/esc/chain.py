@@ -218,6 +218,39 @@ def _frozen_clock() -> int:
     return 0
 
 
+class _Loop(NamedTuple):
+    """How far a frame goes along the line (:meth:`EcatChain._run_planned`), while the ESCs'
+    forwarding and MAC marking stay (:attr:`Caches.links`)."""
+
+    links: int  # Caches.links when worked out
+    reach: int  # the ESCs the frame reaches
+    lost: bool  # it is lost at the last of them (forced open without a link), not returned
+    mac: bool  # one of them marks the source MAC (DL control bit 0)
+
+
+def _loop(devices: list[EscDevice], links: int) -> _Loop:
+    """:class:`_Loop` of ``devices`` now: the frame returns from the first ESC whose port 1 is
+    closed (False) and is lost at one forced open without a link (None)."""
+    reach, lost = len(devices), False
+    for p, dev in enumerate(devices):
+        onward = dev.onward
+        if not onward:
+            reach, lost = p + 1, onward is None
+            break
+    mac = False
+    for k in range(reach):
+        mac = mac or devices[k].sets_mac
+    return _Loop(links, reach, lost, mac)
+
+
+def _ored_irq(line: list[EscDevice]) -> int:
+    """The event requests of the ESCs of ``line`` ORed (datasheet I Table 3)."""
+    irq = 0
+    for dev in line:
+        irq |= dev.irq
+    return irq
+
+
 class _Reads(NamedTuple):
     """Whole buffers of one SyncManager index, start and length read over rows
     (:func:`read_buffers`), exchanged at the end of the frame (:func:`finish_reads`)."""
@@ -323,6 +356,11 @@ class EcatChain:
         self._image_reads: dict[tuple[int, int, int, int], _ImageRead] = {}
         # whole buffers read over rows in this frame, exchanged at its end (_end_frames)
         self._exchanges: list[_Reads] = []
+        # how far frames go and whether they are marked (_run_planned), and the event requests
+        # ORed, as of the Caches.links and Caches.events they were worked out at
+        self._loop = _Loop(-1, 0, False, False)
+        self._irq_seen = (-1, -1)
+        self._irq_all = 0
         # where a well-formed frame's datagrams lie, with their length words (_parse)
         self._layouts: dict[tuple[int, int, int], list[tuple[int, int]]] = {}
 
@@ -496,17 +534,18 @@ class EcatChain:
         """
         devices = self.devices
         self._exchanges.clear()  # (none left by a frame before)
-        reach, lost = len(devices), False
-        for p, dev in enumerate(devices):
-            onward = dev.onward
-            if not onward:  # closed (False): returns from here; forced open, no link: lost
-                reach, lost = p + 1, onward is None
-                break
+        caches = self.caches
+        links = caches.links
+        if self._loop.links != links:  # an ESC's forwarding or MAC marking changed
+            self._loop = _loop(devices, links)
+        reach, lost, mac_bit = self._loop.reach, self._loop.lost, self._loop.mac
         line = devices[:reach] if reach < len(devices) else devices
         adps = [buf[d[1]] | buf[d[1] + 1] << 8 for d in layout]
-        irq_all = 0  # the ESCs' event requests ORed into every IRQ field (datasheet I Table 3)
-        for dev in line:
-            irq_all |= dev.irq
+        # the ESCs' event requests ORed into every IRQ field (datasheet I Table 3), again where
+        # an ESC's changed (Caches.events) or the frame reaches others
+        if self._irq_seen != (caches.events, links):
+            self._irq_seen, self._irq_all = (caches.events, links), _ored_irq(line)
+        irq_all = self._irq_all
         for k, (cmd, _, ado, data_at, n, irq_at) in enumerate(layout):
             adp = adps[k]
             if cmd in EVERYONE:
@@ -541,9 +580,7 @@ class EcatChain:
                     wkc_inc += dev.process(cmd, adp, ado, buf, data_at, n)[1]
                     changed = changed or dev.irq != before
             if changed:
-                irq_all = 0
-                for dev in line:
-                    irq_all |= dev.irq
+                irq_all = _ored_irq(line)
             if wkc_inc:
                 wkc_at = data_at + n
                 wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + wkc_inc
@@ -556,7 +593,8 @@ class EcatChain:
                 adp = (adps[k] + reach) & 0xFFFF
                 buf[adp_at] = adp & 0xFF
                 buf[adp_at + 1] = adp >> 8
-        mac_bit = any(dev.sets_mac for dev in line)
+        if caches.links != links:  # (the loop settings change at the end of a frame only)
+            mac_bit = any(dev.sets_mac for dev in line)
         self._end_frames(line)
         if lost:
             self._drop(malformed=False)

@@ -2010,7 +2010,9 @@ def _event_requests(
     enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
     irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
     for dev, irq in zip(devices, irqs, strict=True):
-        dev.irq = irq
+        if dev.irq != irq:
+            dev.irq = irq
+            dev._caches.events += 1
 
 
 def react_together(work: Sequence[tuple[EscDevice, int]], memory: npt.NDArray[np.uint8]) -> None:
@@ -2253,6 +2255,7 @@ def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows
     onwards = [_FORWARDING[s][link] for s, link in zip(setting, links, strict=True)]
     for dev, onward, mac in zip(devices, onwards, marks, strict=True):
         dev.onward, dev.sets_mac = onward, mac
+        dev._caches.links += 1
     link = np.array(links, np.bool_)
     pdi = np.array([dev.pdi_operational for dev in devices], np.bool_)
     closed = np.array([onward is False for onward in onwards], np.bool_)

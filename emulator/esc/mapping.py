@@ -187,10 +187,12 @@ class Caches:
     __slots__ = (
         "access",
         "as_new",
+        "events",
         "fmmu",
         "fmmu_parts",
         "joined",
         "layouts",
+        "links",
         "parts",
         "sm",
         "sm_change",
@@ -216,6 +218,11 @@ class Caches:
         # how many times an ESC's FMMUs or SyncManagers changed: what the chain planned from
         # them before holds while this stays (emulator.esc.chain.EcatChain's image reads)
         self.layouts = 0
+        # how many times an ESC's event request (EscDevice.irq) changed, and its forwarding or
+        # source MAC marking were worked out (DL status): what the chain ORed or found holds
+        # while these stay
+        self.events = 0
+        self.links = 0
         # changes of the decoded SyncManager table (sm_change)
         self.sm_change: dict[tuple[SmTable, bytes | None, SmFound], SmChange] = {}
         # per decoded SyncManager table and SyncManager count, its SyncManagers as new, by
