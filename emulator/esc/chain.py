@@ -546,8 +546,10 @@ class EcatChain:
         if self._irq_seen != (caches.events, links):
             self._irq_seen, self._irq_all = (caches.events, links), _ored_irq(line)
         irq_all = self._irq_all
+        images_only = True  # every datagram an image read (_read_image): nothing else to end
         for k, (cmd, _, ado, data_at, n, irq_at) in enumerate(layout):
             adp = adps[k]
+            image: _ImageRead | None = None
             if cmd in EVERYONE:
                 wkc_inc, changed = self._everyone(line, cmd, adp, ado, buf, data_at, n)
             else:
@@ -562,7 +564,8 @@ class EcatChain:
                     targets = self._addressed(reach, adp)
                 elif cmd in LOGICAL and n:
                     lad = adp | ado << 16
-                    image = self._image_read(line, cmd, lad, n) if cmd in LRD_OR_LRW else None
+                    if cmd in LRD_OR_LRW:
+                        image = self._image_read(line, cmd, lad, n)
                     if image is not None:  # (the chain's plan: every ESC reads a whole buffer)
                         wkc_inc, changed = self._read_image(image, buf, data_at)
                     else:
@@ -579,6 +582,7 @@ class EcatChain:
                     before = dev.irq
                     wkc_inc += dev.process(cmd, adp, ado, buf, data_at, n)[1]
                     changed = changed or dev.irq != before
+            images_only = images_only and image is not None
             if changed:
                 irq_all = _ored_irq(line)
             if wkc_inc:
@@ -595,7 +599,7 @@ class EcatChain:
                 buf[adp_at + 1] = adp >> 8
         if caches.links != links:  # (the loop settings change at the end of a frame only)
             mac_bit = any(dev.sets_mac for dev in line)
-        self._end_frames(line)
+        self._end_frames(line, images_only=images_only)
         if lost:
             self._drop(malformed=False)
             return None
@@ -1257,7 +1261,7 @@ class EcatChain:
         buf[at : at + n] = ored[-1].tobytes()
         return writes, changed
 
-    def _end_frames(self, line: list[EscDevice]) -> None:
+    def _end_frames(self, line: list[EscDevice], *, images_only: bool = False) -> None:
         """Every ESC of ``line`` ends the frame (:meth:`EscDevice.end_frame`); those with equal
         register writes (a broadcast's, one configuration) commit them together, and finish the
         frame together (:func:`finish_together`), and so do those whose writes differ only in
@@ -1268,7 +1272,18 @@ class EcatChain:
         without writes only the ones with something to finish are asked
         (:meth:`EscDevice.unfinished`).
         ESCs commit independently of each other, so the groups may go in any order, and so may
-        the reactions they queue for the slaves' firmware, each to its own ESC."""
+        the reactions they queue for the slaves' firmware, each to its own ESC. The whole
+        buffers read over rows are exchanged last (:func:`finish_reads`). After a frame of
+        image reads only (``images_only``) no ESC has a write, a buffer or its mailbox handler
+        to finish (those a frame leaves are finished at its end), so only an ESC with an ESC
+        reset under way, which such a frame breaks off, ends it as well."""
+        if images_only:
+            for dev in line:
+                if dev._reset_progress:  # 'R' (and 'E') written to 0x0040 before (II 0x0040)
+                    break
+            else:
+                self._exchange()
+                return
         groups: dict[tuple[object, ...], list[int]] = {}
         last: list[tuple[int, bytes]] = []  # the pending writes of the ESC before, its group
         plans: object = None
@@ -1309,7 +1324,12 @@ class EcatChain:
                 continue
             for dev in together:
                 dev.end_frame()
-        for exchange in self._exchanges:  # whole buffers read over rows, after the commits
+        self._exchange()
+
+    def _exchange(self) -> None:
+        """The whole buffers read over rows in the frame are exchanged (:func:`finish_reads`),
+        after the ESCs' register writes took effect."""
+        for exchange in self._exchanges:
             finish_reads(exchange.devices, exchange.sms, self.memory, exchange.rows)
         self._exchanges.clear()
 

@@ -313,6 +313,20 @@ def test_esc_reset_sequence() -> None:
     assert chain.devices[0].station == 0x4444
 
 
+def test_an_lrd_of_the_image_breaks_off_an_esc_reset() -> None:
+    # 'R','E','S' in three consecutive frames reset the ESC (datasheet II 0x0040): an LRD of
+    # the process image between 'R' and 'E' is a frame that does not continue the sequence
+    chain = EcatChain.configured(2, 8)
+    for ch in b"RES":
+        if ch == ord("E"):
+            assert one(chain, Datagram.logical(C.LRD, 0, bytes(16))).wkc == 2
+        send(chain, Datagram(C.BWR, 0, 0x0040, bytes([ch])))
+    assert [dev.station for dev in chain.devices] == [0x1001, 0x1002]  # not reset
+    for ch in b"RES":
+        send(chain, Datagram(C.BWR, 0, 0x0040, bytes([ch])))
+    assert [dev.station for dev in chain.devices] == [0, 0]  # reset values
+
+
 # --- SII EEPROM interface -------------------------------------------------------------------
 def eeprom_read(chain: EcatChain, station: int, word_address: int) -> tuple[int, bytes]:
     assert (
