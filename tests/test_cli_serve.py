@@ -203,9 +203,10 @@ def test_serve_answers_before_the_firmware_reacts_and_goes_on_after_its_error(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
     """serve sends each answer before the slaves' firmware reacts to the frame: a BWR of AL
-    control asking the OP slaves for PREOP is answered, the ESM then takes them to PREOP, and the
-    next BRD of AL status reads PREOP (0x02). An internal error in the firmware's reaction is
-    counted (the frame was answered) and serving goes on."""
+    control asking the OP slaves for PREOP is answered, then the ESM reacts (each such write is
+    a reaction, datasheet II 0x0120). An internal error in the firmware's reaction is counted
+    (the frame was answered) and serving goes on; a frame that leaves the firmware nothing to
+    react to (a BRD of AL status) does not run it."""
     chain = EcatChain.configured(2, 4)
     to_preop = ethercat.frame(EcatFrame((Datagram(Command.BWR, 0, 0x0120, b"\x02\x00"),)))
     status = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
@@ -225,7 +226,7 @@ def test_serve_answers_before_the_firmware_reacts_and_goes_on_after_its_error(
     monkeypatch.setattr(chain, "answer", answered)
     monkeypatch.setattr(chain, "run_firmware", reacted)
     stop = threading.Event()
-    sock = PairSocket([to_preop.to_bytes(), status, status, status], stop)
+    sock = PairSocket([to_preop.to_bytes()] * 3 + [status], stop)
     send = sock.send
 
     def sent(frame: bytes) -> None:
@@ -234,7 +235,7 @@ def test_serve_answers_before_the_firmware_reacts_and_goes_on_after_its_error(
 
     monkeypatch.setattr(sock, "send", sent)
     stats = serve(chain, sock, stop)  # type: ignore[arg-type]
-    assert order == ["answer", "send", "firmware"] * 4
+    assert order == ["answer", "send", "firmware"] * 3 + ["answer", "send"]
     assert (stats.frames_in, stats.frames_out, stats.errors) == (4, 4, 1)
     assert stats.error_messages == ["KeyError: 'simulated firmware error'"]
     assert stats.summary()["firmware_us_max"] >= 0
