@@ -56,6 +56,7 @@ __all__ = [
     "NvPublication",
     "content_fields",
     "data_offsets",
+    "datagram_head",
     "datagrams_per_frame",
     "decode",
     "frame",
@@ -771,6 +772,12 @@ def data_offsets(ecat: EcatFrame) -> tuple[int, ...]:
         out.append(at + DATAGRAM_HEADER_BYTES)
         at += d.size_bytes
     return tuple(out)
+
+
+def datagram_head(buf: bytes | bytearray, at: int) -> tuple[int, int, int, int, int, int]:
+    """The 10-byte header of the datagram at ``buf[at:]`` (ETG.1000.4 Table 12): (cmd, idx,
+    ADP, ADO, the length word (length bits 0-10, circulating bit 14, M bit 15), IRQ)."""
+    return _DG_HEAD.unpack_from(buf, at)
 
 
 def returned_mac(src: bytes) -> bytes:

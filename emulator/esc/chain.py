@@ -739,7 +739,7 @@ class EcatChain:
 
     def _image_read(self, line: list[EscDevice], cmd: int, lad: int, n: int) -> _ImageRead | None:
         """An LRD (or LRW) of ``n`` bytes at ``lad`` that every ESC it reaches reads as one
-        whole buffer (:meth:`EscDevice.buffer_read`), all of one SyncManager index, start and
+        whole buffer (:meth:`EscDevice.whole_plan`), all of one SyncManager index, start and
         length and apart in the frame (a master's read of the process image): its plan, worked
         out once while the ESCs' FMMUs and SyncManagers stay (:attr:`Caches.layouts`), unless an
         ESC samples its inputs at SYNC0 now (:attr:`EscDevice.dc_sampling`); else None."""
@@ -1387,20 +1387,17 @@ class EcatChain:
         payload_at = at + 2
         key = (len(buf), payload_at, buf[payload_at] | buf[payload_at + 1] << 8)
         known = self._layouts.get(key)
-        if known is not None and all(
-            buf[pos + 6] | buf[pos + 7] << 8 == word for pos, word in known
-        ):
-            return [
-                (
-                    buf[pos],
-                    pos + 2,
-                    buf[pos + 4] | buf[pos + 5] << 8,
-                    pos + 10,
-                    word & 0x7FF,
-                    pos + 8,
+        if known is not None:
+            found: list[tuple[int, int, int, int, int, int]] = []
+            for pos, word in known:
+                cmd, _, _, ado, now, _ = ethercat.datagram_head(buf, pos)
+                if now != word:
+                    break
+                found.append(
+                    (cmd, pos + 2, ado, pos + 10, word & ethercat.MAX_LENGTH_FIELD, pos + 8)
                 )
-                for pos, word in known
-            ]
+            else:
+                return found
         try:
             ecat, _, findings = ethercat.decode(bytes(buf[payload_at:]), strict=False)
         except DecodeError:
@@ -1413,7 +1410,7 @@ class EcatChain:
         for d in ecat.datagrams:
             n = len(d.data)
             layout.append((int(d.cmd), pos + 2, d.ado, pos + 10, n, pos + 8))
-            words.append((pos, buf[pos + 6] | buf[pos + 7] << 8))
+            words.append((pos, ethercat.datagram_head(buf, pos)[4]))
             pos += ethercat.DATAGRAM_OVERHEAD_BYTES + n
         if not findings and words:
             remember(self._layouts, key, words, PLAN_CACHE_ENTRIES)

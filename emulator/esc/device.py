@@ -1000,7 +1000,7 @@ class EscDevice:
         first, for every ESC an LRD or LRW of the process image reaches). An LRW (``cmd``) that
         no FMMU of this ESC writes is that LRD: it reads alike and counts 1 (ETG.1000.4 Table 14,
         +1 for a read, +2 for a write)."""
-        found = self.buffer_read(lad, n, cmd)
+        found = None if self.dc_sampling else self.whole_plan(lad, n, cmd)
         if found is None:
             return False
         self._read_whole(found[1], buf, off + found[0])
@@ -1013,13 +1013,8 @@ class EscDevice:
         and (its frame offset, the bytes read); None, having done nothing, otherwise. The other
         parts read no byte of the buffer (an area ECAT reads is not plain), so the order of the
         reads does not matter."""
-        if self.trace is not None or self.dc_sampling:
-            return None
-        key = _lrd_key(lad, n, True)
-        plan = self._lrd_plans.get(key)
-        if plan is None and key not in self._lrd_plans:
-            plan = self._plan_lrd(key)
-        if plan is None or plan[1].locked:
+        plan = None if self.dc_sampling else self.whole_plan(lad, n, first=True)
+        if plan is None:
             return None
         data = bytearray(plan[1].length)
         self._read_whole(plan[1], data, 0)
@@ -1304,23 +1299,20 @@ class EscDevice:
                 plan = (lo - lad, self._own(hit[0]), writes)  # whose state the reads change
         return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
-    def buffer_read(self, lad: int, n: int, cmd: int = LRD) -> tuple[int, SmRun] | None:
+    def whole_plan(
+        self, lad: int, n: int, cmd: int = LRD, *, first: bool = False
+    ) -> tuple[int, SmRun] | None:
         """Whether an LRD (or an LRW, ``cmd``) of ``n`` bytes at ``lad`` is, at this ESC, its
-        common case, the whole buffer of one read SyncManager (:meth:`_plan_lrd`), which
-        :func:`read_buffers` reads (here and over rows of ESCs): (the buffer's offset in the
-        datagram's data, the SyncManager); else None. An LRW that no FMMU of this ESC writes is
-        that LRD: it reads alike and counts 1 (ETG.1000.4 Table 14, +1 for a read, +2 for a
-        write)."""
-        found = self.whole_plan(lad, n, cmd)
-        return None if found is None or self.dc_sampling else found
-
-    def whole_plan(self, lad: int, n: int, cmd: int = LRD) -> tuple[int, SmRun] | None:
-        """:meth:`buffer_read` but for the state of distributed clocks, which frames change
-        (:attr:`dc_sampling`): what holds while the FMMUs and SyncManagers do
-        (:attr:`emulator.esc.mapping.Caches.layouts`)."""
+        common case, the whole buffer of one read SyncManager (:meth:`_plan_lrd`; with
+        ``first``, through its first read FMMU), which :func:`read_buffers` reads (here and
+        over rows of ESCs): (the buffer's offset in the datagram's data, the SyncManager); else
+        None. An LRW that no FMMU of this ESC writes is that LRD: it reads alike and counts 1
+        (ETG.1000.4 Table 14, +1 for a read, +2 for a write). What holds while the FMMUs and
+        SyncManagers do (:attr:`emulator.esc.mapping.Caches.layouts`); the reader asks apart
+        whether the ESC samples its inputs at SYNC0 now (:attr:`dc_sampling`)."""
         if self.trace is not None:
             return None
-        key = _lrd_key(lad, n, False)
+        key = _lrd_key(lad, n, first)
         plan = self._lrd_plans.get(key)  # one look-up where a plan is known
         if plan is None and key not in self._lrd_plans:
             plan = self._plan_lrd(key)

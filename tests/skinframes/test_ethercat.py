@@ -627,3 +627,10 @@ def test_pack_frames_batch_out_of_range(kwargs: dict[str, object]) -> None:
     args.update(kwargs)
     with pytest.raises(EncodeError):
         ethercat.pack_frames_batch(**args)  # type: ignore[arg-type]
+
+
+def test_datagram_head_reads_the_header_fields_of_etg1000_4_table_12() -> None:
+    # LRD (0x0A), index 0x5A, logical address 0x00020010 (ADP 0x0010, ADO 0x0002), 300 bytes with
+    # the M bit (0x8000 | 0x012C), IRQ 0x0003, written out byte by byte, little-endian
+    head = bytes([0x0A, 0x5A, 0x10, 0x00, 0x02, 0x00, 0x2C, 0x81, 0x03, 0x00])
+    assert ethercat.datagram_head(b"\xee" * 5 + head, 5) == (0x0A, 0x5A, 0x10, 2, 0x812C, 3)
