@@ -280,7 +280,7 @@ def _plan_image(
     groups: list[_Reads] = []
     end = 0  # where the buffer before ends in the data
     for dev in devices:
-        plan = dev.whole_plan(lad, n, cmd)
+        plan = dev._whole_plan(lad, n, cmd)
         if plan is None or plan[0] < end:
             return none
         at, sm = plan
@@ -322,16 +322,16 @@ class EcatChain:
         # every ESC's 64 KiB, one a row: a broadcast reads and commits them all at once
         self.memory = np.zeros((len(self.devices), ADDRESS_SPACE), np.uint8)
         for p, (row, dev) in enumerate(zip(self.memory, self.devices, strict=True)):
-            dev.use_memory(row.data, line=self.memory, index=p)
+            dev._use_memory(row.data, line=self.memory, index=p)
         # what the ESCs decode and plan once, this chain's own (no other chain sees it)
         self.caches = Caches()
         for dev in self.devices:
-            dev.use_caches(self.caches)
+            dev._use_caches(self.caches)
         # every ESC's EscDevice.fmmu_span, one a row, which it keeps up to date: the ESCs a
         # logical datagram may concern are found at once
         self.fmmu_spans = np.zeros((len(self.devices), 2), np.int64)
         for spans, dev in zip(self.fmmu_spans, self.devices, strict=True):
-            dev.use_span_row(spans)
+            dev._use_span_row(spans)
         self.timebase = DcTimebase(line_length=len(self.devices))  # distributed clocks (dc.py)
         # host time (ns) at which each frame arrives: frozen at 0 (deterministic, for the timing
         # engine and tests) until a live transport sets a real clock (emulator.live.serve)
@@ -621,16 +621,16 @@ class EcatChain:
         """A logical datagram through the ESCs of ``line`` at ``targets`` (those whose FMMUs
         map part of it), in chain order: (the working counter's increment, whether an ESC's
         event request changed). An LRD of a whole input buffer, or an LRW there that the ESC
-        does not write, is one call (:meth:`EscDevice.read_buffered`); consecutive ESCs that
-        map the datagram onto plain memory with one plan cut (:meth:`EscDevice.row_access`;
-        idle mailboxes are holes in it, :meth:`EscDevice.row_cut`) are done at once over their
+        does not write, is one call (:meth:`EscDevice._read_buffered`); consecutive ESCs that
+        map the datagram onto plain memory with one plan cut (:meth:`EscDevice._row_access`;
+        idle mailboxes are holes in it, :meth:`EscDevice._row_cut`) are done at once over their
         rows
         (:func:`logical_together`), a few of them each straight in its memory
-        (:meth:`EscDevice.logical_cut`); an LRD's consecutive plain ESCs, whatever their
+        (:meth:`EscDevice._logical_cut`); an LRD's consecutive plain ESCs, whatever their
         plans, from the last back (:func:`last_readers`); those of them that read DC
-        registers bring them up to the frame's time first (:meth:`EscDevice.refresh_dc`), and
+        registers bring them up to the frame's time first (:meth:`EscDevice._refresh_dc`), and
         those that read DL or AL status clear its event afterwards
-        (:meth:`EscDevice.clear_read_events`); any other ESC on its own, as
+        (:meth:`EscDevice._clear_read_events`); any other ESC on its own, as
         :meth:`EscDevice.process`.
         """
         lad = adp | ado << 16
@@ -646,7 +646,7 @@ class EcatChain:
 
         def plain() -> tuple[int, bool]:  # the run: over its rows when long enough
             for q, registers in clocks:  # DC registers at the frame's time, then the reads
-                line[q].refresh_dc(registers)
+                line[q]._refresh_dc(registers)
             if lrd:
                 inc = last_readers([line[q] for q in run], cuts, buf, at, n, buffers)
             elif len(run) >= LOGICAL_TOGETHER_MIN:
@@ -655,10 +655,10 @@ class EcatChain:
                     self.memory, run, run_plan, cmd, buf, at, n, run_shadow, devices
                 )
             else:
-                inc = sum(line[q].logical_cut(run_plan, cmd, buf, at, n, run_shadow) for q in run)
+                inc = sum(line[q]._logical_cut(run_plan, cmd, buf, at, n, run_shadow) for q in run)
             cleared = False  # then each ESC's reads of DL or AL status clear their events
             for q, bits in events:
-                cleared = line[q].clear_read_events(bits) or cleared
+                cleared = line[q]._clear_read_events(bits) or cleared
             return inc, cleared
 
         # what row_access gave the last ESC asked (None: ask), and what it follows from: the
@@ -679,11 +679,11 @@ class EcatChain:
                     and dev.pdi_operational == pdi
                     and dev.write_plans is writes
                 ):
-                    found = dev.row_access(cmd, lad, n)
+                    found = dev._row_access(cmd, lad, n)
                     fmmus, areas = dev.fmmu_decoded, dev.sm_areas
                     pdi, writes = dev.pdi_operational, dev.write_plans
-                cut = found.cut  # where it holds at this ESC now (EscDevice.row_cut)
-                if found.mailboxes and cut is not None and not dev.mailboxes_idle(found.mailboxes):
+                cut = found.cut  # where it holds at this ESC now (EscDevice._row_cut)
+                if found.mailboxes and cut is not None and not dev._mailboxes_idle(found.mailboxes):
                     cut = None
                 if cut == _UNTOUCHED:
                     continue  # it does nothing with the datagram's bytes
@@ -697,7 +697,7 @@ class EcatChain:
                         clocks.append((p, found.dc))
                     continue
                 if lrd and cut is None and found.rest is not None:
-                    read = dev.read_first_buffer(lad, n)
+                    read = dev._read_first_buffer(lad, n)
                     if read is not None:  # its buffer read, in the run with its other parts
                         buffers[len(run)] = read
                         run.append(p)
@@ -708,7 +708,7 @@ class EcatChain:
                 run, cuts, events, clocks = [], [], [], []  # the ESCs before this one are done
                 buffers = {}
             before = dev.irq
-            done = dev.logical_unless_rows(cmd, lad, buf, at, n, rest=lrd)
+            done = dev._logical_unless_rows(cmd, lad, buf, at, n, rest=lrd)
             found = None
             if isinstance(done, int):
                 wkc_inc += done
@@ -739,7 +739,7 @@ class EcatChain:
 
     def _image_read(self, line: list[EscDevice], cmd: int, lad: int, n: int) -> _ImageRead | None:
         """An LRD (or LRW) of ``n`` bytes at ``lad`` that every ESC it reaches reads as one
-        whole buffer (:meth:`EscDevice.whole_plan`), all of one SyncManager index, start and
+        whole buffer (:meth:`EscDevice._whole_plan`), all of one SyncManager index, start and
         length and apart in the frame (a master's read of the process image): its plan, worked
         out once while the ESCs' FMMUs and SyncManagers stay (:attr:`Caches.layouts`), unless an
         ESC samples its inputs at SYNC0 now (:attr:`EscDevice.dc_sampling`); else None."""
@@ -969,10 +969,10 @@ class EcatChain:
     @staticmethod
     def _refresh_dc(line: list[EscDevice], lo: int, hi: int) -> None:
         """Every ESC of ``line`` brings its DC registers among [lo, hi) up to the frame's time,
-        as before a read of them (:meth:`EscDevice.refresh_dc`)."""
+        as before a read of them (:meth:`EscDevice._refresh_dc`)."""
         registers = ((lo, hi),)
         for dev in line:
-            dev.refresh_dc(registers)
+            dev._refresh_dc(registers)
 
     def _memory_broadcast(
         self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
@@ -1270,7 +1270,7 @@ class EcatChain:
         do the rest of one configuration whose writes differ in their addresses too (through
         FMMUs that differ from ESC to ESC, :func:`commit_apart`), when they are many; of those
         without writes only the ones with something to finish are asked
-        (:meth:`EscDevice.unfinished`).
+        (:meth:`EscDevice._unfinished`).
         ESCs commit independently of each other, so the groups may go in any order, and so may
         the reactions they queue for the slaves' firmware, each to its own ESC. The whole
         buffers read over rows are exchanged last (:func:`finish_reads`). After a frame of
@@ -1299,7 +1299,7 @@ class EcatChain:
                 last, plans = pending, dev.write_plans
                 group = groups.setdefault((id(plans), *pending), [])
                 group.append(p)
-        for dev in EscDevice.unfinished(idle):
+        for dev in EscDevice._unfinished(idle):
             dev.end_frame()
         shapes: dict[tuple[object, ...], list[list[int]]] = {}  # groups by addresses, lengths
         for key, positions in groups.items():

@@ -53,6 +53,7 @@ skin patch's is :class:`SkinPatchApplication`.
 from __future__ import annotations
 
 import struct
+import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from graphlib import CycleError, TopologicalSorter
@@ -183,8 +184,42 @@ __all__ = [
 ]
 
 _RESET_SEQUENCE: Final = b"RES"
-_MAILBOX_EVENT: Final = -1  # EscDevice.react: a mailbox or SyncManager event, not AL control
-_OUTPUTS_EVENT: Final = -2  # EscDevice.react: -2 - n, ECAT completed write SyncManager n's buffer
+_MAILBOX_EVENT: Final = -1  # EscDevice._reaction: a mailbox or SyncManager event, not AL control
+_OUTPUTS_EVENT: Final = (
+    -2
+)  # EscDevice._reaction: -2 - n, ECAT completed write SyncManager n's buffer
+
+# EscDevice's methods for its chain alone, public until the interface named what stays public
+# (docs/interface.md, "EscDevice"): each old name still answers, with a DeprecationWarning
+_RENAMED: Final = {
+    "use_memory": "_use_memory",
+    "use_span_row": "_use_span_row",
+    "use_caches": "_use_caches",
+    "finish_frame": "_finish_frame",
+    "read_buffered": "_read_buffered",
+    "read_first_buffer": "_read_first_buffer",
+    "plain_access": "_plain_access",
+    "row_access": "_row_access",
+    "refresh_dc": "_refresh_dc",
+    "row_cut": "_row_cut",
+    "mailboxes_idle": "_mailboxes_idle",
+    "clear_read_events": "_clear_read_events",
+    "logical_unless_rows": "_logical_unless_rows",
+    "logical_cut": "_logical_cut",
+    "write_shadow": "_write_shadow",
+    "shadow_writes": "_shadow_writes",
+    "whole_plan": "_whole_plan",
+    "react": "_reaction",
+    "react_now": "_reactions_now",
+    "use_fmmus": "_use_fmmus",
+    "change_syncmanagers": "_change_syncmanagers",
+    "finish_frames": "_finish_frames",
+    "unfinished": "_unfinished",
+    "al_control_together": "_al_control_together",
+    "change_syncmanagers_together": "_change_syncmanagers_together",
+    "sm_registers_written_together": "_sm_registers_written_together",
+}
+
 LRD_OR_LRW: Final = frozenset((LRD, LRW))  # the logical commands that read (read_buffered)
 _LRD_KEY_SHIFT: Final = 17  # _lrd_key: the length (a datagram's 11 bits) and the flag below
 
@@ -286,7 +321,7 @@ class _Unmade(NamedTuple):
 
 class FirstBuffer(NamedTuple):
     """An LRD's whole-buffer read by an ESC's first FMMU, done, whose other parts the chain
-    reads over the rows (:meth:`EscDevice.logical_unless_rows` with ``rest``)."""
+    reads over the rows (:meth:`EscDevice._logical_unless_rows` with ``rest``)."""
 
     access: Access  # with the other parts' cut, Access.rest
     at: int  # the buffer's frame offset
@@ -484,6 +519,19 @@ class EscDevice:
         self.firmware_queue: list[tuple[EscDevice, int]] | None = None
         self._power_on()
 
+    def __getattr__(self, name: str) -> object:
+        """A method by its old name (:data:`_RENAMED`), with a DeprecationWarning; no other
+        name is found here (called only where the usual look-up found nothing)."""
+        new = _RENAMED.get(name)
+        if new is None:
+            raise AttributeError(f"'EscDevice' object has no attribute {name!r}")
+        warnings.warn(
+            f"EscDevice.{name} is now EscDevice.{new}, its chain's own (docs/interface.md)",
+            DeprecationWarning,
+            stacklevel=2,
+        )
+        return getattr(self, new)
+
     # --- power-on, EEPROM load ----------------------------------------------------------------
     def _power_on(self) -> None:
         """Reset values of section II, then the EEPROM load of datasheet I 11.1:
@@ -548,7 +596,7 @@ class EscDevice:
         """
         return self.onward
 
-    def use_memory(
+    def _use_memory(
         self,
         row: memoryview,
         *,
@@ -572,13 +620,13 @@ class EscDevice:
             self._rows = (line, np.full(1, index, np.intp))
             self._row = slice(index, index + 1)
 
-    def use_span_row(self, row: npt.NDArray[np.int64]) -> None:
+    def _use_span_row(self, row: npt.NDArray[np.int64]) -> None:
         """Keep :attr:`fmmu_span` in ``row`` (two int64) too, from now on: the chain holds every
         ESC's span as one array, to find the ESCs a logical datagram may concern at once."""
         row[0], row[1] = self.fmmu_span
         self._span_row = row
 
-    def use_caches(self, caches: Caches) -> None:
+    def _use_caches(self, caches: Caches) -> None:
         """Decode and plan in ``caches`` from now on: its chain's, shared by the ESCs of that
         chain alone (what it decoded before stays its own)."""
         self._caches = caches
@@ -604,12 +652,9 @@ class EscDevice:
             self.update_irq()
         struct.pack_into("<HxxH", self.mem, REG_AL_STATUS, value, code)
 
-    def pdi_deactivate_sm(self, index: int, deactivate: bool) -> None:
-        """PDI control 0x0807 bit 0: lock (True) or release a SyncManager (datasheet I 8.7)."""
-        self.pdi_deactivate_sms((index,), deactivate)
-
     def pdi_deactivate_sms(self, indices: Iterable[int], deactivate: bool) -> None:
-        """:meth:`pdi_deactivate_sm` for several SyncManagers, the table rebuilt once."""
+        """PDI control 0x0807 bit 0: lock (True) or release SyncManagers ``indices`` (datasheet
+        I 8.7), the table rebuilt once."""
         if self._unmade is not None:
             self._make_sms()
         mem, bit, changed = self.mem, 0x01 if deactivate else 0, False
@@ -674,9 +719,9 @@ class EscDevice:
             return
         if self.pending:
             self._commit_registers()
-        self.finish_frame()
+        self._finish_frame()
 
-    def finish_frame(self) -> None:
+    def _finish_frame(self) -> None:
         """:meth:`end_frame` after the register writes took effect: buffer exchanges, the
         mailbox, the reset sequence (the chain commits the writes of many ESCs at once)."""
         if self._completed:
@@ -698,12 +743,12 @@ class EscDevice:
             self._reset_written = None
             if self._reset_progress == len(_RESET_SEQUENCE):
                 self._reset_progress = 0
-                self.react_now()  # what the application was to do before the reset
+                self._reactions_now()  # what the application was to do before the reset
                 self._power_on()
         self.mem[REG_RESET_ECAT] = self._reset_progress
 
     def _finish_unless_reset(self) -> bool:
-        """:meth:`finish_frame` up to a reset it completes: True (the application reacted to
+        """:meth:`_finish_frame` up to a reset it completes: True (the application reacted to
         what it was to before), the power-on left to the caller, which does many at once."""
         if (
             self._reset_progress == len(_RESET_SEQUENCE) - 1
@@ -711,23 +756,23 @@ class EscDevice:
         ):
             self._reset_written = None
             self._reset_progress = 0
-            self.finish_frame()  # buffers, mailbox; no reset written now: 0x0040 = 0
-            self.react_now()
+            self._finish_frame()  # buffers, mailbox; no reset written now: 0x0040 = 0
+            self._reactions_now()
             return True
-        self.finish_frame()
+        self._finish_frame()
         return False
 
     @staticmethod
-    def finish_frames(devices: list[EscDevice]) -> None:
-        """:meth:`finish_frame` at each of ``devices``, whose reset register 0x0040 the chain
+    def _finish_frames(devices: list[EscDevice]) -> None:
+        """:meth:`_finish_frame` at each of ``devices``, whose reset register 0x0040 the chain
         set to 0 (over the rows): one that is only to run its mailbox handler (no buffer
         completed, no reset written or under way) just has it run (or queued), as
-        :meth:`finish_frame` would."""
+        :meth:`_finish_frame` would."""
         resets: list[EscDevice] = []
         for dev in devices:
             if dev._completed or dev._reset_written is not None or dev._reset_progress:
                 if dev._reset_written is None:
-                    dev.finish_frame()
+                    dev._finish_frame()
                 elif dev._finish_unless_reset():
                     resets.append(dev)
             elif dev._mailbox_due:
@@ -738,8 +783,8 @@ class EscDevice:
             power_on_together(resets)
 
     @staticmethod
-    def unfinished(devices: list[EscDevice]) -> list[EscDevice]:
-        """Those of ``devices`` whose :meth:`finish_frame` does more than show no reset under
+    def _unfinished(devices: list[EscDevice]) -> list[EscDevice]:
+        """Those of ``devices`` whose :meth:`_finish_frame` does more than show no reset under
         way (0x0040 = 0): a buffer completed, the mailbox handler due, the reset register
         written or a reset sequence under way (the chain sets 0x0040 of the others at once)."""
         return [
@@ -993,27 +1038,27 @@ class EscDevice:
         return self._sms[sm.index] is sm
 
     # --- logical access through the FMMUs ------------------------------------------------------
-    def read_buffered(self, lad: int, buf: bytearray, off: int, n: int, cmd: int = LRD) -> bool:
+    def _read_buffered(self, lad: int, buf: bytearray, off: int, n: int, cmd: int = LRD) -> bool:
         """An LRD of ``n`` bytes at ``lad`` (data at ``buf[off:]``) in its common case, the
         whole buffer of one read SyncManager (:meth:`_plan_lrd`): done, with the working counter
         to count 1, when True; False leaves the LRD to :meth:`process` (the chain asks this
         first, for every ESC an LRD or LRW of the process image reaches). An LRW (``cmd``) that
         no FMMU of this ESC writes is that LRD: it reads alike and counts 1 (ETG.1000.4 Table 14,
         +1 for a read, +2 for a write)."""
-        found = None if self.dc_sampling else self.whole_plan(lad, n, cmd)
+        found = None if self.dc_sampling else self._whole_plan(lad, n, cmd)
         if found is None:
             return False
         self._read_whole(found[1], buf, off + found[0])
         return True
 
-    def read_first_buffer(self, lad: int, n: int) -> tuple[int, bytes] | None:
+    def _read_first_buffer(self, lad: int, n: int) -> tuple[int, bytes] | None:
         """An LRD of ``n`` bytes at ``lad`` whose first read FMMU maps onto exactly the whole
         buffer of a read SyncManager (:meth:`_plan_lrd`), its other FMMUs' parts plain
-        (:attr:`Access.rest`, the chain's): that buffer read as :meth:`read_buffered` reads it,
+        (:attr:`Access.rest`, the chain's): that buffer read as :meth:`_read_buffered` reads it,
         and (its frame offset, the bytes read); None, having done nothing, otherwise. The other
         parts read no byte of the buffer (an area ECAT reads is not plain), so the order of the
         reads does not matter."""
-        plan = None if self.dc_sampling else self.whole_plan(lad, n, first=True)
+        plan = None if self.dc_sampling else self._whole_plan(lad, n, first=True)
         if plan is None:
             return None
         data = bytearray(plan[1].length)
@@ -1022,7 +1067,7 @@ class EscDevice:
 
     def _read_whole(self, sm: SmRun, buf: bytearray, at: int) -> None:
         """:func:`read_buffers` at this ESC alone, its buffer exchange at the end of the frame
-        (:meth:`finish_frame`)."""
+        (:meth:`_finish_frame`)."""
         due = not sm.complete
         read_buffers([self], [sm], 0, [at], self._rows[0], self._row, buf)
         if due:
@@ -1040,18 +1085,10 @@ class EscDevice:
         found.rows(self.sm_areas, top, self.write_plans)
         return found
 
-    def plain_plan(self, cmd: int, lad: int, n: int) -> LogicalPlan | None:
-        """What a logical access does when all it does is plain memory: user or process RAM
+    def _plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
+        """A logical access when all it does is plain memory (user or process RAM
         this ESC gives ECAT access to, no buffer of a SyncManager, no register written but
-        read-only ones, no register read that has a side effect; its plan without the bytes
-        where it does nothing (:meth:`plain_access`, :func:`emulator.esc.mapping.cut`); else
-        None."""
-        found = self.plain_access(cmd, lad, n)
-        return None if found is None else found.cut
-
-    def plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
-        """A logical access when all it does is plain memory (:meth:`plain_plan`): its plan, the
-        bytes where it does nothing and the plan without them
+        read-only ones, no register read that has a side effect): its plan, the bytes where it does nothing and the plan without them
         (:func:`emulator.esc.mapping.plain_access`); else None.
         Such an access changes nothing but the bytes and counts its working counter whatever
         they are, so the chain may do it for many ESCs with the same plan and holes at once
@@ -1059,31 +1096,31 @@ class EscDevice:
         found = self._access(cmd, lad, n)
         return None if found.events else found.plain
 
-    def row_access(self, cmd: int, lad: int, n: int) -> Access:
+    def _row_access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the
-        plan cut, of a plain access, :meth:`plain_access`, or of one that is plain but for
+        plan cut, of a plain access, :meth:`_plain_access`, or of one that is plain but for
         reads of DL or AL status, whose events, :attr:`Access.events`, the ESC then clears,
-        :meth:`clear_read_events`, but for mailboxes, :attr:`Access.mailboxes`, that must be
-        idle, :meth:`mailboxes_idle`, but for a read of DC registers, :attr:`Access.dc`,
-        which the ESC brings up to the frame's time first, :meth:`refresh_dc`, and but for
+        :meth:`_clear_read_events`, but for mailboxes, :attr:`Access.mailboxes`, that must be
+        idle, :meth:`_mailboxes_idle`, but for a read of DC registers, :attr:`Access.dc`,
+        which the ESC brings up to the frame's time first, :meth:`_refresh_dc`, and but for
         writes of registers, :attr:`Access.shadow`, whose bytes go among its shadow writes,
-        :meth:`write_shadow`; :func:`emulator.esc.mapping.esc_row_access`)."""
+        :meth:`_write_shadow`; :func:`emulator.esc.mapping.esc_row_access`)."""
         return self._access(cmd, lad, n)
 
-    def refresh_dc(self, registers: tuple[tuple[int, int], ...]) -> None:
+    def _refresh_dc(self, registers: tuple[tuple[int, int], ...]) -> None:
         """Bring the DC registers [lo, hi) of ``registers`` (:attr:`Access.dc`) up to the
         frame's time, as before a read of them (:meth:`DcClock.refresh`)."""
         for lo, hi in registers:
             self.dc.refresh(self.mem, lo, hi)
 
-    def row_cut(self, found: Access) -> LogicalPlan | None:
-        """``found.cut`` (:meth:`row_access`) when it holds at this ESC now: its mailboxes
-        idle (:meth:`mailboxes_idle`); else None."""
-        if found.mailboxes and not self.mailboxes_idle(found.mailboxes):
+    def _row_cut(self, found: Access) -> LogicalPlan | None:
+        """``found.cut`` (:meth:`_row_access`) when it holds at this ESC now: its mailboxes
+        idle (:meth:`_mailboxes_idle`); else None."""
+        if found.mailboxes and not self._mailboxes_idle(found.mailboxes):
             return None
         return found.cut
 
-    def mailboxes_idle(self, mailboxes: Mailboxes) -> bool:
+    def _mailboxes_idle(self, mailboxes: Mailboxes) -> bool:
         """Whether ECAT can access none of ``mailboxes`` ((SyncManager index, side 0 read /
         1 write), :func:`emulator.esc.mapping.esc_row_access`) now: a read mailbox empty,
         a write mailbox full (neither is then open: ECAT opens a mailbox only in the other
@@ -1106,56 +1143,34 @@ class EscDevice:
                 return False
         return True
 
-    def clear_read_events(self, events: int) -> bool:
+    def _clear_read_events(self, events: int) -> bool:
         """ECAT read the registers that clear ``events`` (0x0210 bits: DL status, AL status;
         datasheet I Table 3): whether the event request to the master (:attr:`irq`) changed."""
         before = self.irq
         self._clear_event(events)
         return self.irq != before
 
-    def logical_unless_rows(
+    def _logical_unless_rows(
         self, cmd: int, lad: int, buf: bytearray, off: int, n: int, *, rest: bool = False
     ) -> int | Access | FirstBuffer:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
-        counter's increment; but when the chain may do it over the rows (:meth:`row_access`),
+        counter's increment; but when the chain may do it over the rows (:meth:`_row_access`),
         that access, untouched, for the chain to do it together with the ESCs after this one;
         with ``rest`` (an LRD), also when only the first FMMU's part is not plain, a whole
-        buffer read (:meth:`read_first_buffer`): that read done, and the access with its
+        buffer read (:meth:`_read_first_buffer`): that read done, and the access with its
         :attr:`Access.rest` for the chain (:class:`FirstBuffer`)."""
-        if cmd in LRD_OR_LRW and self.read_buffered(lad, buf, off, n, cmd):
+        if cmd in LRD_OR_LRW and self._read_buffered(lad, buf, off, n, cmd):
             return 1
         found = self._access(cmd, lad, n)
-        if self.row_cut(found) is not None:
+        if self._row_cut(found) is not None:
             return found
         if rest and found.rest is not None:
-            read = self.read_first_buffer(lad, n)
+            read = self._read_first_buffer(lad, n)
             if read is not None:
                 return FirstBuffer(found, *read)
         return self._through(found.plan, cmd, buf, off, n)
 
-    def logical_unless_plain(
-        self, cmd: int, lad: int, buf: bytearray, off: int, n: int
-    ) -> int | PlainAccess:
-        """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
-        counter's increment; but when it is plain (:meth:`plain_access`), that access, untouched,
-        for the chain to do it together with the ESCs after this one."""
-        done = self.logical_unless_rows(cmd, lad, buf, off, n)
-        if isinstance(done, int):
-            return done
-        assert isinstance(done, Access)  # (no FirstBuffer without rest)
-        plain = done.plain
-        if plain is not None and not done.events:
-            return plain
-        return self._through(done.plan, cmd, buf, off, n)
-
-    def plain_logical(self, access: PlainAccess, cmd: int, buf: bytearray, off: int, n: int) -> int:
-        """A plain logical datagram (data ``buf[off:off+n]``, in place; ``access`` from
-        :meth:`plain_access`): the working counter's increment. Its plan with the holes cut,
-        straight to and from memory: what :meth:`_through` does there without asking for side
-        effects, since there are none, and skipping the holes, where it does nothing."""
-        return self.logical_cut(access.cut, cmd, buf, off, n)
-
-    def logical_cut(
+    def _logical_cut(
         self,
         plan: LogicalPlan,
         cmd: int,
@@ -1164,14 +1179,15 @@ class EscDevice:
         n: int,
         shadow: tuple[LogicalOp, ...] = (),
     ) -> int:
-        """:meth:`plain_logical` of an access's plan cut (:attr:`Access.cut`), and of the
+        """A logical datagram (data ``buf[off:off+n]``, in place) by an access's plan cut
+        (:attr:`Access.cut`), straight to and from memory, and of the
         write parts ``shadow`` (:attr:`Access.shadow`) the register bytes among the shadow
-        writes (:meth:`shadow_writes`)."""
+        writes (:meth:`_shadow_writes`)."""
         reads, writes = plan
         mem = self.mem
         data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
         if shadow:
-            self.write_shadow(self.shadow_writes(shadow, data_in))
+            self._write_shadow(self._shadow_writes(shadow, data_in))
         for bytewise, phys, size, shift, mask, at, width in reads:
             at += off
             if bytewise:
@@ -1190,7 +1206,7 @@ class EscDevice:
         r, w = int(bool(reads)), int(bool(writes))
         return r if cmd == LRD else w if cmd == LWR else r + 2 * w
 
-    def write_shadow(self, entries: Iterable[tuple[int, bytes]]) -> None:
+    def _write_shadow(self, entries: Iterable[tuple[int, bytes]]) -> None:
         """ECAT writes registers: each (address, bytes), below 0x0F80, into the shadow writes
         (:attr:`pending`), as :meth:`_write` puts them there; a byte written into the reset
         register 0x0040 counts towards a reset (datasheet II 2.3), the last one of the frame."""
@@ -1199,7 +1215,7 @@ class EscDevice:
             if addr <= REG_RESET_ECAT < addr + len(data):
                 self._reset_written = data[REG_RESET_ECAT - addr]
 
-    def shadow_writes(
+    def _shadow_writes(
         self, parts: tuple[LogicalOp, ...], data_in: bytes
     ) -> list[tuple[int, bytes]]:
         """What the write parts ``parts`` (:func:`plan_logical`) of a datagram whose data
@@ -1217,7 +1233,7 @@ class EscDevice:
         return out
 
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
-        if cmd in LRD_OR_LRW and self.read_buffered(lad, buf, off, n, cmd):
+        if cmd in LRD_OR_LRW and self._read_buffered(lad, buf, off, n, cmd):
             return 1
         return self._through(self._access(cmd, lad, n).plan, cmd, buf, off, n)
 
@@ -1299,7 +1315,7 @@ class EscDevice:
                 plan = (lo - lad, self._own(hit[0]), writes)  # whose state the reads change
         return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
-    def whole_plan(
+    def _whole_plan(
         self, lad: int, n: int, cmd: int = LRD, *, first: bool = False
     ) -> tuple[int, SmRun] | None:
         """Whether an LRD (or an LRW, ``cmd``) of ``n`` bytes at ``lad`` is, at this ESC, its
@@ -1327,7 +1343,7 @@ class EscDevice:
         commit_together([self], *self._rows)
 
     @staticmethod
-    def al_control_together(
+    def _al_control_together(
         devices: Sequence[EscDevice], values: Sequence[int], pdi_control: Sequence[int]
     ) -> None:
         """After a frame wrote AL control (0x0120), at each of ``devices``, with its AL control
@@ -1360,14 +1376,14 @@ class EscDevice:
             self._react(value)
 
     def _react(self, what: int) -> None:
-        """The application reacts to the frame (:meth:`react`), once the frame has passed when
+        """The application reacts to the frame (:meth:`_reaction`), once the frame has passed when
         the chain holds its reactions (:attr:`firmware_queue`), else at once."""
         if self.firmware_queue is None:
-            self.react(what)
+            self._reaction(what)
         else:
             self.firmware_queue.append((self, what))
 
-    def react(self, what: int) -> None:
+    def _reaction(self, what: int) -> None:
         """The application's reaction to a frame: to a write of AL control with value ``what``
         (the ESM, ETG.1000.6 6.4), to a mailbox or SyncManager event (``what`` -1), or to the
         buffer of process-data SyncManager n that ECAT completed (``what`` -2 - n): what the
@@ -1382,7 +1398,7 @@ class EscDevice:
             self.al_control_full = False  # the firmware reads AL control: ECAT may write again
             self.app.al_control(self, what)
 
-    def react_now(self) -> None:
+    def _reactions_now(self) -> None:
         """The reactions of this ESC's application still held (:attr:`firmware_queue`), in
         order: before an ESC reset, which the firmware would have seen after them."""
         queue = self.firmware_queue
@@ -1391,12 +1407,12 @@ class EscDevice:
         mine = [what for dev, what in queue if dev is self]
         queue[:] = [(dev, what) for dev, what in queue if dev is not self]
         for what in mine:
-            self.react(what)
+            self._reaction(what)
 
     def _ecat_owns_eeprom(self) -> bool:
         return not (self.mem[REG_EEPROM_CONFIG] & 0x01 or self.mem[REG_EEPROM_PDI] & 0x01)
 
-    def use_fmmus(self, decoded: FmmuTable) -> None:
+    def _use_fmmus(self, decoded: FmmuTable) -> None:
         """The FMMUs follow ``decoded``, their register bytes decoded (:func:`fmmu_table`; the
         chain decodes the tables of many ESCs at once, :func:`emulator.esc.together.
         commit_together`)."""
@@ -1412,7 +1428,7 @@ class EscDevice:
         self._caches.layouts += 1
 
     def _set_span(self, span: tuple[int, int]) -> None:
-        """:attr:`fmmu_span` and its row of the chain's array (:meth:`use_span_row`)."""
+        """:attr:`fmmu_span` and its row of the chain's array (:meth:`_use_span_row`)."""
         self.fmmu_span = span
         row = self._span_row
         row[0], row[1] = span
@@ -1430,7 +1446,7 @@ class EscDevice:
         if bytes(mem[REG_ECAT_EVENT : REG_ECAT_EVENT + 2]) != events:  # an SM interrupt went
             self.update_irq()
 
-    def change_syncmanagers(self, change: SmChange, decoded: SmTable) -> None:
+    def _change_syncmanagers(self, change: SmChange, decoded: SmTable) -> None:
         """The SyncManagers after their table changed to ``decoded`` (:func:`sm_change`): the ones
         that start anew lose their state, the others keep it (their status registers are the
         caller's: :func:`_syncmanagers`, over the rows of the ESCs a commit changes).
@@ -1442,10 +1458,10 @@ class EscDevice:
         self._change_sms(change, decoded, frozenset([entry.number for entry in change.fresh]))
 
     @staticmethod
-    def change_syncmanagers_together(
+    def _change_syncmanagers_together(
         devices: Iterable[EscDevice], change: SmChange, decoded: SmTable
     ) -> None:
-        """:meth:`change_syncmanagers` and :meth:`sm_registers_written` at each of ``devices``
+        """:meth:`_change_syncmanagers` at each of ``devices``, and their mailbox handlers due
         (one change, as the chain's commit over the rows finds it)."""
         fresh = frozenset([entry.number for entry in change.fresh])
         for dev in devices:
@@ -1453,7 +1469,7 @@ class EscDevice:
             dev._mailbox_due = True
 
     def _change_sms(self, change: SmChange, decoded: SmTable, fresh: frozenset[int]) -> None:
-        """:meth:`change_syncmanagers`, ``fresh`` the indices of those the change starts anew."""
+        """:meth:`_change_syncmanagers`, ``fresh`` the indices of those the change starts anew."""
         self._forget_lrd_plans()
         self.sm_areas = decoded
         unmade = self._unmade
@@ -1465,7 +1481,7 @@ class EscDevice:
         self._unmade = _Unmade(fresh, decoded, change.by_start)
 
     def _make_sms(self) -> None:
-        """Change the SyncManagers as :attr:`_unmade` says (:meth:`change_syncmanagers`),
+        """Change the SyncManagers as :attr:`_unmade` says (:meth:`_change_syncmanagers`),
         before anything reads or changes them: those of the decoded table that start anew are
         new, the others keep their state and take their PDI lock from it, and those it leaves
         out have no buffer."""
@@ -1514,14 +1530,10 @@ class EscDevice:
         active[active.index(sm)] = mine
         return mine
 
-    def sm_registers_written(self) -> None:
-        """After a frame changed SyncManager registers: the mailbox handler runs at its end
-        (:meth:`finish_frame`; a repeat request, datasheet II 2.14.7)."""
-        self._mailbox_due = True
-
     @staticmethod
-    def sm_registers_written_together(devices: Iterable[EscDevice]) -> None:
-        """:meth:`sm_registers_written` at each of ``devices``."""
+    def _sm_registers_written_together(devices: Iterable[EscDevice]) -> None:
+        """After a frame changed SyncManager registers: the mailbox handler of each of ``devices``
+        runs at its end (:meth:`_finish_frame`; a repeat request, datasheet II 2.14.7)."""
         for dev in devices:
             dev._mailbox_due = True
 
@@ -1606,7 +1618,7 @@ def commit_together(
 ) -> None:
     """Commit the pending register writes of ``devices`` (one configuration), whose memory is
     ``memory[rows]``, as each one's :meth:`EscDevice.end_frame` would (before
-    :meth:`EscDevice.finish_frame`): equal lists, or with ``alike`` False lists of writes at the
+    :meth:`EscDevice._finish_frame`): equal lists, or with ``alike`` False lists of writes at the
     same addresses and lengths whose bytes differ from ESC to ESC (a logical datagram's through
     FMMUs that map each ESC's own frame bytes onto registers), each write then a row of bytes
     per ESC."""
@@ -1773,7 +1785,7 @@ def _commit_slots(
         writers = [devices[i] for i in which.tolist()]
         for writer, pdi in zip(writers, control, strict=True):
             writer.al_control_full = not pdi & 0x01  # but in device emulation
-        EscDevice.al_control_together(writers, value.tolist(), control)
+        EscDevice._al_control_together(writers, value.tolist(), control)
 
 
 def consecutive(rows: _Rows | slice) -> _Rows | slice:
@@ -2009,7 +2021,7 @@ def _event_requests(
 
 def react_together(work: Sequence[tuple[EscDevice, int]], memory: npt.NDArray[np.uint8]) -> None:
     """Each ESC of ``work`` (of one line, whose memory is ``memory``) reacts to its event
-    (:meth:`EscDevice.react`), in order; the event requests the reactions change (AL status,
+    (:meth:`EscDevice._reaction`), in order; the event requests the reactions change (AL status,
     SyncManager events) are brought up to date once all reacted, over the rows of those whose
     request changed: no frame reads them meanwhile."""
     changed: list[EscDevice] = []
@@ -2017,7 +2029,7 @@ def react_together(work: Sequence[tuple[EscDevice, int]], memory: npt.NDArray[np
         for dev, _ in work:
             dev._irq_batch = changed
         for dev, what in work:
-            dev.react(what)
+            dev._reaction(what)
     finally:
         for dev, _ in work:
             dev._irq_batch = None
@@ -2126,11 +2138,11 @@ def _through(
 
 
 def finish_together(devices: list[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:
-    """:meth:`EscDevice.finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
+    """:meth:`EscDevice._finish_frame` of ``devices``, whose memory is ``memory[rows]``, after
     :func:`commit_together`: 0x0040 shows no reset under way at every row, and the ESCs with
-    more to finish (:meth:`EscDevice.unfinished`) finish the frame (:meth:`EscDevice.finish_frames`)."""
+    more to finish (:meth:`EscDevice._unfinished`) finish the frame (:meth:`EscDevice._finish_frames`)."""
     memory[consecutive(rows), REG_RESET_ECAT] = 0
-    EscDevice.finish_frames(EscDevice.unfinished(devices))
+    EscDevice._finish_frames(EscDevice._unfinished(devices))
 
 
 def _fmmus(
@@ -2149,7 +2161,7 @@ def _fmmus(
     tables = memory[rows[list(which)], REG_FMMU:end].tobytes()
     caches = devices[0]._caches  # (the ESCs of one chain)
     for k, i in enumerate(which):
-        devices[i].use_fmmus(fmmu_table(caches, tables[k * width : (k + 1) * width]))
+        devices[i]._use_fmmus(fmmu_table(caches, tables[k * width : (k + 1) * width]))
 
 
 def _syncmanagers(
@@ -2167,7 +2179,7 @@ def _syncmanagers(
     their tables decoded and the changes worked out (:func:`sm_table`, :func:`sm_change`) once
     per distinct table before, table after and activate bytes before the frame (``enabled``, a
     row each), each change's status registers set over the rows at once, and each ESC's
-    SyncManagers changed as the change says (:meth:`EscDevice.change_syncmanagers_together`); the
+    SyncManagers changed as the change says (:meth:`EscDevice._change_syncmanagers_together`); the
     mailbox handler runs once the frame has passed (not without a ``frame``: the PDI changed
     them, :meth:`EscDevice._rebuild_sms`). An ESC whose table and activate bytes equal
     those of the ESC before it (compared over the rows), with the same table before, joins its
@@ -2221,14 +2233,14 @@ def _syncmanagers(
                     for bit in bits:
                         memory[rows[members], REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
             if frame:
-                EscDevice.change_syncmanagers_together(
+                EscDevice._change_syncmanagers_together(
                     [devices[i] for i in members], change, found.entries
                 )
             else:
                 for i in members:
-                    devices[i].change_syncmanagers(change, found.entries)
+                    devices[i]._change_syncmanagers(change, found.entries)
         elif frame:
-            EscDevice.sm_registers_written_together([devices[i] for i in members])
+            EscDevice._sm_registers_written_together([devices[i] for i in members])
 
 
 # port1_forwarding by DL control bits 10-11 and the port 1 link (False, True): one lookup an ESC

@@ -182,7 +182,7 @@ class SmChange(NamedTuple):
 class Caches:
     """What one chain's ESCs decode and plan once and share (issue 39: no process-wide state):
     each dict bounded by :func:`remember`. A chain makes one for its ESCs
-    (:meth:`emulator.esc.device.EscDevice.use_caches`); an ESC on its own has its own."""
+    (:meth:`emulator.esc.device.EscDevice._use_caches`); an ESC on its own has its own."""
 
     __slots__ = (
         "access",
@@ -1042,7 +1042,7 @@ def esc_row_access(
       mailbox on the write side): their areas are cut as holes and the mailboxes listed,
       (SyncManager index, side 0 read / 1 write), in plan order. The cut holds at an ESC only
       while each of them is one ECAT cannot access: a read mailbox empty, a write mailbox full
-      (:meth:`emulator.esc.device.EscDevice.mailboxes_idle`), where the access reads or
+      (:meth:`emulator.esc.device.EscDevice._mailboxes_idle`), where the access reads or
       writes nothing at all and changes no state ("read/write w. failure", datasheet I
       8.2.1); else the access is the ESC's;
     - one read part that reads DC registers, which run with the clock: each ESC brings them up
@@ -1059,7 +1059,7 @@ def esc_row_access(
       with the registers as committed, which the datagram's reads leave alone but for the
       events they clear, in the event request 0x0210, which ECAT cannot write; a byte
       written into the reset register 0x0040 counts towards a reset,
-      :meth:`emulator.esc.device.EscDevice.write_shadow`)."""
+      :meth:`emulator.esc.device.EscDevice._write_shadow`)."""
     return _plain(plan, areas, top, inert, clearing=True, stateful=True)
 
 

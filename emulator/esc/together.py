@@ -6,11 +6,11 @@ commits as a line of one); it and :func:`~emulator.esc.device.finish_together` a
 here under their old names.
 
 A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan cut map onto plain memory
-(:meth:`EscDevice.row_access`) is done for all of them at once by :func:`logical_together`:
+(:meth:`EscDevice._row_access`) is done for all of them at once by :func:`logical_together`:
 hostile FMMUs, bit-wise ones among them, cost the ESCs one pass over rows instead of big-integer
 arithmetic ESC by ESC. (Reads of DL or AL status among them are of the committed bytes; the
-events they clear are the caller's, :meth:`EscDevice.clear_read_events`, and so is bringing DC
-registers up to the frame's time before, :meth:`EscDevice.refresh_dc`; writes of registers go
+events they clear are the caller's, :meth:`EscDevice._clear_read_events`, and so is bringing DC
+registers up to the frame's time before, :meth:`EscDevice._refresh_dc`; writes of registers go
 among each ESC's shadow writes.)
 """
 
@@ -72,7 +72,7 @@ def logical_together(
     would do it but for the events its reads of DL or AL status clear (the caller's): the
     working counter's increment. The register bytes its write parts ``shadow``
     (:attr:`emulator.esc.mapping.Access.shadow`) write go among the shadow writes of
-    ``devices`` (the ESCs of ``rows``; :meth:`EscDevice.shadow_writes`), alike at every ESC
+    ``devices`` (the ESCs of ``rows``; :meth:`EscDevice._shadow_writes`), alike at every ESC
     where they are alike.
 
     An ESC reads before it writes, and its write takes the data as it arrived (datasheet I
@@ -126,9 +126,9 @@ def _shadow_rows(
     data_in: npt.NDArray[np.uint8],
     devices: Sequence[EscDevice],
 ) -> None:
-    """:meth:`EscDevice.shadow_writes` of the write parts ``shadow`` at each of ``devices``
+    """:meth:`EscDevice._shadow_writes` of the write parts ``shadow`` at each of ``devices``
     (whose memory is ``memory[at]``), put among its shadow writes
-    (:meth:`EscDevice.write_shadow`): from the data as it arrived, ``arrived`` where no read
+    (:meth:`EscDevice._write_shadow`): from the data as it arrived, ``arrived`` where no read
     replaces their frame bytes (``varies``), else ``data_in`` (a row per ESC); one
     (address, bytes) for all where the bytes are alike."""
     for (bytewise, a, size, shift, bits, start, width), per_row in zip(shadow, varies, strict=True):
@@ -145,13 +145,13 @@ def _shadow_rows(
             entry = (a, written[0].tobytes())
             if resets:
                 for dev in devices:
-                    dev.write_shadow((entry,))
+                    dev._write_shadow((entry,))
             else:  # what write_shadow does there: the entry among each ESC's shadow writes
                 for dev in devices:
                     dev.pending.append(entry)
         elif resets:
             for dev, row in zip(devices, written, strict=True):
-                dev.write_shadow(((a, row.tobytes()),))
+                dev._write_shadow(((a, row.tobytes()),))
         else:  # what write_shadow does there: each ESC's row among its shadow writes
             k = written.shape[1]
             blob = written.tobytes()
@@ -211,7 +211,7 @@ def lrd_last_readers(
     n: int,
 ) -> int:
     """An LRD (data ``buf[off:off+n]``, in place) through consecutive ESCs ``devices``, each
-    of which maps it onto plain memory by its own plan (:meth:`EscDevice.plain_access`), as
+    of which maps it onto plain memory by its own plan (:meth:`EscDevice._plain_access`), as
     each in turn would do it: the working counter's increment.
 
     An ESC's reads replace their bits of the frame and nothing else happens, so a bit leaves
@@ -233,7 +233,7 @@ def last_readers(
 ) -> int:
     """:func:`lrd_last_readers` of the ESCs' plans cut (:attr:`emulator.esc.mapping.Access.cut`);
     ``buffers``, by index into ``devices``: the whole buffer an ESC's first FMMU read (its frame
-    offset and bytes, :meth:`EscDevice.read_first_buffer`), one more part of its reads, apart
+    offset and bytes, :meth:`EscDevice._read_first_buffer`), one more part of its reads, apart
     from those of its plan (the first FMMU claimed those bytes from the others)."""
     unread = (1 << 8 * n) - 1  # the frame bits no later ESC reads (bit 8 i + k: byte i, bit k)
     wkc = 0

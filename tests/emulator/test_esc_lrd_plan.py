@@ -63,7 +63,7 @@ def same(planned: EcatChain, reference: EcatChain, frames: list[bytes]) -> None:
 
 
 def lock_sm0(chain: EcatChain) -> None:
-    chain.devices[2].pdi_deactivate_sm(0, True)
+    chain.devices[2].pdi_deactivate_sms((0,), True)
 
 
 def sm0_to_ecat_writes(chain: EcatChain) -> None:

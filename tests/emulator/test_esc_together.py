@@ -258,7 +258,7 @@ def test_an_lrd_of_buffers_and_plain_ram_reads_each_part_where_its_fmmu_maps_it(
     its buffer into its own bytes, which FMMU 0 claims, and the RAM into the rest (datasheet I
     7); the frame leaves with the last ESC's reads. Byte-wise (hand-worked): the RAM's first 56
     bytes, then ESC 7's inputs; 8 ESCs count. The buffer read and the RAM's parts go together
-    (EscDevice.read_first_buffer), and leave the bytes each ESC on its own leaves."""
+    (EscDevice._read_first_buffer), and leave the bytes each ESC on its own leaves."""
     fast, reference = pair()
     ram = bytes(range(0x40, 0x80))
     setup = ethercat.frame(
@@ -269,14 +269,14 @@ def test_an_lrd_of_buffers_and_plain_ram_reads_each_part_where_its_fmmu_maps_it(
         chain.publish(np.ascontiguousarray(ROWS[2]))
     assert_same(fast, reference, setup, "RAM and FMMU 4")
     reads: list[object] = []
-    first = EscDevice.read_first_buffer
+    first = EscDevice._read_first_buffer
 
     def counted(dev: EscDevice, lad: int, n: int) -> object:
         found = first(dev, lad, n)
         reads.append(found)
         return found
 
-    monkeypatch.setattr(EscDevice, "read_first_buffer", counted)
+    monkeypatch.setattr(EscDevice, "_read_first_buffer", counted)
     lrd = ethercat.frame(
         EcatFrame((Datagram.logical(Command.LRD, 0, bytes(NODES * SIZE)),))
     ).to_bytes()
@@ -384,8 +384,8 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     fast, reference = EcatChain.configured(NODES, SIZE), OneByOne.configured(NODES, SIZE)
     references = {id(dev) for dev in reference.devices}
     rebuild, change = EscDevice._rebuild_sms, EscDevice._change_sms
-    written, by_rows = EscDevice.sm_registers_written, esc_device._syncmanagers
-    change_all = EscDevice.change_syncmanagers_together
+    by_rows = esc_device._syncmanagers
+    change_all = EscDevice._change_syncmanagers_together
     calls = {"written": 0, "changed": 0, "by rows": 0}
 
     def either(self: EscDevice) -> None:  # (the PDI locks or releases SyncManagers)
@@ -397,10 +397,6 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     def changed(self: EscDevice, *args: Any) -> None:
         calls["changed"] += id(self) not in references
         change(self, *args)
-
-    def counted(self: EscDevice) -> None:
-        calls["written"] += id(self) not in references
-        written(self)
 
     def counted_all(devices: Any, *args: Any) -> None:  # changed, and written
         devices = list(devices)
@@ -414,16 +410,15 @@ def test_syncmanager_changes_worked_out_once_do_what_each_esc_would(
     monkeypatch.setattr(esc_device, "_syncmanagers", rows)
     monkeypatch.setattr(EscDevice, "_rebuild_sms", either)
     monkeypatch.setattr(EscDevice, "_change_sms", changed)
-    monkeypatch.setattr(EscDevice, "change_syncmanagers_together", staticmethod(counted_all))
-    monkeypatch.setattr(EscDevice, "sm_registers_written", counted)
-    written_all = EscDevice.sm_registers_written_together
+    monkeypatch.setattr(EscDevice, "_change_syncmanagers_together", staticmethod(counted_all))
+    written_all = EscDevice._sm_registers_written_together
 
     def counted_written(devices: Any) -> None:  # written alone, over the rows
         devices = list(devices)
         calls["written"] += sum(id(dev) not in references for dev in devices)
         written_all(devices)
 
-    monkeypatch.setattr(EscDevice, "sm_registers_written_together", staticmethod(counted_written))
+    monkeypatch.setattr(EscDevice, "_sm_registers_written_together", staticmethod(counted_written))
     setup = master_reset_frames(NODES) + configure_frames(fast.devices[0].info, NODES)
     for i, f in enumerate(hostile_frames(3_000, nodes=NODES, input_bytes=SIZE, seed=9)):
         assert fast.process_frame(f) == reference.process_frame(f), f"frame {i}"

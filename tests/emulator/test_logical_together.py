@@ -1,6 +1,6 @@
 """Logical datagrams that ESCs map onto plain memory with one FMMU plan are done for all of them at
 once (:func:`emulator.esc.together.logical_together`, chosen ESC by ESC with
-:meth:`EscDevice.plain_plan`), and that leaves the same bytes as ESC by ESC
+:meth:`EscDevice._plain_access`), and that leaves the same bytes as ESC by ESC
 (:meth:`EscDevice.process`, the path of :meth:`EcatChain._pass`): the same returned frame, memory
 and event request at every ESC, frame after frame. The FMMU tables aim at what the shortcut takes
 over (bit-wise mappings at every bit offset, byte-wise ones, overlapping ones; reads, writes,
@@ -68,9 +68,9 @@ def line(kind: type[EcatChain]) -> EcatChain:
     chain.process_frame(bwr(0x0808, WRITE_SM))
     for p, dev in enumerate(devices):
         if p % 3 == 1:
-            dev.pdi_deactivate_sm(0, True)  # the inputs' buffer locked
+            dev.pdi_deactivate_sms((0,), True)  # the inputs' buffer locked
         if p % 4 == 2:
-            dev.pdi_deactivate_sm(1, True)
+            dev.pdi_deactivate_sms((1,), True)
     return chain
 
 
@@ -914,7 +914,7 @@ def test_tables_that_differ_in_an_fmmu_an_access_does_not_meet_share_it() -> Non
 
 
 def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
-    """EscDevice.plain_access (and plain_plan) against what the chain does (row_access), frame
+    """EscDevice._plain_access against what the chain does (row_access), frame
     after frame of random FMMUs: an access the chain does over the rows without clearing an event,
     reading DC registers or writing registers to the shadow is plain, mapping the same bits; one
     that does any of those, or that the chain leaves to the ESC, is not."""
@@ -927,29 +927,29 @@ def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
         lad, n = rng.randrange(100), rng.randrange(1, 100)
         for cmd in (int(c) for c in LOGICAL):
             for dev in chain.devices:
-                found = dev.row_access(cmd, lad, n)
-                plain = dev.plain_access(cmd, lad, n)
+                found = dev._row_access(cmd, lad, n)
+                plain = dev._plain_access(cmd, lad, n)
                 if found.cut is None or found.events or found.dc or found.shadow:
-                    assert plain is None and dev.plain_plan(cmd, lad, n) is None
+                    assert plain is None
                     seen["events" if found.cut is not None else "neither"] += 1
                     continue
-                assert plain is not None and dev.plain_plan(cmd, lad, n) == plain[2]
+                assert plain is not None
                 assert bit_pairs(plain[2]) == bit_pairs(found.cut)
                 assert [bool(side) for side in plain[2]] == [bool(side) for side in found.cut]
                 seen["plain"] += 1
     assert seen["plain"] > 50 and seen["neither"] > 50, seen
     chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3 reads AL status
     for dev in chain.devices:
-        found = dev.row_access(int(Command.LRD), 0x4000, 2)
+        found = dev._row_access(int(Command.LRD), 0x4000, 2)
         assert found.cut is not None and found.events == 0x08
-        assert dev.plain_access(int(Command.LRD), 0x4000, 2) is None
+        assert dev._plain_access(int(Command.LRD), 0x4000, 2) is None
 
 
 def test_the_plain_names_do_what_the_chain_does() -> None:
-    """The names kept for plain accesses do what the chain's own do, for LRDs (reads only, so
-    both can run on the same memory): EscDevice.plain_logical as logical_cut of the plan cut,
-    together.lrd_last_readers as last_readers, and logical_unless_plain returns the plain
-    access untouched."""
+    """The name kept for plain accesses does what the chain's own does, for LRDs (reads only,
+    so both can run on the same memory): together.lrd_last_readers as last_readers; and the
+    ESC leaves a plain access to the chain untouched (EscDevice._logical_unless_rows), having
+    read nothing."""
     chain = line(EcatChain)
     rng = random.Random(5)
     lrd_ = int(Command.LRD)
@@ -958,7 +958,7 @@ def test_the_plain_names_do_what_the_chain_does() -> None:
         chain.process_frame(frame(rng))
         lad, n = rng.randrange(100), rng.randrange(1, 100)
         data = rng.randbytes(n)
-        plain = [(dev, dev.plain_access(lrd_, lad, n)) for dev in chain.devices]
+        plain = [(dev, dev._plain_access(lrd_, lad, n)) for dev in chain.devices]
         found = [(dev, access) for dev, access in plain if access is not None]
         if not found:
             continue
@@ -969,13 +969,9 @@ def test_the_plain_names_do_what_the_chain_does() -> None:
         )
         assert old == new
         for dev, access in found:
-            old, new = bytearray(data), bytearray(data)
-            assert dev.plain_logical(access, lrd_, old, 0, n) == dev.logical_cut(
-                access[2], lrd_, new, 0, n
-            )
-            assert old == new
             untouched = bytearray(data)  # a plain access reads no buffer: left to the chain
-            assert dev.logical_unless_plain(lrd_, lad, untouched, 0, n) == access
+            left = dev._logical_unless_rows(lrd_, lad, untouched, 0, n)
+            assert isinstance(left, mapping.Access) and left.plain == access
             assert untouched == data
             compared += 1
     assert compared > 100
@@ -989,7 +985,7 @@ def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
     chains = [kind.configured(2, SIZE) for kind in (EcatChain, OneByOne)]
     for chain in chains:
         first, last = chain.devices
-        first.pdi_deactivate_sm(0, True)  # the inputs' buffer at 0x1000: locked
+        first.pdi_deactivate_sms((0,), True)  # the inputs' buffer at 0x1000: locked
         for dev, fmmus in (
             (first, ((0x8000, 0x1100), (0x8001, 0x1000))),
             (last, ((0x8001, 0x1100), None)),
@@ -1078,14 +1074,14 @@ def test_idle_mailboxes_are_holes_over_the_rows(monkeypatch: pytest.MonkeyPatch)
     mailbox, a full write mailbox: the access does nothing there, datasheet I 8.2.1), by the
     ESC where it is not, and the same bytes, memory and event requests as ESC by ESC."""
     taken = {"idle": 0, "busy": 0}
-    mailboxes_idle = EscDevice.mailboxes_idle
+    mailboxes_idle = EscDevice._mailboxes_idle
 
     def counted(self: EscDevice, mailboxes: mapping.Mailboxes) -> bool:
         idle = mailboxes_idle(self, mailboxes)
         taken["idle" if idle else "busy"] += 1
         return idle
 
-    monkeypatch.setattr(EscDevice, "mailboxes_idle", counted)
+    monkeypatch.setattr(EscDevice, "_mailboxes_idle", counted)
     fast, reference = with_mailboxes(line(EcatChain)), with_mailboxes(line(OneByOne))
     rng = random.Random(21)
     for i in range(1_200):
@@ -1143,7 +1139,7 @@ def test_syncmanagers_that_all_start_anew_are_new_when_first_used(kind: type[Eca
     cleared, write interrupt 0x01 and mailbox full 0x08 set: 0x39); the PDI of ESC 3 reads the
     message back (0x39 -> 0x32)."""
     chain = with_mailboxes(line(kind))
-    chain.devices[2].pdi_deactivate_sm(3, True)
+    chain.devices[2].pdi_deactivate_sms((3,), True)
     count = chain.devices[0].config.syncmanagers
     chain.process_frame(bwr(0x0800, bytes(SM_BYTES * count)))
     moved = MAILBOXES[:8] + struct.pack("<HHBBBB", 0x7200, 16, 0x06, 0, 0x01, 0)
@@ -1417,13 +1413,13 @@ def test_reads_of_dc_registers_see_them_at_the_frames_time(
     the first reads (it writes 0x098E again), so each ESC reads in its own order, as ESC by
     ESC."""
     refreshed: list[int] = []
-    refresh = EscDevice.refresh_dc
+    refresh = EscDevice._refresh_dc
 
     def counted(self: EscDevice, registers: tuple[tuple[int, int], ...]) -> None:
         refreshed.append(self.position)
         refresh(self, registers)
 
-    monkeypatch.setattr(EscDevice, "refresh_dc", counted)
+    monkeypatch.setattr(EscDevice, "_refresh_dc", counted)
     now = [0]
     chains = [sync0_line(kind, now) for kind in (EcatChain, OneByOne)]
     fmmus = [(0x0610, read_fmmu(0x9000, 0x098E, 1)), (0x0620, read_fmmu(0x9001, 0x0984, 1))]
@@ -1453,7 +1449,7 @@ def test_shadow_writes_take_the_register_bytes_alone() -> None:
         mapping.byte_op(0x0F7C, 1, 8),
         mapping.LogicalOp(False, 0x0F7E, 4, 4, 0x0FF0_0FF0, 2, 3),
     )
-    assert dev.shadow_writes(parts, bytes(range(16))) == [
+    assert dev._shadow_writes(parts, bytes(range(16))) == [
         (0x0F7C, b"\x01\x02\x03\x04"),
         (0x0F7E, b"\x21\x20"),
     ]
@@ -1461,7 +1457,7 @@ def test_shadow_writes_take_the_register_bytes_alone() -> None:
 
 def test_shadow_writes_over_the_rows_are_each_escs() -> None:
     """The shadow writes of write parts over the rows (logical_together) are those each ESC
-    works out for itself (EscDevice.shadow_writes), whatever each ESC's registers hold, from
+    works out for itself (EscDevice._shadow_writes), whatever each ESC's registers hold, from
     data that arrived alike or differently at each."""
     chain = line(EcatChain)
     rng = random.Random(3)
@@ -1484,7 +1480,7 @@ def test_shadow_writes_over_the_rows_are_each_escs() -> None:
         )
         for p, dev in enumerate(devices):
             data = (data_in[p] if varies else arrived[0]).tobytes()
-            assert dev.pending == dev.shadow_writes((part,), data), (p, part)
+            assert dev.pending == dev._shadow_writes((part,), data), (p, part)
             dev.pending.clear()
 
 
@@ -1551,7 +1547,7 @@ def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes(
                     EcatFrame((Datagram(Command.APWR, -p & 0xFFFF, 0x0810, sm2),))
                 ).to_bytes()
             )
-            chain.devices[p].pdi_deactivate_sm(2, False)
+            chain.devices[p].pdi_deactivate_sms((2,), False)
     for i in range(1_000):
         dgs = []
         if rng.random() < 0.1:  # the read/write offset (datasheet II 2.4), at one ESC or all
@@ -1582,7 +1578,7 @@ def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes(
     fast, reference = line(EcatChain), line(OneByOne)
     for chain in (fast, reference):
         for dev in chain.devices:
-            dev.pdi_deactivate_sm(0, True)
+            dev.pdi_deactivate_sms((0,), True)
     monkeypatch.setattr(EscDevice, "process", counted)
     for cmd in (Command.BRD, Command.BWR, Command.BRW):
         dg = Datagram(cmd, 0, 0x0FFC, bytes(range(1, 13)))  # over the input buffer 0x1000 + 8
