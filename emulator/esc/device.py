@@ -88,7 +88,6 @@ from emulator.esc.mapping import (
     LogicalOp,
     LogicalPlan,
     Mailboxes,
-    PlainAccess,
     Plans,
     SmChange,
     SmTable,
@@ -131,10 +130,8 @@ from emulator.esc.registers import (
     REG_ECAT_EVENT,
     REG_ECAT_EVENT_MASK,
     REG_EEPROM_ADDRESS,
-    REG_EEPROM_CONFIG,
     REG_EEPROM_CONTROL,
     REG_EEPROM_DATA,
-    REG_EEPROM_PDI,
     REG_FMMU,
     REG_PDI_CONTROL,
     REG_PU_ERRORS,
@@ -198,7 +195,6 @@ _RENAMED: Final = {
     "finish_frame": "_finish_frame",
     "read_buffered": "_read_buffered",
     "read_first_buffer": "_read_first_buffer",
-    "plain_access": "_plain_access",
     "row_access": "_row_access",
     "refresh_dc": "_refresh_dc",
     "row_cut": "_row_cut",
@@ -1085,20 +1081,9 @@ class EscDevice:
         found.rows(self.sm_areas, top, self.write_plans)
         return found
 
-    def _plain_access(self, cmd: int, lad: int, n: int) -> PlainAccess | None:
-        """A logical access when all it does is plain memory (user or process RAM
-        this ESC gives ECAT access to, no buffer of a SyncManager, no register written but
-        read-only ones, no register read that has a side effect): its plan, the bytes where it does nothing and the plan without them
-        (:func:`emulator.esc.mapping.plain_access`); else None.
-        Such an access changes nothing but the bytes and counts its working counter whatever
-        they are, so the chain may do it for many ESCs with the same plan and holes at once
-        (:func:`emulator.esc.together.logical_together` of the plan cut)."""
-        found = self._access(cmd, lad, n)
-        return None if found.events else found.plain
-
     def _row_access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the
-        plan cut, of a plain access, :meth:`_plain_access`, or of one that is plain but for
+        plan cut, of a plain access, :func:`emulator.esc.mapping.esc_row_access`, or of one that is plain but for
         reads of DL or AL status, whose events, :attr:`Access.events`, the ESC then clears,
         :meth:`_clear_read_events`, but for mailboxes, :attr:`Access.mailboxes`, that must be
         idle, :meth:`_mailboxes_idle`, but for a read of DC registers, :attr:`Access.dc`,
@@ -1408,9 +1393,6 @@ class EscDevice:
         queue[:] = [(dev, what) for dev, what in queue if dev is not self]
         for what in mine:
             self._reaction(what)
-
-    def _ecat_owns_eeprom(self) -> bool:
-        return not (self.mem[REG_EEPROM_CONFIG] & 0x01 or self.mem[REG_EEPROM_PDI] & 0x01)
 
     def _use_fmmus(self, decoded: FmmuTable) -> None:
         """The FMMUs follow ``decoded``, their register bytes decoded (:func:`fmmu_table`; the

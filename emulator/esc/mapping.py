@@ -55,10 +55,8 @@ __all__ = [
     "forget",
     "moved_along",
     "outside",
-    "plain_access",
     "plan_logical",
     "remember",
-    "row_access",
     "shared_access",
     "sm_change",
     "sm_table",
@@ -438,7 +436,7 @@ def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Logical
 
 
 class PartHoles(NamedTuple):
-    """The bytes of a plan's part where it does nothing (:func:`plain_access`)."""
+    """The bytes of a plan's part where it does nothing (:func:`esc_row_access`)."""
 
     side: int  # 0 reads, 1 writes
     part: int  # the part's place among them
@@ -449,7 +447,7 @@ Holes = tuple[PartHoles, ...]  # in plan order
 
 
 class PlainAccess(NamedTuple):
-    """A logical access that is all plain memory (:func:`plain_access`)."""
+    """A logical access that is all plain memory (:func:`esc_row_access`)."""
 
     plan: LogicalPlan
     holes: Holes  # where it does nothing
@@ -463,7 +461,7 @@ class WritesInert(Protocol):
     def inert(self, addr: int, n: int) -> bool: ...
 
 
-_UNASKED: Final = object()  # Access.plain not worked out yet
+_UNASKED: Final = object()  # Access.moved not worked out yet
 
 
 class Access:
@@ -471,11 +469,10 @@ class Access:
     FMMUs in register order): its plan (:attr:`plan`, worked out when first asked), and what the
     chain may do over the rows (:meth:`rows`) with the SyncManager areas, memory top and
     register write plans last asked: ``cut``, the plan without the bytes where it does nothing
-    (None: not plain, :func:`row_access`), ``events``, those its register reads clear,
+    (None: not plain, :func:`esc_row_access`), ``events``, those its register reads clear,
     ``mailboxes``, those that must be idle at an ESC for the cut to hold there, ``dc``, the
     registers each ESC brings up to the frame's time first, ``shadow``, the write parts whose
-    register bytes each ESC puts among its shadow writes (:func:`esc_row_access`), and
-    :attr:`plain`, the plain access with its plan and holes (none of those in it); ``rest``,
+    register bytes each ESC puts among its shadow writes (:func:`esc_row_access`); ``rest``,
     for an LRD that is not plain only for its first FMMU's part (a buffer it reads) while the
     others' parts are plain: those parts' cut without the frame bytes the first claims.
 
@@ -489,7 +486,6 @@ class Access:
         "_first",
         "_moved",
         "_others",
-        "_plain",
         "_plan",
         "_registers",
         "areas",
@@ -520,7 +516,6 @@ class Access:
         self.areas: SmTable | None = None
         self.top = 0
         self.writes: WritesInert | None = None  # the register write plans (inert writes)
-        self._plain: object = _UNASKED
         self.cut: LogicalPlan | None = None
         self.events = 0
         self.mailboxes: Mailboxes = ()
@@ -583,16 +578,6 @@ class Access:
             self._registers = reads, writes
         return self._registers
 
-    @property
-    def plain(self) -> PlainAccess | None:
-        """:func:`row_access` of the plan with the areas, top and write plans last asked
-        (:meth:`rows`): the plain access (plan, holes, cut), or None."""
-        if self._plain is _UNASKED:
-            assert self.areas is not None and self.writes is not None
-            found = row_access(self.plan, self.areas, self.top, self.writes.inert)
-            self._plain = None if found is None else found[0]
-        return self._plain  # type: ignore[return-value]
-
     def rows(self, areas: SmTable, top: int, writes: WritesInert) -> None:
         """Work out :attr:`cut`, :attr:`events`, :attr:`mailboxes`, :attr:`dc` and
         :attr:`shadow` for SyncManager ``areas``, memory ``top`` and register write plans
@@ -608,7 +593,7 @@ class Access:
         without side effect) too, so the cut is that of the whole plan (:meth:`_apart`)."""
         if self.areas is areas and self.top == top and self.writes is writes:
             return
-        self.areas, self.top, self.writes, self._plain = areas, top, writes, _UNASKED
+        self.areas, self.top, self.writes = areas, top, writes
         if len(self.hit) > 1:  # (_apart and _apart_along set rest: compiled code trusts what
             # mypy thinks of an attribute assigned here before a call that changes it)
             moved_first, others = self._at, self._others
@@ -618,7 +603,7 @@ class Access:
             elif self._apart(areas, top, writes):
                 return
             if self.rest is not None:  # the first FMMU's part is not plain: nor the whole plan
-                self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
+                self.cut, self.events, self.mailboxes = None, 0, ()
                 self.dc, self.shadow = (), ()
                 return
         else:
@@ -633,11 +618,10 @@ class Access:
                 return
         found = esc_row_access(self.plan, areas, top, writes.inert)
         if found is None:
-            self._plain, self.cut, self.events, self.mailboxes = None, None, 0, ()
+            self.cut, self.events, self.mailboxes = None, 0, ()
             self.dc, self.shadow = (), ()
             return
         access, self.events, self.mailboxes, self.dc, self.shadow = found
-        self._plain = None if (self.mailboxes or self.dc or self.shadow) else access
         self.cut = access.cut
 
     def _apart(self, areas: SmTable, top: int, writes: WritesInert) -> bool:
@@ -989,44 +973,11 @@ def _part_access(caches: Caches, part: FmmuTable, key: tuple[int, int, int]) -> 
     return found
 
 
-def plain_access(
-    plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
-) -> PlainAccess | None:
-    """``(plan, holes, cut plan)`` when all ``plan`` does is plain memory: the bytes where it
-    does nothing (:data:`Holes`), and the plan without them (:func:`cut`); else None.
-
-    It does nothing in a SyncManager's area that is locked (deactivated by the PDI) or of the
-    other direction (ECAT neither reads a write buffer nor writes a read buffer), nor at or
-    above ``top`` outside SyncManager areas (process RAM closed, datasheet I 8, 11.2.1). Plain
-    is the rest: at or above the registers (0x0F80), except that it may read registers whose
-    read has no side effect (not DL or AL status, whose events it clears, nor the DC registers,
-    which run with the clock): a read of them is their committed bytes; and it may write
-    registers where ``inert(address, length)`` says the write changes nothing (read-only ones,
-    :meth:`emulator.esc.write_plans.WritePlans.inert`): a hole that still counts. A part that
-    meets another SyncManager's area makes the access not plain. (Below 0x0F80 the registers
-    are accessed whatever SyncManager area lies there.)"""
-    found = _plain(plan, areas, top, inert, clearing=False, stateful=False)
-    return None if found is None else found.plain
-
-
-def row_access(
-    plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
-) -> tuple[PlainAccess, int] | None:
-    """What the chain may do over the rows of many ESCs (:func:`plain_access`), and the ECAT
-    events (0x0210 bits) the access clears: plain, or plain but for reads of DL or AL status.
-    Such a read is of the committed bytes, and clears its event once the part is read
-    (:func:`emulator.esc.registers.cleared_events`, datasheet I Table 3): so after the
-    datagram's reads at that ESC, unless a later part of the plan reads the event request
-    (0x0210) and would see it cleared, which is left to the ESC (None)."""
-    found = _plain(plan, areas, top, inert, clearing=True, stateful=False)
-    return None if found is None else found[:2]
-
-
 class RowAccess(NamedTuple):
     """What the chain may do over the rows of ESCs with their own state in mind
     (:func:`esc_row_access`)."""
 
-    plain: PlainAccess  # the plan, its holes and the plan cut (:func:`plain_access`)
+    plain: PlainAccess  # the plan, its holes and the plan cut (:func:`esc_row_access`)
     events: int  # the ECAT events (0x0210 bits) its reads of DL or AL status clear
     mailboxes: Mailboxes  # those that must be idle at an ESC for the cut to hold there
     dc: tuple[tuple[int, int], ...]  # the registers [lo, hi) of its one read of DC registers
@@ -1036,7 +987,24 @@ class RowAccess(NamedTuple):
 def esc_row_access(
     plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
 ) -> RowAccess | None:
-    """:func:`row_access`, and also when the plan meets what each ESC's state decides:
+    """What the chain may do over the rows of many ESCs: ``plan`` where all it does is plain
+    memory, cut (:class:`PlainAccess`: the plan, the bytes where it does nothing, :data:`Holes`,
+    and the plan without them, :func:`cut`), and what each ESC does besides; else None.
+
+    It does nothing in a SyncManager's area that is locked (deactivated by the PDI) or of the
+    other direction (ECAT neither reads a write buffer nor writes a read buffer), nor at or
+    above ``top`` outside SyncManager areas (process RAM closed, datasheet I 8, 11.2.1). Plain
+    is the rest: at or above the registers (0x0F80), and reads of registers: a read of them is
+    their committed bytes; and writes of registers where ``inert(address, length)`` says the
+    write changes nothing (read-only ones, :meth:`emulator.esc.write_plans.WritePlans.inert`):
+    a hole that still counts. A part that meets the buffer of another SyncManager makes the
+    access not plain. (Below 0x0F80 the registers are accessed whatever SyncManager area lies
+    there.) Besides, each ESC:
+
+    - clears the ECAT events (0x0210 bits, :attr:`RowAccess.events`) its reads of DL or AL
+      status clear (:func:`emulator.esc.registers.cleared_events`, datasheet I Table 3), once
+      the datagram's reads at that ESC are done; a later part that reads the event request
+      (0x0210) would see it cleared, and is left to the ESC (None);
 
     - mailboxes in the direction ECAT accesses them (a read mailbox on the read side, a write
       mailbox on the write side): their areas are cut as holes and the mailboxes listed,
@@ -1060,20 +1028,6 @@ def esc_row_access(
       events they clear, in the event request 0x0210, which ECAT cannot write; a byte
       written into the reset register 0x0040 counts towards a reset,
       :meth:`emulator.esc.device.EscDevice._write_shadow`)."""
-    return _plain(plan, areas, top, inert, clearing=True, stateful=True)
-
-
-def _plain(
-    plan: LogicalPlan,
-    areas: SmTable,
-    top: int,
-    inert: Callable[[int, int], bool] | None,
-    clearing: bool,
-    stateful: bool,
-) -> RowAccess | None:
-    """:func:`plain_access`, with the events cleared (allowed when ``clearing``), the
-    mailboxes that must be idle, the DC registers refreshed and the registers written to the
-    shadow (allowed when ``stateful``)."""
     events = 0
     idle: list[tuple[int, int]] = []
     dc: tuple[tuple[int, int], ...] = ()
@@ -1087,28 +1041,25 @@ def _plain(
             if lo < REGISTER_END:
                 if not side:
                     if reads_dc(lo, hi):
-                        if not stateful or dc:
+                        if dc:
                             return None
                         dc = ((lo, min(hi, REGISTER_END)),)
                     if events and lo <= REG_ECAT_EVENT < hi:
                         return None  # it sees what a read before it cleared: the ESC's order
-                    cleared = cleared_events(lo, hi)
-                    if cleared and not clearing:
-                        return None
-                    events |= cleared  # once this part is read (its own bytes as they were)
+                    events |= cleared_events(
+                        lo, hi
+                    )  # once this part is read (its own bytes as they were)
                 elif inert is not None and inert(lo, min(hi, REGISTER_END) - lo):
                     holes = ((lo, min(hi, REGISTER_END)),)  # counts: ECAT wrote registers
-                elif stateful:
+                else:
                     holes = ((lo, min(hi, REGISTER_END)),)  # counts; written to the shadow
                     shadow.append(op)
-                else:
-                    return None
             for area in areas:
                 start, end = area.start, area.start + area.length
                 if start < hi and end > lo:
                     control = area.control
                     if not area.locked and ((control >> 2) & 0x03 == 0x01) == (side == 1):
-                        if not (stateful and control & 0x03 == 0x02):
+                        if control & 0x03 != 0x02:
                             return None  # a buffer ECAT accesses (writes/reads): its own rules
                         if (area.number, side) not in idle:
                             idle.append((area.number, side))  # nothing there while it is idle
@@ -1125,7 +1076,7 @@ def _plain(
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
-    """``plan`` without the bytes where it does nothing (:func:`plain_access`): byte-wise parts
+    """``plan`` without the bytes where it does nothing (:func:`esc_row_access`): byte-wise parts
     as the runs left, bit-wise ones with the holes' bits out of their masks; a part left with
     none goes, unless it wrote registers: then it stays, writing no byte, for the working
     counter."""

@@ -33,7 +33,6 @@ from emulator.esc.device import (
 from emulator.esc.mapping import (
     LogicalOp,
     LogicalPlan,
-    PlainAccess,
 )
 from emulator.esc.registers import (
     REG_RESET_ECAT,
@@ -51,7 +50,6 @@ __all__ = [
     "finish_together",
     "last_readers",
     "logical_together",
-    "lrd_last_readers",
 ]
 
 
@@ -203,26 +201,6 @@ def _mask(bits: int, width: int) -> npt.NDArray[np.uint8]:
     return np.frombuffer(bits.to_bytes(width, "little"), np.uint8)
 
 
-def lrd_last_readers(
-    devices: Sequence[EscDevice],
-    accesses: Sequence[PlainAccess],
-    buf: bytearray,
-    off: int,
-    n: int,
-) -> int:
-    """An LRD (data ``buf[off:off+n]``, in place) through consecutive ESCs ``devices``, each
-    of which maps it onto plain memory by its own plan (:meth:`EscDevice._plain_access`), as
-    each in turn would do it: the working counter's increment.
-
-    An ESC's reads replace their bits of the frame and nothing else happens, so a bit leaves
-    with the value of the last ESC that reads it. The ESCs are worked from the last back, each
-    reading only the bits no later ESC reads: once every bit is read, the ESCs before count
-    in the working counter and read nothing, whatever their FMMUs ask for. The work per part
-    is bounded by the frame bytes it maps (the bits still unread are kept per frame byte).
-    """
-    return last_readers(devices, [access[2] for access in accesses], buf, off, n)
-
-
 def last_readers(
     devices: Sequence[EscDevice],
     plans: Sequence[LogicalPlan],
@@ -231,7 +209,16 @@ def last_readers(
     n: int,
     buffers: Mapping[int, tuple[int, bytes]] | None = None,
 ) -> int:
-    """:func:`lrd_last_readers` of the ESCs' plans cut (:attr:`emulator.esc.mapping.Access.cut`);
+    """An LRD (data ``buf[off:off+n]``, in place) through consecutive ESCs ``devices``, each
+    of which maps it onto plain memory by its own plan cut (``plans``,
+    :attr:`emulator.esc.mapping.Access.cut`), as each in turn would do it: the working
+    counter's increment.
+
+    An ESC's reads replace their bits of the frame and nothing else happens, so a bit leaves
+    with the value of the last ESC that reads it. The ESCs are worked from the last back, each
+    reading only the bits no later ESC reads: once every bit is read, the ESCs before count
+    in the working counter and read nothing, whatever their FMMUs ask for. The work per part
+    is bounded by the frame bytes it maps (the bits still unread are kept per frame byte).
     ``buffers``, by index into ``devices``: the whole buffer an ESC's first FMMU read (its frame
     offset and bytes, :meth:`EscDevice._read_first_buffer`), one more part of its reads, apart
     from those of its plan (the first FMMU claimed those bytes from the others)."""

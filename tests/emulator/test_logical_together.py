@@ -1,6 +1,6 @@
 """Logical datagrams that ESCs map onto plain memory with one FMMU plan are done for all of them at
 once (:func:`emulator.esc.together.logical_together`, chosen ESC by ESC with
-:meth:`EscDevice._plain_access`), and that leaves the same bytes as ESC by ESC
+:func:`emulator.esc.mapping.esc_row_access`), and that leaves the same bytes as ESC by ESC
 (:meth:`EscDevice.process`, the path of :meth:`EcatChain._pass`): the same returned frame, memory
 and event request at every ESC, frame after frame. The FMMU tables aim at what the shortcut takes
 over (bit-wise mappings at every bit offset, byte-wise ones, overlapping ones; reads, writes,
@@ -243,10 +243,12 @@ WRITE_BUFFER = mapping.SmEntry(1, 0x2000, 2, 0x04, 0)  # [0x2000, 0x2002)
 
 def parts(plan: mapping.LogicalPlan, areas: mapping.SmTable, top: int) -> object:
     """What the ESCs of ``areas`` and memory ``top`` do of ``plan``, holes cut (or None)."""
-    found = mapping.plain_access(plan, areas, top)
-    if found is not None:
-        assert found[2] == mapping.cut(found[0], found[1])
-    return None if found is None else found[2]
+    found = mapping.esc_row_access(plan, areas, top)
+    if found is None:
+        return None
+    assert not (found.events or found.mailboxes or found.dc or found.shadow)
+    assert found.plain.cut == mapping.cut(found.plain.plan, found.plain.holes)
+    return found.plain.cut
 
 
 def test_plain_parts_cut_away_the_bytes_where_an_access_does_nothing() -> None:
@@ -293,7 +295,8 @@ def test_plain_parts_cut_away_the_bytes_where_an_access_does_nothing() -> None:
     assert parts(((), (bit_write,)), (), 0x1FFC) == ((), ())  # nothing left
     assert parts(((), (mapping.byte_op(0x2000, 0, 2),)), areas, 0x10000) is None
     plan = ((byte_read,), ())
-    assert mapping.plain_access(plan, (), 0x10000) == (plan, (), plan)  # nothing to cut
+    found = mapping.esc_row_access(plan, (), 0x10000)
+    assert found is not None and found.plain == (plan, (), plan)  # nothing to cut
 
 
 def test_logical_writes_of_res_reset_every_esc() -> None:
@@ -621,8 +624,8 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     top: int,
 ) -> None:
     """An access through several FMMUs, the first worked out apart from the others
-    (:meth:`mapping.Access.rows`), maps what the whole plan maps (:func:`assert_maps_as_whole`)
-    and is as plain."""
+    (:meth:`mapping.Access.rows`), maps what the whole plan maps and is as plain
+    (:func:`assert_maps_as_whole`)."""
     caches = mapping.Caches()  # a chain's
     table = b"".join(
         struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
@@ -634,9 +637,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     mapping.Access(caches, hit, int(cmd), lad, n).rows(areas, top, Inert())
     access = mapping.Access(caches, hit, int(cmd), lad, n)  # another ESC's, alike
     access.rows(areas, top, Inert())
-    whole = assert_maps_as_whole(access, hit, areas, top)
-    if whole is not None:
-        assert access.plain == (None if whole[2] or whole.dc or whole.shadow else whole[0])
+    assert_maps_as_whole(access, hit, areas, top)
 
 
 @given(
@@ -733,7 +734,6 @@ def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
         return
     assert (access.cut, access.events, access.mailboxes) == (whole[0][2], whole[1], whole[2])
     assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
-    assert access.plain == (None if whole[2] or whole.dc or whole.shadow else whole[0])
 
 
 def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
@@ -913,68 +913,34 @@ def test_tables_that_differ_in_an_fmmu_an_access_does_not_meet_share_it() -> Non
     assert a.plan == ((mapping.byte_op(0x1100, 0, 8), mapping.byte_op(0x1000, 8, 4)), ())
 
 
-def test_plain_access_keeps_to_accesses_without_side_effects() -> None:
-    """EscDevice._plain_access against what the chain does (row_access), frame
-    after frame of random FMMUs: an access the chain does over the rows without clearing an event,
-    reading DC registers or writing registers to the shadow is plain, mapping the same bits; one
-    that does any of those, or that the chain leaves to the ESC, is not."""
-    chain = line(EcatChain)
-    rng = random.Random(11)
-    # events: reads of DL or AL status, DC registers or writes of registers (stateful)
-    seen = {"plain": 0, "events": 0, "neither": 0}
-    for _ in range(300):
-        chain.process_frame(frame(rng))
-        lad, n = rng.randrange(100), rng.randrange(1, 100)
-        for cmd in (int(c) for c in LOGICAL):
-            for dev in chain.devices:
-                found = dev._row_access(cmd, lad, n)
-                plain = dev._plain_access(cmd, lad, n)
-                if found.cut is None or found.events or found.dc or found.shadow:
-                    assert plain is None
-                    seen["events" if found.cut is not None else "neither"] += 1
-                    continue
-                assert plain is not None
-                assert bit_pairs(plain[2]) == bit_pairs(found.cut)
-                assert [bool(side) for side in plain[2]] == [bool(side) for side in found.cut]
-                seen["plain"] += 1
-    assert seen["plain"] > 50 and seen["neither"] > 50, seen
-    chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3 reads AL status
-    for dev in chain.devices:
-        found = dev._row_access(int(Command.LRD), 0x4000, 2)
-        assert found.cut is not None and found.events == 0x08
-        assert dev._plain_access(int(Command.LRD), 0x4000, 2) is None
-
-
-def test_the_plain_names_do_what_the_chain_does() -> None:
-    """The name kept for plain accesses does what the chain's own does, for LRDs (reads only,
-    so both can run on the same memory): together.lrd_last_readers as last_readers; and the
-    ESC leaves a plain access to the chain untouched (EscDevice._logical_unless_rows), having
-    read nothing."""
+def test_the_esc_leaves_to_the_chain_what_it_does_over_the_rows() -> None:
+    """Frame after frame of random FMMUs, an LRD whose plan cut holds at an ESC now
+    (EscDevice._row_cut: plain, its mailboxes idle) is left to the chain untouched
+    (EscDevice._logical_unless_rows returns the access, having read nothing); one that does
+    not hold is done by the ESC. An FMMU that reads AL status is over the rows too, its event
+    (0x0210 bit 3, datasheet I Table 3) cleared by each ESC."""
     chain = line(EcatChain)
     rng = random.Random(5)
     lrd_ = int(Command.LRD)
-    compared = 0
+    seen = {"left": 0, "done": 0}
     for _ in range(200):
         chain.process_frame(frame(rng))
         lad, n = rng.randrange(100), rng.randrange(1, 100)
         data = rng.randbytes(n)
-        plain = [(dev, dev._plain_access(lrd_, lad, n)) for dev in chain.devices]
-        found = [(dev, access) for dev, access in plain if access is not None]
-        if not found:
-            continue
-        devices, accesses = [d for d, _ in found], [a for _, a in found]
-        old, new = bytearray(data), bytearray(data)
-        assert together.lrd_last_readers(devices, accesses, old, 0, n) == together.last_readers(
-            devices, [a[2] for a in accesses], new, 0, n
-        )
-        assert old == new
-        for dev, access in found:
-            untouched = bytearray(data)  # a plain access reads no buffer: left to the chain
-            left = dev._logical_unless_rows(lrd_, lad, untouched, 0, n)
-            assert isinstance(left, mapping.Access) and left.plain == access
+        for dev in chain.devices:
+            found = dev._row_access(lrd_, lad, n)
+            if dev._row_cut(found) is None:
+                seen["done"] += 1
+                continue
+            untouched = bytearray(data)
+            assert dev._logical_unless_rows(lrd_, lad, untouched, 0, n) is found
             assert untouched == data
-            compared += 1
-    assert compared > 100
+            seen["left"] += 1
+    assert seen["left"] > 100 and seen["done"] > 100, seen
+    chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3 reads AL status
+    for dev in chain.devices:
+        found = dev._row_access(lrd_, 0x4000, 2)
+        assert found.cut is not None and found.events == 0x08
 
 
 def test_an_lrd_counts_an_esc_whose_last_part_reads_nothing() -> None:
