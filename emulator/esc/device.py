@@ -926,7 +926,7 @@ class EscDevice:
                     self.app.sync0(self, pulse)  # type: ignore[attr-defined]
             sm.open = True
             sm.buf = bytes(self.mem[sm.start : sm.end])
-            self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_READ_OPEN
+            self.mem[st] = _OPENED_BYTES[self.mem[st]]  # (as read_buffers does over rows)
             if sm.ecat_interrupt:
                 self._sm_event(sm.index)
         elif not sm.open:
@@ -2104,6 +2104,7 @@ def _status_table(clear: int, put: int) -> npt.NDArray[np.uint8]:
 # read buffer open); ECAT read it (no longer open, the read interrupt for the PDI), a mailbox's
 # also empty (datasheet II 0x0805)
 _OPENED: Final = _status_table(SM_IRQ_WRITE, SM_READ_OPEN)
+_OPENED_BYTES: Final = _OPENED.tobytes()  # the same table for one ESC's byte
 _READ: Final = _status_table(SM_READ_OPEN, SM_IRQ_READ)
 _EMPTIED: Final = _status_table(SM_READ_OPEN | SM_MAILBOX_FULL, SM_IRQ_READ)
 
