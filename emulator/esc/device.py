@@ -1152,7 +1152,7 @@ class EscDevice:
         if rest and found.rest is not None:
             read = self._read_first_buffer(lad, n)
             if read is not None:
-                return FirstBuffer(found, *read)
+                return FirstBuffer(found, read[0], read[1])
         return self._through(found.plan, cmd, buf, off, n)
 
     def _logical_cut(
@@ -1325,7 +1325,7 @@ class EscDevice:
     def _commit_registers(self) -> None:
         """Apply the frame's register writes through the ECAT write masks and set off what they
         set off (datasheet I 3.4): :func:`commit_together` of this ESC alone."""
-        commit_together([self], *self._rows)
+        commit_together([self], self._rows[0], self._rows[1])
 
     @staticmethod
     def _al_control_together(
@@ -1424,7 +1424,7 @@ class EscDevice:
         activate = bytes(mem[REG_SM + 6 : REG_SM + SM_BYTES * self.config.syncmanagers : SM_BYTES])
         events = bytes(mem[REG_ECAT_EVENT : REG_ECAT_EVENT + 2])
         enabled = np.frombuffer(activate, np.uint8).reshape(1, -1)
-        _syncmanagers([self], *self._rows, [0], enabled, frame=False)
+        _syncmanagers([self], self._rows[0], self._rows[1], [0], enabled, frame=False)
         if bytes(mem[REG_ECAT_EVENT : REG_ECAT_EVENT + 2]) != events:  # an SM interrupt went
             self.update_irq()
 
@@ -1523,7 +1523,7 @@ class EscDevice:
         """DL status 0x0110 from the links and loop settings (:func:`_dl_status`), which also
         caches what the chain asks for every frame: the port 1 forwarding decision and whether
         the source MAC is marked (both change only with DL control or a link)."""
-        _dl_status([self], *self._rows)
+        _dl_status([self], self._rows[0], self._rows[1])
 
     def set_port1_link(self, link: bool) -> None:
         """The chain connects (or disconnects) a neighbour at port 1."""
@@ -1562,7 +1562,7 @@ class EscDevice:
         if self._irq_batch is not None:
             self._irq_batch.append(self)
         else:
-            _event_requests([self], *self._rows)
+            _event_requests([self], self._rows[0], self._rows[1])
 
     def count_frame_error(self) -> None:
         """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""
@@ -1987,14 +1987,18 @@ def load_config_areas(
             devices[k].pdi_operational = words is not None
 
 
+_EVENT_WORD: Final = (REG_ECAT_EVENT - REG_ECAT_EVENT_MASK) // 2  # (0x0210 - 0x0200) / 2
+
+
 def _event_requests(
     devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows | slice
 ) -> None:
     """Each ESC's event request to the master, 0x0210 under the mask 0x0200 (datasheet I
     Table 3), into its :attr:`EscDevice.irq` for the IRQ field of every datagram."""
-    events = memory[rows, REG_ECAT_EVENT : REG_ECAT_EVENT + 2].astype(np.int64)
-    enable = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT_MASK + 2].astype(np.int64)
-    irqs = ((events[:, 0] | events[:, 1] << 8) & (enable[:, 0] | enable[:, 1] << 8)).tolist()
+    # the words from the mask to the request, little-endian (one slice: 0x0200 and 0x0210 are
+    # 8 words apart)
+    words = memory[rows, REG_ECAT_EVENT_MASK : REG_ECAT_EVENT + 2].view("<u2")
+    irqs = (words[:, _EVENT_WORD] & words[:, 0]).tolist()
     for dev, irq in zip(devices, irqs, strict=True):
         if dev.irq != irq:
             dev.irq = irq

@@ -254,7 +254,7 @@ def decode_fmmus(caches: Caches, table: bytes) -> tuple[tuple[Fmmu, ...], tuple[
     FMMUs of a configured line leaves every ESC's FMMUs differing in FMMU 0 alone (its own
     logical bytes)."""
     parts = _fmmu_parts(caches, table)
-    return decode_entries(table) if parts is None else _joined(*parts)
+    return decode_entries(table) if parts is None else _joined(parts[0], parts[1])
 
 
 def _fmmu_parts(caches: Caches, table: bytes) -> tuple[FmmuTable, FmmuTable] | None:
@@ -267,10 +267,12 @@ def _fmmu_parts(caches: Caches, table: bytes) -> tuple[FmmuTable, FmmuTable] | N
     head, rest = table[:size], table[size:]
     first = parts.get(head)
     if first is None:
-        first = remember(parts, head, FmmuTable(*decode_entries(head), Plans()))
+        fmmus, span = decode_entries(head)
+        first = remember(parts, head, FmmuTable(fmmus, span, Plans()))
     others = parts.get(rest)
     if others is None:
-        others = remember(parts, rest, FmmuTable(*decode_entries(rest), Plans()))
+        fmmus, span = decode_entries(rest)
+        others = remember(parts, rest, FmmuTable(fmmus, span, Plans()))
     return first, others
 
 
@@ -343,9 +345,11 @@ def fmmu_table(caches: Caches, table: bytes) -> FmmuTable:
     plans = Plans()
     parts = _fmmu_parts(caches, table)
     if parts is None:
-        return remember(caches.fmmu, table, FmmuTable(*decode_entries(table), plans))
+        fmmus, span = decode_entries(table)
+        return remember(caches.fmmu, table, FmmuTable(fmmus, span, plans))
     plans.parts = parts
-    return remember(caches.fmmu, table, FmmuTable(*_joined(*parts), plans))
+    fmmus, span = _joined(parts[0], parts[1])
+    return remember(caches.fmmu, table, FmmuTable(fmmus, span, plans))
 
 
 def sm_table(caches: Caches, table: bytes) -> SmFound:
@@ -642,7 +646,8 @@ class Access:
             parts = self._caches.parts
             others = parts.get(key)
             if others is None:  # met for the first time: shared by no other access (yet)
-                remember(parts, key, Access(self._caches, *key), PLAN_CACHE_ENTRIES)
+                found = Access(self._caches, self.hit[1:], cmd, lad, n)
+                remember(parts, key, found, PLAN_CACHE_ENTRIES)
                 return False
             self._others = others
         reads_registers, writes_registers = others.registers
@@ -655,7 +660,8 @@ class Access:
             parts = self._caches.parts
             first = parts.get(key)
             if first is None:
-                first = remember(parts, key, Access(self._caches, *key), PLAN_CACHE_ENTRIES)
+                found = Access(self._caches, self.hit[:1], cmd, lad, n)
+                first = remember(parts, key, found, PLAN_CACHE_ENTRIES)
             self._first = first
         first.rows(areas, top, writes)
         if first.cut is None or (first.events and reads_registers):
@@ -691,9 +697,8 @@ class Access:
             and found.top == top
             and found.writes is writes
         ):
-            found = _Along(
-                moved, areas, top, writes, *_along_common(others, moved, areas, top, writes)
-            )
+            common, along_rest = _along_common(others, moved, areas, top, writes)
+            found = _Along(moved, areas, top, writes, common, along_rest)
             others._along = found
         common = found.common
         if common is None:
@@ -821,10 +826,27 @@ def moved_along(caches: Caches, f: Fmmu, cmd: int, lad: int, n: int) -> tuple[Ac
     start, end = f.log_start, f.log_end
     if not (lad <= start and end <= lad + n and (start or lad)):
         return None
-    key = ((f._replace(log_start=0, log_end=end - start),), cmd, 0, end - start)
+    # (a NamedTuple's _replace and a call with *args run as Python: positional, native calls)
+    alone = (
+        Fmmu(
+            0,
+            end - start,
+            f.phys,
+            f.start_bit,
+            f.stop_bit,
+            f.phys_bit,
+            f.reads,
+            f.writes,
+            f.bytewise,
+            f.bits,
+        ),
+    )
+    key = (alone, cmd, 0, end - start)
     at = caches.parts.get(key)
     if at is None:
-        at = remember(caches.parts, key, Access(caches, *key), PLAN_CACHE_ENTRIES)
+        at = remember(
+            caches.parts, key, Access(caches, alone, cmd, 0, end - start), PLAN_CACHE_ENTRIES
+        )
     return at, start - lad
 
 
@@ -947,7 +969,8 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
                 pair = (shared_access(caches, f, cmd, lad, n, head.span), others)
                 found = caches.joined.get(pair)
                 if found is None:
-                    found = remember(caches.joined, pair, Access.joined(*pair), PLAN_CACHE_ENTRIES)
+                    joined = Access.joined(pair[0], pair[1])
+                    found = remember(caches.joined, pair, joined, PLAN_CACHE_ENTRIES)
     return remember(plans, key, found, PLAN_CACHE_ENTRIES)
 
 
@@ -962,13 +985,15 @@ def _moved_along(
         moved = plans.moved = {}
     elif key in moved:
         return moved[key]
-    return remember(moved, key, moved_along(caches, head.fmmus[0], *key), PLAN_CACHE_ENTRIES)
+    cmd, lad, n = key
+    return remember(moved, key, moved_along(caches, head.fmmus[0], cmd, lad, n), PLAN_CACHE_ENTRIES)
 
 
 def _part_access(caches: Caches, part: FmmuTable, key: tuple[int, int, int]) -> Access:
     found = part.plans.get(key)
     if found is None:
-        found = shared_access(caches, part.fmmus, *key, part.span)
+        cmd, lad, n = key
+        found = shared_access(caches, part.fmmus, cmd, lad, n, part.span)
         remember(part.plans, key, found, PLAN_CACHE_ENTRIES)
     return found
 
