@@ -100,22 +100,26 @@ PROBE = """
 import importlib, json, sys
 for name in json.loads(sys.argv[1]):
     importlib.import_module(name)
-print(json.dumps(sorted({m.partition(".")[0] for m in sys.modules})))
+print(json.dumps(sorted(sys.modules)))
 """
 
 
-@pytest.mark.parametrize("package", sorted(FORBIDDEN))
-def test_importing_every_module_loads_no_upper_layer(package: str) -> None:
-    names = [module for module, _ in modules_of(package)]
+def loaded_after(names: list[str], first: str = "") -> set[str]:
+    """Every module a fresh interpreter holds after importing ``names``, ``first`` run before."""
     out = subprocess.run(
-        [sys.executable, "-c", PROBE, json.dumps(names)],
+        [sys.executable, "-c", first + PROBE, json.dumps(names)],
         capture_output=True,
         text=True,
         cwd=ROOT,
         timeout=120,
         check=True,
     )
-    loaded = set(json.loads(out.stdout))
+    return set(json.loads(out.stdout))
+
+
+@pytest.mark.parametrize("package", sorted(FORBIDDEN))
+def test_importing_every_module_loads_no_upper_layer(package: str) -> None:
+    loaded = {top(m) for m in loaded_after([module for module, _ in modules_of(package)])}
     assert package in loaded
     assert not loaded & set(FORBIDDEN[package])
 
@@ -220,18 +224,18 @@ def test_the_slave_meets_the_esc_at_the_pdi() -> None:
     """Issue 39: the ESC and its firmware meet at one narrow interface. A module of
     ``emulator.slave`` imports of ``emulator.esc`` only :data:`SLAVE_SEES_OF_THE_ESC`, never the
     ESC itself (device, chain, mapping, together, write_plans), but for
-    :data:`SLAVE_BUILDS_AN_ESC`; ``emulator.esc`` imports no ``emulator.slave`` module but the SII
-    and the state machine (the default application) and the alias of moved names."""
+    :data:`SLAVE_BUILDS_AN_ESC`; the ESC imports of the slave only the SII and the state machine
+    (its default application), without a loop (:func:`test_no_import_loop_in_emulator`)."""
     graph = import_graph("emulator")
     slave = {m: found for m, found in graph.items() if m.startswith("emulator.slave.")}
     assert len(slave) >= 8  # the walk found the slave's modules
-    bad = sorted(
+    beyond = {
         (module, name)
         for module, found in slave.items()
         for name in found
         if name.startswith("emulator.esc") and name not in SLAVE_SEES_OF_THE_ESC
-    )
-    assert set(bad) == SLAVE_BUILDS_AN_ESC
+    }
+    assert beyond == SLAVE_BUILDS_AN_ESC
     esc_imports = {
         name
         for module, found in graph.items()
@@ -240,14 +244,6 @@ def test_the_slave_meets_the_esc_at_the_pdi() -> None:
         if name.startswith("emulator.slave")
     }
     assert esc_imports == {"emulator.slave.sii", "emulator.slave.state_machine"}
-
-
-SLAVE_PROBE = """
-import importlib, json, sys
-for name in json.loads(sys.argv[1]):
-    importlib.import_module(name)
-print(json.dumps(sorted(m for m in sys.modules if m.startswith("emulator.esc"))))
-"""
 
 
 def test_importing_the_firmware_loads_the_pdi_not_the_esc() -> None:
@@ -261,21 +257,13 @@ def test_importing_the_firmware_loads_the_pdi_not_the_esc() -> None:
         if module.startswith("emulator.slave.")
         and (module, "emulator.esc.device") not in SLAVE_BUILDS_AN_ESC
     )
-    probe = (
+    empty = (
         "import sys, types\n"
         "empty = types.ModuleType('emulator')\n"
         f"empty.__path__ = [{str(ROOT / 'emulator')!r}]\n"
-        "sys.modules['emulator'] = empty\n" + SLAVE_PROBE
+        "sys.modules['emulator'] = empty\n"
     )
-    out = subprocess.run(
-        [sys.executable, "-c", probe, json.dumps(names)],
-        capture_output=True,
-        text=True,
-        cwd=ROOT,
-        timeout=120,
-        check=True,
-    )
-    loaded = set(json.loads(out.stdout))
+    loaded = {m for m in loaded_after(names, empty) if m.startswith("emulator.esc")}
     assert "emulator.esc.pdi" in loaded
     assert loaded <= SLAVE_SEES_OF_THE_ESC | {"emulator.esc.compiled"}
 

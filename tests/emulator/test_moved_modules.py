@@ -84,7 +84,16 @@ def test_importing_the_esc_imports_no_alias() -> None:
     assert not loaded & {"emulator.hostile", "emulator.slave.mailbox", "emulator.slave.coe"}
 
 
-def test_the_docstring_and_this_list_agree() -> None:
+def test_the_package_lists_the_same_moves() -> None:
     import emulator.esc
 
     assert emulator.esc.MOVED == MOVED
+
+
+def test_the_interface_doc_lists_the_moves() -> None:
+    text = (ROOT / "docs" / "interface.md").read_text().split("## Python", 1)[1]
+    moved = text[text.index("Moved (issue 39") :].split("\n\n", 1)[0]
+    for old, new in MOVED.items():
+        assert f"`{old.rpartition('.')[2]}`" in moved or f"`{old}`" in moved, old
+        assert new.rpartition(".")[0] in moved, new
+    assert "alias" in moved
