@@ -6,7 +6,7 @@ datasheet's register map, not from our code: random datagrams, a master's frames
 configuration attacks) go to ``--nodes`` patches built as ``skinframes serve ecat`` builds them
 (``EcatChain.skin(..., mailbox=True)``, clocks seeded with ``seed_clocks`` and running on
 ``time.monotonic_ns``), first reset and configured to OP. Every ``--reset-every`` frames a
-master resets the line (:func:`emulator.esc.hostile.master_reset_frames`) and configures it
+master resets the line (:func:`emulator.hostile.master_reset_frames`) and configures it
 again (:func:`emulator.esc.chain.configure_frames`, its station and SyncManager/FMMU writes
 packed into full frames), so that the hostile frames keep meeting a line in operation.
 
@@ -56,11 +56,11 @@ import hostile_any  # noqa: E402
 from emulator.esc import compiled  # noqa: E402
 from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
 from emulator.esc.dc import DEFAULT_DRIFT_PPM, seed_clocks  # noqa: E402
-from emulator.esc.hostile import eeprom_repair_frames, master_reset_frames  # noqa: E402
-from emulator.esc.sii import SlaveInfo, build_sii  # noqa: E402
-from emulator.esc.state_machine import AlState  # noqa: E402
+from emulator.hostile import eeprom_repair_frames, master_reset_frames  # noqa: E402
 from emulator.live import BetweenFrames, _abandon_frame  # noqa: E402
 from emulator.model.limits import MAX_SERVED_SLAVES  # noqa: E402
+from emulator.slave.sii import SlaveInfo, build_sii  # noqa: E402
+from emulator.slave.state_machine import AlState  # noqa: E402
 from skinframes import ethercat, taxel  # noqa: E402
 from skinframes.ethercat import Command, Datagram, EcatFrame  # noqa: E402
 from skinframes_cli.options import bounded_int  # noqa: E402

@@ -1,9 +1,9 @@
 """CPU per frame of the emulated chain under hostile traffic (issue 11: at most 2 ms at 160 slaves).
 
-1. In process (default): ``--frames`` seeded hostile frames (:func:`emulator.esc.hostile.
+1. In process (default): ``--frames`` seeded hostile frames (:func:`emulator.hostile.
    hostile_frames`: register writes aimed at FMMU, SM, AL and EEPROM registers, random commands,
    logical accesses, mutated configuration frames) through a configured chain of ``--nodes``
-   patches, with a master's reset (:func:`emulator.esc.hostile.master_reset_frames`) every
+   patches, with a master's reset (:func:`emulator.hostile.master_reset_frames`) every
    ``--reset-every`` frames, so that loops the hostile frames closed open again and every frame
    keeps meeting all slaves; each hostile frame's CPU time (this thread's clock) is measured
    until its answer (:meth:`EcatChain.answer`), and apart the slaves' firmware reacting to it
@@ -69,11 +69,11 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
-from emulator.esc.hostile import hostile_frames, master_reset_frames  # noqa: E402
-from emulator.esc.sii import SlaveInfo  # noqa: E402
-from emulator.esc.state_machine import AlState  # noqa: E402
+from emulator.hostile import hostile_frames, master_reset_frames  # noqa: E402
 from emulator.live import CPU_BUDGET_US as BUDGET_US  # noqa: E402
 from emulator.live import BetweenFrames  # noqa: E402
+from emulator.slave.sii import SlaveInfo  # noqa: E402
+from emulator.slave.state_machine import AlState  # noqa: E402
 from skinframes import ethercat, taxel  # noqa: E402
 from skinframes.errors import DecodeError  # noqa: E402
 from skinframes.ethercat import Command, Datagram, EcatFrame  # noqa: E402

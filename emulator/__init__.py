@@ -3,9 +3,11 @@
 The names here are the stable Python interface (docs/interface.md); module paths inside the
 package may move while the project is 0.x. The layout: :mod:`emulator.model` (constants, the
 paper's formulas, tables and plans), :mod:`emulator.esc` (the emulated EtherCAT slave controller),
+:mod:`emulator.slave` (the slave behind the ESC's PDI: its EEPROM content and firmware),
 :mod:`emulator.net` (one engine per protocol, the fault plan and the run's result), and here
 :mod:`emulator.live` (serving an emulated chain on a real link), :mod:`emulator.compare` (one
-sample on CAN, EPL and EtherCAT) and :mod:`emulator.errors`.
+sample on CAN, EPL and EtherCAT), :mod:`emulator.hostile` (hostile EtherCAT traffic for tests) and
+:mod:`emulator.errors`.
 """
 
 from emulator.errors import (

@@ -10,7 +10,7 @@
   frame and, between frames, let the patches publish new taxel samples (seeded contact
   patterns from :func:`skinframes.taxel.sample_payloads`), until a stop event is set; in a line
   that also holds slaves described by ESI files (:func:`mixed_chain`), those count their
-  inputs one up at each publication (:class:`emulator.esc.esi_slave.EsiApplication`).
+  inputs one up at each publication (:class:`emulator.slave.esi_slave.EsiApplication`).
 
 The recipe it automates, by hand::
 
@@ -47,8 +47,8 @@ from emulator.errors import LinkError
 from emulator.esc.chain import EcatChain
 from emulator.esc.device import EscDevice
 from emulator.esc.registers import EscConfig
-from emulator.esc.sii import SlaveInfo
-from emulator.esc.state_machine import SkinPatchApplication
+from emulator.slave.sii import SlaveInfo
+from emulator.slave.state_machine import SkinPatchApplication
 from skinframes import taxel
 from skinframes.capture_writer import CaptureWriter
 
@@ -403,7 +403,7 @@ def mixed_chain(
     config: EscConfig | None = None,
 ) -> EcatChain:
     """``nodes`` skin patches first (serial numbers 1..nodes, as :meth:`EcatChain.skin`), then
-    one ESC from each of ``others`` (an ESI slave: :func:`emulator.esc.esi_slave.esi_device`),
+    one ESC from each of ``others`` (an ESI slave: :func:`emulator.slave.esi_slave.esi_device`),
     powered on and in INIT; a line of patches only is :meth:`EcatChain.skin`'s."""
     if not others:
         return EcatChain.skin(nodes, input_bytes, mailbox=mailbox, config=config)

@@ -202,8 +202,8 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError("serve ecat: --nodes is required")
     from emulator.errors import TopologyError
     from emulator.esc.dc import seed_clocks
-    from emulator.esc.esi_slave import check_esi_slaves, esi_device
     from emulator.live import RawSocket, TaxelFeed, mixed_chain, serve
+    from emulator.slave.esi_slave import check_esi_slaves, esi_device
 
     if args.node_ids is not None or args.rt_priority is not None:
         raise SkinframesError("--node-ids and --rt-priority apply to serve epl only")

@@ -234,7 +234,7 @@ def add_parser(sub: Any) -> None:
 def _esi_slaves(args: argparse.Namespace) -> list[Any]:
     """The ``--esi`` slaves, loaded and checked, with their ``--esi-inputs`` files (one error
     line for a bad one); ``--nodes 0`` only with them, EtherCAT only."""
-    from emulator.esc.esi_slave import check_esi_slaves
+    from emulator.slave.esi_slave import check_esi_slaves
 
     if (args.esi or args.esi_inputs or args.esi_modules) and args.protocol != "ecat":
         raise SkinframesError("--esi, --esi-inputs and --esi-modules apply to EtherCAT only")

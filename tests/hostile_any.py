@@ -1,6 +1,6 @@
 """Hostile EtherCAT frames written from the specifications, independently of the emulator.
 
-A second generator beside :mod:`emulator.esc.hostile`, which is tuned to what the emulated ESC
+A second generator beside :mod:`emulator.hostile`, which is tuned to what the emulated ESC
 was written for. This one is written from two documents only, and imports nothing of ours:
 
 * ETG.1000.4 (IEC 61158-4-12) for the frame: Ethernet II with EtherType 0x88A4 (optionally

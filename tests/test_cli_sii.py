@@ -185,7 +185,7 @@ def test_bad_input_is_one_error_line(tmp_path: Path, capsys: pytest.CaptureFixtu
 def test_a_bad_checksum_is_reported_not_refused(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:
-    from emulator.esc.sii import SlaveInfo, build_sii
+    from emulator.slave.sii import SlaveInfo, build_sii
 
     raw = bytearray(build_sii(SlaveInfo.skin_patch(16)))
     raw[14] ^= 0xFF

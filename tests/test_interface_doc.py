@@ -162,7 +162,7 @@ def test_can_json_keys_are_documented(capsys: pytest.CaptureFixture[str], can_tr
 
 
 def test_sii_json_keys_are_documented(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
-    from emulator.esc.sii import SlaveInfo, build_sii
+    from emulator.slave.sii import SlaveInfo, build_sii
 
     image = tmp_path / "slave.bin"
     image.write_bytes(build_sii(SlaveInfo.skin_patch(16, mailbox=True, output_bytes=2)))

@@ -4,7 +4,9 @@ The rules, proved two ways (STYLE 2.1):
 
 1. ``skinframes`` never imports ``emulator`` or ``skinframes_cli``;
 2. ``emulator`` never imports ``skinframes_cli``;
-3. ``skinframes_cli`` sits on top and may import both.
+3. ``skinframes_cli`` sits on top and may import both;
+4. inside ``emulator``, no import loop, and the slave behind the ESC (``emulator.slave``) sees of
+   the ESC (``emulator.esc``) only the PDI and the register constants (issue 39).
 
 Statically, every ``import`` statement of every module (module level, inside functions and under
 ``TYPE_CHECKING`` alike) is read with :mod:`ast`; dynamically, every module of a package is
@@ -98,22 +100,26 @@ PROBE = """
 import importlib, json, sys
 for name in json.loads(sys.argv[1]):
     importlib.import_module(name)
-print(json.dumps(sorted({m.partition(".")[0] for m in sys.modules})))
+print(json.dumps(sorted(sys.modules)))
 """
 
 
-@pytest.mark.parametrize("package", sorted(FORBIDDEN))
-def test_importing_every_module_loads_no_upper_layer(package: str) -> None:
-    names = [module for module, _ in modules_of(package)]
+def loaded_after(names: list[str], first: str = "") -> set[str]:
+    """Every module a fresh interpreter holds after importing ``names``, ``first`` run before."""
     out = subprocess.run(
-        [sys.executable, "-c", PROBE, json.dumps(names)],
+        [sys.executable, "-c", first + PROBE, json.dumps(names)],
         capture_output=True,
         text=True,
         cwd=ROOT,
         timeout=120,
         check=True,
     )
-    loaded = set(json.loads(out.stdout))
+    return set(json.loads(out.stdout))
+
+
+@pytest.mark.parametrize("package", sorted(FORBIDDEN))
+def test_importing_every_module_loads_no_upper_layer(package: str) -> None:
+    loaded = {top(m) for m in loaded_after([module for module, _ in modules_of(package)])}
     assert package in loaded
     assert not loaded & set(FORBIDDEN[package])
 
@@ -200,6 +206,68 @@ def test_no_import_loop_in_emulator() -> None:
     assert not found, "\n".join(" -> ".join(loop) for loop in found)
 
 
+# what the slave behind the ESC (emulator.slave) may import of the ESC: the PDI it is written
+# against and the ESC's constants (register map, DC registers, commands), issue 39
+SLAVE_SEES_OF_THE_ESC = {
+    "emulator.esc",  # the package, which Python imports before any of its modules
+    "emulator.esc.pdi",
+    "emulator.esc.registers",
+    "emulator.esc.dc",
+    "emulator.esc.commands",
+}
+# the one exception: esi_slave.esi_device(slave) builds the ESC an ESI slave runs behind (an
+# EscDevice with its application), the public way to get an ESI slave (docs/interface.md)
+SLAVE_BUILDS_AN_ESC = {("emulator.slave.esi_slave", "emulator.esc.device")}
+
+
+def test_the_slave_meets_the_esc_at_the_pdi() -> None:
+    """Issue 39: the ESC and its firmware meet at one narrow interface. A module of
+    ``emulator.slave`` imports of ``emulator.esc`` only :data:`SLAVE_SEES_OF_THE_ESC`, never the
+    ESC itself (device, chain, mapping, together, write_plans), but for
+    :data:`SLAVE_BUILDS_AN_ESC`; the ESC imports of the slave only the SII and the state machine
+    (its default application), without a loop (:func:`test_no_import_loop_in_emulator`)."""
+    graph = import_graph("emulator")
+    slave = {m: found for m, found in graph.items() if m.startswith("emulator.slave.")}
+    assert len(slave) >= 8  # the walk found the slave's modules
+    beyond = {
+        (module, name)
+        for module, found in slave.items()
+        for name in found
+        if name.startswith("emulator.esc") and name not in SLAVE_SEES_OF_THE_ESC
+    }
+    assert beyond == SLAVE_BUILDS_AN_ESC
+    esc_imports = {
+        name
+        for module, found in graph.items()
+        if module.startswith("emulator.esc")
+        for name in found
+        if name.startswith("emulator.slave")
+    }
+    assert esc_imports == {"emulator.slave.sii", "emulator.slave.state_machine"}
+
+
+def test_importing_the_firmware_loads_the_pdi_not_the_esc() -> None:
+    """The same, in a fresh interpreter: the firmware modules (all of ``emulator.slave`` but
+    the ESI slave, which builds an ESC) load none of the ESC's other modules. ``emulator``
+    itself loads the engine and with it the ESC, so the probe puts an empty package in its
+    place (the ESC's modules import none of its names)."""
+    names = sorted(
+        module
+        for module, _ in modules_of("emulator")
+        if module.startswith("emulator.slave.")
+        and (module, "emulator.esc.device") not in SLAVE_BUILDS_AN_ESC
+    )
+    empty = (
+        "import sys, types\n"
+        "empty = types.ModuleType('emulator')\n"
+        f"empty.__path__ = [{str(ROOT / 'emulator')!r}]\n"
+        "sys.modules['emulator'] = empty\n"
+    )
+    loaded = {m for m in loaded_after(names, empty) if m.startswith("emulator.esc")}
+    assert "emulator.esc.pdi" in loaded
+    assert loaded <= SLAVE_SEES_OF_THE_ESC | {"emulator.esc.compiled"}
+
+
 def test_the_loop_finder_finds_loops() -> None:
     assert cycles({"a": {"b"}, "b": {"c"}, "c": {"a"}, "d": {"a"}}) == [["a", "b", "c", "a"]]
     assert cycles({"a": {"b"}, "b": set()}) == []
@@ -208,12 +276,14 @@ def test_the_loop_finder_finds_loops() -> None:
 def test_registers_with_side_effects_are_written_in_one_module() -> None:
     """Issue "One ESC": the end addresses of the error counters (0x0314), the watchdog counters
     (0x0442, their start) and the EEPROM interface (0x0510), and the DC speed counter start
-    0x0930, each appear as a number in at most one module of emulator/esc."""
+    0x0930, each appear as a number in at most one module of emulator/esc and emulator/slave."""
     import io
     import tokenize
 
     where: dict[int, set[str]] = {0x0314: set(), 0x0442: set(), 0x0510: set(), 0x0930: set()}
-    for path in sorted((ROOT / "emulator" / "esc").glob("*.py")):
+    for path in sorted(
+        [*(ROOT / "emulator" / "esc").glob("*.py"), *(ROOT / "emulator" / "slave").glob("*.py")]
+    ):
         tokens = tokenize.generate_tokens(io.StringIO(path.read_text()).readline)
         for token in tokens:
             if token.type != tokenize.NUMBER:

@@ -90,8 +90,6 @@ from emulator.esc.registers import (
     cleared_events,
     reads_dc,
 )
-from emulator.esc.sii import SlaveInfo, SyncManagerType
-from emulator.esc.state_machine import AlState, SkinPatchApplication
 from emulator.esc.together import (
     LOGICAL_TOGETHER_MIN,
     TOGETHER_MIN,
@@ -100,6 +98,8 @@ from emulator.esc.together import (
     last_readers,
     logical_together,
 )
+from emulator.slave.sii import SlaveInfo, SyncManagerType
+from emulator.slave.state_machine import AlState, SkinPatchApplication
 from skinframes import ethercat, ethernet
 from skinframes.errors import DecodeError
 from skinframes.ethercat import Command, Datagram, EcatFrame

@@ -46,7 +46,7 @@ on its own is a line of one.
 
 Not modelled: watchdogs (registers only), MII management, write protection 0x0020/0x0030, the
 circulating bit, UDP encapsulation and a second PDI. The slave application behind the PDI
-(:class:`emulator.esc.pdi.Pdi`) is a :class:`emulator.esc.state_machine.PdiApplication`; the
+(:class:`emulator.esc.pdi.Pdi`) is a :class:`emulator.slave.state_machine.PdiApplication`; the
 skin patch's is :class:`SkinPatchApplication`.
 """
 
@@ -158,8 +158,6 @@ from emulator.esc.registers import (
     cleared_events,
     reads_dc,
 )
-from emulator.esc.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
-from emulator.esc.state_machine import PdiApplication, SkinPatchApplication
 from emulator.esc.write_plans import (
     ERROR_COUNTERS,
     TOUCHES_FMMU,
@@ -169,6 +167,8 @@ from emulator.esc.write_plans import (
     write_masked,
     write_special,
 )
+from emulator.slave.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
+from emulator.slave.state_machine import PdiApplication, SkinPatchApplication
 
 __all__ = [
     "ADDRESS_SPACE",
@@ -499,7 +499,7 @@ class EscDevice:
         self.al_control_full = False
         self._reset_progress = 0
         self._reset_written: int | None = None
-        # the application's mailbox handler (emulator.esc.mailbox), run after frames that
+        # the application's mailbox handler (emulator.slave.mailbox), run after frames that
         # completed a mailbox buffer or wrote SyncManager registers (repeat requests)
         self._mailbox_hook: Callable[[EscDevice], None] | None = getattr(
             self.app, "mailbox_event", None

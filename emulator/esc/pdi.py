@@ -5,9 +5,9 @@ physical interfaces): the firmware reads and writes the ESC's memory (a whole in
 buffer exchange, datasheet I 8.1), sets AL status and its code (I 10.1), deactivates
 SyncManagers and acknowledges repeat requests through 0x0807 (II 2.14.7), and learns of events
 (AL control written, a mailbox or SyncManager event, a SYNC0 pulse) through calls of its
-application (:class:`emulator.esc.state_machine.PdiApplication`). The firmware modules
-(:mod:`~emulator.esc.state_machine`, :mod:`~emulator.esc.mailbox`, :mod:`~emulator.esc.coe`,
-:mod:`~emulator.esc.objects`) are written against :class:`Pdi`, not against the ESC that
+application (:class:`emulator.slave.state_machine.PdiApplication`). The firmware modules
+(:mod:`~emulator.slave.state_machine`, :mod:`~emulator.slave.mailbox`, :mod:`~emulator.slave.coe`,
+:mod:`~emulator.slave.objects`) are written against :class:`Pdi`, not against the ESC that
 implements it (:class:`emulator.esc.device.EscDevice`), so that the ESC and its firmware depend
 on one narrow interface and never on each other.
 """

@@ -11,7 +11,6 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.esc.esi_slave import EsiSlave, load_esi_slave
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_NS, PS_PER_US
 from emulator.net.ecat import EcatEngine
@@ -20,6 +19,7 @@ from emulator.net.faults import Fault
 from emulator.net.result import SimResult
 from emulator.net.run import Engine, Payloads, Sink, run
 from emulator.net.startup import StartupRecord
+from emulator.slave.esi_slave import EsiSlave, load_esi_slave
 from skinframes.pcap import CaptureWriter
 from skinframes.vlan import VlanTag
 
@@ -202,7 +202,7 @@ def simulate_ecat(
         vlan: tag every frame with this 802.1Q VLAN id (0..4094); the 4 bytes count on the
             wire.
         esi: slaves as ESI files describe them, after the patches: ``ESI.xml[#TYPE]`` or
-            loaded (:func:`emulator.esc.esi_slave.load_esi_slave`); their inputs count the
+            loaded (:func:`emulator.slave.esi_slave.load_esi_slave`); their inputs count the
             cycles (:mod:`emulator.net.ecat_line`). ``nodes`` may be 0 with them.
     """
     if closed_ring is not None and redundant is not None and closed_ring != redundant:

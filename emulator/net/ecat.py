@@ -38,7 +38,6 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.chain import EcatChain, FrameEffect
-from emulator.esc.esi_slave import EsiSlave
 from emulator.model.limits import check_ecat, check_emulated_ecat
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
@@ -46,6 +45,7 @@ from emulator.net.cycle import FILL_NONE, FILL_TAXELS, Cycle, Record
 from emulator.net.ecat_line import EcatLine
 from emulator.net.faults import Fault, check_faults, corruption_mark
 from emulator.net.startup import StartupRecord, run_startup
+from emulator.slave.esi_slave import EsiSlave
 from skinframes import ethercat, ethernet, vlan
 from skinframes.ethercat import Command, Datagram, EcatFrame
 from skinframes.vlan import VlanTag

@@ -1,7 +1,7 @@
 """The slaves of an emulated EtherCAT line and where their inputs lie in its input image.
 
 A line is ``patches`` skin patches of ``patch_bytes`` of taxels each, then the slaves ESI files
-describe (:mod:`emulator.esc.esi_slave`), in that order: what ``simulate ecat --nodes N --esi
+describe (:mod:`emulator.slave.esi_slave`), in that order: what ``simulate ecat --nodes N --esi
 ESI.xml`` runs. Each slave's inputs (the bytes of its input SyncManager, ETG.1000.6 5.6.7) lie
 one after another in the line's input image, in line order; the master reads them with LRDs at
 those logical addresses (:func:`emulator.net.ecat.line_frames`), as the configuration maps them
@@ -11,7 +11,7 @@ of equal sizes: patch ``p``'s taxels at ``p x patch_bytes``.
 Per cycle, the image holds the patches' taxels of that cycle and, for each ESI slave, its
 inputs at that cycle's publication: cycle ``c`` (from 0) is publication ``c + 1``, every input
 entry holding ``c + 1`` cut to its bits, or its value in an inputs file's row ``c + 1``
-(:meth:`emulator.esc.esi_slave.EsiApplication.images`, what ``serve`` publishes).
+(:meth:`emulator.slave.esi_slave.EsiApplication.images`, what ``serve`` publishes).
 """
 
 from __future__ import annotations
@@ -24,8 +24,8 @@ import numpy.typing as npt
 from emulator.errors import TopologyError
 from emulator.esc.chain import skin_devices
 from emulator.esc.device import EscDevice
-from emulator.esc.esi_slave import EsiApplication, EsiSlave, esi_device
-from emulator.esc.sii import SyncManagerType
+from emulator.slave.esi_slave import EsiApplication, EsiSlave, esi_device
+from emulator.slave.sii import SyncManagerType
 
 __all__ = ["EcatLine"]
 

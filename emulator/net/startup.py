@@ -33,8 +33,8 @@ from emulator.esc.chain import (
     process_data_writes,
 )
 from emulator.esc.dc import REG_DC_DELAY, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU
-from emulator.esc.sii import SlaveInfo, SyncManagerSpec, SyncManagerType
-from emulator.esc.state_machine import ACK, AlState
+from emulator.slave.sii import SlaveInfo, SyncManagerSpec, SyncManagerType
+from emulator.slave.state_machine import ACK, AlState
 from skinframes import ecat_mailbox as mb
 from skinframes import ethercat
 from skinframes.dispatch import decode_frame

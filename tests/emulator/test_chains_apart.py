@@ -18,7 +18,7 @@ from types import ModuleType
 import numpy as np
 
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.hostile import hostile_frames, master_reset_frames
+from emulator.hostile import hostile_frames, master_reset_frames
 from skinframes import taxel
 
 FRAME_NS = 200_000

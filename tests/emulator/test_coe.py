@@ -16,7 +16,7 @@ import pytest
 import tshark_util
 
 from emulator.esc.chain import EcatChain
-from emulator.esc.sii import SlaveInfo, build_sii
+from emulator.slave.sii import SlaveInfo, build_sii
 from skinframes import ethercat
 from skinframes.capture_writer import write_pcap
 from skinframes.ethercat import Command as C  # noqa: N817

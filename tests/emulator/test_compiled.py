@@ -28,7 +28,7 @@ ANSWER = """
 import hashlib, sys
 from emulator.esc import compiled
 from emulator.esc.chain import EcatChain
-from emulator.esc.hostile import hostile_frames, master_reset_frames
+from emulator.hostile import hostile_frames, master_reset_frames
 nodes, size, count, seed = (int(x) for x in sys.argv[1:5])
 print("compiled" if compiled.in_use() else "python")
 chain = EcatChain.configured(nodes, size)

@@ -10,8 +10,8 @@ import pytest
 
 from emulator.errors import TopologyError
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.sii import SlaveInfo
 from emulator.net.ecat import frames_for
+from emulator.slave.sii import SlaveInfo
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command as C  # noqa: N817
 from skinframes.ethercat import Datagram

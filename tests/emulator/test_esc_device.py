@@ -17,9 +17,9 @@ from hypothesis import strategies as st
 
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
-from emulator.esc.hostile import hostile_frames, master_reset_frames
-from emulator.esc.sii import SlaveInfo, SyncManagerType, build_sii, crc8
-from emulator.esc.state_machine import AlStatusCode, SkinPatchApplication
+from emulator.hostile import hostile_frames, master_reset_frames
+from emulator.slave.sii import SlaveInfo, SyncManagerType, build_sii, crc8
+from emulator.slave.state_machine import AlStatusCode, SkinPatchApplication
 from skinframes import ethercat, taxel
 from skinframes.errors import DecodeError
 from skinframes.ethercat import Command as C  # noqa: N817 (short, the spec's table style)
@@ -1366,7 +1366,7 @@ def test_a_master_rewrites_a_corrupted_eeprom_configuration_area() -> None:
     # Slave 1's configuration area checksum overwritten and reloaded: no PDI (I 11.2.1), its
     # firmware cannot take the master to OP; eeprom_repair_frames writes words 0-7 back and
     # reloads (I 11.2.3), after which the line is configured to OP.
-    from emulator.esc.hostile import eeprom_repair_frames
+    from emulator.hostile import eeprom_repair_frames
 
     chain = EcatChain.skin(3, 16)
     good = [bytes(dev.sii[:16]) for dev in chain.devices]

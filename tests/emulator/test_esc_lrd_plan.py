@@ -14,8 +14,8 @@ import pytest
 
 from emulator.esc.chain import EcatChain, configure_frames, skin_devices
 from emulator.esc.device import REG_SM
-from emulator.esc.hostile import hostile_frames, master_reset_frames
-from emulator.esc.sii import SyncManagerType
+from emulator.hostile import hostile_frames, master_reset_frames
+from emulator.slave.sii import SyncManagerType
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 

@@ -14,7 +14,7 @@ import pytest
 from emulator.esc import device as esc_device
 from emulator.esc.device import EscDevice
 from emulator.esc.pdi import Pdi
-from emulator.esc.sii import SlaveInfo
+from emulator.slave.sii import SlaveInfo
 
 DOC = Path(__file__).resolve().parents[2] / "docs" / "interface.md"
 PARAGRAPH = re.compile(r"What stays public of `emulator\.esc\.device\.EscDevice`(.*?)\n\n", re.S)

@@ -19,10 +19,10 @@ from emulator.esc import device as esc_device
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice, SmRun
-from emulator.esc.hostile import hostile_frames, master_reset_frames
 from emulator.esc.mapping import decode_sms
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_NO_BUFFER
-from emulator.esc.sii import SyncManagerType, crc8
+from emulator.hostile import hostile_frames, master_reset_frames
+from emulator.slave.sii import SyncManagerType, crc8
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 

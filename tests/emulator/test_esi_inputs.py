@@ -12,8 +12,8 @@ from pathlib import Path
 
 import pytest
 
-from emulator.esc.esi_inputs import pack_entries, read_esi_inputs
-from emulator.esc.esi_slave import EsiApplication, entry_values, esi_device, load_esi_slave
+from emulator.slave.esi_inputs import pack_entries, read_esi_inputs
+from emulator.slave.esi_slave import EsiApplication, entry_values, esi_device, load_esi_slave
 from skinframes.errors import DecodeError
 from skinframes_cli import main
 

@@ -17,10 +17,10 @@ import pytest
 
 from emulator.errors import TopologyError
 from emulator.esc.chain import EcatChain
-from emulator.esc.coe import CoeServer
-from emulator.esc.esi_objects import EsiDictionary
-from emulator.esc.esi_slave import EsiApplication, check_esi_slave, esi_device, load_esi_slave
 from emulator.live import TaxelFeed, mixed_chain
+from emulator.slave.coe import CoeServer
+from emulator.slave.esi_objects import EsiDictionary
+from emulator.slave.esi_slave import EsiApplication, check_esi_slave, esi_device, load_esi_slave
 from skinframes import ecat_mailbox as mb
 from skinframes import ethercat
 from skinframes.ecat_mailbox import SdoAbort, SdoInfoOpcode

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.hostile import hostile_frames, master_reset_frames
+from emulator.hostile import hostile_frames, master_reset_frames
 from skinframes import ethercat
 from skinframes.ethercat import Command, Datagram, EcatFrame
 

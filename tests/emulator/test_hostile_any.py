@@ -16,8 +16,8 @@ import pytest
 
 from emulator.esc import mapping
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.hostile import master_reset_frames
-from emulator.esc.sii import SlaveInfo
+from emulator.hostile import master_reset_frames
+from emulator.slave.sii import SlaveInfo
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 

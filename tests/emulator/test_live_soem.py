@@ -50,9 +50,9 @@ from live_util import (
 )
 
 from emulator.esc.chain import EcatChain
-from emulator.esc.hostile import hostile_frames
-from emulator.esc.state_machine import AlState
+from emulator.hostile import hostile_frames
 from emulator.live import ServeStats, TaxelFeed, VethPair, netns_socket, serve, veth_netns
+from emulator.slave.state_machine import AlState
 from skinframes import ethercat, taxel
 from skinframes.ethercat import Command, Datagram, EcatFrame
 

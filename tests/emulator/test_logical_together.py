@@ -24,7 +24,7 @@ from emulator.esc import mapping, together, write_plans
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
 from emulator.esc.registers import SM_BYTES, EscConfig
-from emulator.esc.sii import SlaveInfo, build_sii
+from emulator.slave.sii import SlaveInfo, build_sii
 from skinframes import ethercat
 from skinframes.ethercat import Command, Datagram, EcatFrame
 

@@ -18,8 +18,8 @@ from pathlib import Path
 
 from emulator.esc.chain import STATION_BASE, EcatChain
 from emulator.esc.device import EscDevice
-from emulator.esc.esi_slave import entry_values, esi_device, load_esi_slave
-from emulator.esc.sii import SlaveInfo
+from emulator.slave.esi_slave import entry_values, esi_device, load_esi_slave
+from emulator.slave.sii import SlaveInfo
 from skinframes import ecat_mailbox as mb
 from skinframes import ethercat
 from skinframes.ethercat import Command, Datagram, EcatFrame

@@ -9,7 +9,7 @@ import pytest
 from mini_master import categories, find_category
 
 from emulator.errors import TopologyError
-from emulator.esc.sii import (
+from emulator.slave.sii import (
     DataType,
     FmmuUsage,
     SlaveInfo,

@@ -15,10 +15,10 @@ import numpy as np
 import pytest
 import tshark_util
 
-from emulator.esc.esi_slave import counter_images
 from emulator.model.params import PAPER
 from emulator.net.api import simulate_ecat
 from emulator.net.run import MemorySink
+from emulator.slave.esi_slave import counter_images
 from skinframes.dispatch import decode_frame
 from skinframes.ethercat import Command, EcatFrame
 from skinframes_cli import main

@@ -16,7 +16,7 @@ from hypothesis import given
 from hypothesis import strategies as st
 from mini_master import find_category
 
-from emulator.esc.sii import SlaveInfo, build_sii
+from emulator.slave.sii import SlaveInfo, build_sii
 from skinframes.errors import FieldRangeError, LengthMismatchError, TruncatedError
 from skinframes.esi import read_esi
 from skinframes.sii import (

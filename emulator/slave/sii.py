@@ -250,7 +250,7 @@ class SlaveInfo:
         With ``mailbox=True``: the standard layout of a CoE slave (ETG.2010 Table 9, SOEM's
         defaults): SM0/SM1 the 128-byte receive/send mailboxes at 0x1000/0x1080, SM2 the outputs
         (length 0 and disabled without outputs), SM3 the inputs; one TxPDO 0x1A00 + t per
-        triangle t mapping its taxels 0x6000 + t:1..12 (see :mod:`emulator.esc.objects` for why
+        triangle t mapping its taxels 0x6000 + t:1..12 (see :mod:`emulator.slave.objects` for why
         per triangle), assigned to SM3 through 0x1C13; mailbox protocol CoE with SDO, SDO
         information, PDO assignment and complete access.
         """

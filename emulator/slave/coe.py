@@ -1,6 +1,6 @@
 """The CoE server of an emulated slave: SDO transfers, SDO information, emergencies.
 
-ETG.1000.6 5.6 (CANopen over EtherCAT) on top of an :class:`~emulator.esc.objects.ObjectDictionary`:
+ETG.1000.6 5.6 (CANopen over EtherCAT) on top of an :class:`~emulator.slave.objects.ObjectDictionary`:
 
 * SDO download (5.6.2.1-5.6.2.3) expedited (1-4 bytes in the request), normal (the size and as
   much data as the mailbox holds) and segmented (the rest in download segments, toggle bit
@@ -14,7 +14,7 @@ ETG.1000.6 5.6 (CANopen over EtherCAT) on top of an :class:`~emulator.esc.object
 * emergency messages (5.6.4), queued like any response.
 
 The server sees CoE bodies (what follows the mailbox header) and returns CoE bodies; the mailbox
-layer (:mod:`emulator.esc.mailbox`) frames them.
+layer (:mod:`emulator.slave.mailbox`) frames them.
 """
 
 from __future__ import annotations
@@ -23,7 +23,7 @@ import struct
 from dataclasses import dataclass
 from typing import Final
 
-from emulator.esc.objects import (
+from emulator.slave.objects import (
     RXPDO_MAPPABLE,
     TXPDO_MAPPABLE,
     ObjectDictionary,

@@ -33,12 +33,12 @@ from typing import TYPE_CHECKING, Final, Protocol
 
 from emulator.esc.dc import REG_SAMPLE_TIME
 from emulator.esc.pdi import Pdi
-from emulator.esc.sii import SlaveInfo, SyncManagerType
+from emulator.slave.sii import SlaveInfo, SyncManagerType
 from skinframes.ecat_mailbox import MailboxType
 
 if TYPE_CHECKING:
-    from emulator.esc.mailbox import Mailbox
-    from emulator.esc.objects import ObjectDictionary, SkinDictionary
+    from emulator.slave.mailbox import Mailbox
+    from emulator.slave.objects import ObjectDictionary, SkinDictionary
 
 __all__ = [
     "ACK",
@@ -146,14 +146,14 @@ class SlaveApplication:
 
     It behaves as the Beckhoff slave stack does: at power-on it deactivates every SyncManager
     through the PDI (0x0807 bit 0); a slave with a mailbox checks SM0/SM1 in INIT->PREOP (else
-    0x0016) and releases them, and serves CoE from PREOP on (:mod:`emulator.esc.mailbox`,
-    :mod:`emulator.esc.coe`, with the object dictionary :meth:`dictionary` gives); in
+    0x0016) and releases them, and serves CoE from PREOP on (:mod:`emulator.slave.mailbox`,
+    :mod:`emulator.slave.coe`, with the object dictionary :meth:`dictionary` gives); in
     PREOP->SAFEOP it checks that the master programmed each process-data SyncManager with the
     SII's start address, the length of the PDOs assigned to it (:meth:`sm_bytes`), mode and
     direction and enabled it (else 0x001E for inputs, 0x001D for outputs), then activates them
     and writes its inputs once; leaving SAFEOP deactivates them again. What a kind of slave adds
     (its dictionary, how its inputs are laid out) is in its subclass:
-    :class:`SkinPatchApplication`, :class:`emulator.esc.esi_slave.EsiApplication`.
+    :class:`SkinPatchApplication`, :class:`emulator.slave.esi_slave.EsiApplication`.
     """
 
     def __init__(self, info: SlaveInfo) -> None:
@@ -173,8 +173,8 @@ class SlaveApplication:
         self.objects: ObjectDictionary | None = None
         self.mailbox: Mailbox | None = None
         if info.has_mailbox:
-            from emulator.esc.coe import CoeServer
-            from emulator.esc.mailbox import Mailbox
+            from emulator.slave.coe import CoeServer
+            from emulator.slave.mailbox import Mailbox
 
             self.objects = self.dictionary()
             tx = info.sync_managers[info.sm_of_type(SyncManagerType.MAILBOX_IN) or 0]
@@ -343,14 +343,14 @@ class SlaveApplication:
 
 class SkinPatchApplication(SlaveApplication):
     """The firmware of a skin patch: :class:`SlaveApplication` with the skin's dictionary
-    (:mod:`emulator.esc.objects`), TxPDOs selected by assignment (0x1C13), and taxels sampled
+    (:mod:`emulator.slave.objects`), TxPDOs selected by assignment (0x1C13), and taxels sampled
     at SYNC0 pulses with the pulse's time stamped in user RAM 0x0F80."""
 
     objects: SkinDictionary | None
 
     def dictionary(self) -> SkinDictionary:
         """The skin patch's dictionary; taxels and outputs read live."""
-        from emulator.esc.objects import skin_dictionary
+        from emulator.slave.objects import skin_dictionary
 
         return skin_dictionary(self.info, lambda: self.inputs, lambda: self.outputs)
 

@@ -1,7 +1,7 @@
 """The CoE object dictionary of a slave described by an ESI file.
 
 The objects are the ESI's ``Profile/Dictionary`` (ETG.2000: ``DataTypes`` and ``Objects``), each
-as the SDO server of :mod:`emulator.esc.objects` serves it (ETG.1000.6 5.6.2, 5.6.3):
+as the SDO server of :mod:`emulator.slave.objects` serves it (ETG.1000.6 5.6.2, 5.6.3):
 
 * a VAR where the object's type is a base type (``UDINT``, ``STRING(11)``, ...); an ARRAY or a
   RECORD where the type lists sub items; a sub item whose type has ``ArrayInfo`` stands for
@@ -33,7 +33,7 @@ as the SDO server of :mod:`emulator.esc.objects` serves it (ETG.1000.6 5.6.2, 5.
   entries of their own bit length (or index 0: a gap); entries only while subindex 0 is 0.
 
 Input entries (those the TxPdos map) read live: their value is what the application publishes
-(:class:`emulator.esc.esi_slave.EsiApplication`: a counter).
+(:class:`emulator.slave.esi_slave.EsiApplication`: a counter).
 """
 
 from __future__ import annotations
@@ -45,7 +45,7 @@ from dataclasses import dataclass
 from typing import Final
 
 from emulator.errors import TopologyError
-from emulator.esc.objects import (
+from emulator.slave.objects import (
     ACCESS_RO,
     ACCESS_RW_PREOP,
     READ_OP,

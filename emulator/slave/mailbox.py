@@ -27,10 +27,10 @@ from __future__ import annotations
 from collections import deque
 from typing import Final
 
-from emulator.esc.coe import CoeServer
 from emulator.esc.pdi import Pdi
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_MAILBOX_FULL
-from emulator.esc.sii import SlaveInfo, SyncManagerType
+from emulator.slave.coe import CoeServer
+from emulator.slave.sii import SlaveInfo, SyncManagerType
 from skinframes import ecat_mailbox as mb
 from skinframes.ecat_mailbox import MailboxErrorCode, MailboxHeader, MailboxType
 

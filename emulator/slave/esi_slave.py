@@ -1,7 +1,7 @@
 """A slave described by an ESI file (ETG.2000), served by the emulated ESC.
 
 The ESC is the same :class:`~emulator.esc.device.EscDevice` a skin patch has; behind its PDI runs
-:class:`EsiApplication`, a :class:`~emulator.esc.state_machine.SlaveApplication` (the ESM,
+:class:`EsiApplication`, a :class:`~emulator.slave.state_machine.SlaveApplication` (the ESM,
 the mailbox and CoE server, the SyncManager checks) with what the ESI describes:
 
 * the SII image :func:`skinframes.sii.sii_from_esi` builds (what ``skinframes sii ESI.xml``
@@ -9,7 +9,7 @@ the mailbox and CoE server, the SyncManager checks) with what the ESI describes:
   and PDOs from the EEPROM;
 * a modular device's modules (``--esi-modules``, :func:`skinframes.esi.configure_slots`): their
   PDOs and objects join the device's, in their slots;
-* the CoE dictionary of :mod:`emulator.esc.esi_objects` when the ESI has CoE (SDO upload and
+* the CoE dictionary of :mod:`emulator.slave.esi_objects` when the ESI has CoE (SDO upload and
   download, complete access, SDO information listing the ESI's objects, and 0x1C00/0x1C1n
   where the ESI lacks them);
 * the PDO assignment and mapping a master sets in PRE-OP, checked in PRE-OP -> SAFE-OP against
@@ -38,13 +38,13 @@ import numpy.typing as npt
 from emulator.errors import TopologyError
 from emulator.esc.dc import DC_FEATURES
 from emulator.esc.device import EscDevice
-from emulator.esc.esi_inputs import EsiInputs, pack_entries, read_esi_inputs
-from emulator.esc.esi_objects import EsiDictionary, esi_dictionary
-from emulator.esc.objects import ObjectDictionary
 from emulator.esc.pdi import Pdi
 from emulator.esc.registers import EscConfig
-from emulator.esc.sii import Pdo, PdoEntry, SlaveInfo, SyncManagerSpec
-from emulator.esc.state_machine import SlaveApplication
+from emulator.slave.esi_inputs import EsiInputs, pack_entries, read_esi_inputs
+from emulator.slave.esi_objects import EsiDictionary, esi_dictionary
+from emulator.slave.objects import ObjectDictionary
+from emulator.slave.sii import Pdo, PdoEntry, SlaveInfo, SyncManagerSpec
+from emulator.slave.state_machine import SlaveApplication
 from skinframes.errors import EsiFormatError, SkinframesError
 from skinframes.esi import EsiDevice, EsiFile, EsiPdo, configure_slots, read_esi
 from skinframes.sii import (
@@ -371,7 +371,7 @@ def check_esi_slaves(
     specs: Sequence[str], inputs: Sequence[str] = (), modules: Sequence[str] = ()
 ) -> list[EsiSlave]:
     """:func:`check_esi_slave` of each of ``specs``, the n-th with the inputs file
-    ``inputs[n]`` (:func:`emulator.esc.esi_inputs.read_esi_inputs`) and the modules of the
+    ``inputs[n]`` (:func:`emulator.slave.esi_inputs.read_esi_inputs`) and the modules of the
     comma-separated list ``modules[n]`` ("" for none), as ``--esi``, ``--esi-inputs`` and
     ``--esi-modules`` name them; every failure one :class:`SkinframesError` naming the file."""
     if len(modules) > len(specs):

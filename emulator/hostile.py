@@ -173,7 +173,7 @@ def hostile_frames(
     configuration or LRD frame with up to 6 random bytes changed after the EtherCAT header.
     """
     from emulator.esc.chain import configure_frames
-    from emulator.esc.sii import SlaveInfo
+    from emulator.slave.sii import SlaveInfo
 
     rng = random.Random(seed)
     image = nodes * input_bytes

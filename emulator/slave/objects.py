@@ -30,7 +30,7 @@ from dataclasses import dataclass, field
 from enum import IntEnum
 from typing import Final
 
-from emulator.esc.sii import DataType, SlaveInfo
+from emulator.slave.sii import DataType, SlaveInfo
 from skinframes import __version__
 from skinframes.ecat_mailbox import SdoAbort
 

@@ -85,7 +85,7 @@ def pack_entries(layout: Sequence[tuple[int, int, int]], values: Sequence[int]) 
     """The SyncManager buffer whose entries ``layout`` lists ((index, subindex, bits), in
     mapping order) hold ``values`` (one per entry, unsigned, cut to the bits): ETG.1000.6 5.6.7,
     packed bit by bit from bit 0 of the first byte, little-endian; gaps (index 0) stay 0. The
-    inverse of :func:`emulator.esc.esi_slave.entry_values`."""
+    inverse of :func:`emulator.slave.esi_slave.entry_values`."""
     whole, at = 0, 0
     for (index, _, bits), value in zip(layout, values, strict=True):
         if index:
