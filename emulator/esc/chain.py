@@ -661,7 +661,7 @@ class EcatChain:
                 cleared = line[q]._clear_read_events(bits) or cleared
             return inc, cleared
 
-        # what row_access gave the last ESC asked (None: ask), and what it follows from: the
+        # what _row_access gave the last ESC asked (None: ask), and what it follows from: the
         # next ESC with the same decoded FMMU and SyncManager tables, PDI state and register
         # write plans gets it (an Access holds what it worked out for the tables last asked:
         # an ESC on its own may ask it for others, so then it is asked again)
@@ -719,7 +719,7 @@ class EcatChain:
                 cuts = [done.access.rest]
                 buffers = {0: (done.at, done.data)}
                 changed = changed or dev.irq != before
-            else:  # a run starts, even one that does nothing: the next are asked row_access
+            else:  # a run starts, even one that does nothing: the next are asked _row_access
                 assert done.cut is not None  # and it holds here (row_cut)
                 run, run_plan, run_shadow, cuts = [p], done.cut, done.shadow, [done.cut]
                 if done.events:
