@@ -182,9 +182,8 @@ __all__ = [
 
 _RESET_SEQUENCE: Final = b"RES"
 _MAILBOX_EVENT: Final = -1  # EscDevice._reaction: a mailbox or SyncManager event, not AL control
-_OUTPUTS_EVENT: Final = (
-    -2
-)  # EscDevice._reaction: -2 - n, ECAT completed write SyncManager n's buffer
+# EscDevice._reaction: -2 - n, ECAT completed the buffer of write SyncManager n
+_OUTPUTS_EVENT: Final = -2
 
 # EscDevice's methods for its chain alone, public until the interface named what stays public
 # (docs/interface.md, "EscDevice"): each old name still answers, with a DeprecationWarning
@@ -1082,14 +1081,14 @@ class EscDevice:
         return found
 
     def _row_access(self, cmd: int, lad: int, n: int) -> Access:
-        """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the
-        plan cut, of a plain access, :func:`emulator.esc.mapping.esc_row_access`, or of one that is plain but for
-        reads of DL or AL status, whose events, :attr:`Access.events`, the ESC then clears,
-        :meth:`_clear_read_events`, but for mailboxes, :attr:`Access.mailboxes`, that must be
-        idle, :meth:`_mailboxes_idle`, but for a read of DC registers, :attr:`Access.dc`,
-        which the ESC brings up to the frame's time first, :meth:`_refresh_dc`, and but for
-        writes of registers, :attr:`Access.shadow`, whose bytes go among its shadow writes,
-        :meth:`_write_shadow`; :func:`emulator.esc.mapping.esc_row_access`)."""
+        """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the plan
+        cut, of a plain access, or of one that is plain but for reads of DL or AL status, whose
+        events, :attr:`Access.events`, the ESC then clears, :meth:`_clear_read_events`, but for
+        mailboxes, :attr:`Access.mailboxes`, that must be idle, :meth:`_mailboxes_idle`, but for a
+        read of DC registers, :attr:`Access.dc`, which the ESC brings up to the frame's time first,
+        :meth:`_refresh_dc`, and but for writes of registers, :attr:`Access.shadow`, whose bytes go
+        among its shadow writes, :meth:`_write_shadow`;
+        :func:`emulator.esc.mapping.esc_row_access`)."""
         return self._access(cmd, lad, n)
 
     def _refresh_dc(self, registers: tuple[tuple[int, int], ...]) -> None:

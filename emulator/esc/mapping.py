@@ -1024,13 +1024,12 @@ def esc_row_access(
     write changes nothing (read-only ones, :meth:`emulator.esc.write_plans.WritePlans.inert`):
     a hole that still counts. A part that meets the buffer of another SyncManager makes the
     access not plain. (Below 0x0F80 the registers are accessed whatever SyncManager area lies
-    there.) Besides, each ESC:
+    there.) It is also plain with what each ESC's state decides:
 
-    - clears the ECAT events (0x0210 bits, :attr:`RowAccess.events`) its reads of DL or AL
-      status clear (:func:`emulator.esc.registers.cleared_events`, datasheet I Table 3), once
-      the datagram's reads at that ESC are done; a later part that reads the event request
-      (0x0210) would see it cleared, and is left to the ESC (None);
-
+    - reads of DL or AL status: each ESC clears the ECAT events they clear (0x0210 bits,
+      :attr:`RowAccess.events`, :func:`emulator.esc.registers.cleared_events`, datasheet I
+      Table 3) once the datagram's reads at that ESC are done; a later part that reads the
+      event request (0x0210) would see it cleared, and is left to the ESC (None);
     - mailboxes in the direction ECAT accesses them (a read mailbox on the read side, a write
       mailbox on the write side): their areas are cut as holes and the mailboxes listed,
       (SyncManager index, side 0 read / 1 write), in plan order. The cut holds at an ESC only
