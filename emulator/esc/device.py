@@ -515,8 +515,17 @@ class EscDevice:
         self._power_on()
 
     def __getattr__(self, name: str) -> object:
-        """A method by its old name (:data:`_RENAMED`), with a DeprecationWarning; no other
-        name is found here (called only where the usual look-up found nothing)."""
+        """A method by its old name (:data:`_RENAMED`), and the PDI's ``pdi_deactivate_sm(index,
+        deactivate)``, now :meth:`pdi_deactivate_sms` of ``(index,)``, each with a
+        DeprecationWarning; no other name is found here (called only where the usual look-up
+        found nothing)."""
+        if name == "pdi_deactivate_sm":
+            warnings.warn(
+                "EscDevice.pdi_deactivate_sm(i, v) is now EscDevice.pdi_deactivate_sms((i,), v)",
+                DeprecationWarning,
+                stacklevel=2,
+            )
+            return lambda index, deactivate: self.pdi_deactivate_sms((index,), deactivate)
         new = _RENAMED.get(name)
         if new is None:
             raise AttributeError(f"'EscDevice' object has no attribute {name!r}")

@@ -58,6 +58,9 @@ def test_each_old_name_answers_as_the_new_with_a_warning() -> None:
         with pytest.warns(DeprecationWarning, match=f"EscDevice.{old} is now EscDevice.{new}"):
             found = getattr(dev, old)
         assert found == getattr(dev, new)
+    with pytest.warns(DeprecationWarning, match="pdi_deactivate_sms"):
+        dev.pdi_deactivate_sm(0, True)  # the PDI locks SyncManager 0: 0x0807 bit 0
+    assert dev.registers(0x0807, 1) == b"\x01"  # (datasheet II 2.14.7)
     with warnings.catch_warnings():
         warnings.simplefilter("error")
         with pytest.raises(AttributeError, match="no attribute 'no_such_name'"):
