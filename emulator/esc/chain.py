@@ -625,8 +625,9 @@ class EcatChain:
         map the datagram onto plain memory with one plan cut (:meth:`EscDevice._row_access`;
         idle mailboxes are holes in it, :meth:`EscDevice._row_cut`) are done at once over their
         rows
-        (:func:`logical_together`), a few of them each straight in its memory
-        (:meth:`EscDevice._logical_cut`); an LRD's consecutive plain ESCs, whatever their
+        (:func:`logical_together`), fewer than :data:`LOGICAL_TOGETHER_MIN` each on its own
+        (:meth:`EscDevice._logical`: the per-ESC path, which the rows are proven equal to);
+        an LRD's consecutive plain ESCs, whatever their
         plans, from the last back (:func:`last_readers`); those of them that read DC
         registers bring them up to the frame's time first (:meth:`EscDevice._refresh_dc`), and
         those that read DL or AL status clear its event afterwards
@@ -645,17 +646,23 @@ class EcatChain:
         buffers: dict[int, tuple[int, bytes]] = {}  # an LRD's: whole buffers read (FirstBuffer)
 
         def plain() -> tuple[int, bool]:  # the run: over its rows when long enough
+            if not lrd and len(run) < LOGICAL_TOGETHER_MIN:  # else each ESC as on its own
+                inc, cleared = 0, False
+                for q in run:
+                    dev = line[q]
+                    before = dev.irq
+                    inc += dev._logical(cmd, lad, buf, at, n)
+                    cleared = cleared or dev.irq != before
+                return inc, cleared
             for q, registers in clocks:  # DC registers at the frame's time, then the reads
                 line[q]._refresh_dc(registers)
             if lrd:
                 inc = last_readers([line[q] for q in run], cuts, buf, at, n, buffers)
-            elif len(run) >= LOGICAL_TOGETHER_MIN:
+            else:
                 devices = [line[q] for q in run] if run_shadow else []
                 inc = logical_together(
                     self.memory, run, run_plan, cmd, buf, at, n, run_shadow, devices
                 )
-            else:
-                inc = sum(line[q]._logical_cut(run_plan, cmd, buf, at, n, run_shadow) for q in run)
             cleared = False  # then each ESC's reads of DL or AL status clear their events
             for q, bits in events:
                 cleared = line[q]._clear_read_events(bits) or cleared

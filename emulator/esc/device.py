@@ -85,7 +85,6 @@ from emulator.esc.mapping import (
     Caches,
     Fmmu,
     FmmuTable,
-    LogicalOp,
     LogicalPlan,
     Mailboxes,
     Plans,
@@ -200,9 +199,7 @@ _RENAMED: Final = {
     "mailboxes_idle": "_mailboxes_idle",
     "clear_read_events": "_clear_read_events",
     "logical_unless_rows": "_logical_unless_rows",
-    "logical_cut": "_logical_cut",
     "write_shadow": "_write_shadow",
-    "shadow_writes": "_shadow_writes",
     "whole_plan": "_whole_plan",
     "react": "_reaction",
     "react_now": "_reactions_now",
@@ -1163,42 +1160,6 @@ class EscDevice:
                 return FirstBuffer(found, read[0], read[1])
         return self._through(found.plan, cmd, buf, off, n)
 
-    def _logical_cut(
-        self,
-        plan: LogicalPlan,
-        cmd: int,
-        buf: bytearray,
-        off: int,
-        n: int,
-        shadow: tuple[LogicalOp, ...] = (),
-    ) -> int:
-        """A logical datagram (data ``buf[off:off+n]``, in place) by an access's plan cut
-        (:attr:`Access.cut`), straight to and from memory, and of the
-        write parts ``shadow`` (:attr:`Access.shadow`) the register bytes among the shadow
-        writes (:meth:`_shadow_writes`)."""
-        reads, writes = plan
-        mem = self.mem
-        data_in = bytes(buf[off : off + n]) if writes else b""  # the write uses Data In
-        if shadow:
-            self._write_shadow(self._shadow_writes(shadow, data_in))
-        for bytewise, phys, size, shift, mask, at, width in reads:
-            at += off
-            if bytewise:
-                buf[at : at + size] = mem[phys : phys + size]
-            else:
-                value = int.from_bytes(mem[phys : phys + size], "little")
-                value = value >> shift if shift >= 0 else value << -shift
-                frame = int.from_bytes(buf[at : at + width], "little")
-                buf[at : at + width] = ((frame & ~mask) | (value & mask)).to_bytes(width, "little")
-        for bytewise, phys, size, shift, mask, at, width in writes:
-            if bytewise:
-                mem[phys : phys + size] = data_in[at : at + size]
-            else:
-                old = mem[phys : phys + size]
-                mem[phys : phys + size] = _bits_written(old, data_in, shift, mask, at, width)
-        r, w = int(bool(reads)), int(bool(writes))
-        return r if cmd == LRD else w if cmd == LWR else r + 2 * w
-
     def _write_shadow(self, entries: Iterable[tuple[int, bytes]]) -> None:
         """ECAT writes registers: each (address, bytes), below 0x0F80, into the shadow writes
         (:attr:`pending`), as :meth:`_write` puts them there; a byte written into the reset
@@ -1207,23 +1168,6 @@ class EscDevice:
             self.pending.append((addr, data))
             if addr <= REG_RESET_ECAT < addr + len(data):
                 self._reset_written = data[REG_RESET_ECAT - addr]
-
-    def _shadow_writes(
-        self, parts: tuple[LogicalOp, ...], data_in: bytes
-    ) -> list[tuple[int, bytes]]:
-        """What the write parts ``parts`` (:func:`plan_logical`) of a datagram whose data
-        arrived as ``data_in`` put among the shadow writes (:attr:`pending`): the bytes each
-        writes below 0x0F80, a bit-wise part's merged with the registers as committed (what
-        :meth:`_write` takes of them, datasheet I 3.4)."""
-        mem, out = self.mem, []
-        for bytewise, phys, size, shift, mask, at, width in parts:
-            if bytewise:
-                out.append((phys, data_in[at : at + min(size, REGISTER_END - phys)]))
-            else:
-                old = mem[phys : phys + size]
-                written = _bits_written(old, data_in, shift, mask, at, width)
-                out.append((phys, written[: REGISTER_END - phys]))
-        return out
 
     def _logical(self, cmd: int, lad: int, buf: bytearray, off: int, n: int) -> int:
         if cmd in LRD_OR_LRW and self._read_buffered(lad, buf, off, n, cmd):

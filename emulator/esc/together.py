@@ -40,7 +40,8 @@ from emulator.esc.registers import (
 )
 from emulator.esc.write_plans import write_masked
 
-LOGICAL_TOGETHER_MIN: Final = 8  # ESCs with one plain logical plan from which rows beat one by one
+# ESCs in a row with one plain logical plan from which rows beat each ESC on its own
+LOGICAL_TOGETHER_MIN: Final = 8
 _Rows = npt.NDArray[np.intp]
 
 __all__ = [
@@ -70,7 +71,7 @@ def logical_together(
     would do it but for the events its reads of DL or AL status clear (the caller's): the
     working counter's increment. The register bytes its write parts ``shadow``
     (:attr:`emulator.esc.mapping.Access.shadow`) write go among the shadow writes of
-    ``devices`` (the ESCs of ``rows``; :meth:`EscDevice._shadow_writes`), alike at every ESC
+    ``devices`` (the ESCs of ``rows``; :meth:`EscDevice._write_shadow`), alike at every ESC
     where they are alike.
 
     An ESC reads before it writes, and its write takes the data as it arrived (datasheet I
@@ -124,11 +125,12 @@ def _shadow_rows(
     data_in: npt.NDArray[np.uint8],
     devices: Sequence[EscDevice],
 ) -> None:
-    """:meth:`EscDevice._shadow_writes` of the write parts ``shadow`` at each of ``devices``
-    (whose memory is ``memory[at]``), put among its shadow writes
-    (:meth:`EscDevice._write_shadow`): from the data as it arrived, ``arrived`` where no read
-    replaces their frame bytes (``varies``), else ``data_in`` (a row per ESC); one
-    (address, bytes) for all where the bytes are alike."""
+    """What the write parts ``shadow`` put among the shadow writes of each of ``devices``
+    (whose memory is ``memory[at]``; :meth:`EscDevice._write_shadow`): the bytes each writes
+    below 0x0F80, a bit-wise part's merged with the registers as committed (what
+    :meth:`EscDevice._write` takes of them, datasheet I 3.4); from the data as it arrived,
+    ``arrived`` where no read replaces their frame bytes (``varies``), else ``data_in`` (a row
+    per ESC); one (address, bytes) for all where the bytes are alike."""
     for (bytewise, a, size, shift, bits, start, width), per_row in zip(shadow, varies, strict=True):
         src = data_in if per_row else arrived
         if bytewise:  # physical a

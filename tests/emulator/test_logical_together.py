@@ -1401,6 +1401,27 @@ def test_reads_of_dc_registers_see_them_at_the_frames_time(
     assert len(refreshed) == (2 * NODES if parts == 1 else 0)
 
 
+def shadow_writes(
+    registers: bytes, parts: Sequence[mapping.LogicalOp], data_in: bytes
+) -> list[tuple[int, bytes]]:
+    """An oracle from datasheet I 3.4, ESC by ESC in integers: what write parts of a datagram
+    whose data arrived as ``data_in`` put among an ESC's shadow writes, ``registers`` its
+    memory: the bytes each writes below 0x0F80, a bit-wise part's merged with the registers
+    as committed."""
+    out = []
+    for op in parts:
+        keep = min(op.size, 0x0F80 - op.phys)
+        if op.bytewise:
+            out.append((op.phys, data_in[op.at : op.at + keep]))
+            continue
+        value = int.from_bytes(data_in[op.at : op.at + op.width], "little")
+        value = value << op.shift if op.shift >= 0 else value >> -op.shift
+        old = int.from_bytes(registers[op.phys : op.phys + op.size], "little")
+        merged = ((old & ~op.mask) | (value & op.mask)).to_bytes(op.size, "little")
+        out.append((op.phys, merged[:keep]))
+    return out
+
+
 def test_shadow_writes_take_the_register_bytes_alone() -> None:
     """Hand-worked: what write parts put among an ESC's shadow writes (datasheet I 3.4) is the
     bytes they write below 0x0F80 (the RAM after it is written at once). A byte-wise part of
@@ -1408,26 +1429,31 @@ def test_shadow_writes_take_the_register_bytes_alone() -> None:
     part of physical bytes 0x0F7E-0x0F81 (holding 11 22 33 44), frame bytes 2-4 (02 03 04,
     0x040302) shifted 4 bits up (0x403020), under the physical mask 0x0FF00FF0 (0x00400020),
     over the bits kept (0x44332211 & 0xF00FF00F = 0x40032001): 0x40432021, of which the
-    registers 0x0F7E-0x0F7F take 21 20."""
-    dev = EscDevice(SlaveInfo.skin_patch(SIZE))
+    registers 0x0F7E-0x0F7F take 21 20; over the rows of one ESC and by the oracle alike."""
+    chain = line(EcatChain)
+    dev = chain.devices[0]
     dev.pdi_write(0x0F7E, b"\x11\x22\x33\x44")
     parts = (
         mapping.byte_op(0x0F7C, 1, 8),
         mapping.LogicalOp(False, 0x0F7E, 4, 4, 0x0FF0_0FF0, 2, 3),
     )
-    assert dev._shadow_writes(parts, bytes(range(16))) == [
-        (0x0F7C, b"\x01\x02\x03\x04"),
-        (0x0F7E, b"\x21\x20"),
-    ]
+    expected = [(0x0F7C, b"\x01\x02\x03\x04"), (0x0F7E, b"\x21\x20")]
+    arrived = np.frombuffer(bytes(range(16)), np.uint8)[None, :]
+    dev.pending.clear()
+    together._shadow_rows(chain.memory, slice(0, 1), parts, (False, False), arrived, arrived, [dev])
+    assert dev.pending == expected
+    assert shadow_writes(dev.mem, parts, bytes(range(16))) == expected
 
 
 def test_shadow_writes_over_the_rows_are_each_escs() -> None:
-    """The shadow writes of write parts over the rows (logical_together) are those each ESC
-    works out for itself (EscDevice._shadow_writes), whatever each ESC's registers hold, from
+    """The shadow writes of write parts over the rows (logical_together) are those the oracle
+    works out for each ESC (:func:`shadow_writes`), whatever each ESC's registers hold, from
     data that arrived alike or differently at each."""
     chain = line(EcatChain)
     rng = random.Random(3)
     devices = chain.devices
+    for dev in devices:
+        dev.pending.clear()
     for _ in range(200):
         for dev in devices:
             dev.pdi_write(0x0F70, rng.randbytes(16))
@@ -1446,7 +1472,7 @@ def test_shadow_writes_over_the_rows_are_each_escs() -> None:
         )
         for p, dev in enumerate(devices):
             data = (data_in[p] if varies else arrived[0]).tobytes()
-            assert dev.pending == dev._shadow_writes((part,), data), (p, part)
+            assert dev.pending == shadow_writes(dev.mem, (part,), data), (p, part)
             dev.pending.clear()
 
 
