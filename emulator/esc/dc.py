@@ -313,10 +313,6 @@ class DcClock:
                 self._sync1_status = 0
 
     # --- SYNC0 / SYNC1 ------------------------------------------------------------------------
-    def sync0_active(self, mem: Memory) -> bool:
-        """Cyclic operation and SYNC0 activated (0x0981 bits 0 and 1)."""
-        return mem[REG_DC_ACTIVATION] & 0x03 == 0x03
-
     def _advance(self, mem: Memory, host_ns: float) -> None:
         """Fire the SYNC0 (and SYNC1) pulses due by ``host_ns``."""
         nxt = self._next_sync0

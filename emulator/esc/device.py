@@ -577,10 +577,10 @@ class EscDevice:
 
     @property
     def dc_sampling(self) -> bool:
-        """SYNC0 is active and the application samples at its pulses (dc.py). The activation
-        register is read here, as :meth:`DcClock.sync0_active` reads it (0x0981 bits 0 and 1),
-        not through it: dc.py runs as Python, and every ESC an LRD of the image reaches asks
-        this (the call cost a tenth of that LRD's instructions at 160 ESCs, benchmarks/README)."""
+        """SYNC0 is active and the application samples at its pulses (dc.py): cyclic operation
+        and SYNC0 activated (0x0981 bits 0 and 1), read here, not through dc.py, which runs as
+        Python: every ESC an LRD of the image reaches asks this (such a call cost a tenth of
+        that LRD's instructions at 160 ESCs, benchmarks/README)."""
         return self.mem[REG_DC_ACTIVATION] & 0x03 == 0x03 and hasattr(self.app, "sync0")
 
     @property
