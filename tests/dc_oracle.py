@@ -56,7 +56,7 @@ def configured(self: DcClock, mem: Memory, lo: int, hi: int) -> None:
         self._integral = self._diff_ns = 0.0
         mem[REG_DC_DIFF : REG_DC_DIFF + 4] = bytes(4)
         mem[REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = bytes(2)
-        self._set_rate(self._arrival_ns() or 0, 0.0)
+        _set_rate(self, self._arrival_ns() or 0, 0.0)
     if lo <= REG_DC_ACTIVATION < hi:
         _activate(self, mem)
 
@@ -100,9 +100,16 @@ def _control(self: DcClock, mem: Memory, host: float, diff: int) -> None:
     self._integral -= diff * dt / (tau_ns * INTEGRAL_FACTOR * tau_ns)
     self._integral = max(-MAX_CORRECTION, min(MAX_CORRECTION, self._integral))
     correction = max(-MAX_CORRECTION, min(MAX_CORRECTION, self._integral - diff / tau_ns))
-    self._set_rate(host, correction)
+    _set_rate(self, host, correction)
     units = max(-0x8000, min(0x7FFF, round(correction / SPEED_DIFF_UNIT)))
     struct.pack_into("<h", mem, REG_DC_SPEED_DIFF, units)
+
+
+def _set_rate(self: DcClock, host_ns: float, correction: float) -> None:
+    """Change the clock's rate from ``host_ns`` on (continuous: no jump)."""
+    self._anchor_local = self.local_at(host_ns)
+    self._anchor_host = round(host_ns)
+    self._rate = (1.0 + self.drift_ppm * 1e-6) * (1.0 + correction)
 
 
 def _activate(self: DcClock, mem: Memory) -> None:

@@ -258,12 +258,6 @@ class DcClock:
         offset: int = _U64.unpack_from(mem, REG_DC_OFFSET)[0]
         return (self.local_at(host_ns) + offset) & MASK64
 
-    def _set_rate(self, host_ns: float, correction: float) -> None:
-        """Change the clock's rate from ``host_ns`` on (continuous: no jump)."""
-        self._anchor_local = self.local_at(host_ns)
-        self._anchor_host = round(host_ns)
-        self._rate = (1.0 + self.drift_ppm * 1e-6) * (1.0 + correction)
-
     def retune(self, drift_ppm: float, start_ns: int) -> None:
         """Another oscillator: ``drift_ppm`` from now on, local time ``start_ns`` at host 0."""
         self.drift_ppm = drift_ppm
@@ -487,7 +481,7 @@ def compare_together(
         held.tolist(),
         mean_ns.tolist(),
         strict=True,
-    ):  # DcClock._set_rate and the loop's state
+    ):  # the new rate from the compare on (no jump), and the loop's state
         clock._anchor_local, clock._anchor_host, clock._rate = at_local, at_host, new
         clock._integral, clock._diff_ns, clock._last_compare = held_i, mean_i, at_host
 
@@ -514,7 +508,7 @@ def configure_together(
         for group in _by_timebase(clocks):  # (clocks of several lines: each line's own times)
             configure_together([clocks[k] for k in group], memory, rows[group], lo, hi)
         return
-    if speed:  # DcClock._set_rate(arrival, 0.0) with the loop and its mean reset
+    if speed:  # the rate anew from the arrival on (no jump), the loop and its mean reset
         memory[rows, REG_DC_DIFF : REG_DC_DIFF + 4] = 0
         memory[rows, REG_DC_SPEED_DIFF : REG_DC_SPEED_DIFF + 2] = 0
         state = [(c.position, c._anchor_host, c._anchor_local, c._rate) for c in clocks]
