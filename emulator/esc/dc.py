@@ -218,6 +218,11 @@ class DcClock:
         "position",
         "timebase",
     )
+    _last_compare: int | None  # host time of the last compare
+    _next_sync0: int | None
+    _next_sync1: int | None
+    _last_pulse: int | None  # system time of the last SYNC0 pulse fired
+    _sampled_pulse: int | None  # the pulse of the last taxel sample
 
     def __init__(
         self,
@@ -227,20 +232,10 @@ class DcClock:
         timebase: DcTimebase | None = None,
         position: int = 0,
     ) -> None:
-        self.drift_ppm = drift_ppm
         self.timebase = timebase if timebase is not None else DcTimebase()
         self.position = position
-        self._anchor_host = 0
-        self._anchor_local = start_ns
-        self._rate = 1.0 + drift_ppm * 1e-6
-        self._integral = 0.0
-        self._diff_ns = 0.0
-        self._last_compare: int | None = None
-        self._next_sync0: int | None = None
-        self._next_sync1: int | None = None
-        self._sync0_status = self._sync1_status = 0
-        self._last_pulse: int | None = None  # system time of the last SYNC0 pulse fired
-        self._sampled_pulse: int | None = None  # the pulse of the last taxel sample
+        self.retune(drift_ppm, start_ns)
+        self.reset()
 
     # --- the clock ------------------------------------------------------------------------
     def local_at(self, host_ns: float) -> int:
