@@ -304,21 +304,9 @@ def decode_entries(table: bytes) -> tuple[tuple[Fmmu, ...], tuple[int, int]]:
         if bytewise:
             log_end = min(log_end, log + ADDRESS_SPACE - phys)
         phys_bits = ADDRESS_SPACE * 8 - (phys * 8 + pbit)  # bits left in the address space
-        if log_end > log:
-            fmmus.append(
-                Fmmu(
-                    log,
-                    log_end,
-                    phys,
-                    sbit,
-                    ebit,
-                    pbit,
-                    kind & 1,
-                    kind >> 1 & 1,
-                    bytewise,
-                    phys_bits,
-                )
-            )
+        fmmus.append(  # (log_end > log: log < 2^32, length >= 1, phys < 64 KiB)
+            Fmmu(log, log_end, phys, sbit, ebit, pbit, kind & 1, kind >> 1 & 1, bytewise, phys_bits)
+        )
     span = (min(f.log_start for f in fmmus), max(f.log_end for f in fmmus)) if fmmus else (0, 0)
     return tuple(fmmus), span  # span: logical bytes any FMMU maps (the chain skips the others)
 
@@ -346,9 +334,9 @@ def fmmu_table(caches: Caches, table: bytes) -> FmmuTable:
     parts = _fmmu_parts(caches, table)
     if parts is None:
         fmmus, span = decode_entries(table)
-        return remember(caches.fmmu, table, FmmuTable(fmmus, span, plans))
-    plans.parts = parts
-    fmmus, span = _joined(parts[0], parts[1])
+    else:
+        plans.parts = parts
+        fmmus, span = _joined(parts[0], parts[1])
     return remember(caches.fmmu, table, FmmuTable(fmmus, span, plans))
 
 
