@@ -462,7 +462,7 @@ class EcatChain:
             frame at an ESC whose DL control forwarding rule destroys them, a malformed
             EtherCAT frame, or a port forced open without a link.
         """
-        back = self._run(frame, None)
+        back = self._run(frame)
         self.run_firmware()
         return back
 
@@ -471,7 +471,7 @@ class EcatChain:
         reactions still to come (:meth:`run_firmware`; the next frame runs them first if
         nobody did). A live transport answers the master first, as a slave's ESC returns the
         frame while its firmware is yet to see the events (AL control, mailbox) it raised."""
-        return self._run(frame, None)
+        return self._run(frame)
 
     def run_firmware(self) -> None:
         """The slaves' applications react to the frames that passed (the ESM to AL control, the
@@ -486,7 +486,7 @@ class EcatChain:
             queue.clear()
             react_together(work, self.memory)
 
-    def _run(self, frame: bytes | bytearray, acted: list[int] | None) -> bytes | None:
+    def _run(self, frame: bytes | bytearray) -> bytes | None:
         if self.firmware:  # reactions to the frame before, not yet run: first them
             self.run_firmware()
         self.frames += 1
@@ -498,22 +498,7 @@ class EcatChain:
         if not parsed:
             self._drop(malformed=True)
             return None
-        if acted is None:
-            return self._run_planned(buf, parsed)
-        mac_bit = False
-        for dev in self.devices:
-            self._pass(dev, buf, parsed, acted)
-            mac_bit = mac_bit or dev.sets_mac
-            onward = dev.onward  # loop changes wait for the end of the frame (II 2.4.1)
-            dev.end_frame()
-            if onward is None:
-                self._drop(malformed=False)
-                return None
-            if not onward:
-                break
-        if mac_bit:
-            buf[6] |= ethercat.RETURNED_MAC_BIT
-        return bytes(buf)
+        return self._run_planned(buf, parsed)
 
     def _run_planned(
         self, buf: bytearray, layout: list[tuple[int, int, int, int, int, int]]
@@ -1425,10 +1410,7 @@ class EcatChain:
 
     @staticmethod
     def _pass(
-        dev: EscDevice,
-        buf: bytearray,
-        layout: list[tuple[int, int, int, int, int, int]],
-        acted: list[int] | None,
+        dev: EscDevice, buf: bytearray, layout: list[tuple[int, int, int, int, int, int]]
     ) -> None:
         """One ESC's processing unit executes every datagram of the frame in ``buf``, in place."""
         process = dev.process
@@ -1439,8 +1421,6 @@ class EcatChain:
                 buf[adp_at] = new_adp & 0xFF
                 buf[adp_at + 1] = new_adp >> 8
             if inc:
-                if acted is not None:
-                    acted.append(dev.position)
                 wkc_at = data_at + n
                 wkc = (buf[wkc_at] | buf[wkc_at + 1] << 8) + inc
                 buf[wkc_at] = wkc & 0xFF
@@ -1499,7 +1479,7 @@ class EcatChain:
             dev.trace = copies
             before = bytes(buf)
             try:
-                self._pass(dev, buf, layout, None)
+                self._pass(dev, buf, layout)
             finally:
                 dev.trace = None
             onward = dev.onward

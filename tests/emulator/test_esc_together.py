@@ -13,6 +13,7 @@ from typing import Any
 
 import numpy as np
 import pytest
+from one_by_one import OneByOne
 
 from emulator.errors import TopologyError
 from emulator.esc import device as esc_device
@@ -37,15 +38,6 @@ SPOTS = (
 )  # fmt: skip
 BROADCASTS = (Command.BRD, Command.BWR, Command.BRW, Command.ARMW, Command.FRMW)
 OTHERS = (Command.APWR, Command.APRD, Command.FPWR, Command.FPRW, Command.LRD, Command.LWR)
-
-
-class OneByOne(EcatChain):
-    """The reference: every ESC in turn runs every datagram, then ends the frame."""
-
-    def process_frame(self, frame: bytes | bytearray) -> bytes | None:
-        back = self._run(frame, [])
-        self.run_firmware()
-        return back
 
 
 def register_frame(rng: random.Random) -> bytes:

@@ -19,6 +19,7 @@ import numpy as np
 import pytest
 from hypothesis import assume, example, given
 from hypothesis import strategies as st
+from one_by_one import OneByOne
 
 from emulator.esc import mapping, together, write_plans
 from emulator.esc.chain import EcatChain, configure_frames
@@ -41,15 +42,6 @@ LOGICAL = (Command.LRD, Command.LWR, Command.LRW)
 # ECAT writes, enabled): ECAT does not read it; the PDI locks it at some ESCs, and the inputs'
 # buffer at others, so that logical accesses meet SyncManager areas where they do nothing
 WRITE_SM = struct.pack("<HHBBBB", 0x1200, 16, 0x04, 0, 0x01, 0)
-
-
-class OneByOne(EcatChain):
-    """The reference: every ESC in turn runs every datagram, then ends the frame."""
-
-    def process_frame(self, frame: bytes | bytearray) -> bytes | None:
-        back = self._run(frame, [])
-        self.run_firmware()
-        return back
 
 
 def line(kind: type[EcatChain]) -> EcatChain:
