@@ -718,8 +718,8 @@ class EscDevice:
                 self._reset_progress = 0
                 self.mem[REG_RESET_ECAT] = 0
             return
-        if self.pending:
-            self._commit_registers()
+        if self.pending:  # through the ECAT write masks, setting off what they set off (I 3.4)
+            commit_together([self], self._rows[0], self._rows[1])
         self._finish_frame()
 
     def _finish_frame(self) -> None:
@@ -1274,11 +1274,6 @@ class EscDevice:
         return plan[0], plan[1]
 
     # --- shadow registers and their side effects ------------------------------------------------
-    def _commit_registers(self) -> None:
-        """Apply the frame's register writes through the ECAT write masks and set off what they
-        set off (datasheet I 3.4): :func:`commit_together` of this ESC alone."""
-        commit_together([self], self._rows[0], self._rows[1])
-
     @staticmethod
     def _al_control_together(
         devices: Sequence[EscDevice], values: Sequence[int], pdi_control: Sequence[int]
@@ -1471,16 +1466,12 @@ class EscDevice:
         for dev in devices:
             dev._mailbox_due = True
 
-    def _update_dl_status(self) -> None:
-        """DL status 0x0110 from the links and loop settings (:func:`_dl_status`), which also
-        caches what the chain asks for every frame: the port 1 forwarding decision and whether
-        the source MAC is marked (both change only with DL control or a link)."""
-        _dl_status([self], self._rows[0], self._rows[1])
-
     def set_port1_link(self, link: bool) -> None:
-        """The chain connects (or disconnects) a neighbour at port 1."""
+        """The chain connects (or disconnects) a neighbour at port 1: DL status 0x0110 anew
+        (:func:`_dl_status`, which also caches what the chain asks for every frame, the port 1
+        forwarding decision and whether the source MAC is marked)."""
         self.port1_link = link
-        self._update_dl_status()
+        _dl_status([self], self._rows[0], self._rows[1])
         self.update_irq()
 
     def _sm_event(self, index: int) -> None:
