@@ -1443,7 +1443,6 @@ class EcatChain:
         self.dropped += 1
         if malformed:
             self._count_malformed()
-        return None
 
     def _count_malformed(self) -> None:
         """A malformed frame: the first ESC's processing unit counts it (0x030C); it forwards
