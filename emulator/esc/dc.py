@@ -59,6 +59,7 @@ import numpy.typing as npt
 
 from emulator.errors import TopologyError
 from emulator.esc.registers import (  # the DC unit's registers, re-exported here
+    DC_SYNC0_ACTIVE,
     REG_DC_ACTIVATION,
     REG_DC_ACTIVATION_STATUS,
     REG_DC_CYCLIC_CONTROL,
@@ -522,7 +523,7 @@ def configure_together(
             clock._anchor_local, clock._anchor_host = at_local, at_host
             clock._rate = 1.0 + clock.drift_ppm * 1e-6  # (times 1 + a correction of 0)
     if activation:  # SYNC0 from the start time, or off; no pulse yet
-        active = ((memory[rows, REG_DC_ACTIVATION] & 0x03) == 0x03).tolist()
+        active = ((memory[rows, REG_DC_ACTIVATION] & DC_SYNC0_ACTIVE) == DC_SYNC0_ACTIVE).tolist()
         starts = _u64(memory, rows, REG_DC_START_TIME).tolist()
         for clock, on, start in zip(clocks, active, starts, strict=True):
             clock._sync0_status = clock._sync1_status = 0

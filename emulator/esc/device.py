@@ -98,6 +98,7 @@ from emulator.esc.mapping import (
 )
 from emulator.esc.registers import (
     ADDRESS_SPACE,
+    DC_SYNC0_ACTIVE,
     DL_ENHANCED_LINK,
     DL_PDI_OPERATIONAL,
     DL_PORT0,
@@ -318,6 +319,17 @@ class FirstBuffer(NamedTuple):
     access: Access  # with the other parts' cut, Access.rest
     at: int  # the buffer's frame offset
     data: bytes  # the bytes read
+
+
+def _buffer_written(status: int, mailbox: bool) -> int:
+    """A SyncManager's status 0x0805+ once one side wrote a buffer whole (datasheet II 0x0805):
+    the write interrupt set, and a mailbox full, else the 3-buffer mode's next buffer (bits
+    4-5: 0, 1, 2, round again; 3, no buffer written yet, goes to 0)."""
+    status |= SM_IRQ_WRITE
+    if mailbox:
+        return status | SM_MAILBOX_FULL
+    last = (status >> 4) & 0x03
+    return (status & 0xCF) | ((last + 1) % 3 if last < 3 else 0) << 4
 
 
 def latches(ado: int, n: int) -> bool:
@@ -581,7 +593,8 @@ class EscDevice:
         and SYNC0 activated (0x0981 bits 0 and 1), read here, not through dc.py, which runs as
         Python: every ESC an LRD of the image reaches asks this (such a call cost a tenth of
         that LRD's instructions at 160 ESCs, benchmarks/README)."""
-        return self.mem[REG_DC_ACTIVATION] & 0x03 == 0x03 and hasattr(self.app, "sync0")
+        active = self.mem[REG_DC_ACTIVATION] & DC_SYNC0_ACTIVE == DC_SYNC0_ACTIVE
+        return active and hasattr(self.app, "sync0")
 
     @property
     def changes_source_mac(self) -> bool:
@@ -686,11 +699,7 @@ class EscDevice:
                 st = REG_SM + SM_BYTES * sm.index + 5
                 if sm.mailbox:
                     sm.full = True
-                    self.mem[st] |= SM_MAILBOX_FULL
-                else:
-                    last = (self.mem[st] >> 4) & 0x03
-                    self.mem[st] = (self.mem[st] & 0xCD) | ((last + 1) % 3 if last < 3 else 0) << 4
-                self.mem[st] = (self.mem[st] | SM_IRQ_WRITE) & ~SM_IRQ_READ
+                self.mem[st] = _buffer_written(self.mem[st], sm.mailbox) & ~SM_IRQ_READ
                 if sm.ecat_interrupt:
                     self._sm_event(sm.index)
 
@@ -1017,16 +1026,11 @@ class EscDevice:
         self._mailbox_due = self._mailbox_due or sm.mailbox
         assert isinstance(sm.buf, bytearray)
         self.mem[sm.start : sm.end] = sm.buf
-        status = (self.mem[st] & ~SM_WRITE_OPEN) | SM_IRQ_WRITE
+        self.mem[st] = _buffer_written(self.mem[st] & ~SM_WRITE_OPEN, sm.mailbox)
         if sm.mailbox:
             sm.full = True
-            status |= SM_MAILBOX_FULL
-        else:
-            last = (status >> 4) & 0x03
-            status = (status & 0xCF) | ((last + 1) % 3 if last < 3 else 0) << 4
-            if self._outputs_hook is not None:  # the SyncManager's event for the PDI
-                self._react(_OUTPUTS_EVENT - sm.index)
-        self.mem[st] = status
+        elif self._outputs_hook is not None:  # the SyncManager's event for the PDI
+            self._react(_OUTPUTS_EVENT - sm.index)
         sm.buf = None  # (the interrupt for ECAT, 0x0210, is as it was: _sm_event)
 
     def _still(self, sm: SmRun) -> bool:
@@ -1509,8 +1513,7 @@ class EscDevice:
 
     def count_frame_error(self) -> None:
         """A malformed frame: the ECAT processing unit error counter 0x030C counts it."""
-        if self.mem[REG_PU_ERRORS] < 0xFF:
-            self.mem[REG_PU_ERRORS] += 1
+        self.count_error(REG_PU_ERRORS)
 
     def count_error(self, register: int, times: int = 1) -> None:
         """An 8-bit error counter in 0x0300-0x0313 counts ``times`` (saturating at 0xFF):

@@ -15,6 +15,7 @@ from emulator.errors import TopologyError
 
 __all__ = [
     "ADDRESS_SPACE",
+    "DC_SYNC0_ACTIVE",
     "DL_ENHANCED_LINK",
     "DL_PDI_OPERATIONAL",
     "DL_PORT0",
@@ -186,6 +187,8 @@ REG_DC_DIFF_FILTER: Final = 0x0934  # system time difference filter depth, bits 
 REG_DC_SPEED_FILTER: Final = 0x0935  # speed counter filter depth, bits 0-3
 REG_DC_CYCLIC_CONTROL: Final = 0x0980
 REG_DC_ACTIVATION: Final = 0x0981
+# its bits 0 and 1 both set: cyclic operation with SYNC0 active (datasheet II 0x0981)
+DC_SYNC0_ACTIVE: Final = 0x03
 REG_DC_PULSE_LENGTH: Final = 0x0982
 REG_DC_ACTIVATION_STATUS: Final = 0x0984
 REG_DC_SYNC0_STATUS: Final = 0x098E
