@@ -24,7 +24,8 @@ Needs root (a network namespace, raw sockets) and pysoem in this venv. Run from 
 root, for example:
 
     sudo .venv/bin/python benchmarks/bench_peer_rtt.py --simulator SIM --kickcat-esi ESI
-        [--rounds 5] [--cycles 2000] [--nodes 160] [--bytes 16] [--warmup 100] [--json FILE]
+        [--rounds 5] [--cycles 2000] [--nodes 160] [--bytes 16] [--warmup 100] [--pin M,T]
+        [--json FILE]
 
 Without ``--simulator`` it measures serve alone, and says so. The derived ESI and the
 simulator's JSON slave configuration go into a temporary folder that the benchmark makes and
@@ -197,8 +198,13 @@ def cpu_ticks(pid: int) -> int:
     return int(fields[11]) + int(fields[12])  # utime + stime
 
 
+def pinned(cpu: int | None) -> list[str]:
+    """A command's prefix that keeps it, its threads and children on CPU ``cpu`` (None: free)."""
+    return [] if cpu is None else ["taskset", "-c", str(cpu)]
+
+
 def target_cmd(name: str, ns: str, args: argparse.Namespace, config: Path | None) -> list[str]:
-    pre = ["ip", "netns", "exec", ns]
+    pre = ["ip", "netns", "exec", ns, *pinned(args.pin[1] if args.pin else None)]
     if name == "kickcat":
         assert config is not None
         return [
@@ -239,7 +245,8 @@ def run_one(
         # `ip netns exec` and stdbuf exec the command: proc.pid is the emulator itself
         c0, w0, load0 = cpu_ticks(proc.pid), time.monotonic(), os.getloadavg()
         done = subprocess.run(
-            ["ip", "netns", "exec", ns, sys.executable, __file__, "--master", "ecm0",
+            ["ip", "netns", "exec", ns, *pinned(args.pin[0] if args.pin else None),
+             sys.executable, __file__, "--master", "ecm0",
              "--cycles", str(args.cycles), "--warmup", str(args.warmup)],
             capture_output=True, text=True, timeout=600,
         )  # fmt: skip
@@ -302,6 +309,12 @@ def main() -> None:
     )
     parser.add_argument("--nodes", type=int, default=160, help="slaves (default 160)")
     parser.add_argument("--bytes", type=int, default=16, help="input bytes a slave (default 16)")
+    parser.add_argument(
+        "--pin",
+        metavar="M,T",
+        help="run the master on CPU M and the target on CPU T (taskset), e.g. 0,1; default: "
+        "wherever the kernel puts them",
+    )
     parser.add_argument("--json", metavar="FILE", help="write the results here")
     parser.add_argument("--master", metavar="IFACE", help=argparse.SUPPRESS)
     parser.add_argument("--timeout-us", type=int, default=100_000, help=argparse.SUPPRESS)
@@ -311,6 +324,16 @@ def main() -> None:
             parser.error(f"--{name} must be at least 1")
     if args.warmup < 0:
         parser.error("--warmup must not be negative")
+    if args.pin is not None:
+        cpus = sorted(os.sched_getaffinity(0))
+        try:
+            args.pin = [int(x) for x in args.pin.split(",")]
+        except ValueError:
+            parser.error(f"--pin {args.pin!r}: two CPU numbers, e.g. 0,1")
+        if len(args.pin) != 2 or args.pin[0] == args.pin[1] or not set(args.pin) <= set(cpus):
+            parser.error(f"--pin: two different CPUs of this machine's {cpus}")
+        if shutil.which("taskset") is None:
+            parser.error("--pin needs taskset (util-linux)")
     if args.master:
         master(args.master, args.cycles, args.warmup, args.timeout_us)
         return
@@ -345,7 +368,12 @@ def main() -> None:
         try:
             print(
                 f"nproc {os.cpu_count()}, loadavg {os.getloadavg()}, {args.nodes} slaves x "
-                f"{args.bytes} B, {args.cycles} cycles a run, {args.rounds} rounds",
+                f"{args.bytes} B, {args.cycles} cycles a run, {args.rounds} rounds, "
+                + (
+                    f"master on CPU {args.pin[0]}, target on CPU {args.pin[1]}"
+                    if args.pin
+                    else "not pinned"
+                ),
                 flush=True,
             )
             print(
