@@ -158,8 +158,11 @@ class DcTimebase:
         if key is None or key[0] is not self.params or key[1] != self.line_length:
             self._times_key, self._times = (self.params, self.line_length), {}  # a new line
         found = self._times.get(position)
-        if found is None:
-            found = self._times[position] = _port_times_ps(self.params, self.line_length, position)
+        if found is None:  # the rows' formulas at a row of one, once per line and position
+            at = np.array([position], np.int64)
+            back, there = self.port1_times_ps(at)
+            t0 = int(self.port0_times_ps(at)[0])
+            found = self._times[position] = (t0, int(back[0]) if there[0] else None)
         return found
 
     def port0_times_ps(self, positions: npt.NDArray[np.int64]) -> npt.NDArray[np.int64]:
@@ -172,27 +175,16 @@ class DcTimebase:
         """The port 1 times of :meth:`port_times_ps` at many positions at once, and where
         there is one (not at the last ESC); 0 where there is none."""
         p, last = self.params, self.line_length - 1
-        forward, back = _forward_ps(p), p.ecat_forwarding_ps + p.cable_ps
+        forward, back = _forward_ps(p), p.ecat_forwarding_ps + p.cable_ps  # a pass each way
         there = positions < last
+        # the last ESC turns the frame around (one processing pass and its cable back), then
+        # each ESC between it and the position forwards it once
         return np.where(there, (last + 1) * forward + (last - 1 - positions) * back, 0), there
 
 
 def _forward_ps(p: TimingParams) -> int:
     """One pass in processing direction: an ESC and its cable to the next."""
     return p.ecat_processing_ps + p.cable_ps
-
-
-def _port_times_ps(p: TimingParams, line_length: int, position: int) -> tuple[int, int | None]:
-    """:meth:`DcTimebase.port_times_ps`, computed once per line and position."""
-    forward = _forward_ps(p)
-    back = p.ecat_forwarding_ps + p.cable_ps  # one pass in forwarding direction
-    last = line_length - 1
-    t0 = position * forward
-    if position >= last:
-        return t0, None
-    # the last ESC turns the frame around (one processing pass and its cable back), then
-    # each ESC between it and ``position`` forwards it once
-    return t0, last * forward + forward + (last - 1 - position) * back
 
 
 class DcClock:
