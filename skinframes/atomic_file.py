@@ -66,18 +66,30 @@ def create_temp(target: Path) -> tuple[Path, int]:
 
     ``os.open`` with O_EXCL and mode 0o666 lets the umask decide the permissions, as a plain
     ``open()`` would (``tempfile.mkstemp`` forces 0o600).
+
+    A signal's exception (KeyboardInterrupt) raised while the file is made leaves no file: the
+    handler may run right after ``os.open`` returned, before the caller holds the path.
     """
     flags = os.O_WRONLY | os.O_CREAT | os.O_EXCL | getattr(os, "O_BINARY", 0)
     for _ in range(_TEMP_ATTEMPTS):
         tmp = target.parent / f".{target.name}.{secrets.token_hex(4)}.tmp"
+        # list.extend(map(...)) keeps the descriptor with no bytecode after os.open, so no
+        # Python signal handler runs between the file's creation and `opened` holding it
+        opened: list[int] = []
         try:
-            return tmp, os.open(tmp, flags, 0o666)
+            opened.extend(map(os.open, (tmp,), (flags,), (0o666,)))
+            return tmp, opened[0]
         except FileExistsError:
             continue
         except OSError as exc:
             raise CaptureError(
                 f"{target}: cannot create a file in {target.parent} ({exc.strerror or exc})"
             ) from exc
+        except BaseException:  # a signal's exception: the file, if made, is ours to remove
+            if opened:
+                os.close(opened[0])
+                tmp.unlink(missing_ok=True)
+            raise
     raise CaptureError(f"{target}: no free temporary name in {target.parent}")
 
 

@@ -8,6 +8,14 @@ nothing or into an ImportError), and the run would go on and replace the previou
 42: 2 of 16 SIGINTs 2-3 ms after the temporary file appeared). Every progress step of a long
 run asks :func:`raise_if_signalled`, which raises it again, so the run stops before its final
 rename whatever swallowed it once.
+
+Forgotten, once the command is over: CPython marks a KeyboardInterrupt that leaves code exec()
+or eval() ran from a string as unhandled, for the rest of the process, even when something
+catches it, and ``python -m`` then ends itself by SIGINT (-2) whatever the exit code was
+(pythonrun.c's ``run_eval_code_obj``, read by ``Py_RunMain``). namedtuple() and dataclasses
+build their methods that way, and numpy.random.bit_generator (Cython) calls namedtuple() while
+it is imported, in a run's first milliseconds (issue 42 again: -2 after the error line, 3 of
+400 SIGINTs under load).
 """
 
 from __future__ import annotations
@@ -61,6 +69,15 @@ def handled() -> Iterator[None]:
             yield
     finally:
         _received.clear()  # (the command is over: its signal is reported, not carried on)
+        _forget_interrupt_in_exec()
+
+
+def _forget_interrupt_in_exec() -> None:
+    """Clear CPython's "KeyboardInterrupt unhandled" mark that an interrupt raised inside
+    exec()'d code leaves behind: exec() of a string clears it before it runs (and sets it only
+    if a KeyboardInterrupt leaves that code). One that escapes main() is marked again by
+    ``python -m`` itself, as it should be."""
+    exec("")
 
 
 @contextlib.contextmanager

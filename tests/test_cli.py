@@ -574,6 +574,50 @@ def test_demo_refuses_a_list_of_files_it_did_not_write(
     assert (out / MANIFEST).read_text().splitlines()[1:] == ["a.pcap"]
 
 
+# `python -m` with its command swapped for one whose SIGINT is handled inside code that exec()
+# runs from a string, as namedtuple() and dataclasses build their methods
+_INTERRUPTED_IN_EXEC = """
+import sys
+
+import skinframes_cli
+from skinframes_cli import tables
+
+
+def run(args):
+    exec("import signal\\nsignal.raise_signal(signal.SIGINT)\\n")
+    return 0
+
+
+tables.run = run
+sys.exit(skinframes_cli.main(["tables"]))
+"""
+
+
+def test_sigint_handled_inside_exec_still_exits_130(tmp_path: Path) -> None:
+    """Issue 42's 3 in 400: CPython marks a KeyboardInterrupt that leaves code exec() ran from a
+    string as unhandled for good, caught or not, and ``python -m`` then ends itself by SIGINT
+    (-2) after printing the error line. numpy.random.bit_generator calls namedtuple() while it
+    is imported, in the first milliseconds of a run."""
+    import os
+    import signal
+
+    (tmp_path / "interrupted_in_exec.py").write_text(_INTERRUPTED_IN_EXEC)
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), str(ROOT)])}
+    result = subprocess.run(
+        [sys.executable, "-m", "interrupted_in_exec"],
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+        cwd=ROOT,
+        env=env,
+    )
+    assert result.returncode == 128 + signal.SIGINT, (result.returncode, result.stderr)
+    assert result.stderr.splitlines() == [
+        "skinframes: interrupted (SIGINT); no file was left half-written"
+    ]
+
+
 def test_sigint_in_the_first_moments_after_the_temporary_file_appears(tmp_path: Path) -> None:
     """Issue 42: a SIGINT 0-40 ms after the temporary pcap appears always wins: exit 130, the
     previous file unchanged, no temporary file left. (numpy.random's Cython modules, imported
