@@ -2154,9 +2154,17 @@ def _syncmanagers(
             if change.no_buffer:  # no buffer, and no interrupt for ECAT (0x0210 bits 4-11)
                 no_buffer = change.no_buffer
                 bits = [b for b in (4 + (st - REG_SM) // SM_BYTES for st in no_buffer) if b < 12]
-                memory[rows[members][:, None], np.array(no_buffer, np.intp)] = SM_NO_BUFFER
-                for bit in bits:
-                    memory[rows[members], REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
+                if len(members) < TOGETHER_MIN:  # (written at once over the rows below)
+                    for i in members:
+                        mem = devices[i].mem
+                        for st in no_buffer:
+                            mem[st] = SM_NO_BUFFER
+                        for bit in bits:
+                            mem[REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
+                else:
+                    memory[rows[members][:, None], np.array(no_buffer, np.intp)] = SM_NO_BUFFER
+                    for bit in bits:
+                        memory[rows[members], REG_ECAT_EVENT + bit // 8] &= ~(1 << bit % 8) & 0xFF
             if frame:
                 EscDevice._change_syncmanagers_together(
                     [devices[i] for i in members], change, found.entries
