@@ -172,7 +172,7 @@ def hostile_frames(
     EEPROM registers, random commands and addresses, logical accesses; or it is an ordinary
     configuration or LRD frame with up to 6 random bytes changed after the EtherCAT header.
     """
-    from emulator.esc.chain import configure_frames
+    from emulator.configure import configure_frames
     from emulator.slave.sii import SlaveInfo
 
     rng = random.Random(seed)
