@@ -522,10 +522,8 @@ class EcatChain:
         devices = self.devices
         self._exchanges.clear()  # (none left by a frame before)
         caches = self.caches
-        links = caches.links
-        if self._loop.links != links:  # an ESC's forwarding or MAC marking changed
-            self._loop = _loop(devices, links)
-        reach, lost, mac_bit = self._loop.reach, self._loop.lost, self._loop.mac
+        loop = self._line_loop()
+        links, reach, lost, mac_bit = loop.links, loop.reach, loop.lost, loop.mac
         line = devices[:reach] if reach < len(devices) else devices
         adps = [buf[d[1]] | buf[d[1] + 1] << 8 for d in layout]
         # the ESCs' event requests ORed into every IRQ field (datasheet I Table 3), again where
@@ -1432,13 +1430,22 @@ class EcatChain:
                 buf[irq_at] |= irq & 0xFF
                 buf[irq_at + 1] |= irq >> 8
 
+    def _line_loop(self) -> _Loop:
+        """How far a frame goes along the line now (:func:`_loop`, worked out again once an
+        ESC's forwarding or MAC marking changed)."""
+        links = self.caches.links
+        if self._loop.links != links:
+            self._loop = _loop(self.devices, links)
+        return self._loop
+
     def _non_ecat(self, buf: bytearray) -> bytes | None:
-        for dev in self.devices:
-            if dev.changes_source_mac:  # DL control bit 0 = 1: destroy non-EtherCAT frames
-                self._drop(malformed=False)
-                return None
-            if not dev.forwards():
-                break
+        """A frame that is not EtherCAT: destroyed by an ESC it reaches that marks the source
+        MAC (DL control bit 0 = 1, datasheet II 2.4.1), lost at one forced open without a link
+        as any frame is, else back unchanged."""
+        loop = self._line_loop()
+        if loop.mac or loop.lost:
+            self._drop(malformed=False)
+            return None
         return bytes(buf)
 
     def _drop(self, *, malformed: bool) -> None:
@@ -1451,12 +1458,11 @@ class EcatChain:
         the frame marked as an error, which every ESC after it counts as a forwarded error at
         port 0 (0x0308) and in its processing unit (datasheet II 0x0308, 0x030C): how a master
         localises the fault. The frame goes as far as the ports let it."""
-        for p, dev in enumerate(self.devices):
+        for p in range(self._line_loop().reach):
+            dev = self.devices[p]
             if p:
                 dev.count_error(REG_FORWARDED_ERRORS)
             dev.count_frame_error()
-            if not dev.onward:
-                break
 
     # --- the timing emulator's view -----------------------------------------------------------
     def frame_effect(self, ecat: EcatFrame) -> FrameEffect:

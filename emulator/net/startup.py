@@ -25,8 +25,8 @@ from collections.abc import Callable
 from dataclasses import dataclass, field, replace
 from typing import Final
 
-from emulator.errors import TopologyError
 from emulator.configure import STATION_BASE, process_data_addresses, process_data_writes
+from emulator.errors import TopologyError
 from emulator.esc.chain import EcatChain
 from emulator.esc.dc import REG_DC_DELAY, REG_DC_OFFSET, REG_DC_RECEIVE, REG_DC_RECEIVE_PU
 from emulator.slave.sii import SlaveInfo, SyncManagerSpec, SyncManagerType

@@ -206,3 +206,25 @@ def test_frames_of_one_length_and_header_with_other_datagrams_are_read_as_they_a
                 (b"\x01\x10\x00\x00", 1),
                 (b"\x02\x10\x00\x00", 1),
             ]
+
+
+def test_a_frame_not_ethercat_is_lost_where_a_port_is_open_without_a_link() -> None:
+    """Datasheet II 2.4.1 (DL control 0x0100): with bit 0 = 0 an ESC forwards frames that are
+    not EtherCAT; bits 10-11 = 10 force port 1 open, and the last ESC has no link there, so
+    every frame, EtherCAT or not, goes out into nothing. The IPv4 frame came back unchanged
+    from such a line until the chain asked how far frames go (it was lost for EtherCAT ones)."""
+    from emulator.esc.chain import STATION_BASE
+
+    def frame(*datagrams: Datagram) -> bytes:
+        return ethercat.frame(ethercat.EcatFrame(datagrams)).to_bytes()
+
+    chain = EcatChain.configured(3, 8)
+    ipv4 = b"\xff" * 6 + b"\x02\x00\x00\x00\x00\x01" + b"\x08\x00" + bytes(46)
+    assert chain.process_frame(frame(Datagram(C.BWR, 0, 0x0100, b"\x00"))) is not None
+    assert chain.process_frame(ipv4) == ipv4  # forwarded, back from the last ESC's closed port
+    assert chain.dropped == 0
+    open_port1 = Datagram(C.FPWR, STATION_BASE + 2, 0x0100, b"\x00\x08")
+    assert chain.process_frame(frame(open_port1)) is not None  # (lost from the next frame on)
+    assert chain.process_frame(ipv4) is None
+    assert chain.process_frame(frame(Datagram(C.BRD, 0, 0x0000, b"\x00"))) is None
+    assert chain.dropped == 2
