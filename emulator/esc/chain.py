@@ -49,8 +49,6 @@ from emulator.esc.commands import (
     BWR,
     CONFIGURED,
     EVERYONE,
-    FPRD,
-    FPWR,
     INCREMENTS,
     LOGICAL,
     LRD,
@@ -76,14 +74,11 @@ from emulator.esc.mapping import (
     Caches,
     LogicalOp,
     LogicalPlan,
-    SmTable,
-    outside,
     remember,
 )
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     DC_SYNC0_ACTIVE,
-    PROCESS_RAM,
     REG_ALIAS,
     REG_DC_ACTIVATION,
     REG_DL_CONTROL,
@@ -158,53 +153,6 @@ def _plain_write(lo: int, hi: int) -> bool:
     """A write of registers [lo, hi) that only waits for the end of the frame: below 0x0F80 and
     not the reset register (whose sequence each ESC follows, datasheet II 2.3)."""
     return lo < REGISTER_END and hi <= REGISTER_END and not lo <= REG_RESET_ECAT < hi
-
-
-_Holes = tuple[tuple[tuple[int, int], ...], tuple[tuple[int, int], ...]]  # a BRW's read, write
-# ESCs that access RAM alike: their positions per (id of the SyncManager table, PDI operational)
-_Groups = dict[tuple[int, bool], list[int]]
-
-
-def _inert_areas(
-    areas: SmTable, lo: int, hi: int, write: bool
-) -> tuple[tuple[int, int], ...] | None:
-    """The parts [start, end) of the user or process RAM [lo, hi) in SyncManager ``areas``
-    where a broadcast's read (a write when ``write``) does nothing: areas the PDI locked, and
-    areas of the other direction (ECAT neither reads a buffer it writes nor writes a buffer it
-    reads, datasheet I 8); None when an area ECAT accesses in this direction meets it (its
-    buffer's rules: the ESC's)."""
-    holes = []
-    for _, start, length, control, locked in areas:
-        x, y = max(start, lo), min(start + length, hi)
-        if x < y:
-            if not locked and ((control >> 2) & 0x03 == 0x01) == write:
-                return None
-            holes.append((x, y))
-    return tuple(holes)
-
-
-def _by_table(
-    line: list[EscDevice], lo: int, hi: int, write: bool, positions: Iterable[int] | None = None
-) -> tuple[_Groups, dict[int, tuple[tuple[int, int], ...] | None], list[int]]:
-    """The ESCs of ``line`` (those at ``positions``) for an access of user or process RAM
-    [lo, hi) (a write when ``write``): the positions of those whose SyncManager areas do
-    nothing with it where they meet it, grouped by table and PDI state; per table, the holes
-    (:func:`_inert_areas`); and the positions of the others (an area there whose buffer's rules
-    are the ESC's)."""
-    holes: dict[int, tuple[tuple[int, int], ...] | None] = {}
-    groups: _Groups = {}
-    alone: list[int] = []
-    for p in range(len(line)) if positions is None else positions:
-        dev = line[p]
-        areas = dev.sm_areas
-        key = id(areas)
-        if key not in holes:
-            holes[key] = _inert_areas(areas, lo, hi, write)
-        if holes[key] is None:
-            alone.append(p)
-        else:
-            groups.setdefault((key, dev.pdi_operational), []).append(p)
-    return groups, holes, alone
 
 
 def _or_accumulate(rows: npt.NDArray[np.uint8]) -> npt.NDArray[np.uint8]:
@@ -556,12 +504,6 @@ class EcatChain:
                     else:
                         hit = self._reached(line, lad, n)
                         wkc_inc, changed = self._logical(line, hit, cmd, adp, ado, buf, data_at, n)
-                done = None
-                if len(targets) >= TOGETHER_MIN and cmd in CONFIGURED:
-                    done = self._configured(line, targets, cmd, ado, buf, data_at, n)
-                if done is not None:
-                    wkc_inc, changed = done
-                    targets = []
                 for p in targets:
                     dev = line[p]
                     before = dev.irq
@@ -776,18 +718,14 @@ class EcatChain:
         On registers below 0x0F80 it is done for all ESCs at once: a BRD ORs their rows (and
         clears the DL and AL status events, datasheet I Table 3), a BRW of registers too, each
         ESC bringing DC registers it reads up to the frame's time first
-        (:meth:`_refresh_dc`); a write that only waits for the end of the frame (not the reset
-        register) is one (address, data) in each ESC's shadow writes (datasheet I 3.4, Table 7),
-        and the ESCs an ARMW/FRMW addresses read in turn. A BWR or BRD of user or process RAM
-        is done over the rows of the ESCs whose SyncManager areas it misses
-        (:meth:`_memory_broadcast`), a BRW of them at runs of such ESCs
-        (:meth:`_memory_read_write`); a BRW of registers whose write the read/write offset puts
-        in that RAM (:meth:`_registers_into_memory`), and an ARMW or FRMW of it
-        (:meth:`_read_multiple_write_memory`), over the rows unless the write meets a buffer
-        ECAT writes. A BWR or BRD from registers into RAM is both of these, its registers (not
-        the reset register) and its RAM apart. One of no bytes beyond the registers (a BRW's
-        write too, at the read/write offset) does nothing at any ESC. Elsewhere
-        (SyncManager areas, the rest of memory, the reset register) each ESC in turn.
+        (:meth:`_refresh_dc`) and writing at its read/write offset (0x0108) in registers or,
+        where that offset puts the write, ESC by ESC in user or process RAM; a write that only
+        waits for the end of the frame (not the reset register) is one (address, data) in each
+        ESC's shadow writes (datasheet I 3.4, Table 7), and the ESCs an ARMW/FRMW addresses read
+        in turn. One of no bytes beyond the registers (a BRW's write too, at the read/write
+        offset) does nothing at any ESC. Elsewhere (user and process RAM, the reset register,
+        a BRW whose one read/write offset puts its write beyond the registers) each ESC in turn
+        (:meth:`EscDevice.process`).
         """
         end, reach, memory = ado + n, len(line), self.memory
         if not n and ado >= REGISTER_END and (cmd != BRW or self._writes_beyond(line, ado)):
@@ -816,10 +754,6 @@ class EcatChain:
                 if (offsets == offsets[0]).all():
                     to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
                     if not _plain_write(to, to + n):
-                        if to >= REGISTER_END and n:
-                            done = self._registers_into_memory(line, ado, to, buf, at, frame)
-                            if done is not None:
-                                return done
                         to = None
                 else:  # read/write offsets that differ (hostile writes): each ESC's own
                     tos = (ado + (offsets[:, 0] | offsets[:, 1].astype(np.int64) << 8)) & 0xFFFF
@@ -834,20 +768,6 @@ class EcatChain:
                     return reach + 2 * writes, changed
         elif _plain_write(ado, end):  # ARMW, FRMW: read at the addressed ESCs, write at the others
             return self._read_multiple_write(line, cmd, adp, ado, buf, at, n)
-        elif ado >= REGISTER_END and n:  # ARMW, FRMW of user or process RAM
-            done = self._read_multiple_write_memory(line, cmd, adp, ado, buf, at, n)
-            if done is not None:
-                return done
-        if cmd in (BWR, BRD) and ado >= REGISTER_END and n:
-            return self._memory_broadcast(line, cmd, adp, ado, buf, at, n)
-        if cmd in (BWR, BRD) and ado < REGISTER_END < end and _plain_write(ado, REGISTER_END):
-            # registers, then RAM: apart, each counting once at every ESC (the registers do)
-            cut = REGISTER_END - ado
-            _, changed = self._everyone(line, cmd, adp, ado, buf, at, cut)
-            more = self._memory_broadcast(line, cmd, adp, REGISTER_END, buf, at + cut, n - cut)[1]
-            return reach, changed or more
-        if cmd == BRW and ado >= REGISTER_END and n:
-            return self._memory_read_write(line, adp, ado, buf, at, n)
         total, changed = 0, False
         step = 1 if cmd in INCREMENTS else 0
         for p, dev in enumerate(line):
@@ -862,102 +782,6 @@ class EcatChain:
         offsets = self.memory[: len(line), REG_RW_OFFSET : REG_RW_OFFSET + 2].astype(np.int64)
         return bool(((ado + (offsets[:, 0] | offsets[:, 1] << 8)) & 0xFFFF >= REGISTER_END).all())
 
-    def _registers_into_memory(
-        self,
-        line: list[EscDevice],
-        ado: int,
-        to: int,
-        buf: bytearray,
-        at: int,
-        frame: npt.NDArray[np.uint8],
-    ) -> tuple[int, bool] | None:
-        """A BRW of registers whose read/write offset (0x0108, one at every ESC) puts its write
-        in user or process RAM: (the working counter's increment, whether an ESC's event
-        request changed), or None, having done nothing, where the write meets a SyncManager
-        area ECAT writes at some ESC (its buffer's rules: the ESC's). Each ESC reads its
-        registers (DC registers at the frame's time, events cleared once all read them) and
-        ORs them into the data; it writes the data as it arrived there at ``to`` (read before
-        write, datasheet I Table 7), over the rows of the ESCs with one SyncManager table,
-        nothing where an area does nothing with it (:func:`_inert_areas`), nor in process RAM
-        before the EEPROM loaded (I 11.2.1): 1 per ESC for the read, 2 per ESC that wrote a
-        byte."""
-        n, reach = len(frame), len(line)
-        end, to_end = ado + n, min(to + n, ADDRESS_SPACE)
-        groups, holes, alone = _by_table(line, to, to_end, True)
-        if alone:
-            return None
-        if reads_dc(ado, end):
-            self._refresh_dc(line, ado, end)
-        ored = _or_accumulate(self.memory[:reach, ado:end])
-        ored |= frame  # ored[p]: the data as ESC p leaves it
-        arrived = np.concatenate((frame[None, :], ored[:-1]))
-        wkc = reach + 2 * self._write_rows(groups, holes, to, to_end, arrived)
-        buf[at : at + n] = ored[-1].tobytes()
-        events = cleared_events(ado, end)  # once each ESC read them
-        return wkc, bool(events) and self._clear_events(line, events)
-
-    def _read_multiple_write_memory(
-        self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
-    ) -> tuple[int, bool] | None:
-        """An ARMW or FRMW of user or process RAM: (the working counter's increment, whether an
-        ESC's event request changed), or None, having done nothing, where the write meets a
-        SyncManager area ECAT writes at some ESC (its buffer's rules: the ESC's). The addressed
-        ESCs read, each in turn (:meth:`EscDevice.process`); the others write the data as it
-        arrives (datasheet I Table 7) over the rows of the ESCs between them with one
-        SyncManager table, nothing where an area does nothing with it (:func:`_inert_areas`),
-        nor in process RAM before the EEPROM loaded (I 11.2.1), each that wrote a byte
-        counting 1."""
-        reach, end = len(line), min(ado + n, ADDRESS_SPACE)
-        groups, holes, alone = _by_table(line, ado, end, True)
-        if alone:
-            return None
-        readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(reach, adp)
-        reading = {q for q in readers if q < reach}
-        key_of = {p: key for key, rows in groups.items() for p in rows}
-        total, changed = 0, False
-        between: _Groups = {}  # the writers since the last reader, by group
-        for p in range(reach):
-            if p not in reading:
-                between.setdefault(key_of[p], []).append(p)
-                continue
-            if between:  # they write the data as it arrives there, before this ESC reads
-                data = np.frombuffer(buf, np.uint8, end - ado, at)
-                total += self._write_rows(between, holes, ado, end, data)
-                between = {}
-            dev = line[p]  # the addressed ESC reads
-            before = dev.irq
-            total += dev.process(cmd, 0 if cmd == ARMW else adp, ado, buf, at, n)[1]
-            changed = changed or dev.irq != before
-        if between:
-            data = np.frombuffer(buf, np.uint8, end - ado, at)
-            total += self._write_rows(between, holes, ado, end, data)
-        return total, changed
-
-    def _write_rows(
-        self,
-        groups: _Groups,
-        holes: dict[int, tuple[tuple[int, int], ...] | None],
-        lo: int,
-        hi: int,
-        data: npt.NDArray[np.uint8],
-    ) -> int:
-        """Bytes [lo, hi) of ``data`` (one row, or a row per position of the line) written at
-        the rows of ``groups`` (:func:`_by_table`) but in their SyncManager tables' ``holes``
-        and, before the EEPROM loaded, in process RAM (datasheet I 11.2.1): how many ESCs
-        wrote a byte."""
-        wrote = 0
-        for (key, operational), rows in groups.items():
-            runs = outside(
-                lo, min(hi, ADDRESS_SPACE if operational else PROCESS_RAM), holes[key] or ()
-            )
-            if runs and rows:
-                wrote += len(rows)
-            for x, y in runs:
-                self.memory[rows, x:y] = (
-                    data[x - lo : y - lo] if data.ndim == 1 else data[rows, x - lo : y - lo]
-                )
-        return wrote
-
     @staticmethod
     def _refresh_dc(line: list[EscDevice], lo: int, hi: int) -> None:
         """Every ESC of ``line`` brings its DC registers among [lo, hi) up to the frame's time,
@@ -966,222 +790,13 @@ class EcatChain:
         for dev in line:
             dev._refresh_dc(registers)
 
-    def _memory_broadcast(
-        self, line: list[EscDevice], cmd: int, adp: int, ado: int, buf: bytearray, at: int, n: int
-    ) -> tuple[int, bool]:
-        """A BWR or BRD of user or process RAM (from 0x0F80) at every ESC of ``line``: (the
-        working counter's increment, whether an ESC's event request changed). At the ESCs
-        where it is plain memory but for SyncManager areas where it does nothing
-        (:func:`_inert_areas`), it is done over their rows at once, ESCs with one SyncManager
-        table alike: a BWR writes the bytes, a BRD ORs them into the frame (datasheet I Table
-        7), process RAM (from 0x1000) only at an ESC whose EEPROM loaded (I 11.2.1), each ESC
-        that reads or writes a byte counting once; at the others ESC by ESC
-        (:meth:`EscDevice.process`). Neither depends on the order: a BWR leaves the frame
-        alone, and ORs commute."""
-        end = min(ado + n, ADDRESS_SPACE)
-        write = cmd == BWR
-        groups, holes, alone = _by_table(line, ado, end, write)
-        total, changed = 0, False
-        memory, data = self.memory, np.frombuffer(buf, np.uint8, n, at)
-        if write:
-            total = self._write_rows(groups, holes, ado, end, data)
-        else:  # each read ORs into the frame
-            for (key, operational), rows in groups.items():
-                hi = min(end, ADDRESS_SPACE if operational else PROCESS_RAM)
-                runs = outside(ado, hi, holes[key] or ())
-                if runs:
-                    total += len(rows)
-                for x, y in runs:
-                    ored = np.bitwise_or.reduce(memory[rows, x:y], axis=0)
-                    buf[at + x - ado : at + y - ado] = (ored | data[x - ado : y - ado]).tobytes()
-        for p in alone:
-            dev = line[p]
-            before = dev.irq
-            total += dev.process(cmd, (adp + p) & 0xFFFF, ado, buf, at, n)[1]
-            changed = changed or dev.irq != before
-        return total, changed
-
-    def _memory_read_write(
-        self, line: list[EscDevice], adp: int, ado: int, buf: bytearray, at: int, n: int
-    ) -> tuple[int, bool]:
-        """A BRW of user or process RAM at every ESC of ``line``: (the working counter's
-        increment, whether an ESC's event request changed). Each ESC ORs the bytes it reads
-        into the frame, then writes the data as it arrived there at its read/write offset
-        (0x0108) further on (read before write, datasheet I Table 7). Consecutive ESCs with
-        one offset whose write lands in user or process RAM, and whose SyncManager areas the
-        read and the write meet only where they do nothing (:func:`_inert_areas`), the same
-        holes at each (whatever else their tables hold), do it over their rows at once
-        (:meth:`_read_write_rows`); any
-        other ESC in turn (:meth:`EscDevice.process`), on the frame as the ESCs before it left
-        it."""
-        end = min(ado + n, ADDRESS_SPACE)
-        reach = len(line)
-        offsets = self.memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2].astype(np.int64)
-        targets = ((ado + (offsets[:, 0] | offsets[:, 1] << 8)) & 0xFFFF).tolist()
-        found: dict[tuple[int, int], _Holes | None] = {}  # per SyncManager table and target
-        total, changed = 0, False
-        run: list[int] = []  # consecutive plain ESCs with one target and holes, not done yet
-        run_key: tuple[_Holes, int] = (((), ()), -1)
-
-        def flush() -> None:
-            nonlocal total, run
-            if run:
-                holes, to = run_key
-                total += self._read_write_rows(line, run, ado, to, holes, buf, at, n)
-                run = []
-
-        for p, dev in enumerate(line):
-            areas, to = dev.sm_areas, targets[p]
-            key = (id(areas), to)
-            if key not in found:
-                read = _inert_areas(areas, ado, end, False)
-                written = _inert_areas(areas, to, min(to + n, ADDRESS_SPACE), True)
-                ok = to >= REGISTER_END and read is not None and written is not None
-                found[key] = (read or (), written or ()) if ok else None
-            holes = found[key]
-            if holes is not None:  # tables that differ where the BRW does not reach run on
-                if run and (holes, to) != run_key:
-                    flush()
-                run.append(p)
-                run_key = (holes, to)
-                continue
-            flush()
-            before = dev.irq
-            total += dev.process(BRW, (adp + p) & 0xFFFF, ado, buf, at, n)[1]
-            changed = changed or dev.irq != before
-        flush()
-        return total, changed
-
-    def _read_write_rows(
-        self,
-        line: list[EscDevice],
-        run: list[int],
-        ado: int,
-        to: int,
-        holes: _Holes,
-        buf: bytearray,
-        at: int,
-        n: int,
-    ) -> int:
-        """The BRW of :meth:`_memory_read_write` at the consecutive ESCs ``run``, which write at
-        ``to`` and do nothing in the SyncManager areas ``holes`` (of the read, of the write),
-        over their rows: all reads from the memory before any write, the ESCs whose EEPROM did
-        not load neither reading nor writing process RAM (I 11.2.1); the working counter's
-        increment (1 per ESC that read a byte, 2 per ESC that wrote one)."""
-        first, last = run[0], run[-1] + 1
-        end, to_end = min(ado + n, ADDRESS_SPACE), min(to + n, ADDRESS_SPACE)
-        closed = np.array([not line[p].pdi_operational for p in run], np.bool_)
-        count, k = last - first, end - ado
-        # the rows of the ESCs whose EEPROM loaded and of the others (slices when all one)
-        kinds: list[tuple[slice | npt.NDArray[np.intp], int, int]] = [
-            (slice(None), count, ADDRESS_SPACE if not closed[0] else PROCESS_RAM)
-        ]
-        if closed.any() and not closed.all():
-            kinds = [
-                (np.flatnonzero(closed == shut), int((closed == shut).sum()), top)
-                for shut, top in ((False, ADDRESS_SPACE), (True, PROCESS_RAM))
-            ]
-        memory = self.memory[first:last]
-        reads = np.zeros((count, k), np.uint8)
-        for rows, _, top in kinds:
-            for x, y in outside(ado, min(end, top), holes[0]):
-                reads[rows, x - ado : y - ado] = memory[rows, x:y]
-        frame = np.frombuffer(buf, np.uint8, k, at).copy()
-        ored = _or_accumulate(reads) | frame  # ored[i]: as ESC i leaves it
-        arrived = np.empty((count, n), np.uint8)
-        arrived[0] = np.frombuffer(buf, np.uint8, n, at)
-        arrived[1:, :k] = ored[:-1]
-        arrived[1:, k:] = arrived[0, k:]
-        wkc = 0
-        for rows, size, top in kinds:
-            if outside(ado, min(end, top), holes[0]):
-                wkc += size  # read a byte
-            written = outside(to, min(to_end, top), holes[1])
-            if written:
-                wkc += 2 * size
-            for x, y in written:
-                memory[rows, x:y] = arrived[rows, x - to : y - to]
-        buf[at : at + k] = ored[-1].tobytes()
-        return wkc
-
-    def _configured(
-        self,
-        line: list[EscDevice],
-        targets: list[int],
-        cmd: int,
-        ado: int,
-        buf: bytearray,
-        at: int,
-        n: int,
-    ) -> tuple[int, bool] | None:
-        """A configured-address datagram of registers at many ESCs of ``line`` (``targets``,
-        in chain order: hostile writes gave them one station address): (the working counter's
-        increment, whether an ESC's event request changed), or None, having done nothing, to
-        leave it to each ESC. Each ESC does what :meth:`EscDevice.process` does there, over the
-        rows: an FPWR whose write only waits for the end of the frame (:func:`_plain_write`)
-        is one (address, data) in each ESC's shadow writes; an FPRD of registers (not DC times,
-        which run with the clock) leaves the frame with the last ESC's registers as committed
-        (each ESC replaces the data, datasheet I Table 7), each ESC's read clearing the DL or
-        AL status event it reads; an FPRW also writes, at each ESC's read/write offset (0x0108,
-        one for all of them), the data as it arrived there, the registers of the ESC before it: into
-        its shadow writes, or into user or process RAM where no ESC's SyncManager area there
-        has rules of its own (:func:`_by_table`, as :meth:`_registers_into_memory`). 1 per ESC
-        for the read, 2 per ESC that wrote a byte."""
-        end = ado + n
-        if cmd == FPWR:
-            if not _plain_write(ado, end):
-                return None
-            entry = (ado, bytes(buf[at : at + n]))
-            due = latches(ado, n)
-            for p in targets:
-                line[p].pending.append(entry)
-                line[p].latch_due = line[p].latch_due or due
-            return len(targets), False
-        if not _register_read(ado, end):
-            return None
-        memory = self.memory
-        read = memory[targets, ado:end]
-        wrote = 0
-        if cmd != FPRD:  # FPRW: each writes the data as it arrived at its read/write offset
-            offsets = memory[targets, REG_RW_OFFSET : REG_RW_OFFSET + 2]
-            if not (offsets == offsets[0]).all():
-                return None
-            to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
-            if to >= REGISTER_END and n:  # into user or process RAM, over the rows
-                to_end = min(to + n, ADDRESS_SPACE)
-                groups, holes, alone = _by_table(line, to, to_end, True, targets)
-                if alone:
-                    return None
-                arrived = np.empty((len(line), n), np.uint8)  # at the rows of the targets
-                arrived[targets[0]] = np.frombuffer(buf, np.uint8, n, at)
-                arrived[targets[1:]] = read[:-1]
-                wrote = self._write_rows(groups, holes, to, to_end, arrived)
-            elif _plain_write(to, to + n):
-                row_bytes = [bytes(buf[at : at + n]), *(row.tobytes() for row in read[:-1])]
-                for p, data in zip(targets, row_bytes, strict=True):
-                    line[p].pending.append((to, data))
-                wrote = len(targets)
-            else:
-                return None
-        buf[at : at + n] = read[-1].tobytes()
-        events = cleared_events(ado, end)
-        changed = bool(events) and self._clear_events(line, events, targets)
-        return len(targets) + (0 if cmd == FPRD else 2 * wrote), changed
-
-    def _clear_events(
-        self, line: list[EscDevice], events: int, positions: list[int] | None = None
-    ) -> bool:
-        """The ESCs of ``line`` (those at ``positions``) read the registers that clear ``events``
-        (0x0210 bits); whether an ESC's event request changed."""
-        if positions is None:
-            column = self.memory[: len(line), REG_ECAT_EVENT]
-            hit = np.flatnonzero(column & events).tolist()
-            if hit:
-                column &= ~events & 0xFF
-        else:
-            hit = [p for p in positions if self.memory[p, REG_ECAT_EVENT] & events]
-            for p in hit:
-                self.memory[p, REG_ECAT_EVENT] &= ~events & 0xFF
+    def _clear_events(self, line: list[EscDevice], events: int) -> bool:
+        """The ESCs of ``line`` read the registers that clear ``events`` (0x0210 bits); whether
+        an ESC's event request changed."""
+        column = self.memory[: len(line), REG_ECAT_EVENT]
+        hit = np.flatnonzero(column & events).tolist()
+        if hit:
+            column &= ~events & 0xFF
         if not hit:
             return False
         changed = False

@@ -1202,41 +1202,6 @@ def test_a_broadcast_of_no_bytes_beyond_the_registers_does_nothing(
     assert (alone == []) == (kind is EcatChain)
 
 
-@pytest.mark.parametrize("cmd", [Command.BWR, Command.BRD])
-@pytest.mark.parametrize(
-    ("ado", "n", "apart"),
-    [
-        (0x0F70, 0x20, ()),  # registers, then user RAM
-        (0x0E00, 0x190, ()),  # into user RAM, up to the input buffer
-        (0x0F7F, 0x90, (Command.BRD,)),  # into the input buffer, which a BWR does not write
-        (0x0EF0, 0x400, (Command.BRD, Command.BWR)),  # and the write buffer at 0x1200
-        (0x09F0, 0x5A0, ()),  # from DC registers, which a BRD reads at the frame's time
-    ],
-)
-def test_a_broadcast_from_registers_into_ram_leaves_the_same_bytes(
-    cmd: Command,
-    ado: int,
-    n: int,
-    apart: tuple[Command, ...],
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """A BWR or BRD from registers into user and process RAM: the same returned frame, memory
-    and event requests as every ESC in turn, the DL and AL status events raised first; its
-    registers and its RAM are done apart, over the rows, and only the ESCs whose SyncManager
-    areas in that RAM have rules of their own (the input buffer where it is not locked, the
-    write buffer) do the datagram on their own. (One frame cannot hold such a datagram from the
-    reset register, 0x0040, on: 3,904 bytes.)"""
-    fast, reference = line(EcatChain), line(OneByOne)
-    for chain in (fast, reference):
-        raise_events(chain)
-    processed = on_their_own(monkeypatch, fast.devices)
-    data = bytes(range(1, 256)) * (n // 255 + 1)
-    dg = Datagram(cmd, 0, ado, data[:n])
-    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), f"{cmd} {ado:#x}")
-    assert bool(processed) == (cmd in apart)
-    assert len(processed) < NODES
-
-
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_write_of_no_bytes_writes_registers_at_its_offset(kind: type[EcatChain]) -> None:
     """Hand-worked: the read/write offset is 0xF000 at ESC 2 and 0 elsewhere. A BRW of no bytes
@@ -1508,75 +1473,6 @@ def test_escs_with_one_cut_and_other_register_writes_are_apart(
     assert not memory[:-1, 0x0630:0x0640].any()
 
 
-def test_broadcasts_of_memory_over_the_rows_leave_the_same_bytes(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """BWRs, BRDs and BRWs of user and process RAM, over the rows at the ESCs whose
-    SyncManager areas they miss or meet where they do nothing (a BRW at runs of such ESCs with
-    one read/write offset 0x0108, set at one ESC or all) and ESC by ESC at the others (the input
-    buffer at 0x1000 + 8, the write buffer at 0x1200 + 16, locked at some ESCs, and a write
-    buffer at 0x8000 + 16 at every fifth ESC), at one ESC
-    whose EEPROM did not load (no process RAM), up to the end of the address space: the same
-    returned frame, memory and event requests as every ESC in turn, frame after frame."""
-    fast, reference = line(EcatChain), line(OneByOne)
-    rng = random.Random(8)
-    starts = (0x0F80, 0x0FF8, 0x0FFE, 0x1004, 0x11F8, 0x1210, 0x1300, 0x8000, 0xFFF0, 0xFFFE)
-    for chain in (fast, reference):
-        for at in (0x0FF0, 0x1300, 0x8000, 0xFFE0):  # what ECAT must not see at CLOSED
-            chain.devices[CLOSED].pdi_write(at, bytes(range(0xA0, 0xC0)))
-        for p in range(0, NODES, 5):  # SyncManager 2 a buffer ECAT writes at 0x8000 + 16 here
-            sm2 = struct.pack("<HHBBBB", 0x8000, 16, 0x04, 0, 0x01, 0)
-            chain.process_frame(
-                ethercat.frame(
-                    EcatFrame((Datagram(Command.APWR, -p & 0xFFFF, 0x0810, sm2),))
-                ).to_bytes()
-            )
-            chain.devices[p].pdi_deactivate_sms((2,), False)
-    for i in range(1_000):
-        dgs = []
-        if rng.random() < 0.1:  # the read/write offset (datasheet II 2.4), at one ESC or all
-            # (0xF300 takes a BRW's write back into registers from 0x0280 on: not DL control,
-            # whose loops would close)
-            offset = struct.pack("<H", rng.choice((0, 0x10, 0x400, 0x7000, 0xF300)))
-            one = rng.random() < 0.3
-            cmd, adp = (Command.APWR, -rng.randrange(NODES) & 0xFFFF) if one else (Command.BWR, 0)
-            dgs.append(Datagram(cmd, adp, 0x0108, offset))
-        for _ in range(rng.randint(1, 3)):
-            ado = rng.choice(starts) + rng.randrange(-1, 2) if rng.random() < 0.8 else 0
-            ado = ado or rng.randrange(0x0F80, 0x10000)  # user and process RAM
-            data = rng.randbytes(rng.randrange(1, 64))
-            cmd = rng.choice((Command.BWR, Command.BRD, Command.BRW, Command.APWR))
-            adp = -rng.randrange(NODES) & 0xFFFF if cmd == Command.APWR else 0
-            dgs.append(Datagram(cmd, adp, ado, data))
-        assert_same(fast, reference, ethercat.frame(EcatFrame(tuple(dgs))).to_bytes(), str(i))
-    assert all(dev.onward for dev in fast.devices[:-1])  # every frame went down the line
-    # a buffer the PDI locked is a place where a broadcast does nothing: no ESC on its own
-    processed: list[int] = []
-    process = EscDevice.process
-
-    def counted(self: EscDevice, *args: int | bytearray) -> tuple[int, int]:
-        if self in fast.devices:
-            processed.append(self.position)
-        return process(self, *args)  # type: ignore[arg-type]
-
-    fast, reference = line(EcatChain), line(OneByOne)
-    for chain in (fast, reference):
-        for dev in chain.devices:
-            dev.pdi_deactivate_sms((0,), True)
-    monkeypatch.setattr(EscDevice, "process", counted)
-    for cmd in (Command.BRD, Command.BWR, Command.BRW):
-        dg = Datagram(cmd, 0, 0x0FFC, bytes(range(1, 13)))  # over the input buffer 0x1000 + 8
-        assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(cmd))
-    assert not processed
-    # every SyncManager disabled: one run of all the ESCs, among them one without process RAM
-    fast, reference = line(EcatChain), line(OneByOne)
-    assert_same(fast, reference, bwr(0x0800, bytes(64)), "SyncManagers off")
-    for cmd in (Command.BRD, Command.BWR, Command.BRW):
-        dg = Datagram(cmd, 0, 0x0FF0, bytes(range(1, 33)))  # user RAM, then process RAM
-        assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(cmd))
-    assert not processed
-
-
 def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
     """BRDs and BRWs of DC registers (0x0900 on: receive times, system time, SYNC status
     and times) at 12 ESCs whose SYNC0 fires every ms from 5 ms, over the rows after each ESC
@@ -1601,99 +1497,18 @@ def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
         assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(i))
 
 
-def one_station(kind: type[EcatChain]) -> EcatChain:
-    """:func:`line` after a broadcast gave every ESC station address 0x4242, as a hostile write
-    of 0x0010 does, with the DL and AL status events pending (:func:`raise_events`)."""
-    chain = line(kind)
-    chain.process_frame(bwr(0x0010, b"\x42\x42"))
-    raise_events(chain)
-    return chain
-
-
-@pytest.mark.parametrize("cmd", [Command.FPRD, Command.FPWR, Command.FPRW])
-@pytest.mark.parametrize(
-    ("ado", "n", "offsets", "rows"),
-    [  # rows: the commands done over the rows (R FPRD, W FPWR, B FPRW)
-        (0x0120, 2, None, "RWB"),  # AL control: a write that waits for the end of the frame
-        (0x0130, 6, None, "RWB"),  # AL status, whose read clears its event
-        (0x0100, 0x20, None, "RWB"),  # DL control and status (the read clears DL status event)
-        (0x0040, 1, None, "R"),  # the reset register: each ESC writes it on its own
-        (0x0400, 2, 0x0010, "RWB"),  # the watchdog divider, written at 0x0410 by an FPRW
-        (0x0400, 2, 0xF000, "RWB"),  # an FPRW's write into process RAM at 0xF400 (not at CLOSED)
-        (0x0400, 2, 0x0C00, "RWB"),  # into the input buffer (0x1000), which ECAT does not write
-        (0x0400, 2, 0x0E00, "RW"),  # into the buffer ECAT writes (0x1200): each ESC's
-        (0x0F70, 2, 0x0010, "RWB"),  # registers, an FPRW writing them into user RAM at 0x0F80
-        (0x0F70, 0x20, None, ""),  # registers and user RAM: each ESC's
-        (0x0900, 8, None, "W"),  # DC receive times, which run with the clock: each ESC reads
-        (0x0300, 0, None, "RWB"),  # no byte, at a register: counts
-    ],
-)
-def test_a_configured_address_datagram_at_many_escs_leaves_the_same_bytes(
-    cmd: Command,
-    ado: int,
-    n: int,
-    offsets: int | None,
-    rows: str,
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """Every ESC has station address 0x4242: an FPRD, FPWR or FPRW addressed to it leaves the
-    same returned frame, memory and event requests as every ESC in turn; of registers (not DC
-    times for a read, nor the reset register for a write) it is done over the rows, no ESC on
-    its own, and so is an FPRW whose write at the read/write offset (``offsets``, 0x0108 at
-    every ESC) is of such registers, or of RAM where no SyncManager buffer ECAT writes lies."""
-    fast, reference = one_station(EcatChain), one_station(OneByOne)
-    if offsets is not None:
-        for chain in (fast, reference):
-            chain.process_frame(bwr(0x0108, struct.pack("<H", offsets)))
-    alone = on_their_own(monkeypatch, fast.devices)
-    dg = Datagram(cmd, 0x4242, ado, bytes(range(7, 7 + n)))
-    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), f"{cmd} {ado:#x}")
-    letter = {Command.FPRD: "R", Command.FPWR: "W", Command.FPRW: "B"}[cmd]
-    assert (alone == []) == (letter in rows), alone
-
-
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
-def test_an_fprw_at_many_escs_writes_what_the_esc_before_read(
-    kind: type[EcatChain], monkeypatch: pytest.MonkeyPatch
-) -> None:
+def test_an_fprw_at_many_escs_writes_what_the_esc_before_read(kind: type[EcatChain]) -> None:
     """Hand-worked: every ESC has station address 0x4242 but ESC 4; the watchdog divider
     (0x0400) is 0 but at ESC 1, 0x4000 (:func:`dividers_line`). An FPRW of 0x0400 with data
     0x1234: each addressed ESC replaces the data with its divider (datasheet I Table 7) and
     writes the data as it arrived, the ESC before it's divider: ESC 0 writes 0x1234, ESC 2 (after
     ESC 1) 0x4000, the others 0; the frame brings back the last one's, 0. Working counter:
-    11 x 3 = 33. The chain does it over the rows."""
+    11 x 3 = 33."""
     chain = dividers_line(kind)
     chain.process_frame(bwr(0x0010, b"\x42\x42"))
     sent(chain, Datagram(Command.APWR, -4 & 0xFFFF, 0x0010, b"\x01\x00"))
-    alone = on_their_own(monkeypatch)
     got = sent(chain, Datagram(Command.FPRW, 0x4242, 0x0400, b"\x34\x12"))
     assert (got.data, got.wkc) == (bytes(2), 33)
     dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
     assert dividers == [b"\x34\x12", bytes(2), b"\x00\x40"] + [bytes(2)] * 9
-    assert (alone == []) == (kind is EcatChain)
-
-
-def test_a_read_write_of_user_ram_is_one_run_over_tables_that_differ_elsewhere(
-    monkeypatch: pytest.MonkeyPatch,
-) -> None:
-    """The ESCs of :func:`line` hold three SyncManager tables (the input buffer locked at some,
-    the write buffer open at one), none with an area in user RAM 0x0F80-0x0FFF: a BRW of
-    0x0F80+16 with the read/write offset 0x0010 at every ESC (its write at 0x0F90) does nothing
-    different at any of them, so all 12 do it over their rows in one run, leaving the same
-    returned frame, memory and event requests as every ESC in turn."""
-    fast, reference = line(EcatChain), line(OneByOne)
-    assert len({id(dev.sm_areas) for dev in fast.devices}) == 3
-    for chain in (fast, reference):
-        chain.process_frame(bwr(0x0108, b"\x10\x00"))
-        chain.process_frame(bwr(0x0F80, bytes(range(0x40, 0x80))))
-    runs: list[list[int]] = []
-    rows = EcatChain._read_write_rows
-
-    def counted(self: EcatChain, line: list[EscDevice], run: list[int], *args: object) -> int:
-        runs.append(list(run))
-        return rows(self, line, run, *args)  # type: ignore[arg-type]
-
-    monkeypatch.setattr(EcatChain, "_read_write_rows", counted)
-    dg = Datagram(Command.BRW, 0, 0x0F80, bytes(range(1, 17)))
-    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), "BRW")
-    assert runs == [list(range(NODES))]
