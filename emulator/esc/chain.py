@@ -723,8 +723,8 @@ class EcatChain:
         waits for the end of the frame (not the reset register) is one (address, data) in each
         ESC's shadow writes (datasheet I 3.4, Table 7), and the ESCs an ARMW/FRMW addresses read
         in turn. One of no bytes beyond the registers (a BRW's write too, at the read/write
-        offset) does nothing at any ESC. Elsewhere (user and process RAM, the reset register,
-        a BRW whose one read/write offset puts its write beyond the registers) each ESC in turn
+        offset) does nothing at any ESC. Elsewhere (user and process RAM, the reset register, a
+        BRW whose write meets the reset register or straddles 0x0F80) each ESC in turn
         (:meth:`EscDevice.process`).
         """
         end, reach, memory = ado + n, len(line), self.memory
@@ -750,16 +750,15 @@ class EcatChain:
             if _registers(ado, end):
                 frame = np.frombuffer(buf, np.uint8, n, at).copy()
                 offsets = memory[:reach, REG_RW_OFFSET : REG_RW_OFFSET + 2]
-                to: int | list[int] | None = None  # where each ESC writes
-                if (offsets == offsets[0]).all():
+                to: int | list[int]  # where the ESCs write
+                if (offsets == offsets[0]).all():  # one offset, as a master leaves it
                     to = (ado + (int(offsets[0, 0]) | int(offsets[0, 1]) << 8)) & 0xFFFF
-                    if not _plain_write(to, to + n):
-                        to = None
+                    where = {to}
                 else:  # read/write offsets that differ (hostile writes): each ESC's own
                     tos = (ado + (offsets[:, 0] | offsets[:, 1].astype(np.int64) << 8)) & 0xFFFF
-                    if all(_plain_write(t, t + n) or t >= REGISTER_END for t in set(tos.tolist())):
-                        to = tos.tolist()
-                if to is not None:
+                    to = each = tos.tolist()
+                    where = set(each)
+                if all(_plain_write(t, t + n) or t >= REGISTER_END for t in where):
                     if reads_dc(ado, end):
                         self._refresh_dc(line, ado, end)
                     writes, changed = self._read_write(line, to, buf, at, frame, ado)
@@ -850,7 +849,7 @@ class EcatChain:
         ESC's own, its read/write offset after ``ado``) the data as it arrives (read before
         write, datasheet I Table 7), then ORs its registers into it: (how many ESCs wrote,
         whether an ESC's event request changed). A write of plain registers waits for the end
-        of the frame; one in user or process RAM (an ESC's own offset puts it there) is done
+        of the frame; one in user or process RAM (where the read/write offset puts it) is done
         at that ESC as an APWR of the data there would do it."""
         n = len(frame)
         ored = _or_accumulate(self.memory[: len(line), ado : ado + n])

@@ -1268,6 +1268,26 @@ def test_a_read_write_of_registers_writes_into_ram_where_an_escs_offset_puts_it(
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
+def test_a_read_write_of_registers_writes_into_user_ram_at_one_offset(
+    kind: type[EcatChain],
+) -> None:
+    """Hand-worked: as above (the watchdog divider 0 but 0x4000 at ESC 1; BRW of 0x0400, data
+    0x1234), with the read/write offset 0x0B80 at every ESC: each writes at 0x0F80, user RAM,
+    at once, the data as it arrives (datasheet I Table 7): ESCs 0 and 1 write 0x1234, the
+    others 0x5234, which the frame brings back; no divider changes, and ESC 5, whose EEPROM
+    did not load, writes too (user RAM is not process RAM, I 11.2.1). Working counter: 12
+    reads + 2 x 12 writes = 36."""
+    chain = dividers_line(kind)
+    chain.process_frame(bwr(0x0108, struct.pack("<H", 0x0B80)))
+    got = sent(chain, Datagram(Command.BRW, 0, 0x0400, b"\x34\x12"))
+    assert (got.data, got.wkc) == (b"\x34\x52", 36)
+    dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
+    assert dividers == [bytes(2), b"\x00\x40"] + [bytes(2)] * 10
+    written = [bytes(chain.memory[p, 0x0F80:0x0F82]) for p in range(NODES)]
+    assert written == [b"\x34\x12"] * 2 + [b"\x34\x52"] * 10
+
+
+@pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_multiple_write_of_process_ram_writes_what_the_addressed_esc_read(
     kind: type[EcatChain],
 ) -> None:
