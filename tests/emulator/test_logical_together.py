@@ -1202,6 +1202,31 @@ def test_a_broadcast_of_no_bytes_beyond_the_registers_does_nothing(
     assert (alone == []) == (kind is EcatChain)
 
 
+@pytest.mark.parametrize("cmd", [Command.BWR, Command.BRD])
+@pytest.mark.parametrize(
+    ("ado", "n"),
+    [
+        (0x0F70, 0x20),  # registers, then user RAM
+        (0x0E00, 0x190),  # into user RAM, up to the input buffer
+        (0x0F7F, 0x90),  # into the input buffer, which a BWR does not write
+        (0x0EF0, 0x400),  # and the write buffer at 0x1200
+        (0x09F0, 0x5A0),  # from DC registers, which a BRD reads at the frame's time
+    ],
+)
+def test_a_broadcast_from_registers_into_ram_leaves_the_same_bytes(
+    cmd: Command, ado: int, n: int
+) -> None:
+    """A BWR or BRD from registers into user and process RAM: the same returned frame, memory
+    and event requests as every ESC in turn, the DL and AL status events raised first. (One
+    frame cannot hold such a datagram from the reset register, 0x0040, on: 3,904 bytes.)"""
+    fast, reference = line(EcatChain), line(OneByOne)
+    for chain in (fast, reference):
+        raise_events(chain)
+    data = bytes(range(1, 256)) * (n // 255 + 1)
+    dg = Datagram(cmd, 0, ado, data[:n])
+    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), f"{cmd} {ado:#x}")
+
+
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
 def test_a_read_write_of_no_bytes_writes_registers_at_its_offset(kind: type[EcatChain]) -> None:
     """Hand-worked: the read/write offset is 0xF000 at ESC 2 and 0 elsewhere. A BRW of no bytes
@@ -1493,6 +1518,60 @@ def test_escs_with_one_cut_and_other_register_writes_are_apart(
     assert not memory[:-1, 0x0630:0x0640].any()
 
 
+def test_broadcasts_of_memory_leave_the_same_bytes() -> None:
+    """BWRs, BRDs and BRWs of user and process RAM (with read/write offsets 0x0108 set at one
+    ESC or all), at ESCs whose SyncManager areas they miss and at ESCs with areas of their own
+    (the input buffer at 0x1000 + 8, the write buffer at 0x1200 + 16, locked at some ESCs, and
+    a write buffer at 0x8000 + 16 at every fifth ESC), at one ESC whose EEPROM did not load (no
+    process RAM), up to the end of the address space: the same returned frame, memory and
+    event requests as every ESC in turn, frame after frame."""
+    fast, reference = line(EcatChain), line(OneByOne)
+    rng = random.Random(8)
+    starts = (0x0F80, 0x0FF8, 0x0FFE, 0x1004, 0x11F8, 0x1210, 0x1300, 0x8000, 0xFFF0, 0xFFFE)
+    for chain in (fast, reference):
+        for at in (0x0FF0, 0x1300, 0x8000, 0xFFE0):  # what ECAT must not see at CLOSED
+            chain.devices[CLOSED].pdi_write(at, bytes(range(0xA0, 0xC0)))
+        for p in range(0, NODES, 5):  # SyncManager 2 a buffer ECAT writes at 0x8000 + 16 here
+            sm2 = struct.pack("<HHBBBB", 0x8000, 16, 0x04, 0, 0x01, 0)
+            chain.process_frame(
+                ethercat.frame(
+                    EcatFrame((Datagram(Command.APWR, -p & 0xFFFF, 0x0810, sm2),))
+                ).to_bytes()
+            )
+            chain.devices[p].pdi_deactivate_sms((2,), False)
+    for i in range(1_000):
+        dgs = []
+        if rng.random() < 0.1:  # the read/write offset (datasheet II 2.4), at one ESC or all
+            # (0xF300 takes a BRW's write back into registers from 0x0280 on: not DL control,
+            # whose loops would close)
+            offset = struct.pack("<H", rng.choice((0, 0x10, 0x400, 0x7000, 0xF300)))
+            one = rng.random() < 0.3
+            cmd, adp = (Command.APWR, -rng.randrange(NODES) & 0xFFFF) if one else (Command.BWR, 0)
+            dgs.append(Datagram(cmd, adp, 0x0108, offset))
+        for _ in range(rng.randint(1, 3)):
+            ado = rng.choice(starts) + rng.randrange(-1, 2) if rng.random() < 0.8 else 0
+            ado = ado or rng.randrange(0x0F80, 0x10000)  # user and process RAM
+            data = rng.randbytes(rng.randrange(1, 64))
+            cmd = rng.choice((Command.BWR, Command.BRD, Command.BRW, Command.APWR))
+            adp = -rng.randrange(NODES) & 0xFFFF if cmd == Command.APWR else 0
+            dgs.append(Datagram(cmd, adp, ado, data))
+        assert_same(fast, reference, ethercat.frame(EcatFrame(tuple(dgs))).to_bytes(), str(i))
+    assert all(dev.onward for dev in fast.devices[:-1])  # every frame went down the line
+    # a buffer the PDI locked, and every SyncManager disabled (one ESC without process RAM)
+    fast, reference = line(EcatChain), line(OneByOne)
+    for chain in (fast, reference):
+        for dev in chain.devices:
+            dev.pdi_deactivate_sms((0,), True)
+    for cmd in (Command.BRD, Command.BWR, Command.BRW):
+        dg = Datagram(cmd, 0, 0x0FFC, bytes(range(1, 13)))  # over the input buffer 0x1000 + 8
+        assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(cmd))
+    fast, reference = line(EcatChain), line(OneByOne)
+    assert_same(fast, reference, bwr(0x0800, bytes(64)), "SyncManagers off")
+    for cmd in (Command.BRD, Command.BWR, Command.BRW):
+        dg = Datagram(cmd, 0, 0x0FF0, bytes(range(1, 33)))  # user RAM, then process RAM
+        assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(cmd))
+
+
 def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
     """BRDs and BRWs of DC registers (0x0900 on: receive times, system time, SYNC status
     and times) at 12 ESCs whose SYNC0 fires every ms from 5 ms, over the rows after each ESC
@@ -1515,6 +1594,50 @@ def test_broadcast_reads_of_dc_registers_see_them_at_the_frames_time() -> None:
         data = rng.randbytes(rng.randrange(1, 0x20)) if cmd == Command.BRW else bytes(8)
         dg = Datagram(cmd, 0, ado, data)
         assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), str(i))
+
+
+def one_station(kind: type[EcatChain]) -> EcatChain:
+    """:func:`line` after a broadcast gave every ESC station address 0x4242, as a hostile write
+    of 0x0010 does, with the DL and AL status events pending (:func:`raise_events`)."""
+    chain = line(kind)
+    chain.process_frame(bwr(0x0010, b"\x42\x42"))
+    raise_events(chain)
+    return chain
+
+
+@pytest.mark.parametrize("cmd", [Command.FPRD, Command.FPWR, Command.FPRW])
+@pytest.mark.parametrize(
+    ("ado", "n", "offsets"),
+    [
+        (0x0120, 2, None),  # AL control: a write that waits for the end of the frame
+        (0x0130, 6, None),  # AL status, whose read clears its event
+        (0x0100, 0x20, None),  # DL control and status (the read clears DL status event)
+        (0x0040, 1, None),  # the reset register: each ESC writes it on its own
+        (0x0400, 2, 0x0010),  # the watchdog divider, written at 0x0410 by an FPRW
+        (0x0400, 2, 0xF000),  # an FPRW's write into process RAM at 0xF400 (not at CLOSED)
+        (0x0400, 2, 0x0C00),  # into the input buffer (0x1000), which ECAT does not write
+        (0x0400, 2, 0x0E00),  # into the buffer ECAT writes (0x1200): each ESC's
+        (0x0F70, 2, 0x0010),  # registers, an FPRW writing them into user RAM at 0x0F80
+        (0x0F70, 0x20, None),  # registers and user RAM: each ESC's
+        (0x0900, 8, None),  # DC receive times, which run with the clock: each ESC reads
+        (0x0300, 0, None),  # no byte, at a register: counts
+    ],
+)
+def test_a_configured_address_datagram_at_many_escs_leaves_the_same_bytes(
+    cmd: Command,
+    ado: int,
+    n: int,
+    offsets: int | None,
+) -> None:
+    """Every ESC has station address 0x4242: an FPRD, FPWR or FPRW addressed to it leaves the
+    same returned frame, memory and event requests as every ESC in turn, also an FPRW whose
+    write the read/write offset (``offsets``, 0x0108 at every ESC) puts elsewhere."""
+    fast, reference = one_station(EcatChain), one_station(OneByOne)
+    if offsets is not None:
+        for chain in (fast, reference):
+            chain.process_frame(bwr(0x0108, struct.pack("<H", offsets)))
+    dg = Datagram(cmd, 0x4242, ado, bytes(range(7, 7 + n)))
+    assert_same(fast, reference, ethercat.frame(EcatFrame((dg,))).to_bytes(), f"{cmd} {ado:#x}")
 
 
 @pytest.mark.parametrize("kind", [EcatChain, OneByOne])
