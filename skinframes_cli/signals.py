@@ -82,10 +82,27 @@ def _forget_interrupt_in_exec() -> None:
 
 @contextlib.contextmanager
 def handling(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]:
-    """Inside, SIGINT and SIGTERM go to ``handler``; the handlers before are back afterwards."""
-    previous = {s: signal.signal(s, handler) for s in (signal.SIGINT, signal.SIGTERM)}
+    """Inside, SIGINT and SIGTERM go to ``handler``; the handlers before are back afterwards,
+    all of them whenever a signal comes. One that comes while they are put back is held and
+    raised again once they are (:func:`signal.raise_signal`): the handler before takes it."""
+    held: list[int] = []  # signals that came while the handlers before were put back
+    restoring = False
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        if restoring:
+            held.append(signum)
+        else:
+            handler(signum, frame)
+
+    previous: dict[signal.Signals, Callable[[int, FrameType | None], object] | int] = {}
     try:
+        for sig in (signal.SIGINT, signal.SIGTERM):  # each one's before known before it changes
+            previous[sig] = signal.getsignal(sig) or signal.SIG_DFL
+            signal.signal(sig, on_signal)
         yield
     finally:
-        for s, before in previous.items():
-            signal.signal(s, before)
+        restoring = True
+        for sig, before in previous.items():
+            signal.signal(sig, before)
+        for signum in held:
+            signal.raise_signal(signum)

@@ -1,0 +1,95 @@
+"""skinframes_cli.signals.handling: the handlers before are back whenever a signal comes.
+
+The signals are raised in this process with :func:`signal.raise_signal` at a chosen step of
+putting the handlers in place or back (CPython runs a Python handler before raise_signal
+returns), so each case happens every run.
+"""
+
+from __future__ import annotations
+
+import signal
+from collections.abc import Callable, Iterator
+from types import FrameType
+
+import pytest
+
+from skinframes_cli.signals import handling
+
+Handler = Callable[[int, FrameType | None], None]
+
+
+class InsideError(Exception):
+    """Raised by the handler given to handling()."""
+
+
+def _inside(signum: int, frame: FrameType | None) -> None:
+    raise InsideError(signum)
+
+
+@pytest.fixture
+def before() -> Iterator[tuple[list[int], Handler]]:
+    """SIGINT and SIGTERM to a handler that records them, for the test; the real ones after."""
+    got: list[int] = []
+
+    def record(signum: int, frame: FrameType | None) -> None:
+        got.append(signum)
+
+    old = {s: signal.signal(s, record) for s in (signal.SIGINT, signal.SIGTERM)}
+    try:
+        yield got, record
+    finally:
+        for s, handler in old.items():
+            signal.signal(s, handler)
+
+
+def _signal_after(
+    monkeypatch: pytest.MonkeyPatch, when: Callable[[int, object], bool], raised: signal.Signals
+) -> None:
+    """signal.signal, and ``raised`` raised right after a call for which ``when`` holds."""
+    real = signal.signal
+
+    def setting(signum: int, handler: object) -> object:
+        out = real(signum, handler)  # type: ignore[arg-type]
+        if when(signum, handler):
+            signal.raise_signal(raised)
+        return out
+
+    monkeypatch.setattr(signal, "signal", setting)
+
+
+def test_a_signal_while_the_handlers_are_put_back_goes_to_the_handler_before(
+    before: tuple[list[int], Handler], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    got, record = before
+    # SIGTERM comes when SIGINT's handler is back and SIGTERM's is not yet
+    _signal_after(monkeypatch, lambda s, h: s == signal.SIGINT and h is record, signal.SIGTERM)
+    with handling(_inside):
+        pass
+    monkeypatch.undo()
+    assert got == [signal.SIGTERM]  # not InsideError, raised on the way out
+    assert signal.getsignal(signal.SIGINT) is record
+    assert signal.getsignal(signal.SIGTERM) is record
+
+
+def test_a_signal_while_the_handlers_are_put_in_place_leaves_the_handlers_before(
+    before: tuple[list[int], Handler], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    got, record = before
+    # SIGINT comes when its handler is in place and SIGTERM's is not yet
+    _signal_after(monkeypatch, lambda s, h: s == signal.SIGINT and h is not record, signal.SIGINT)
+    with pytest.raises(InsideError), handling(_inside):
+        pytest.fail("the signal stops the block before it starts")
+    monkeypatch.undo()
+    assert got == []
+    assert signal.getsignal(signal.SIGINT) is record
+    assert signal.getsignal(signal.SIGTERM) is record
+
+
+def test_a_signal_inside_goes_to_the_handler_given(
+    before: tuple[list[int], Handler],
+) -> None:
+    got, record = before
+    with pytest.raises(InsideError), handling(_inside):
+        signal.raise_signal(signal.SIGTERM)
+    assert got == []
+    assert signal.getsignal(signal.SIGTERM) is record
