@@ -476,7 +476,7 @@ class EscDevice:
         self._sms: list[SmRun | None] = []
         self._active: list[SmRun] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[Fmmu, ...] = ()
-        self._logical_plans = Plans()
+        self._logical_plans: Plans = {}
         self.fmmu_span = (0, 0)
         # fmmu_span as an array row, the chain's (use_span_row): _set_span keeps both alike
         self._span_row: npt.NDArray[np.int64] = np.zeros(2, np.int64)
@@ -559,7 +559,7 @@ class EscDevice:
         self._unmade = None
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self.latch_due = self.al_control_full = False
-        self._logical_plans = Plans()
+        self._logical_plans = {}
         self._forget_lrd_plans()
         self.sm_areas = ()
         self._set_span((0, 0))
@@ -1349,8 +1349,8 @@ class EscDevice:
         """The FMMUs follow ``decoded``, their register bytes decoded (:func:`fmmu_table`; the
         chain decodes the tables of many ESCs at once, :func:`emulator.esc.together.
         commit_together`)."""
-        self._fmmus, span, self._logical_plans = decoded
-        self._set_span(span)
+        self._fmmus, self._logical_plans = decoded.fmmus, decoded.plans
+        self._set_span(decoded.span)
         self.fmmu_decoded = decoded
         self._forget_lrd_plans()
 

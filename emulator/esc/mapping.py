@@ -99,21 +99,8 @@ def byte_op(phys: int, at: int, n: int) -> LogicalOp:
     return LogicalOp(True, phys, n, 0, 0, at, n)
 
 
-class Plans(dict[tuple[int, int, int], "Access"]):
-    """The accesses through an FMMU table by (command, logical address, length)
-    (:func:`table_access`), and, for a table decoded as FMMU 0 and the others
-    (:func:`decode_fmmus`), those two parts (each an :data:`FmmuTable` of its own)."""
-
-    parts: tuple[FmmuTable, FmmuTable] | None
-    # of FMMU 0's part: moved_along of its FMMU by access (it outlives the others' changes)
-    moved: dict[tuple[int, int, int], tuple[Access, int] | None] | None
-
-
-# class defaults: without an __init__ of its own, a table's Plans costs what a dict does (0.1 us
-# against 0.6 us with one, at every ESC whose FMMU table changed); set from outside the class body,
-# which compiled (mypyc) keeps none
-for _default in ("parts", "moved"):
-    setattr(Plans, _default, None)
+# the accesses through an FMMU table by (command, logical address, length) (:func:`table_access`)
+Plans = dict[tuple[int, int, int], "Access"]
 
 
 class Fmmu(NamedTuple):
@@ -132,13 +119,29 @@ class Fmmu(NamedTuple):
     bits: int  # bits left in the address space from the physical start
 
 
-class FmmuTable(NamedTuple):
+class FmmuTable:
     """Active FMMUs in register order, the logical span they map, and the plans of logical
-    accesses through them (shared by every ESC whose FMMU registers hold the same bytes)."""
+    accesses through them (shared by every ESC whose FMMU registers hold the same bytes); for a
+    table decoded as FMMU 0 and the others (:func:`decode_fmmus`), those two parts (``parts``,
+    each a table of its own), and of FMMU 0's part ``moved``: moved_along of its FMMU by access
+    (it outlives the others' changes). A class, not a NamedTuple: compiled (mypyc), it is made
+    as a native object, where a NamedTuple runs its ``__new__`` as Python (a frame that changes
+    the FMMUs of every ESC makes one at each)."""
 
-    fmmus: tuple[Fmmu, ...]
-    span: tuple[int, int]
-    plans: Plans
+    __slots__ = ("fmmus", "moved", "parts", "plans", "span")
+
+    def __init__(
+        self,
+        fmmus: tuple[Fmmu, ...],
+        span: tuple[int, int],
+        plans: Plans | None = None,
+        parts: tuple[FmmuTable, FmmuTable] | None = None,
+    ) -> None:
+        self.fmmus = fmmus
+        self.span = span
+        self.plans: Plans = {} if plans is None else plans
+        self.parts = parts
+        self.moved: dict[tuple[int, int, int], tuple[Access, int] | None] | None = None
 
 
 class SmEntry(NamedTuple):
@@ -206,7 +209,8 @@ class Caches:
         # logical accesses by the FMMUs they meet (shared_access)
         self.access: dict[tuple[object, ...], Access] = {}
         # the accesses of an access's first FMMU and of the FMMUs after it, by the FMMUs they
-        # meet (Access.rows)
+        # meet (Access.rows), and of one FMMU moved to logical 0, by its other fields, the
+        # command and its length (moved_along)
         self.parts: dict[tuple[object, ...], Access] = {}
         # accesses through FMMU 0 and other FMMUs, by the accesses through each part, or by
         # FMMU 0's access moved along (moved_along: access, frame offset) and the others'
@@ -268,11 +272,11 @@ def _fmmu_parts(caches: Caches, table: bytes) -> tuple[FmmuTable, FmmuTable] | N
     first = parts.get(head)
     if first is None:
         fmmus, span = decode_entries(head)
-        first = remember(parts, head, FmmuTable(fmmus, span, Plans()))
+        first = remember(parts, head, FmmuTable(fmmus, span))
     others = parts.get(rest)
     if others is None:
         fmmus, span = decode_entries(rest)
-        others = remember(parts, rest, FmmuTable(fmmus, span, Plans()))
+        others = remember(parts, rest, FmmuTable(fmmus, span))
     return first, others
 
 
@@ -324,20 +328,15 @@ def decode_sms(table: bytes) -> SmTable:
 
 def fmmu_table(caches: Caches, table: bytes) -> FmmuTable:
     """The FMMU register bytes ``table`` (0x0600 on, 16 bytes an FMMU) decoded
-    (:func:`decode_fmmus`), with empty :class:`Plans` for the accesses through them, which
-    keep the table's two parts: once per distinct bytes (:attr:`Caches.fmmu`), so that ESCs
+    (:func:`decode_fmmus`), with empty :data:`Plans` for the accesses through them, and the
+    table's two parts: once per distinct bytes (:attr:`Caches.fmmu`), so that ESCs
     whose FMMUs hold the same bytes share it."""
     found = caches.fmmu.get(table)
     if found is not None:
         return found
-    plans = Plans()
     parts = _fmmu_parts(caches, table)
-    if parts is None:
-        fmmus, span = decode_entries(table)
-    else:
-        plans.parts = parts
-        fmmus, span = _joined(parts[0], parts[1])
-    return remember(caches.fmmu, table, FmmuTable(fmmus, span, plans))
+    fmmus, span = decode_entries(table) if parts is None else _joined(parts[0], parts[1])
+    return remember(caches.fmmu, table, FmmuTable(fmmus, span, parts=parts))
 
 
 def sm_table(caches: Caches, table: bytes) -> SmFound:
@@ -920,7 +919,7 @@ def shared_access(
 
 def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -> Access:
     """The :class:`Access` of a logical access through the FMMU ``table`` (:func:`fmmu_table`),
-    worked out once per table and access (its :class:`Plans`). A table decoded in two parts
+    worked out once per table and access (its :data:`Plans`). A table decoded in two parts
     joins the accesses through each (:meth:`Access.joined`, once per pair of them,
     :attr:`Caches.joined`, so that tables whose FMMUs the access does not meet differ share it;
     the others' part's worked out once per part and shared by the ESCs of a configured line,
@@ -932,7 +931,7 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
     found = plans.get(key)
     if found is not None:
         return found
-    parts = plans.parts
+    parts = table.parts
     if parts is None:
         found = shared_access(caches, table.fmmus, cmd, lad, n, table.span)
     else:
@@ -966,11 +965,10 @@ def _moved_along(
     caches: Caches, head: FmmuTable, key: tuple[int, int, int]
 ) -> tuple[Access, int] | None:
     """:func:`moved_along` of the one FMMU of FMMU 0's part ``head``, once per part and access
-    (its :attr:`Plans.moved`): an ESC's own FMMU 0 outlives the others' changes."""
-    plans = head.plans
-    moved = plans.moved
+    (its :attr:`FmmuTable.moved`): an ESC's own FMMU 0 outlives the others' changes."""
+    moved = head.moved
     if moved is None:
-        moved = plans.moved = {}
+        moved = head.moved = {}
     elif key in moved:
         return moved[key]
     cmd, lad, n = key
