@@ -813,24 +813,27 @@ def moved_along(caches: Caches, f: Fmmu, cmd: int, lad: int, n: int) -> tuple[Ac
     start, end = f.log_start, f.log_end
     if not (lad <= start and end <= lad + n and (start or lad)):
         return None
-    # (a NamedTuple's _replace and a call with *args run as Python: positional, native calls)
-    alone = (
-        Fmmu(
-            0,
-            end - start,
-            f.phys,
-            f.start_bit,
-            f.stop_bit,
-            f.phys_bit,
-            f.reads,
-            f.writes,
-            f.bytewise,
-            f.bits,
-        ),
-    )
-    key = (alone, cmd, 0, end - start)
+    # the FMMU moved to logical 0 is its fields but the logical ones, and its length: the key
+    # (made once a frame meets it, a NamedTuple made anew being Python's work, where a slice
+    # is a copy of the fields)
+    key = (f[2:], cmd, end - start)
     at = caches.parts.get(key)
     if at is None:
+        # (a NamedTuple's _replace and a call with *args run as Python: positional, native calls)
+        alone = (
+            Fmmu(
+                0,
+                end - start,
+                f.phys,
+                f.start_bit,
+                f.stop_bit,
+                f.phys_bit,
+                f.reads,
+                f.writes,
+                f.bytewise,
+                f.bits,
+            ),
+        )
         at = remember(
             caches.parts, key, Access(caches, alone, cmd, 0, end - start), PLAN_CACHE_ENTRIES
         )
