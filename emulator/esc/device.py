@@ -304,12 +304,20 @@ def _bits_written(
     return ((old & ~mask) | (value & mask)).to_bytes(len(target), "little")
 
 
-class _Unmade(NamedTuple):
-    """SyncManagers changed but not made yet (:meth:`EscDevice._make_sms`)."""
+class _Unmade:
+    """SyncManagers changed but not made yet (:meth:`EscDevice._make_sms`). A class, not a
+    NamedTuple: compiled (mypyc), it is made as a native object, where a NamedTuple runs its
+    ``__new__`` as Python (a frame that changes the SyncManagers of every ESC makes one at
+    each)."""
 
-    fresh: frozenset[int] | None  # the indices of those that start anew (None: all of them)
-    decoded: SmTable  # the decoded table
-    by_start: tuple[int, ...]  # the order by start (SmChange.by_start)
+    __slots__ = ("by_start", "decoded", "fresh")
+
+    def __init__(
+        self, fresh: frozenset[int] | None, decoded: SmTable, by_start: tuple[int, ...]
+    ) -> None:
+        self.fresh = fresh  # the indices of those that start anew (None: all of them)
+        self.decoded = decoded  # the decoded table
+        self.by_start = by_start  # the order by start (SmChange.by_start)
 
 
 class FirstBuffer(NamedTuple):
@@ -1418,8 +1426,9 @@ class EscDevice:
         before anything reads or changes them: those of the decoded table that start anew are
         new, the others keep their state and take their PDI lock from it, and those it leaves
         out have no buffer."""
-        assert self._unmade is not None
-        fresh, decoded, by_start = self._unmade
+        unmade = self._unmade
+        assert unmade is not None
+        fresh, decoded, by_start = unmade.fresh, unmade.decoded, unmade.by_start
         self._unmade = None
         sms = self._sms
         made = self._as_new(decoded)
@@ -1528,13 +1537,19 @@ TOGETHER_MIN: Final = 4  # ESCs with equal writes from which one pass over rows 
 _Rows = npt.NDArray[np.intp]
 
 
-class _Slot(NamedTuple):
-    """One register write of a frame at several ESCs (:func:`_commit_slots`)."""
+class _Slot:
+    """One register write of a frame at several ESCs (:func:`_commit_slots`; a class, made as
+    a native object, like :class:`_Unmade`)."""
 
-    addr: int
-    n: int  # bytes
-    members: list[int] | None  # the ESCs (indices) that made it; None: every one
-    data: npt.NDArray[np.uint8]  # one row for all, or a row per member (per ESC when None)
+    __slots__ = ("addr", "data", "members", "n")
+
+    def __init__(
+        self, addr: int, n: int, members: list[int] | None, data: npt.NDArray[np.uint8]
+    ) -> None:
+        self.addr = addr
+        self.n = n  # bytes
+        self.members = members  # the ESCs (indices) that made it; None: every one
+        self.data = data  # one row for all, or a row per member (per ESC when None)
 
 
 def commit_together(

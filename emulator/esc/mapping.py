@@ -514,21 +514,22 @@ class Access:
         self.shadow: tuple[LogicalOp, ...] = ()
         self.rest: LogicalPlan | None = None  # an LRD's other parts when the first reads a buffer
 
-    @classmethod
-    def joined(cls, first: Access, others: Access) -> Access:
+    @staticmethod
+    def joined(first: Access, others: Access) -> Access:
         """The access through FMMU 0 and others that ``first`` and ``others`` (accesses alike
-        through each, meeting some) are: its :meth:`rows` work from theirs (:meth:`_apart`)."""
-        found = cls(first._caches, first.hit + others.hit, first.cmd, first.lad, first.n)
+        through each, meeting some) are: its :meth:`rows` work from theirs (:meth:`_apart`).
+        (Static, made as Access: compiled, a class method's ``cls(...)`` is a generic call.)"""
+        found = Access(first._caches, first.hit + others.hit, first.cmd, first.lad, first.n)
         found._first, found._others = first, others
         return found
 
-    @classmethod
-    def joined_along(cls, fmmu: Fmmu, at: tuple[Access, int], others: Access) -> Access:
+    @staticmethod
+    def joined_along(fmmu: Fmmu, at: tuple[Access, int], others: Access) -> Access:
         """:meth:`joined` for a first FMMU ``fmmu`` that lies wholly inside the access, whose
         access is ``at`` (:func:`moved_along`): worked out from that one moved along, without
         an access of its own (after hostile writes to the others, each ESC of a configured
         line, mapping its own logical bytes with FMMU 0, joins anew)."""
-        found = cls(others._caches, (fmmu, *others.hit), others.cmd, others.lad, others.n)
+        found = Access(others._caches, (fmmu, *others.hit), others.cmd, others.lad, others.n)
         found._at, found._others = at, others
         return found
 
