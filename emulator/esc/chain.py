@@ -669,7 +669,7 @@ class EcatChain:
         """The positions in ``line`` whose FMMUs map part of ``n`` logical bytes at ``lad``
         (their spans, :attr:`fmmu_spans`)."""
         spans = self.fmmu_spans[: len(line)]
-        return np.flatnonzero((spans[:, 0] < lad + n) & (spans[:, 1] > lad)).tolist()
+        return ((spans[:, 0] < lad + n) & (spans[:, 1] > lad)).nonzero()[0].tolist()
 
     def _image_read(self, line: list[EscDevice], cmd: int, lad: int, n: int) -> _ImageRead | None:
         """An LRD (or LRW) of ``n`` bytes at ``lad`` that every ESC it reaches reads as one
@@ -793,7 +793,7 @@ class EcatChain:
         """The ESCs of ``line`` read the registers that clear ``events`` (0x0210 bits); whether
         an ESC's event request changed."""
         column = self.memory[: len(line), REG_ECAT_EVENT]
-        hit = np.flatnonzero(column & events).tolist()
+        hit = (column & events).nonzero()[0].tolist()
         if hit:
             column &= ~events & 0xFF
         if not hit:

@@ -486,8 +486,9 @@ class EscDevice:
         self._fmmus: tuple[Fmmu, ...] = ()
         self._logical_plans: Plans = {}
         self.fmmu_span = (0, 0)
-        # fmmu_span as an array row, the chain's (use_span_row): _set_span keeps both alike
-        self._span_row: npt.NDArray[np.int64] = np.zeros(2, np.int64)
+        # fmmu_span as an array row, the chain's (use_span_row), seen through a memoryview (an
+        # item set a third of numpy's): _set_span keeps both alike
+        self._span_row = np.zeros(2, np.int64).data
         # the decoded FMMU table the ESC follows (fmmu_table): one object for every ESC whose
         # FMMU registers hold the same bytes, so that what follows from it is asked once
         self.fmmu_decoded = FmmuTable((), (0, 0), self._logical_plans)
@@ -645,8 +646,8 @@ class EscDevice:
     def _use_span_row(self, row: npt.NDArray[np.int64]) -> None:
         """Keep :attr:`fmmu_span` in ``row`` (two int64) too, from now on: the chain holds every
         ESC's span as one array, to find the ESCs a logical datagram may concern at once."""
-        row[0], row[1] = self.fmmu_span
-        self._span_row = row
+        self._span_row = row.data
+        self._set_span(self.fmmu_span)
 
     def _use_caches(self, caches: Caches) -> None:
         """Decode and plan in ``caches`` from now on: its chain's, shared by the ESCs of that
@@ -1695,10 +1696,10 @@ def _commit_slots(
     # FMMU and SyncManager tables, DL control, DC registers, an EEPROM command, AL control
     if fmmu and fmmu_before is not None:  # changed FMMU tables
         changed = (memory[every, REG_FMMU : plans.fmmu_end] != fmmu_before).any(axis=1)
-        _fmmus(devices, memory, rows, np.flatnonzero(changed).tolist(), plans.fmmu_end)
+        _fmmus(devices, memory, rows, changed.nonzero()[0].tolist(), plans.fmmu_end)
     if sm and sm_before is not None and enabled is not None:  # changed SyncManager tables
         changed = (memory[every, REG_SM : plans.sm_end] != sm_before).any(axis=1)
-        _syncmanagers(devices, memory, rows, np.flatnonzero(changed).tolist(), enabled)
+        _syncmanagers(devices, memory, rows, changed.nonzero()[0].tolist(), enabled)
     if dl:
         _dl_status(devices, memory, rows)  # (the same again where DL control stayed)
     if dc is not None and not dc_of:
@@ -1718,9 +1719,9 @@ def _commit_slots(
             configure_together(clocks, memory, rows[np.array(at_, np.intp)], lo, hi)
     _event_requests(devices, memory, every)
     if eeprom.any():
-        _eeprom_commands(devices, memory, rows, np.flatnonzero(eeprom))
+        _eeprom_commands(devices, memory, rows, eeprom.nonzero()[0])
     if al.any():  # AL control, a mailbox the PDI empties by reading it (II 0x0120)
-        which = np.flatnonzero(al)
+        which = al.nonzero()[0]
         at = rows[which]
         value = memory[at, REG_AL_CONTROL].astype(np.int64)
         value |= memory[at, REG_AL_CONTROL + 1].astype(np.int64) << 8
