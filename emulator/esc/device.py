@@ -87,7 +87,6 @@ from emulator.esc.mapping import (
     FmmuTable,
     LogicalPlan,
     Mailboxes,
-    Plans,
     SmChange,
     SmTable,
     fmmu_table,
@@ -411,7 +410,6 @@ class EscDevice:
         "_completed",
         "_fmmus",
         "_irq_batch",
-        "_logical_plans",
         "_lrd_plans",
         "_mailbox_due",
         "_mailbox_hook",
@@ -484,14 +482,13 @@ class EscDevice:
         self._sms: list[SmRun | None] = []
         self._active: list[SmRun] = []  # enabled SMs with a buffer, sorted by start
         self._fmmus: tuple[Fmmu, ...] = ()
-        self._logical_plans: Plans = {}
         self.fmmu_span = (0, 0)
         # fmmu_span as an array row, the chain's (use_span_row), seen through a memoryview (an
         # item set a third of numpy's): _set_span keeps both alike
         self._span_row = np.zeros(2, np.int64).data
         # the decoded FMMU table the ESC follows (fmmu_table): one object for every ESC whose
         # FMMU registers hold the same bytes, so that what follows from it is asked once
-        self.fmmu_decoded = FmmuTable((), (0, 0), self._logical_plans)
+        self.fmmu_decoded = FmmuTable((), (0, 0))
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
         # of every cycle), or through the first of several (read_first_buffer): (frame offset,
         # SyncManager, whether an FMMU writes there) per (address, length, first), or None
@@ -568,11 +565,10 @@ class EscDevice:
         self._unmade = None
         self._active, self._fmmus, self.pending, self._completed = [], (), [], []
         self.latch_due = self.al_control_full = False
-        self._logical_plans = {}
         self._forget_lrd_plans()
         self.sm_areas = ()
         self._set_span((0, 0))
-        self.fmmu_decoded = FmmuTable((), (0, 0), self._logical_plans)
+        self.fmmu_decoded = FmmuTable((), (0, 0))
         self.dc.reset()
 
     # --- properties the chain and the PDI application use ---------------------------------------
@@ -1092,9 +1088,7 @@ class EscDevice:
         FMMU table and access (:func:`table_access`); what the chain may do over the rows
         (:meth:`Access.rows`) is remembered for the SyncManager table, memory top and register
         write plans last asked about (ESCs configured alike ask alike)."""
-        found = self._logical_plans.get((cmd, lad, n))
-        if found is None:
-            found = table_access(self._caches, self.fmmu_decoded, cmd, lad, n)
+        found = table_access(self._caches, self.fmmu_decoded, cmd, lad, n)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         found.rows(self.sm_areas, top, self.write_plans)
         return found
@@ -1358,7 +1352,7 @@ class EscDevice:
         """The FMMUs follow ``decoded``, their register bytes decoded (:func:`fmmu_table`; the
         chain decodes the tables of many ESCs at once, :func:`emulator.esc.together.
         commit_together`)."""
-        self._fmmus, self._logical_plans = decoded.fmmus, decoded.plans
+        self._fmmus = decoded.fmmus
         self._set_span(decoded.span)
         self.fmmu_decoded = decoded
         self._forget_lrd_plans()

@@ -123,25 +123,22 @@ class FmmuTable:
     """Active FMMUs in register order, the logical span they map, and the plans of logical
     accesses through them (shared by every ESC whose FMMU registers hold the same bytes); for a
     table decoded as FMMU 0 and the others (:func:`decode_fmmus`), those two parts (``parts``,
-    each a table of its own), and of FMMU 0's part ``moved``: moved_along of its FMMU by access
-    (it outlives the others' changes). A class, not a NamedTuple: compiled (mypyc), it is made
+    each a table of its own). A class, not a NamedTuple: compiled (mypyc), it is made
     as a native object, where a NamedTuple runs its ``__new__`` as Python (a frame that changes
     the FMMUs of every ESC makes one at each)."""
 
-    __slots__ = ("fmmus", "moved", "parts", "plans", "span")
+    __slots__ = ("fmmus", "parts", "plans", "span")
 
     def __init__(
         self,
         fmmus: tuple[Fmmu, ...],
         span: tuple[int, int],
-        plans: Plans | None = None,
         parts: tuple[FmmuTable, FmmuTable] | None = None,
     ) -> None:
         self.fmmus = fmmus
         self.span = span
-        self.plans: Plans = {} if plans is None else plans
+        self.plans: Plans = {}
         self.parts = parts
-        self.moved: dict[tuple[int, int, int], tuple[Access, int] | None] | None = None
 
 
 class SmEntry(NamedTuple):
@@ -947,7 +944,7 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
             found = shared_access(caches, f, cmd, lad, n, head.span)
         else:  # joined once per pair of parts' accesses, whatever else differs
             others = _part_access(caches, rest, key)
-            at = None if not others.hit or len(f) > 1 else _moved_along(caches, head, key)
+            at = None if not others.hit or len(f) > 1 else moved_along(caches, f[0], cmd, lad, n)
             if not others.hit:  # the others' span meets it, but none of them does
                 found = shared_access(caches, f, cmd, lad, n, head.span)
             elif at is not None:  # FMMU 0 inside the access: moved along, no access of its own
@@ -963,20 +960,6 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
                     joined = Access.joined(pair[0], pair[1])
                     found = remember(caches.joined, pair, joined, PLAN_CACHE_ENTRIES)
     return remember(plans, key, found, PLAN_CACHE_ENTRIES)
-
-
-def _moved_along(
-    caches: Caches, head: FmmuTable, key: tuple[int, int, int]
-) -> tuple[Access, int] | None:
-    """:func:`moved_along` of the one FMMU of FMMU 0's part ``head``, once per part and access
-    (its :attr:`FmmuTable.moved`): an ESC's own FMMU 0 outlives the others' changes."""
-    moved = head.moved
-    if moved is None:
-        moved = head.moved = {}
-    elif key in moved:
-        return moved[key]
-    cmd, lad, n = key
-    return remember(moved, key, moved_along(caches, head.fmmus[0], cmd, lad, n), PLAN_CACHE_ENTRIES)
 
 
 def _part_access(caches: Caches, part: FmmuTable, key: tuple[int, int, int]) -> Access:
