@@ -1712,10 +1712,12 @@ def _commit_slots(
             clocks = [devices[i].dc for i in at_]
             configure_together(clocks, memory, rows[np.array(at_, np.intp)], lo, hi)
     _event_requests(devices, memory, every)
-    if eeprom.any():
-        _eeprom_commands(devices, memory, rows, eeprom.nonzero()[0])
-    if al.any():  # AL control, a mailbox the PDI empties by reading it (II 0x0120)
-        which = al.nonzero()[0]
+    # (the rows' positions at once: a mask's any() runs through a Python frame of numpy's)
+    which = eeprom.nonzero()[0]
+    if len(which):
+        _eeprom_commands(devices, memory, rows, which)
+    which = al.nonzero()[0]
+    if len(which):  # AL control, a mailbox the PDI empties by reading it (II 0x0120)
         at = rows[which]
         value = memory[at, REG_AL_CONTROL].astype(np.int64)
         value |= memory[at, REG_AL_CONTROL + 1].astype(np.int64) << 8
