@@ -56,6 +56,7 @@ __all__ = [
     "moved_along",
     "outside",
     "plan_logical",
+    "plans_key",
     "remember",
     "shared_access",
     "sm_change",
@@ -99,8 +100,17 @@ def byte_op(phys: int, at: int, n: int) -> LogicalOp:
     return LogicalOp(True, phys, n, 0, 0, at, n)
 
 
-# the accesses through an FMMU table by (command, logical address, length) (:func:`table_access`)
-Plans = dict[tuple[int, int, int], "Access"]
+# the accesses through an FMMU table by command, logical address and length, in one int
+# (:func:`plans_key`; :func:`table_access`)
+Plans = dict[int, "Access"]
+
+
+def plans_key(cmd: int, lad: int, n: int) -> int:
+    """The key of an access (``cmd``, ``n`` bytes at the 32-bit ``lad``) in :data:`Plans`: an
+    int, which hashes and compares faster than a tuple and is nothing the garbage collector
+    walks (every ESC a logical datagram reaches looks its access up, and hostile ones are new
+    at nearly every ESC)."""
+    return (n << 32 | lad) << 8 | cmd
 
 
 class Fmmu(NamedTuple):
@@ -928,7 +938,7 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
     does not meet is the others' part's, one the others' span does not meet FMMU 0's.
     Otherwise :func:`shared_access`."""
     plans = table.plans
-    key = (cmd, lad, n)
+    key = plans_key(cmd, lad, n)
     found = plans.get(key)
     if found is not None:
         return found
@@ -939,11 +949,11 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
         head, rest = parts
         f, span = head.fmmus, rest.span
         if not (f and f[0].log_end > lad and f[0].log_start < lad + n):  # FMMU 0 does not meet it
-            found = _part_access(caches, rest, key)
+            found = _part_access(caches, rest, key, cmd, lad, n)
         elif not (rest.fmmus and span[0] < lad + n and span[1] > lad):  # FMMU 0 alone does
             found = shared_access(caches, f, cmd, lad, n, head.span)
         else:  # joined once per pair of parts' accesses, whatever else differs
-            others = _part_access(caches, rest, key)
+            others = _part_access(caches, rest, key, cmd, lad, n)
             at = None if not others.hit or len(f) > 1 else moved_along(caches, f[0], cmd, lad, n)
             if not others.hit:  # the others' span meets it, but none of them does
                 found = shared_access(caches, f, cmd, lad, n, head.span)
@@ -962,10 +972,9 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
     return remember(plans, key, found, PLAN_CACHE_ENTRIES)
 
 
-def _part_access(caches: Caches, part: FmmuTable, key: tuple[int, int, int]) -> Access:
-    found = part.plans.get(key)
+def _part_access(caches: Caches, part: FmmuTable, key: int, cmd: int, lad: int, n: int) -> Access:
+    found = part.plans.get(key)  # (key: plans_key of the access)
     if found is None:
-        cmd, lad, n = key
         found = shared_access(caches, part.fmmus, cmd, lad, n, part.span)
         remember(part.plans, key, found, PLAN_CACHE_ENTRIES)
     return found
