@@ -856,8 +856,11 @@ class EcatChain:
         ored |= frame  # ored[p]: the data as ESC p leaves it
         tos = [to] * len(line) if isinstance(to, int) else to
         writes, changed = len(line), False
+        # the data as each ESC receives it, n bytes an ESC (one copy out of numpy, not a row's
+        # index and copy at each ESC)
+        arriving = frame.tobytes() + ored[:-1].tobytes()
         for p, dev in enumerate(line):
-            data = (frame if p == 0 else ored[p - 1]).tobytes()
+            data = arriving[p * n : (p + 1) * n]
             if tos[p] < REGISTER_END:
                 dev.pending.append((tos[p], data))
                 continue
