@@ -732,10 +732,12 @@ class EcatChain:
             return 0, False  # no byte, no register: no ESC reads or writes
         if cmd == BWR:
             if _plain_write(ado, end):
-                entry = (ado, bytes(buf[at : at + n]))
+                # the one (address, data) in a list, which each ESC's extends: compiled, a
+                # tuple appended is boxed anew at each ESC (a tuple is a C struct to mypyc)
+                entry = [(ado, bytes(buf[at : at + n]))]
                 due = latches(ado, n)
                 for dev in line:
-                    dev.pending.append(entry)
+                    dev.pending.extend(entry)
                     dev.latch_due = dev.latch_due or due
                 return reach, False
         elif cmd == BRD:
@@ -815,13 +817,13 @@ class EcatChain:
         reach = len(line)
         readers = [-adp & 0xFFFF] if cmd == ARMW else self._addressed(reach, adp)
         plain = _plain_read(ado, ado + n)
-        entry = (ado, bytes(buf[at : at + n]))
+        entry = [(ado, bytes(buf[at : at + n]))]  # (in a list, as _everyone's BWR has it)
         first, total, changed = 0, 0, False
         for p in readers:
             if p >= reach:
                 break
             for dev in line[first:p]:
-                dev.pending.append(entry)
+                dev.pending.extend(entry)
             total += p - first
             dev = line[p]
             if plain:
@@ -831,9 +833,9 @@ class EcatChain:
                 before = dev.irq
                 total += dev.process(cmd, 0 if cmd == ARMW else adp, ado, buf, at, n)[1]
                 changed = changed or dev.irq != before
-            entry, first = (ado, bytes(buf[at : at + n])), p + 1
+            entry, first = [(ado, bytes(buf[at : at + n]))], p + 1
         for dev in line[first:]:
-            dev.pending.append(entry)
+            dev.pending.extend(entry)
         return total + reach - first, changed
 
     def _read_write(

@@ -147,8 +147,9 @@ def _shadow_rows(
                 for dev in devices:
                     dev._write_shadow((entry,))
             else:  # what write_shadow does there: the entry among each ESC's shadow writes
+                one = [entry]  # (one object for all: compiled, a tuple appended is boxed anew)
                 for dev in devices:
-                    dev.pending.append(entry)
+                    dev.pending.extend(one)
         elif resets:
             for dev, row in zip(devices, written, strict=True):
                 dev._write_shadow(((a, row.tobytes()),))
