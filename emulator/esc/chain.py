@@ -51,14 +51,12 @@ from emulator.esc.commands import (
     EVERYONE,
     INCREMENTS,
     LOGICAL,
-    LRD,
 )
 from emulator.esc.dc import DcTimebase
 from emulator.esc.device import (
     LRD_OR_LRW,
     EscConfig,
     EscDevice,
-    FirstBuffer,
     SmRun,
     TraceCopy,
     commit_apart,
@@ -96,7 +94,6 @@ from emulator.esc.together import (
     TOGETHER_MIN,
     commit_together,
     finish_together,
-    last_readers,
     logical_together,
 )
 from emulator.slave.sii import SlaveInfo, SyncManagerType
@@ -551,11 +548,9 @@ class EcatChain:
         does not write, is one call (:meth:`EscDevice._read_buffered`); consecutive ESCs that
         map the datagram onto plain memory with one plan cut (:meth:`EscDevice._row_access`;
         idle mailboxes are holes in it, :meth:`EscDevice._row_cut`) are done at once over their
-        rows
-        (:func:`logical_together`), fewer than :data:`LOGICAL_TOGETHER_MIN` each on its own
+        rows (:func:`logical_together`), fewer than :data:`LOGICAL_TOGETHER_MIN` each on its own
         (:meth:`EscDevice._logical`: the per-ESC path, which the rows are proven equal to);
-        an LRD's consecutive plain ESCs, whatever their
-        plans, from the last back (:func:`last_readers`); those of them that read DC
+        those of them that read DC
         registers bring them up to the frame's time first (:meth:`EscDevice._refresh_dc`), and
         those that read DL or AL status clear its event afterwards
         (:meth:`EscDevice._clear_read_events`); any other ESC on its own, as
@@ -563,17 +558,14 @@ class EcatChain:
         """
         lad = adp | ado << 16
         wkc_inc, changed = 0, False
-        lrd = cmd == LRD  # its plain ESCs need not share a plan (last_readers)
         run: list[int] = []  # consecutive targets whose plan cut is run_plan, not done yet
         run_plan: LogicalPlan = _UNTOUCHED
         run_shadow: tuple[LogicalOp, ...] = ()  # and whose register writes (Access.shadow)
-        cuts: list[LogicalPlan] = []  # an LRD's: those of the run
         events: list[tuple[int, int]] = []  # (target, the events its reads clear) of the run
         clocks: list[tuple[int, tuple[tuple[int, int], ...]]] = []  # (target, DC registers read)
-        buffers: dict[int, tuple[int, bytes]] = {}  # an LRD's: whole buffers read (FirstBuffer)
 
         def plain() -> tuple[int, bool]:  # the run: over its rows when long enough
-            if not lrd and len(run) < LOGICAL_TOGETHER_MIN:  # else each ESC as on its own
+            if len(run) < LOGICAL_TOGETHER_MIN:  # else each ESC as on its own
                 inc, cleared = 0, False
                 for q in run:
                     dev = line[q]
@@ -583,13 +575,8 @@ class EcatChain:
                 return inc, cleared
             for q, registers in clocks:  # DC registers at the frame's time, then the reads
                 line[q]._refresh_dc(registers)
-            if lrd:
-                inc = last_readers([line[q] for q in run], cuts, buf, at, n, buffers)
-            else:
-                devices = [line[q] for q in run] if run_shadow else []
-                inc = logical_together(
-                    self.memory, run, run_plan, cmd, buf, at, n, run_shadow, devices
-                )
+            devices = [line[q] for q in run] if run_shadow else []
+            inc = logical_together(self.memory, run, run_plan, cmd, buf, at, n, run_shadow, devices)
             cleared = False  # then each ESC's reads of DL or AL status clear their events
             for q, bits in events:
                 cleared = line[q]._clear_read_events(bits) or cleared
@@ -621,41 +608,25 @@ class EcatChain:
                     cut = None
                 if cut == _UNTOUCHED:
                     continue  # it does nothing with the datagram's bytes
-                if (cut == run_plan and found.shadow == run_shadow) or (lrd and cut is not None):
+                if cut == run_plan and found.shadow == run_shadow:
                     run.append(p)
-                    if lrd:
-                        cuts.append(cut)
                     if found.events:
                         events.append((p, found.events))
                     if found.dc:
                         clocks.append((p, found.dc))
                     continue
-                if lrd and cut is None and found.rest is not None:
-                    read = dev._read_first_buffer(lad, n)
-                    if read is not None:  # its buffer read, in the run with its other parts
-                        buffers[len(run)] = read
-                        run.append(p)
-                        cuts.append(found.rest)
-                        continue
                 inc, cleared = plain()
                 wkc_inc, changed = wkc_inc + inc, changed or cleared
-                run, cuts, events, clocks = [], [], [], []  # the ESCs before this one are done
-                buffers = {}
+                run, events, clocks = [], [], []  # the ESCs before this one are done
             before = dev.irq
-            done = dev._logical_unless_rows(cmd, lad, buf, at, n, rest=lrd)
+            done = dev._logical_unless_rows(cmd, lad, buf, at, n)
             found = None
             if isinstance(done, int):
                 wkc_inc += done
                 changed = changed or dev.irq != before
-            elif isinstance(done, FirstBuffer):  # an LRD's run starts with a buffer read
-                assert done.access.rest is not None
-                run, run_plan, run_shadow = [p], done.access.rest, ()
-                cuts = [done.access.rest]
-                buffers = {0: (done.at, done.data)}
-                changed = changed or dev.irq != before
             else:  # a run starts, even one that does nothing: the next are asked _row_access
                 assert done.cut is not None  # and it holds here (row_cut)
-                run, run_plan, run_shadow, cuts = [p], done.cut, done.shadow, [done.cut]
+                run, run_plan, run_shadow = [p], done.cut, done.shadow
                 if done.events:
                     events.append((p, done.events))
                 if done.dc:

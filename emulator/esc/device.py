@@ -57,7 +57,7 @@ import warnings
 from collections.abc import Callable, Iterable, Sequence
 from dataclasses import dataclass
 from graphlib import CycleError, TopologicalSorter
-from typing import Final, NamedTuple
+from typing import Final
 
 import numpy as np
 import numpy.typing as npt
@@ -175,7 +175,6 @@ __all__ = [
     "REGISTER_END",
     "EscConfig",
     "EscDevice",
-    "FirstBuffer",
     "TraceCopy",
 ]
 
@@ -192,7 +191,6 @@ _RENAMED: Final = {
     "use_caches": "_use_caches",
     "finish_frame": "_finish_frame",
     "read_buffered": "_read_buffered",
-    "read_first_buffer": "_read_first_buffer",
     "row_access": "_row_access",
     "refresh_dc": "_refresh_dc",
     "row_cut": "_row_cut",
@@ -213,14 +211,14 @@ _RENAMED: Final = {
 }
 
 LRD_OR_LRW: Final = frozenset((LRD, LRW))  # the logical commands that read (read_buffered)
-_LRD_KEY_SHIFT: Final = 17  # _lrd_key: the length (a datagram's 11 bits) and the flag below
+_LRD_KEY_SHIFT: Final = 16  # _lrd_key: the length (a datagram's 11 bits) below
 
 
-def _lrd_key(lad: int, n: int, first: bool) -> int:
-    """The key of :attr:`EscDevice._lrd_plans` for an LRD of ``n`` bytes at ``lad`` (with
-    ``first``, by the first read FMMU alone): an int, which hashes faster than a tuple (every
-    ESC an LRD of the image reaches looks its plan up)."""
-    return lad << _LRD_KEY_SHIFT | n << 1 | first
+def _lrd_key(lad: int, n: int) -> int:
+    """The key of :attr:`EscDevice._lrd_plans` for an LRD of ``n`` bytes at ``lad``: an int,
+    which hashes faster than a tuple (every ESC an LRD of the image reaches looks its plan
+    up)."""
+    return lad << _LRD_KEY_SHIFT | n
 
 
 @dataclass(frozen=True, slots=True)
@@ -317,15 +315,6 @@ class _Unmade:
         self.fresh = fresh  # the indices of those that start anew (None: all of them)
         self.decoded = decoded  # the decoded table
         self.by_start = by_start  # the order by start (SmChange.by_start)
-
-
-class FirstBuffer(NamedTuple):
-    """An LRD's whole-buffer read by an ESC's first FMMU, done, whose other parts the chain
-    reads over the rows (:meth:`EscDevice._logical_unless_rows` with ``rest``)."""
-
-    access: Access  # with the other parts' cut, Access.rest
-    at: int  # the buffer's frame offset
-    data: bytes  # the bytes read
 
 
 def _buffer_written(status: int, mailbox: bool) -> int:
@@ -490,10 +479,9 @@ class EscDevice:
         # FMMU registers hold the same bytes, so that what follows from it is asked once
         self.fmmu_decoded = FmmuTable((), (0, 0))
         # LRDs that read one whole input buffer through one byte-wise FMMU (the process data
-        # of every cycle), or through the first of several (read_first_buffer): (frame offset,
-        # SyncManager, whether an FMMU writes there) per (address, length, first), or None
-        # where the general path decides; worked out per FMMU and SyncManager configuration
-        # by _lrd_key(address, length, first)
+        # of every cycle): (frame offset, SyncManager, whether an FMMU writes there) per
+        # (address, length), or None where the general path decides; worked out per FMMU and
+        # SyncManager configuration, by _lrd_key(address, length)
         self._lrd_plans: dict[int, tuple[int, SmRun, bool] | None] = {}
         # the decoded SyncManager table the ESC's SyncManagers follow (sm_table)
         self.sm_areas: SmTable = ()
@@ -1061,20 +1049,6 @@ class EscDevice:
         self._read_whole(found[1], buf, off + found[0])
         return True
 
-    def _read_first_buffer(self, lad: int, n: int) -> tuple[int, bytes] | None:
-        """An LRD of ``n`` bytes at ``lad`` whose first read FMMU maps onto exactly the whole
-        buffer of a read SyncManager (:meth:`_plan_lrd`), its other FMMUs' parts plain
-        (:attr:`Access.rest`, the chain's): that buffer read as :meth:`_read_buffered` reads it,
-        and (its frame offset, the bytes read); None, having done nothing, otherwise. The other
-        parts read no byte of the buffer (an area ECAT reads is not plain), so the order of the
-        reads does not matter."""
-        plan = None if self.dc_sampling else self._whole_plan(lad, n, first=True)
-        if plan is None:
-            return None
-        data = bytearray(plan[1].length)
-        self._read_whole(plan[1], data, 0)
-        return plan[0], bytes(data)
-
     def _read_whole(self, sm: SmRun, buf: bytearray, at: int) -> None:
         """:func:`read_buffers` at this ESC alone, its buffer exchange at the end of the frame
         (:meth:`_finish_frame`)."""
@@ -1148,23 +1122,16 @@ class EscDevice:
         return self.irq != before
 
     def _logical_unless_rows(
-        self, cmd: int, lad: int, buf: bytearray, off: int, n: int, *, rest: bool = False
-    ) -> int | Access | FirstBuffer:
+        self, cmd: int, lad: int, buf: bytearray, off: int, n: int
+    ) -> int | Access:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
         counter's increment; but when the chain may do it over the rows (:meth:`_row_access`),
-        that access, untouched, for the chain to do it together with the ESCs after this one;
-        with ``rest`` (an LRD), also when only the first FMMU's part is not plain, a whole
-        buffer read (:meth:`_read_first_buffer`): that read done, and the access with its
-        :attr:`Access.rest` for the chain (:class:`FirstBuffer`)."""
+        that access, untouched, for the chain to do it together with the ESCs after this one."""
         if cmd in LRD_OR_LRW and self._read_buffered(lad, buf, off, n, cmd):
             return 1
         found = self._access(cmd, lad, n)
         if self._row_cut(found) is not None:
             return found
-        if rest and found.rest is not None:
-            read = self._read_first_buffer(lad, n)
-            if read is not None:
-                return FirstBuffer(found, read[0], read[1])
         return self._through(found.plan, cmd, buf, off, n)
 
     def _write_shadow(self, entries: Iterable[tuple[int, bytes]]) -> None:
@@ -1228,18 +1195,15 @@ class EscDevice:
         return 1
 
     def _plan_lrd(self, key: int) -> tuple[int, SmRun, bool] | None:
-        """How an LRD of ``key`` = :func:`_lrd_key` (address, length, first) reads, when it is
+        """How an LRD of ``key`` = :func:`_lrd_key` (address, length) reads, when it is
         the common case the general path (:func:`plan_logical`, :meth:`_read_phys`,
-        :meth:`_sm_read`) would take one way: one read FMMU (with ``first``, the first of them, which claims its bytes
-        before the others, datasheet I 7), byte-wise, maps part of it onto exactly the whole
+        :meth:`_sm_read`) would take one way: one read FMMU, byte-wise, maps part of it onto exactly the whole
         buffer of a buffered read SyncManager in process memory, which no other SyncManager
         overlaps: the frame offset, the SyncManager, and whether a write FMMU meets it too (an
         LRW there is not that LRD)."""
-        lad, n, first = key >> _LRD_KEY_SHIFT, (key >> 1) & 0xFFFF, bool(key & 1)
+        lad, n = key >> _LRD_KEY_SHIFT, key & 0xFFFF
         plan: tuple[int, SmRun, bool] | None = None
         reads = [f for f in self._fmmus if f.reads and f.log_start < lad + n and f.log_end > lad]
-        if first:
-            reads = reads[:1]
         if len(reads) == 1 and reads[0].bytewise:
             log_start, log_end, phys = reads[0].log_start, reads[0].log_end, reads[0].phys
             lo, hi = max(lad, log_start), min(lad + n, log_end)
@@ -1259,12 +1223,10 @@ class EscDevice:
                 plan = (lo - lad, self._own(hit[0]), writes)  # whose state the reads change
         return remember(self._lrd_plans, key, plan, PLAN_CACHE_ENTRIES)
 
-    def _whole_plan(
-        self, lad: int, n: int, cmd: int = LRD, *, first: bool = False
-    ) -> tuple[int, SmRun] | None:
+    def _whole_plan(self, lad: int, n: int, cmd: int = LRD) -> tuple[int, SmRun] | None:
         """Whether an LRD (or an LRW, ``cmd``) of ``n`` bytes at ``lad`` is, at this ESC, its
-        common case, the whole buffer of one read SyncManager (:meth:`_plan_lrd`; with
-        ``first``, through its first read FMMU), which :func:`read_buffers` reads (here and
+        common case, the whole buffer of one read SyncManager (:meth:`_plan_lrd`), which
+        :func:`read_buffers` reads (here and
         over rows of ESCs): (the buffer's offset in the datagram's data, the SyncManager); else
         None. An LRW that no FMMU of this ESC writes is that LRD: it reads alike and counts 1
         (ETG.1000.4 Table 14, +1 for a read, +2 for a write). What holds while the FMMUs and
@@ -1272,7 +1234,7 @@ class EscDevice:
         whether the ESC samples its inputs at SYNC0 now (:attr:`dc_sampling`)."""
         if self.trace is not None:
             return None
-        key = _lrd_key(lad, n, first)
+        key = _lrd_key(lad, n)
         plan = self._lrd_plans.get(key)  # one look-up where a plan is known
         if plan is None and key not in self._lrd_plans:
             plan = self._plan_lrd(key)

@@ -470,9 +470,7 @@ class Access:
     (None: not plain, :func:`esc_row_access`), ``events``, those its register reads clear,
     ``mailboxes``, those that must be idle at an ESC for the cut to hold there, ``dc``, the
     registers each ESC brings up to the frame's time first, ``shadow``, the write parts whose
-    register bytes each ESC puts among its shadow writes (:func:`esc_row_access`); ``rest``,
-    for an LRD that is not plain only for its first FMMU's part (a buffer it reads) while the
-    others' parts are plain: those parts' cut without the frame bytes the first claims.
+    register bytes each ESC puts among its shadow writes (:func:`esc_row_access`).
 
     An access whose one FMMU lies wholly inside the datagram is that FMMU's access moved along
     the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
@@ -495,7 +493,6 @@ class Access:
         "lad",
         "mailboxes",
         "n",
-        "rest",
         "shadow",
         "top",
         "writes",
@@ -519,7 +516,6 @@ class Access:
         self.mailboxes: Mailboxes = ()
         self.dc: tuple[tuple[int, int], ...] = ()
         self.shadow: tuple[LogicalOp, ...] = ()
-        self.rest: LogicalPlan | None = None  # an LRD's other parts when the first reads a buffer
 
     @staticmethod
     def joined(first: Access, others: Access) -> Access:
@@ -593,20 +589,14 @@ class Access:
         if self.areas is areas and self.top == top and self.writes is writes:
             return
         self.areas, self.top, self.writes = areas, top, writes
-        if len(self.hit) > 1:  # (_apart and _apart_along set rest: compiled code trusts what
-            # mypy thinks of an attribute assigned here before a call that changes it)
+        if len(self.hit) > 1:
             moved_first, others = self._at, self._others
             if moved_first is not None and others is not None:  # joined_along (no lookups)
                 if self._apart_along(others, moved_first, areas, top, writes):
                     return
             elif self._apart(areas, top, writes):
                 return
-            if self.rest is not None:  # the first FMMU's part is not plain: nor the whole plan
-                self.cut, self.events, self.mailboxes = None, 0, ()
-                self.dc, self.shadow = (), ()
-                return
         else:
-            self.rest = None
             moved = self.moved()
             if moved is not None:
                 at, offset = moved
@@ -633,7 +623,6 @@ class Access:
         whose frame bytes the first does not claim (such a write counts in the working counter
         if the claims leave any of it, though it writes no byte); False leaves it to the whole
         plan."""
-        self.rest = None
         cmd, lad, n = self.cmd, self.lad, self.n
         others = self._others
         if others is None:
@@ -682,7 +671,6 @@ class Access:
         cut, the moved access's, their checks) is worked out once and kept with the others'
         access for the tables last asked (:func:`_along_common`); each ESC moves the first's
         part along and takes its claims from the others'."""
-        self.rest = None
         moved, offset = at
         found = others._along
         if not (
@@ -692,17 +680,11 @@ class Access:
             and found.top == top
             and found.writes is writes
         ):
-            common, along_rest = _along_common(others, moved, areas, top, writes)
-            found = _Along(moved, areas, top, writes, common, along_rest)
+            common = _along_common(others, moved, areas, top, writes)
+            found = _Along(moved, areas, top, writes, common)
             others._along = found
         common = found.common
         if common is None:
-            rest = found.rest
-            f = self.hit[0]
-            if rest is not None and f.reads:  # an LRD: the first reads a buffer, the others plain
-                lo = max(self.lad, f.log_start) - self.lad
-                hi = min(self.lad + self.n, f.log_end) - self.lad
-                self.rest = (unclaimed(rest, lo, hi, False), ())
             return False
         first_cut, shadow, effects, others_cut, register_writes, spans = common
         return self._claimed(
@@ -774,35 +756,29 @@ class _Along(NamedTuple):
     top: int
     writes: WritesInert
     common: _AlongCommon | None
-    rest: tuple[LogicalOp, ...] | None
 
 
 def _along_common(
     others: Access, moved: Access, areas: SmTable, top: int, writes: WritesInert
-) -> tuple[_AlongCommon | None, tuple[LogicalOp, ...] | None]:
+) -> _AlongCommon | None:
     """What :meth:`Access._apart_along` shares among the ESCs whose first FMMU's access is
     ``moved`` (moved along) and whose others' is ``others``, at SyncManager ``areas``, memory
     ``top`` and register write plans ``writes``; None where :meth:`Access._apart` leaves it to
     the whole plan (the others not plain, clearing events, reading DC registers or writing
-    registers to the shadow; the first not plain, or clearing an event the others may read).
-    Second, for an LRD whose first part is not plain (it reads a buffer, say) while the others
-    are plain, without mailboxes: the others' read parts (:attr:`Access.rest`); else None."""
+    registers to the shadow; the first not plain, or clearing an event the others may read)."""
     reads_registers, writes_registers = others.registers
     others.rows(areas, top, writes)
     if others.cut is None or others.events or others.dc or others.shadow:
-        return None, None
+        return None
     moved.rows(areas, top, writes)
-    if moved.cut is None:
-        plain_rest = moved.cmd == LRD and not others.mailboxes
-        return None, others.cut[0] if plain_rest else None
-    if moved.events and reads_registers:
-        return None, None
+    if moved.cut is None or (moved.events and reads_registers):
+        return None
     effects = (moved.events, moved.dc, _merged(moved.mailboxes, others.mailboxes))
     register_writes = others.plan[1] if writes_registers else ()
     reads, writes_ = others.cut
     # the register writes need not be in the writes' span: the cut may have left them out
     spans = _frame_span(reads), _frame_span(writes_ + register_writes)
-    return (moved.cut, moved.shadow, effects, others.cut, register_writes, spans), None
+    return moved.cut, moved.shadow, effects, others.cut, register_writes, spans
 
 
 def _merged(first: Mailboxes, others: Mailboxes) -> Mailboxes:

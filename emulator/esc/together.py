@@ -16,7 +16,7 @@ among each ESC's shadow writes.)
 
 from __future__ import annotations
 
-from collections.abc import Mapping, Sequence
+from collections.abc import Sequence
 from typing import Final
 
 import numpy as np
@@ -49,7 +49,6 @@ __all__ = [
     "TOGETHER_MIN",
     "commit_together",
     "finish_together",
-    "last_readers",
     "logical_together",
 ]
 
@@ -202,62 +201,3 @@ def _shifted(data: npt.NDArray[np.uint8], shift: int, width: int) -> npt.NDArray
 def _mask(bits: int, width: int) -> npt.NDArray[np.uint8]:
     """An integer mask as ``width`` little-endian bytes."""
     return np.frombuffer(bits.to_bytes(width, "little"), np.uint8)
-
-
-def last_readers(
-    devices: Sequence[EscDevice],
-    plans: Sequence[LogicalPlan],
-    buf: bytearray,
-    off: int,
-    n: int,
-    buffers: Mapping[int, tuple[int, bytes]] | None = None,
-) -> int:
-    """An LRD (data ``buf[off:off+n]``, in place) through consecutive ESCs ``devices``, each
-    of which maps it onto plain memory by its own plan cut (``plans``,
-    :attr:`emulator.esc.mapping.Access.cut`), as each in turn would do it: the working
-    counter's increment.
-
-    An ESC's reads replace their bits of the frame and nothing else happens, so a bit leaves
-    with the value of the last ESC that reads it. The ESCs are worked from the last back, each
-    reading only the bits no later ESC reads: once every bit is read, the ESCs before count
-    in the working counter and read nothing, whatever their FMMUs ask for. The work per part
-    is bounded by the frame bytes it maps (the bits still unread are kept per frame byte).
-    ``buffers``, by index into ``devices``: the whole buffer an ESC's first FMMU read (its frame
-    offset and bytes, :meth:`EscDevice._read_first_buffer`), one more part of its reads, apart
-    from those of its plan (the first FMMU claimed those bytes from the others)."""
-    unread = (1 << 8 * n) - 1  # the frame bits no later ESC reads (bit 8 i + k: byte i, bit k)
-    wkc = 0
-    last = len(devices) - 1
-    for k, (dev, plan) in enumerate(zip(reversed(devices), reversed(plans), strict=True)):
-        reads = plan[0]  # the plan with the holes cut: each part reads a byte
-        read = buffers.get(last - k) if buffers else None
-        if not reads and read is None:
-            continue
-        wkc += 1
-        if not unread:  # nothing left to read: it only counts
-            continue
-        if read is not None:
-            at, data = read
-            new = (unread >> 8 * at) & ((1 << 8 * len(data)) - 1)  # what no later ESC reads
-            if new:
-                _merge(buf, off + at, len(data), new, int.from_bytes(data, "little"))
-                unread ^= new << 8 * at
-        mem = dev.mem
-        for bytewise, phys, size, shift, bits, at, width in reads:
-            mask = (1 << 8 * width) - 1 if bytewise else bits
-            new = unread >> 8 * at & mask  # what this part reads that no later ESC does
-            if not new:
-                continue
-            value = int.from_bytes(mem[phys : phys + size], "little")
-            if not bytewise:
-                value = value >> shift if shift >= 0 else value << -shift
-            _merge(buf, off + at, width, new, value)
-            unread ^= new << 8 * at
-    return wkc
-
-
-def _merge(buf: bytearray, at: int, width: int, bits: int, value: int) -> None:
-    """The ``width`` bytes of ``buf`` at ``at``, as a little-endian integer, take ``value``'s
-    bits where ``bits`` has them."""
-    frame = int.from_bytes(buf[at : at + width], "little")
-    buf[at : at + width] = ((frame & ~bits) | (value & bits)).to_bytes(width, "little")

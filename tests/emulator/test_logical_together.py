@@ -394,18 +394,18 @@ def write_fmmu(lad: int, phys: int, n: int) -> bytes:
 def test_reads_of_al_status_clear_its_event_over_the_rows(
     monkeypatch: pytest.MonkeyPatch,
 ) -> None:
-    """An FMMU onto AL status (0x0130) at every ESC: an LRD of it is done from the last ESC back
-    (last_readers) and returns the last ESC's AL status, OP (0x08); every ESC has read it,
-    so every ESC's AL status event (0x0210 bit 3) is cleared and its DL status event (bit 2)
-    is not (datasheet I Table 3)."""
+    """An FMMU onto AL status (0x0130) at every ESC: an LRD of it is done over the rows of all
+    of them (logical_together) and returns the last ESC's AL status, OP (0x08); every ESC has
+    read it, so every ESC's AL status event (0x0210 bit 3) is cleared and its DL status event
+    (bit 2) is not (datasheet I Table 3)."""
     runs: list[int] = []
-    shortcut = together.last_readers
+    shortcut = together.logical_together
 
-    def counted(devices, plans, buf, off, n, buffers=None):  # type: ignore[no-untyped-def]
-        runs.append(len(devices))
-        return shortcut(devices, plans, buf, off, n, buffers)
+    def counted(memory, rows, *args):  # type: ignore[no-untyped-def]
+        runs.append(len(rows))
+        return shortcut(memory, rows, *args)
 
-    monkeypatch.setattr("emulator.esc.chain.last_readers", counted)
+    monkeypatch.setattr("emulator.esc.chain.logical_together", counted)
     chain = line(EcatChain)
     chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3
     raise_events(chain)
