@@ -91,11 +91,15 @@ class LogicalOp(NamedTuple):
 
 LogicalPlan = tuple[tuple[LogicalOp, ...], tuple[LogicalOp, ...]]  # reads, writes
 
+# a NamedTuple made by calling its class runs the class's __new__ as Python, compiled too (some
+# 3,000 instructions); tuple.__new__ of the class and the fields makes the same object natively
+_new: Final = tuple.__new__
+
 
 def byte_op(phys: int, at: int, n: int) -> LogicalOp:
     """The byte-wise part that maps physical bytes [phys, phys + n) onto frame bytes
     [at, at + n)."""
-    return LogicalOp(True, phys, n, 0, 0, at, n)
+    return _new(LogicalOp, (True, phys, n, 0, 0, at, n))
 
 
 # the accesses through an FMMU table by command, logical address and length, in one int
@@ -425,7 +429,9 @@ def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Logical
                 shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
                 bits = (1 << (b1 - b0 + 1)) - 1
                 mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
-                ops.append(LogicalOp(False, first, last - first + 1, shift, mask, at, end - at + 1))
+                ops.append(
+                    _new(LogicalOp, (False, first, last - first + 1, shift, mask, at, end - at + 1))
+                )
     return tuple(plan[0]), tuple(plan[1])
 
 
@@ -661,7 +667,7 @@ def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tupl
             x, y = max(0, x + shift), max(0, y + shift)  # physical bits from phys
         left = mask & ~(((1 << (y - x)) - 1) << x) if y > x else mask
         if left:
-            out.append(LogicalOp(False, phys, size, shift, left, at, width))
+            out.append(_new(LogicalOp, (False, phys, size, shift, left, at, width)))
     return tuple(out)
 
 
@@ -835,10 +841,10 @@ def esc_row_access(
             if hi > top and hi > REGISTER_END:
                 holes += ((max(top, REGISTER_END), hi),)
             if holes:
-                found.append(PartHoles(side, k, holes))
+                found.append(_new(PartHoles, (side, k, holes)))
     every: Holes = tuple(found)
-    plain = PlainAccess(plan, every, cut(plan, every))
-    return RowAccess(plain, events, tuple(idle), dc, tuple(shadow))
+    plain = _new(PlainAccess, (plan, every, cut(plan, every)))
+    return _new(RowAccess, (plain, events, tuple(idle), dc, tuple(shadow)))
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
@@ -884,7 +890,11 @@ def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> lis
     else:  # a mask of frame bits: the valid physical bits where they lie in the frame bytes
         moved = valid >> shift if shift >= 0 else valid << -shift
         mask = (mask >> 8 * skip) & moved & ((1 << 8 * width) - 1)
-    return [LogicalOp(False, first, end - first, shift, mask, at + skip, width)] if mask else []
+    return (
+        [_new(LogicalOp, (False, first, end - first, shift, mask, at + skip, width))]
+        if mask
+        else []
+    )
 
 
 def _outside(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:
