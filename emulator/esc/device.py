@@ -24,7 +24,8 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
 * the SII EEPROM interface 0x0500-0x050F (datasheet I 11.2, II 2.11): ECAT/PDI ownership,
   read (8 bytes), write (one word, write enable in the same frame), reload, the error bits, and
   the configuration area A loaded at power-on with its CRC checked (else process memory stays
-  inaccessible and DL status bit 0 clear);
+  inaccessible and DL status bit 0 clear): the commands and the load in
+  :mod:`emulator.esc.eeprom`, over rows, each ESC with its own EEPROM image;
 * DL control loop settings and DL status (datasheet I 3.1, II 2.4), ECAT event request
   0x0210 ORed into each datagram's IRQ field through the mask 0x0200 (datasheet I Table 3),
   and the ESC reset sequence 'R','E','S' in 0x0040.
@@ -79,6 +80,20 @@ from emulator.esc.commands import (
     LWR,
 )
 from emulator.esc.dc import DcClock, configure_together, registers_power_on
+from emulator.esc.eeprom import (  # the first three moved there, their old names kept here
+    config_area as config_area,
+)
+from emulator.esc.eeprom import (
+    config_writes as config_writes,
+)
+from emulator.esc.eeprom import (
+    eeprom_read as eeprom_read,
+)
+from emulator.esc.eeprom import (
+    execute_commands,
+    power_on_interface,
+)
+from emulator.esc.eeprom import load_config_areas as _load
 from emulator.esc.mapping import (
     PLAN_CACHE_ENTRIES,
     Access,
@@ -104,16 +119,6 @@ from emulator.esc.registers import (
     DL_PORT1_CLOSED,
     DL_PORT1_LINK,
     DL_PORTS_2_3_CLOSED,
-    EE_ACK_ERROR,
-    EE_CHECKSUM_ERROR,
-    EE_CMD_READ,
-    EE_CMD_RELOAD,
-    EE_CMD_WRITE,
-    EE_NOT_LOADED,
-    EE_READ_8_BYTES,
-    EE_TWO_ADDRESS_BYTES,
-    EE_WRITE_ENABLE,
-    EE_WRITE_ENABLE_ERROR,
     EVENT_AL_STATUS,
     EVENT_DL_STATUS,
     PROCESS_RAM,
@@ -122,15 +127,11 @@ from emulator.esc.registers import (
     REG_AL_STATUS,
     REG_ALIAS,
     REG_DC_ACTIVATION,
-    REG_DC_PULSE_LENGTH,
     REG_DC_RECEIVE,
     REG_DL_CONTROL,
     REG_DL_STATUS,
     REG_ECAT_EVENT,
     REG_ECAT_EVENT_MASK,
-    REG_EEPROM_ADDRESS,
-    REG_EEPROM_CONTROL,
-    REG_EEPROM_DATA,
     REG_FMMU,
     REG_PDI_CONTROL,
     REG_PU_ERRORS,
@@ -166,7 +167,7 @@ from emulator.esc.write_plans import (
     write_masked,
     write_special,
 )
-from emulator.slave.sii import CHECKSUM_BYPASS, SlaveInfo, build_sii, crc8
+from emulator.slave.sii import SlaveInfo, build_sii
 from emulator.slave.state_machine import PdiApplication, SkinPatchApplication
 
 __all__ = [
@@ -344,39 +345,6 @@ def port1_forwarding(setting: int, link: bool) -> bool | None:
     if setting == 0x02:  # open, whatever the link
         return True if link else None
     return link  # auto, auto close: open with a link
-
-
-def eeprom_read(image: bytearray, word: int) -> bytearray | None:
-    """The 8 bytes a read command at word address ``word`` brings from the EEPROM ``image``
-    to 0x0508 (datasheet I 11.2.3; a sequential read wraps around the EEPROM's end), or None
-    beyond its size, where no EEPROM answers."""
-    start = 2 * word
-    if start >= len(image):
-        return None
-    return (image[start : start + 8] + image[: max(0, start + 8 - len(image))])[:8]
-
-
-def config_area(image: bytes | bytearray) -> tuple[int, ...] | None:
-    """The ESC configuration area A of an SII image, words 0-7 (datasheet I 11.1, Table 42),
-    or None when its checksum (word 7, CRC-8 of words 0-6, unless the bypass value) is wrong."""
-    words = struct.unpack_from("<8H", image)
-    if words[7] == CHECKSUM_BYPASS or words[7] & 0xFF == crc8(bytes(image[:14])):
-        return words
-    return None
-
-
-def config_writes(words: tuple[int, ...]) -> tuple[tuple[int, bytes], ...]:
-    """What a load of configuration area A (``words``, :func:`config_area`) writes whatever the
-    registers held: PDI control 0x0140, ESC configuration A5/A6 at 0x0142, PDI configuration
-    A1/A3 at 0x0150 and the SYNC pulse length A2 at 0x0982 (datasheet I 11.1, Table 42; II
-    0x0982: "reset value from EEPROM word 2"); the ESC configuration byte 0x0141 keeps its link
-    detection bits after the first load (the caller's)."""
-    return (
-        (REG_PDI_CONTROL, bytes((words[0] & 0xFF,))),
-        (0x0142, struct.pack("<HB", words[5], words[6] & 0xFF)),
-        (0x0150, struct.pack("<HH", words[1], words[3])),
-        (REG_DC_PULSE_LENGTH, struct.pack("<H", words[2])),
-    )
 
 
 class EscDevice:
@@ -1707,98 +1675,25 @@ def _eeprom_commands(
     rows: _Rows,
     which: npt.NDArray[np.intp],
 ) -> None:
-    """Execute the command written to 0x0502 bits 8-10 at ``devices[i]`` for ``i`` in ``which``
-    (ECAT owns the interface there and wrote 0x0502; datasheet I 11.2.3): the command bits and
-    write enable self-clear, no command clears the error bits, an invalid one sets the
-    acknowledge error; a read, a write or a reload at each ESC, which has its EEPROM."""
+    """The commands ECAT wrote to 0x0502 at ``devices[i]`` for ``i`` in ``which``
+    (:func:`emulator.esc.eeprom.execute_commands`, each with its EEPROM); where one reloaded
+    configuration area A, PDI operational follows the load (datasheet I 11.2.1) and with it DL
+    status, and a PDI that came up starts its firmware."""
     at = rows[which]
-    control = memory[at, REG_EEPROM_CONTROL].astype(np.int64)
-    control |= memory[at, REG_EEPROM_CONTROL + 1].astype(np.int64) << 8
-    command = (control >> 8) & 0x07
-    status = control & ~(0x0700 | EE_WRITE_ENABLE)
-    nothing = command == 0
-    read, write = command == EE_CMD_READ, command == EE_CMD_WRITE
-    reload = command == EE_CMD_RELOAD
-    status = np.where(nothing, status & ~(EE_ACK_ERROR | EE_WRITE_ENABLE_ERROR), status)
-    status = np.where(nothing | read | write | reload, status, status | EE_ACK_ERROR)
-    if read.any():
-        status[read] = _reads(devices, memory, at[read], which[read].tolist(), status[read])
-    if write.any():
-        status[write] = _writes(
-            devices, memory, at[write], which[write].tolist(), status[write], control[write]
-        )
-    memory[at, REG_EEPROM_CONTROL] = status & 0xFF
-    memory[at, REG_EEPROM_CONTROL + 1] = status >> 8
-    if reload.any():  # configuration area A again; PDI operational follows it (I 11.2.1)
-        again = [devices[i] for i in which[reload].tolist()]
-        running = [dev.pdi_operational for dev in again]
-        load_config_areas(again, memory, at[reload], first=False)
-        _dl_status(again, memory, at[reload])
-        for dev, before in zip(again, running, strict=True):
-            if dev.pdi_operational and not before:  # the PDI came up: the firmware starts
-                dev.al_control_full = False  # and reads AL control (II 0x0120)
-                dev.app.power_on(dev)
-        _event_requests(again, memory, at[reload])
-
-
-def _writes(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    which: list[int],
-    status: npt.NDArray[np.int64],
-    control: npt.NDArray[np.int64],
-) -> npt.NDArray[np.int64]:
-    """The write command at ``devices[i]`` for ``i`` in ``which`` (memory ``rows``, EEPROM
-    control as written ``control``, with the command cleared ``status``): the word at 0x0508
-    into each ESC's EEPROM at the word address 0x0504, with write enable set in the same
-    frame, else the write enable error; beyond the EEPROM the acknowledge error (datasheet I
-    11.2.3). The status is returned."""
-    address = memory[rows, REG_EEPROM_ADDRESS : REG_EEPROM_ADDRESS + 4].copy().view("<u4")
-    data = memory[rows, REG_EEPROM_DATA : REG_EEPROM_DATA + 2]
-    status = status.copy()
-    enabled = (control & EE_WRITE_ENABLE) != 0
-    status[~enabled] |= EE_WRITE_ENABLE_ERROR
-    for k, (i, word) in enumerate(zip(which, address[:, 0].tolist(), strict=True)):
-        sii = devices[i].sii
-        if not enabled[k]:
-            continue
-        if word >= len(sii) // 2:
-            status[k] |= EE_ACK_ERROR
-        else:
-            sii[2 * word : 2 * word + 2] = data[k].tobytes()
-    return status
-
-
-def _reads(
-    devices: Sequence[EscDevice],
-    memory: npt.NDArray[np.uint8],
-    rows: _Rows,
-    which: list[int],
-    status: npt.NDArray[np.int64],
-) -> npt.NDArray[np.int64]:
-    """The read command of :func:`_eeprom_commands` at ``devices[i]`` for ``i`` in
-    ``which`` (memory ``rows``, EEPROM control and status with the command cleared
-    ``status``): 8 bytes from the word address 0x0504 into 0x0508 (a sequential read wraps
-    around the EEPROM's end), or the acknowledge error at an address beyond it (datasheet I
-    11.2.3); each ESC's bytes from its own EEPROM, into the rows at once. The status is
-    returned."""
-    address = memory[rows, REG_EEPROM_ADDRESS : REG_EEPROM_ADDRESS + 4].copy().view("<u4")
-    read: list[bytearray] = []
-    beyond: list[int] = []  # no EEPROM answers beyond its size
-    for k, (i, word) in enumerate(zip(which, address[:, 0].tolist(), strict=True)):
-        got = eeprom_read(devices[i].sii, word)
-        if got is None:
-            beyond.append(k)
-        else:
-            read.append(got)
-    if beyond:
-        status = status.copy()
-        status[beyond] |= EE_ACK_ERROR
-        rows = np.delete(rows, beyond)
-    data = np.frombuffer(b"".join(read), np.uint8).reshape(len(read), 8)
-    memory[rows, REG_EEPROM_DATA : REG_EEPROM_DATA + 8] = data
-    return status
+    chosen = which.tolist()
+    reload, good = execute_commands([devices[i].sii for i in chosen], memory, at)
+    if not good:
+        return
+    again = [devices[i] for i in which[reload].tolist()]
+    running = [dev.pdi_operational for dev in again]
+    for dev, loaded in zip(again, good, strict=True):
+        dev.pdi_operational = loaded
+    _dl_status(again, memory, at[reload])
+    for dev, before in zip(again, running, strict=True):
+        if dev.pdi_operational and not before:  # the PDI came up: the firmware starts
+            dev.al_control_full = False  # and reads AL control (II 0x0120)
+            dev.app.power_on(dev)
+    _event_requests(again, memory, at[reload])
 
 
 def power_on_together(devices: Sequence[EscDevice]) -> None:
@@ -1832,13 +1727,7 @@ def power_on_together(devices: Sequence[EscDevice]) -> None:
             memory[at, REG_SM + 5 : REG_SM + SM_BYTES * cfg.syncmanagers : SM_BYTES] = SM_NO_BUFFER
         for addr, value in _RESET_VALUES:
             memory[every, addr : addr + len(value)] = np.frombuffer(value, np.uint8)
-        kibit = [struct.unpack_from("<H", dev.sii, 2 * 0x3E)[0] + 1 for dev in members]
-        status = EE_READ_8_BYTES | EE_NOT_LOADED
-        big = np.array([k > 16 for k in kibit], np.bool_)
-        memory[rows, REG_EEPROM_CONTROL] = status & 0xFF
-        memory[rows, REG_EEPROM_CONTROL + 1] = np.where(
-            big, (status | EE_TWO_ADDRESS_BYTES) >> 8, status >> 8
-        )
+        power_on_interface([dev.sii for dev in members], memory, rows)
         for dev in members:
             dev._reset_state()
         registers_power_on(memory, every)
@@ -1872,39 +1761,13 @@ def load_config_areas(
     *,
     first: bool,
 ) -> None:
-    """Load ESC configuration area A (SII words 0-7, :func:`config_area`) into the registers of
-    ``devices``, whose memory is ``memory[rows]``: at power-on (``first``) and on a reload
-    command (datasheet I 11.1, Table 42; II 0x0502 command 4), over the rows of the ESCs whose
-    words 0-7 are alike. The EEPROM status shows the checksum's verdict, and "PDI operational"
-    (DL status bit 0, access to process RAM, I 11.2.1) follows it, a good load bringing both
-    back and a bad one taking them away; the enhanced link detection bits of 0x0141 and, after
-    the first load, the station alias 0x0012 and DL control bit 0 keep their values."""
-    alike: dict[bytes, list[int]] = {}
-    for k, dev in enumerate(devices):
-        alike.setdefault(bytes(dev.sii[:16]), []).append(k)
-    for head, ks in alike.items():
-        at = rows[ks]
-        status = memory[at, REG_EEPROM_CONTROL].astype(np.int64)
-        status |= memory[at, REG_EEPROM_CONTROL + 1].astype(np.int64) << 8
-        words = config_area(head)
-        if words is None:
-            status |= EE_CHECKSUM_ERROR | EE_NOT_LOADED
-        else:
-            status &= ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
-            kept = memory[at, REG_PDI_CONTROL + 1] & 0xF2  # link detection: first load only
-            for addr, data in config_writes(words):
-                memory[at, addr : addr + len(data)] = np.frombuffer(data, np.uint8)
-            esc_config = (words[0] >> 8) & 0xFF
-            memory[at, REG_PDI_CONTROL + 1] = esc_config if first else kept | (esc_config & ~0xF2)
-            if first:
-                memory[at, REG_ALIAS] = words[4] & 0xFF
-                memory[at, REG_ALIAS + 1] = words[4] >> 8
-                if words[6] & 0x0002:  # A6[1]: default of DL control bit 0 is 0
-                    memory[at, REG_DL_CONTROL] &= 0xFE
-        memory[at, REG_EEPROM_CONTROL] = status & 0xFF
-        memory[at, REG_EEPROM_CONTROL + 1] = status >> 8
-        for k in ks:
-            devices[k].pdi_operational = words is not None
+    """Load ESC configuration area A into the registers of ``devices``, whose memory is
+    ``memory[rows]``, each from its own EEPROM (:func:`emulator.esc.eeprom.load_config_areas`):
+    "PDI operational" (DL status bit 0, access to process RAM, datasheet I 11.2.1) follows the
+    load, a good one bringing it back and a bad one taking it away."""
+    loaded = _load([dev.sii for dev in devices], memory, rows, first=first)
+    for dev, good in zip(devices, loaded, strict=True):
+        dev.pdi_operational = good
 
 
 _EVENT_WORD: Final = (REG_ECAT_EVENT - REG_ECAT_EVENT_MASK) // 2  # (0x0210 - 0x0200) / 2

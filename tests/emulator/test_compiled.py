@@ -168,7 +168,9 @@ def test_the_build_says_in_one_line_why_the_escs_run_as_python(
     monkeypatch.setattr(compiled, "build", failing)
     assert compiled.main() == 1
     said = capsys.readouterr().out.splitlines()
-    assert said[0].startswith("compiling chain, commands, device, mapping, together, write_plans")
+    assert said[0].startswith(
+        "compiling chain, commands, device, eeprom, mapping, together, write_plans"
+    )
     assert said[1].endswith("warning: Treating generator comprehension as list")  # mypyc's
     assert said[2:] == [
         "emulator.esc.compiled: not compiled (SystemExit: error: command '/bin/false' failed "
