@@ -94,14 +94,24 @@ class LogicalOp(NamedTuple):
 LogicalPlan = tuple[tuple[LogicalOp, ...], tuple[LogicalOp, ...]]  # reads, writes
 
 # a NamedTuple made by calling its class runs the class's __new__ as Python, compiled too (some
-# 3,000 instructions); tuple.__new__ of the class and the fields makes the same object natively
+# 3,000 instructions); tuple.__new__ of the class and the fields makes the same object natively.
+# Each record has one typed function that makes it so (:func:`_op`, :func:`_part_holes`,
+# :func:`_plain_access`, :func:`_row_access`): mypy checks the fields there, and a test that
+# each gives what the class gives of the same fields
 _new: Final = tuple.__new__
+
+
+def _op(
+    bytewise: bool, phys: int, size: int, shift: int, mask: int, at: int, width: int
+) -> LogicalOp:
+    """``LogicalOp(bytewise, phys, size, shift, mask, at, width)``, made natively."""
+    return _new(LogicalOp, (bytewise, phys, size, shift, mask, at, width))
 
 
 def byte_op(phys: int, at: int, n: int) -> LogicalOp:
     """The byte-wise part that maps physical bytes [phys, phys + n) onto frame bytes
     [at, at + n)."""
-    return _new(LogicalOp, (True, phys, n, 0, 0, at, n))
+    return _op(True, phys, n, 0, 0, at, n)
 
 
 # the accesses through an FMMU table by command, logical address and length, in one int
@@ -433,9 +443,7 @@ def plan_logical(fmmus: tuple[Fmmu, ...], cmd: int, lad: int, n: int) -> Logical
                 shift = (p0 - first * 8) - (b0 - lad * 8 - at * 8)  # physical bit - frame bit
                 bits = (1 << (b1 - b0 + 1)) - 1
                 mask = bits << (p0 - first * 8) if write else bits << (b0 - lad * 8 - at * 8)
-                ops.append(
-                    _new(LogicalOp, (False, first, last - first + 1, shift, mask, at, end - at + 1))
-                )
+                ops.append(_op(False, first, last - first + 1, shift, mask, at, end - at + 1))
     return tuple(plan[0]), tuple(plan[1])
 
 
@@ -450,12 +458,22 @@ class PartHoles(NamedTuple):
 Holes = tuple[PartHoles, ...]  # in plan order
 
 
+def _part_holes(side: int, part: int, holes: tuple[tuple[int, int], ...]) -> PartHoles:
+    """``PartHoles(side, part, holes)``, made natively (:data:`_new`)."""
+    return _new(PartHoles, (side, part, holes))
+
+
 class PlainAccess(NamedTuple):
     """A logical access that is all plain memory (:func:`esc_row_access`)."""
 
     plan: LogicalPlan
     holes: Holes  # where it does nothing
     cut: LogicalPlan  # the plan without the holes (:func:`cut`)
+
+
+def _plain_access(plan: LogicalPlan, holes: Holes, cut: LogicalPlan) -> PlainAccess:
+    """``PlainAccess(plan, holes, cut)``, made natively (:data:`_new`)."""
+    return _new(PlainAccess, (plan, holes, cut))
 
 
 class WritesInert(Protocol):
@@ -840,7 +858,7 @@ def _along(ops: tuple[LogicalOp, ...], offset: int) -> tuple[LogicalOp, ...]:
         return ops
     return tuple(
         [
-            _new(LogicalOp, (bytewise, phys, size, shift, mask, at + offset, width))
+            _op(bytewise, phys, size, shift, mask, at + offset, width)
             for bytewise, phys, size, shift, mask, at, width in ops
         ]
     )
@@ -876,7 +894,7 @@ def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tupl
             x, y = max(0, x + shift), max(0, y + shift)  # physical bits from phys
         left = mask & ~(((1 << (y - x)) - 1) << x) if y > x else mask
         if left:
-            out.append(_new(LogicalOp, (False, phys, size, shift, left, at, width)))
+            out.append(_op(False, phys, size, shift, left, at, width))
     return tuple(out)
 
 
@@ -973,6 +991,17 @@ class RowAccess(NamedTuple):
     shadow: tuple[LogicalOp, ...]  # its write parts that write registers (their shadow)
 
 
+def _row_access(
+    plain: PlainAccess,
+    events: int,
+    mailboxes: Mailboxes,
+    dc: tuple[tuple[int, int], ...],
+    shadow: tuple[LogicalOp, ...],
+) -> RowAccess:
+    """``RowAccess(plain, events, mailboxes, dc, shadow)``, made natively (:data:`_new`)."""
+    return _new(RowAccess, (plain, events, mailboxes, dc, shadow))
+
+
 def esc_row_access(
     plan: LogicalPlan, areas: SmTable, top: int, inert: Callable[[int, int], bool] | None = None
 ) -> RowAccess | None:
@@ -1057,10 +1086,10 @@ def esc_row_access(
             if hi > top and hi > REGISTER_END:
                 holes += ((max(top, REGISTER_END), hi),)
             if holes:
-                found.append(_new(PartHoles, (side, k, holes)))
+                found.append(_part_holes(side, k, holes))
     every: Holes = tuple(found)
-    plain = _new(PlainAccess, (plan, every, cut(plan, every)))
-    return _new(RowAccess, (plain, events, tuple(idle), dc, tuple(shadow)))
+    plain = _plain_access(plan, every, cut(plan, every))
+    return _row_access(plain, events, tuple(idle), dc, tuple(shadow))
 
 
 def cut(plan: LogicalPlan, holes: Holes) -> LogicalPlan:
@@ -1106,11 +1135,7 @@ def without(op: LogicalOp, holes: Sequence[tuple[int, int]], write: bool) -> lis
     else:  # a mask of frame bits: the valid physical bits where they lie in the frame bytes
         moved = valid >> shift if shift >= 0 else valid << -shift
         mask = (mask >> 8 * skip) & moved & ((1 << 8 * width) - 1)
-    return (
-        [_new(LogicalOp, (False, first, end - first, shift, mask, at + skip, width))]
-        if mask
-        else []
-    )
+    return [_op(False, first, end - first, shift, mask, at + skip, width)] if mask else []
 
 
 def _outside(op: LogicalOp, holes: Sequence[tuple[int, int]]) -> list[tuple[int, int]]:

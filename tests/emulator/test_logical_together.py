@@ -1655,3 +1655,23 @@ def test_an_fprw_at_many_escs_writes_what_the_esc_before_read(kind: type[EcatCha
     assert (got.data, got.wkc) == (bytes(2), 33)
     dividers = [bytes(chain.memory[p, 0x0400:0x0402]) for p in range(NODES)]
     assert dividers == [b"\x34\x12", bytes(2), b"\x00\x40"] + [bytes(2)] * 9
+
+
+@pytest.mark.parametrize(
+    ("made", "record"),
+    [
+        (mapping._op, mapping.LogicalOp),
+        (mapping._part_holes, mapping.PartHoles),
+        (mapping._plain_access, mapping.PlainAccess),
+        (mapping._row_access, mapping.RowAccess),
+    ],
+)
+def test_each_record_made_natively_is_the_record_of_those_fields(
+    made: object, record: type
+) -> None:
+    # tuple.__new__ takes the fields by position: each maker's parameters are the record's
+    # fields by name, and a field out of place would show as a different record
+    fields = record._fields  # type: ignore[attr-defined]
+    values = {name: f"<{name}>" for name in fields}
+    assert made(**values) == record(**values)  # type: ignore[operator]
+    assert type(made(**values)) is record  # type: ignore[operator]
