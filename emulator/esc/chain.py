@@ -57,7 +57,6 @@ from emulator.esc.device import (
     LRD_OR_LRW,
     EscConfig,
     EscDevice,
-    SmRun,
     TraceCopy,
     commit_apart,
     consecutive,
@@ -89,6 +88,7 @@ from emulator.esc.registers import (
     cleared_events,
     reads_dc,
 )
+from emulator.esc.syncmanagers import SmRun
 from emulator.esc.together import (
     LOGICAL_TOGETHER_MIN,
     TOGETHER_MIN,

@@ -31,7 +31,16 @@ from typing import Final
 # they test every datagram against: compiled, their Final values are C statics to the others
 # (from a Python module, each use is a lookup in its namespace: 1.6% of a hostile frame's
 # instructions)
-MODULES: Final = ("chain", "commands", "device", "eeprom", "mapping", "together", "write_plans")
+MODULES: Final = (
+    "chain",
+    "commands",
+    "device",
+    "eeprom",
+    "mapping",
+    "syncmanagers",
+    "together",
+    "write_plans",
+)
 HERE: Final = Path(__file__).resolve().parent
 COMPILED: Final = HERE / "_compiled"  # one folder per digest of the sources
 # what the compiled modules were compiled against (mypyc takes constants and types of the modules

@@ -146,18 +146,24 @@ from emulator.esc.registers import (
     REG_WD_STATUS,
     REGISTER_END,
     SM_BYTES,
-    SM_ECAT_INTERRUPT,
-    SM_IRQ_READ,
-    SM_IRQ_WRITE,
-    SM_MAILBOX_FULL,
     SM_NO_BUFFER,
-    SM_READ_OPEN,
-    SM_WRITE_OPEN,
     EscConfig,
     Memory,
     cleared_events,
     reads_dc,
 )
+from emulator.esc.syncmanagers import (
+    ECAT_EMPTIED,
+    ECAT_OPENED_READ,
+    ECAT_READ,
+    ecat_completed,
+    ecat_interrupt_pending,
+    ecat_opened,
+    pdi_read,
+    pdi_wrote,
+    through,
+)
+from emulator.esc.syncmanagers import SmRun as SmRun  # (moved there; the old name kept)
 from emulator.esc.write_plans import (
     ERROR_COUNTERS,
     TOUCHES_FMMU,
@@ -236,55 +242,6 @@ class TraceCopy:
     length: int
 
 
-class SmRun:
-    """Run-time state of one enabled SyncManager (datasheet I 8.1/8.2)."""
-
-    __slots__ = (
-        "buf",
-        "complete",
-        "control",
-        "ecat_interrupt",
-        "ecat_writes",
-        "end",
-        "full",
-        "index",
-        "length",
-        "locked",
-        "mailbox",
-        "open",
-        "shared",
-        "start",
-    )
-
-    def __init__(
-        self,
-        index: int,
-        start: int,
-        length: int,
-        control: int,
-        locked: bool = False,
-        shared: bool = False,
-    ) -> None:
-        self.index = index
-        self.start = start
-        self.length = length
-        self.end = start + length
-        self.control = control
-        # as new, shared by the ESCs with its table entry until one changes it (EscDevice._own)
-        self.shared = shared
-        self.mailbox = control & 0x03 == 0x02  # control bits 0-1: mode
-        self.ecat_writes = control & 0x0C == 0x04  # bits 2-3: direction
-        self.ecat_interrupt = control & SM_ECAT_INTERRUPT != 0  # bit 4: into 0x0210
-        self.locked = locked  # deactivated by the PDI: the whole area is protected
-        # ECAT side opened the buffer (accessed the start address); accessed the end address
-        # in this frame; the mailbox is full (mailbox mode)
-        self.open = self.complete = self.full = False
-        # ECAT's buffer while open: a write SyncManager's, written at the end of the frame
-        # that completes it; a read SyncManager's as it was opened (its bytes in memory, the
-        # buffer the PDI completed last: the PDI writes a read buffer whole, pdi_write)
-        self.buf: bytes | bytearray | None = None
-
-
 def _bits_written(
     target: bytes | bytearray | memoryview,
     data_in: bytes,
@@ -316,17 +273,6 @@ class _Unmade:
         self.fresh = fresh  # the indices of those that start anew (None: all of them)
         self.decoded = decoded  # the decoded table
         self.by_start = by_start  # the order by start (SmChange.by_start)
-
-
-def _buffer_written(status: int, mailbox: bool) -> int:
-    """A SyncManager's status 0x0805+ once one side wrote a buffer whole (datasheet II 0x0805):
-    the write interrupt set, and a mailbox full, else the 3-buffer mode's next buffer (bits
-    4-5: 0, 1, 2, round again; 3, no buffer written yet, goes to 0)."""
-    status |= SM_IRQ_WRITE
-    if mailbox:
-        return status | SM_MAILBOX_FULL
-    last = (status >> 4) & 0x03
-    return (status & 0xCF) | ((last + 1) % 3 if last < 3 else 0) << 4
 
 
 def latches(ado: int, n: int) -> bool:
@@ -660,7 +606,7 @@ class EscDevice:
                 st = REG_SM + SM_BYTES * sm.index + 5
                 if sm.mailbox:
                     sm.full = True
-                self.mem[st] = _buffer_written(self.mem[st], sm.mailbox) & ~SM_IRQ_READ
+                self.mem[st] = pdi_wrote(self.mem[st], sm.mailbox)
                 if sm.ecat_interrupt:
                     self._sm_event(sm.index)
 
@@ -671,11 +617,9 @@ class EscDevice:
         for sm in self._active:
             if sm.start == addr and sm.ecat_writes:
                 st = REG_SM + SM_BYTES * sm.index + 5
-                self.mem[st] = (self.mem[st] & ~SM_IRQ_WRITE) | SM_IRQ_READ
-                if sm.mailbox:
-                    if sm.full:  # (a shared one is as new, empty: nothing to change)
-                        sm.full = False
-                    self.mem[st] &= ~SM_MAILBOX_FULL
+                self.mem[st] = pdi_read(self.mem[st], sm.mailbox)
+                if sm.mailbox and sm.full:  # (a shared one is as new, empty: nothing to change)
+                    sm.full = False
                 if sm.ecat_interrupt:
                     self._sm_event(sm.index)
         return bytes(self.mem[addr : addr + length])
@@ -901,7 +845,7 @@ class EscDevice:
                     self.app.sync0(self, pulse)  # type: ignore[attr-defined]
             sm.open = True
             sm.buf = bytes(self.mem[sm.start : sm.end])
-            self.mem[st] = _OPENED_BYTES[self.mem[st]]  # (as read_buffers does over rows)
+            self.mem[st] = ecat_opened(self.mem[st], False)  # (as read_buffers does over rows)
             if sm.ecat_interrupt:
                 self._sm_event(sm.index)
         elif not sm.open:
@@ -961,7 +905,7 @@ class EscDevice:
             sm = self._own(sm)
             sm.open = True
             sm.buf = bytearray(self.mem[sm.start : sm.end])
-            self.mem[st] = (self.mem[st] & ~SM_IRQ_READ) | SM_WRITE_OPEN
+            self.mem[st] = ecat_opened(self.mem[st], True)
             if sm.ecat_interrupt:
                 self._sm_event(sm.index)
         elif not sm.open:
@@ -987,7 +931,7 @@ class EscDevice:
         self._mailbox_due = self._mailbox_due or sm.mailbox
         assert isinstance(sm.buf, bytearray)
         self.mem[sm.start : sm.end] = sm.buf
-        self.mem[st] = _buffer_written(self.mem[st] & ~SM_WRITE_OPEN, sm.mailbox)
+        self.mem[st] = ecat_completed(self.mem[st], True, sm.mailbox)
         if sm.mailbox:
             sm.full = True
         elif self._outputs_hook is not None:  # the SyncManager's event for the PDI
@@ -1421,9 +1365,7 @@ class EscDevice:
             return
         mem = self.mem
         at = REG_SM + SM_BYTES * index
-        control, status = mem[at + 4], mem[at + 5]
-        for_ecat = SM_IRQ_READ if control & 0x0C == 0x04 else SM_IRQ_WRITE
-        pending = control & SM_ECAT_INTERRUPT and status & for_ecat
+        pending = ecat_interrupt_pending(mem[at + 4], mem[at + 5])
         byte, bit = REG_ECAT_EVENT + (4 + index) // 8, 1 << ((4 + index) % 8)
         old = mem[byte]
         new = old | bit if pending else old & ~bit
@@ -1835,7 +1777,7 @@ def read_buffers(
     else:
         to = np.add.outer(np.array(ats, np.intp) + base, np.arange(length, dtype=np.intp))
         np.frombuffer(buf, np.uint8)[to] = memory[at, start : start + length]
-    _through(memory, at, st, _OPENED)
+    through(memory, at, st, ECAT_OPENED_READ)
     changed = False
     for k in range(len(sms)):  # (indices: mypyc's loop over a list, not an iterator's)
         sm = sms[k]
@@ -1876,35 +1818,7 @@ def finish_reads(
         rows = np.delete(np.arange(memory.shape[0])[rows], gone)
     at = consecutive(rows)
     st = REG_SM + SM_BYTES * sms[0].index + 5
-    _through(memory, at, st, _EMPTIED if sms[0].mailbox else _READ)
-
-
-def _status_table(clear: int, put: int) -> npt.NDArray[np.uint8]:
-    """The 256 values of a status byte with the bits of ``clear`` cleared and those of ``put``
-    set: every ESC's byte changed in one look-up (:func:`_through`); read-only."""
-    table = np.array([(b & ~clear | put) & 0xFF for b in range(256)], np.uint8)
-    table.flags.writeable = False
-    return table
-
-
-# a read SyncManager's status 0x0805+: ECAT opened the buffer (its write interrupt cleared,
-# read buffer open); ECAT read it (no longer open, the read interrupt for the PDI), a mailbox's
-# also empty (datasheet II 0x0805)
-_OPENED: Final = _status_table(SM_IRQ_WRITE, SM_READ_OPEN)
-_OPENED_BYTES: Final = _OPENED.tobytes()  # the same table for one ESC's byte
-_READ: Final = _status_table(SM_READ_OPEN, SM_IRQ_READ)
-_EMPTIED: Final = _status_table(SM_READ_OPEN | SM_MAILBOX_FULL, SM_IRQ_READ)
-
-
-def _through(
-    memory: npt.NDArray[np.uint8], at: _Rows | slice, column: int, table: npt.NDArray[np.uint8]
-) -> None:
-    """The bytes ``memory[at, column]`` through ``table`` (256 values), in place."""
-    if isinstance(at, slice):
-        view = memory[at, column]
-        table.take(view, out=view)
-    else:
-        memory[at, column] = table.take(memory[at, column])
+    through(memory, at, st, ECAT_EMPTIED if sms[0].mailbox else ECAT_READ)
 
 
 def finish_together(devices: list[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:

@@ -19,9 +19,10 @@ from emulator.errors import TopologyError
 from emulator.esc import device as esc_device
 from emulator.esc import together
 from emulator.esc.chain import EcatChain, configure_frames
-from emulator.esc.device import EscDevice, SmRun
+from emulator.esc.device import EscDevice
 from emulator.esc.mapping import decode_sms
 from emulator.esc.registers import REG_SM, SM_BYTES, SM_NO_BUFFER
+from emulator.esc.syncmanagers import SmRun
 from emulator.hostile import hostile_frames, master_reset_frames
 from emulator.slave.sii import SyncManagerType, crc8
 from skinframes import ethercat, taxel
