@@ -2,9 +2,9 @@
 :mod:`.device` (one ESC), :mod:`.chain` (a line of ESCs processing whole frames, for the live
 transport and the timing engine alike), :mod:`.mapping` (FMMU and SyncManager tables, logical
 accesses planned), :mod:`.write_plans` (what a register write does), :mod:`.eeprom` (the SII EEPROM
-interface), :mod:`.syncmanagers` (a SyncManager's state and status), :mod:`.dc` (distributed
-clocks) and :mod:`.pdi` (the process data interface, where the slave's firmware in
-:mod:`emulator.slave` meets the ESC).
+interface), :mod:`.syncmanagers` (a SyncManager's state and status), :mod:`.dl` (DL control and
+status), :mod:`.dc` (distributed clocks) and :mod:`.pdi` (the process data interface, where the
+slave's firmware in :mod:`emulator.slave` meets the ESC).
 
 This file imports nothing of the project but :mod:`.compiled`, so that importing one module does
 not load the others; where :mod:`.compiled` built them, the busiest modules are C extensions of the

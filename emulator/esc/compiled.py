@@ -35,6 +35,7 @@ MODULES: Final = (
     "chain",
     "commands",
     "device",
+    "dl",
     "eeprom",
     "mapping",
     "syncmanagers",

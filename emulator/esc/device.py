@@ -15,7 +15,8 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
 * registers 0x0000-0x0F7F are written through shadow buffers that take effect at the end of the
   frame (datasheet I 3.4); reads inside the frame see the old values; per-byte ECAT write masks
   follow section II (read-only and reserved bits keep their value, the access still counts);
-* SyncManagers (datasheet I 8, II 2.14): buffered (3-buffer) and mailbox mode, direction,
+* SyncManagers (datasheet I 8, II 2.14; their state and status in
+  :mod:`emulator.esc.syncmanagers`): buffered (3-buffer) and mailbox mode, direction,
   "a buffer has to be accessed beginning with the start address", buffer exchange at the end of
   the frame that accessed the end address, the whole area locked while the PDI deactivates the
   SyncManager (0x0807 bit 0), configuration writable only while disabled;
@@ -26,9 +27,9 @@ and ETG.1000.4 (data link layer: addressing, commands, working counter):
   the configuration area A loaded at power-on with its CRC checked (else process memory stays
   inaccessible and DL status bit 0 clear): the commands and the load in
   :mod:`emulator.esc.eeprom`, over rows, each ESC with its own EEPROM image;
-* DL control loop settings and DL status (datasheet I 3.1, II 2.4), ECAT event request
-  0x0210 ORed into each datagram's IRQ field through the mask 0x0200 (datasheet I Table 3),
-  and the ESC reset sequence 'R','E','S' in 0x0040.
+* DL control loop settings and DL status (datasheet I 3.1, II 2.4; :mod:`emulator.esc.dl`),
+  ECAT event request 0x0210 ORed into each datagram's IRQ field through the mask 0x0200
+  (datasheet I Table 3), and the ESC reset sequence 'R','E','S' in 0x0040.
 
 * distributed clocks 0x0900-0x09FF in :mod:`emulator.esc.dc` (its hooks: reads refresh the
   registers, writes of 0x0900-0x0917 are events, SYNC0 samples when the inputs are opened);
@@ -80,6 +81,8 @@ from emulator.esc.commands import (
     LWR,
 )
 from emulator.esc.dc import DcClock, configure_together, registers_power_on
+from emulator.esc.dl import dl_status
+from emulator.esc.dl import port1_forwarding as port1_forwarding  # (moved there)
 from emulator.esc.eeprom import (  # the first three moved there, their old names kept here
     config_area as config_area,
 )
@@ -113,12 +116,6 @@ from emulator.esc.mapping import (
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     DC_SYNC0_ACTIVE,
-    DL_ENHANCED_LINK,
-    DL_PDI_OPERATIONAL,
-    DL_PORT0,
-    DL_PORT1_CLOSED,
-    DL_PORT1_LINK,
-    DL_PORTS_2_3_CLOSED,
     EVENT_AL_STATUS,
     EVENT_DL_STATUS,
     PROCESS_RAM,
@@ -129,7 +126,6 @@ from emulator.esc.registers import (
     REG_DC_ACTIVATION,
     REG_DC_RECEIVE,
     REG_DL_CONTROL,
-    REG_DL_STATUS,
     REG_ECAT_EVENT,
     REG_ECAT_EVENT_MASK,
     REG_FMMU,
@@ -280,17 +276,6 @@ def latches(ado: int, n: int) -> bool:
     0x0900-0x0903, and so latches the receive times (datasheet II 0x0900: "a write access with
     BWR or FPWR")."""
     return n > 0 and ado < REG_DC_RECEIVE + 4 and ado + n > REG_DC_RECEIVE
-
-
-def port1_forwarding(setting: int, link: bool) -> bool | None:
-    """Where port 1 sends a processed frame under DL control bits 10-11 ``setting`` (datasheet
-    II 2.4.1) and the port's ``link``: on (True), back towards the master (False, the loop is
-    closed) or nowhere (None: forced open without a link, the frame is lost)."""
-    if setting == 0x03:  # closed
-        return False
-    if setting == 0x02:  # open, whatever the link
-        return True if link else None
-    return link  # auto, auto close: open with a link
 
 
 class EscDevice:
@@ -1927,34 +1912,13 @@ def _syncmanagers(
             EscDevice._sm_registers_written_together([devices[i] for i in members])
 
 
-# port1_forwarding by DL control bits 10-11 and the port 1 link (False, True): one lookup an ESC
-_FORWARDING: Final = tuple(
-    (port1_forwarding(setting, False), port1_forwarding(setting, True)) for setting in range(4)
-)
-
-
 def _dl_status(devices: Sequence[EscDevice], memory: npt.NDArray[np.uint8], rows: _Rows) -> None:
-    """DL status 0x0110 at every row (after a write of DL control, a link change, a load of the
-    EEPROM): from the PDI, the enhanced link detection, the port 1 link and the loop setting (datasheet II 2.4.3, Table 2), the
-    DL status event where it changed, and each ESC's forwarding and source MAC marking."""
-    setting = ((memory[rows, REG_DL_CONTROL + 1] >> 2) & 0x03).tolist()
-    marks = (memory[rows, REG_DL_CONTROL] & 0x01).astype(np.bool_).tolist()
+    """DL status 0x0110 of ``devices``, whose memory is ``memory[rows]`` (:func:`dl_status`,
+    with each one's port 1 link and PDI), and each one's forwarding and source MAC marking,
+    which the chain asks for every frame."""
     links = [dev.port1_link for dev in devices]
-    onwards = [_FORWARDING[s][link] for s, link in zip(setting, links, strict=True)]
+    pdi = [dev.pdi_operational for dev in devices]
+    onwards, marks = dl_status(memory, rows, links, pdi)
     for dev, onward, mac in zip(devices, onwards, marks, strict=True):
         dev.onward, dev.sets_mac = onward, mac
         dev._caches.links += 1
-    link = np.array(links, np.bool_)
-    pdi = np.array([dev.pdi_operational for dev in devices], np.bool_)
-    closed = np.array([onward is False for onward in onwards], np.bool_)
-    value = np.where(pdi, DL_PDI_OPERATIONAL, 0) | DL_PORT0 | DL_PORTS_2_3_CLOSED
-    # enhanced link detection on at least one port: 0x0141 bit 1 (all) or bits 4-7 (II 0x0110)
-    value |= np.where(memory[rows, REG_PDI_CONTROL + 1] & 0xF2, DL_ENHANCED_LINK, 0)
-    value |= np.where(link, DL_PORT1_LINK, 0) | np.where(closed, DL_PORT1_CLOSED, 0)
-    old = memory[rows, REG_DL_STATUS].astype(np.int64)
-    old |= memory[rows, REG_DL_STATUS + 1].astype(np.int64) << 8
-    differs = value != old
-    changed, new = rows[differs], value[differs]
-    memory[changed, REG_DL_STATUS] = new & 0xFF
-    memory[changed, REG_DL_STATUS + 1] = new >> 8
-    memory[changed, REG_ECAT_EVENT] |= EVENT_DL_STATUS
