@@ -218,6 +218,11 @@ class _ImageRead(NamedTuple):
     sync0: npt.NDArray[np.intp] | slice | None  # the rows whose applications sample at SYNC0
 
 
+# where the ESCs find each datagram's fields in a frame (EcatChain._parse): (command, ADP at, ADO,
+# data at, data length, IRQ at), in frame order; destructured where used
+_Layout = list[tuple[int, int, int, int, int, int]]
+
+
 def _plan_image(
     devices: list[EscDevice], targets: list[int], cmd: int, lad: int, n: int, layouts: int
 ) -> _ImageRead:
@@ -228,9 +233,11 @@ def _plan_image(
     end = 0  # where the buffer before ends in the data
     for dev in devices:
         plan = dev._whole_plan(lad, n, cmd)
-        if plan is None or plan[0] < end:
+        if plan is None:
             return none
         at, sm = plan
+        if at < end:
+            return none
         end = at + sm.length
         last = groups[-1] if groups else None
         if last is None or (sm.index, sm.start, sm.length) != (
@@ -447,9 +454,7 @@ class EcatChain:
             return None
         return self._run_planned(buf, parsed)
 
-    def _run_planned(
-        self, buf: bytearray, layout: list[tuple[int, int, int, int, int, int]]
-    ) -> bytes | None:
+    def _run_planned(self, buf: bytearray, layout: _Layout) -> bytes | None:
         """The processing of :meth:`_pass` ESC by ESC, in an order that gives the same bytes:
         datagram by datagram, each through the ESCs it reaches.
 
@@ -470,7 +475,7 @@ class EcatChain:
         loop = self._line_loop()
         links, reach, lost, mac_bit = loop.links, loop.reach, loop.lost, loop.mac
         line = devices[:reach] if reach < len(devices) else devices
-        adps = [buf[d[1]] | buf[d[1] + 1] << 8 for d in layout]
+        adps = [buf[adp_at] | buf[adp_at + 1] << 8 for _, adp_at, _, _, _, _ in layout]
         # the ESCs' event requests ORed into every IRQ field (datasheet I Table 3), again where
         # an ESC's changed (Caches.events) or the frame reaches others
         if self._irq_seen != (caches.events, links):
@@ -948,7 +953,7 @@ class EcatChain:
         buf[at] |= irq & 0xFF
         buf[at + 1] |= irq >> 8
 
-    def _parse(self, buf: bytearray) -> list[tuple[int, int, int, int, int, int]] | None:
+    def _parse(self, buf: bytearray) -> _Layout | None:
         """Where the ESC finds each datagram's fields: (cmd, ADP at, ADO, data at, length, IRQ
         at). None for a non-EtherCAT frame; an empty list for a malformed one.
 
@@ -970,7 +975,7 @@ class EcatChain:
         key = (len(buf), payload_at, buf[payload_at] | buf[payload_at + 1] << 8)
         known = self._layouts.get(key)
         if known is not None:
-            found: list[tuple[int, int, int, int, int, int]] = []
+            found: _Layout = []
             for pos, word in known:
                 cmd, _, _, ado, now, _ = ethercat.datagram_head(buf, pos)
                 if now != word:
@@ -999,9 +1004,7 @@ class EcatChain:
         return layout
 
     @staticmethod
-    def _pass(
-        dev: EscDevice, buf: bytearray, layout: list[tuple[int, int, int, int, int, int]]
-    ) -> None:
+    def _pass(dev: EscDevice, buf: bytearray, layout: _Layout) -> None:
         """One ESC's processing unit executes every datagram of the frame in ``buf``, in place."""
         process = dev.process
         for cmd, adp_at, ado, data_at, n, irq_at in layout:

@@ -943,7 +943,8 @@ class EscDevice:
         found = None if self.dc_sampling else self._whole_plan(lad, n, cmd)
         if found is None:
             return False
-        self._read_whole(found[1], buf, off + found[0])
+        at, sm = found
+        self._read_whole(sm, buf, off + at)
         return True
 
     def _read_whole(self, sm: SmRun, buf: bytearray, at: int) -> None:
@@ -1135,9 +1136,12 @@ class EscDevice:
         plan = self._lrd_plans.get(key)  # one look-up where a plan is known
         if plan is None and key not in self._lrd_plans:
             plan = self._plan_lrd(key)
-        if plan is None or plan[1].locked or (cmd != LRD and plan[2]):
+        if plan is None:
             return None
-        return plan[0], plan[1]
+        at, sm, written = plan
+        if sm.locked or (cmd != LRD and written):
+            return None
+        return at, sm
 
     # --- shadow registers and their side effects ------------------------------------------------
     @staticmethod
