@@ -83,19 +83,10 @@ from emulator.esc.commands import (
 from emulator.esc.dc import DcClock, configure_together, registers_power_on
 from emulator.esc.dl import dl_status
 from emulator.esc.dl import port1_forwarding as port1_forwarding  # (moved there)
-from emulator.esc.eeprom import (  # the first three moved there, their old names kept here
-    config_area as config_area,
-)
-from emulator.esc.eeprom import (
-    config_writes as config_writes,
-)
-from emulator.esc.eeprom import (
-    eeprom_read as eeprom_read,
-)
-from emulator.esc.eeprom import (
-    execute_commands,
-    power_on_interface,
-)
+from emulator.esc.eeprom import config_area as config_area  # (these three moved there)
+from emulator.esc.eeprom import config_writes as config_writes
+from emulator.esc.eeprom import eeprom_read as eeprom_read
+from emulator.esc.eeprom import execute_commands, power_on_interface
 from emulator.esc.eeprom import load_config_areas as _load
 from emulator.esc.mapping import (
     PLAN_CACHE_ENTRIES,
