@@ -67,6 +67,7 @@ __all__ = [
     "image_from_esi",
     "sii_from_esi",
     "standard_eeprom_kibit",
+    "stated_eeprom_kibit",
 ]
 
 # --- constants (ETG.2010 Table 2; datasheet I, Tables 42/43) ---------------------------------
@@ -185,6 +186,12 @@ def standard_eeprom_kibit(image_bytes: int) -> int:
     while kibit * BYTES_PER_KIBIT < image_bytes:
         kibit *= 2
     return kibit
+
+
+def stated_eeprom_kibit(data: bytes | bytearray) -> int:
+    """The EEPROM size an SII image states in word 0x3E (ETG.2010 Table 2: Kibit minus 1), in
+    Kibit; ``data`` holds at least words 0-0x3F."""
+    return int(_TRAILER.unpack_from(data, 2 * 0x3E)[0]) + 1
 
 
 # --- the model ---------------------------------------------------------------------------------

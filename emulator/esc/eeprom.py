@@ -37,6 +37,7 @@ from emulator.esc.registers import (
     REG_PDI_CONTROL,
 )
 from emulator.slave.sii import CHECKSUM_BYPASS, crc8
+from skinframes.sii import stated_eeprom_kibit
 
 __all__ = [
     "config_area",
@@ -50,7 +51,6 @@ __all__ = [
 _Rows = npt.NDArray[np.intp]
 
 _COMMAND_BITS: Final = 0x0700  # 0x0502 bits 8-10: the command (self-clearing)
-_SIZE_WORD: Final = 0x3E  # SII word 0x3E: the EEPROM's size in kibit, minus 1 (ETG.2010 Table 2)
 _ENHANCED_LINK: Final = (
     0xF2  # 0x0141 bits 1 and 4-7: enhanced link detection, kept after the first load
 )
@@ -108,7 +108,7 @@ def power_on_interface(
     """EEPROM control/status at power-on, before the load (datasheet II 0x0502): reads of 8
     bytes, not loaded yet, and two address bytes where the EEPROM (SII word 0x3E) holds more
     than 16 kibit."""
-    big = [struct.unpack_from("<H", image, 2 * _SIZE_WORD)[0] + 1 > 16 for image in images]
+    big = [stated_eeprom_kibit(image) > 16 for image in images]
     status = EE_READ_8_BYTES | EE_NOT_LOADED
     memory[rows, REG_EEPROM_CONTROL] = status & 0xFF
     memory[rows, REG_EEPROM_CONTROL + 1] = np.where(

@@ -31,6 +31,7 @@ from skinframes.sii import (
     decode_sii,
     encode_sii,
     sii_from_esi,
+    stated_eeprom_kibit,
 )
 
 SHIPPED = [
@@ -313,3 +314,12 @@ def test_values_that_do_not_fit_raise_field_range_errors() -> None:
         encode_sii(replace(image, eeprom_bytes=256, strings=("x" * 200,)))
     with pytest.raises(FieldRangeError, match="config_data"):
         encode_sii(replace(image, config_data=bytes(8)))
+
+
+def test_the_stated_size_is_word_0x3e_plus_one_kibit() -> None:
+    # ETG.2010 Table 2, word 0x3E: the EEPROM's size in Kibit minus 1 (bytes 0x7C-0x7D)
+    image = bytearray(128)
+    image[0x7C:0x7E] = b"\x0f\x00"
+    assert stated_eeprom_kibit(image) == 16
+    image[0x7C:0x7E] = b"\xff\x00"
+    assert stated_eeprom_kibit(bytes(image)) == 256
