@@ -22,6 +22,7 @@ from emulator.esc.registers import (
     DL_PORT1_CLOSED,
     DL_PORT1_LINK,
     DL_PORTS_2_3_CLOSED,
+    ENHANCED_LINK_BITS,
     EVENT_DL_STATUS,
     REG_DL_CONTROL,
     REG_DL_STATUS,
@@ -70,8 +71,8 @@ def dl_status(
     pdi = np.array(pdi_operational, np.bool_)
     closed = np.array([onward is False for onward in onwards], np.bool_)
     value = np.where(pdi, DL_PDI_OPERATIONAL, 0) | DL_PORT0 | DL_PORTS_2_3_CLOSED
-    # enhanced link detection on at least one port: 0x0141 bit 1 (all) or bits 4-7 (II 0x0110)
-    value |= np.where(memory[rows, REG_PDI_CONTROL + 1] & 0xF2, DL_ENHANCED_LINK, 0)
+    # enhanced link detection on at least one port (II 0x0110)
+    value |= np.where(memory[rows, REG_PDI_CONTROL + 1] & ENHANCED_LINK_BITS, DL_ENHANCED_LINK, 0)
     value |= np.where(link, DL_PORT1_LINK, 0) | np.where(closed, DL_PORT1_CLOSED, 0)
     old = memory[rows, REG_DL_STATUS].astype(np.int64)
     old |= memory[rows, REG_DL_STATUS + 1].astype(np.int64) << 8

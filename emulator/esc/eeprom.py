@@ -28,6 +28,7 @@ from emulator.esc.registers import (
     EE_TWO_ADDRESS_BYTES,
     EE_WRITE_ENABLE,
     EE_WRITE_ENABLE_ERROR,
+    ENHANCED_LINK_BITS,
     REG_ALIAS,
     REG_DC_PULSE_LENGTH,
     REG_DL_CONTROL,
@@ -51,9 +52,6 @@ __all__ = [
 _Rows = npt.NDArray[np.intp]
 
 _COMMAND_BITS: Final = 0x0700  # 0x0502 bits 8-10: the command (self-clearing)
-_ENHANCED_LINK: Final = (
-    0xF2  # 0x0141 bits 1 and 4-7: enhanced link detection, kept after the first load
-)
 
 
 def eeprom_read(image: bytearray, word: int) -> bytearray | None:
@@ -142,12 +140,12 @@ def load_config_areas(
             status |= EE_CHECKSUM_ERROR | EE_NOT_LOADED
         else:
             status &= ~(EE_CHECKSUM_ERROR | EE_NOT_LOADED)
-            kept = memory[at, REG_PDI_CONTROL + 1] & _ENHANCED_LINK  # first load only
+            kept = memory[at, REG_PDI_CONTROL + 1] & ENHANCED_LINK_BITS  # first load only
             for addr, data in config_writes(words):
                 memory[at, addr : addr + len(data)] = np.frombuffer(data, np.uint8)
             esc_config = (words[0] >> 8) & 0xFF
             memory[at, REG_PDI_CONTROL + 1] = (
-                esc_config if first else kept | (esc_config & ~_ENHANCED_LINK)
+                esc_config if first else kept | (esc_config & ~ENHANCED_LINK_BITS)
             )
             if first:
                 memory[at, REG_ALIAS] = words[4] & 0xFF

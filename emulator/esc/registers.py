@@ -32,6 +32,7 @@ __all__ = [
     "EE_TWO_ADDRESS_BYTES",
     "EE_WRITE_ENABLE",
     "EE_WRITE_ENABLE_ERROR",
+    "ENHANCED_LINK_BITS",
     "EVENT_AL_STATUS",
     "EVENT_DL_STATUS",
     "FMMU_BYTES",
@@ -154,6 +155,9 @@ EE_CMD_RELOAD: Final = 4
 # DL status 0x0110 bits (datasheet II 2.4.3, Table 2)
 DL_PDI_OPERATIONAL: Final = 0x0003  # PDI operational, PDI watchdog reloaded
 DL_ENHANCED_LINK: Final = 0x0004  # enhanced link detection activated for at least one port
+# ESC configuration 0x0141: enhanced link detection, bit 1 for all ports, bits 4-7 per port
+# (datasheet II 0x0141); DL status bit 2 shows it (II 0x0110), a reload keeps it (I 11.2.1)
+ENHANCED_LINK_BITS: Final = 0xF2
 DL_PORT0: Final = 0x0010 | 0x0200  # port 0: link, open, communication established
 DL_PORT1_LINK: Final = 0x0020 | 0x0800  # port 1: link, communication established
 DL_PORT1_CLOSED: Final = 0x0400  # port 1 loop closed
