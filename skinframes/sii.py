@@ -60,6 +60,7 @@ __all__ = [
     "SiiPdoEntry",
     "SiiSyncManager",
     "SyncManagerType",
+    "config_area",
     "crc8",
     "decode_sii",
     "encode_sii",
@@ -186,6 +187,19 @@ def standard_eeprom_kibit(image_bytes: int) -> int:
     while kibit * BYTES_PER_KIBIT < image_bytes:
         kibit *= 2
     return kibit
+
+
+_CONFIG_WORDS = struct.Struct("<8H")  # words 0-7: ESC configuration area A and its checksum
+
+
+def config_area(data: bytes | bytearray) -> tuple[int, ...] | None:
+    """The ESC configuration area A of an SII image, words 0-7 (datasheet I 11.1, Table 42), as
+    an ESC loads it: None when its checksum is wrong (word 7's low byte, the CRC-8 of words 0-6,
+    unless word 7 is the bypass value :data:`CHECKSUM_BYPASS`)."""
+    words: tuple[int, ...] = _CONFIG_WORDS.unpack_from(data)
+    if words[7] == CHECKSUM_BYPASS or words[7] & 0xFF == crc8(bytes(data[:CONFIG_AREA_BYTES])):
+        return words
+    return None
 
 
 def stated_eeprom_kibit(data: bytes | bytearray) -> int:

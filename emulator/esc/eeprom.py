@@ -37,8 +37,7 @@ from emulator.esc.registers import (
     REG_EEPROM_DATA,
     REG_PDI_CONTROL,
 )
-from emulator.slave.sii import CHECKSUM_BYPASS, crc8
-from skinframes.sii import stated_eeprom_kibit
+from skinframes.sii import config_area, stated_eeprom_kibit
 
 __all__ = [
     "config_area",
@@ -62,15 +61,6 @@ def eeprom_read(image: bytearray, word: int) -> bytearray | None:
     if start >= len(image):
         return None
     return (image[start : start + 8] + image[: max(0, start + 8 - len(image))])[:8]
-
-
-def config_area(image: bytes | bytearray) -> tuple[int, ...] | None:
-    """The ESC configuration area A of an SII image, words 0-7 (datasheet I 11.1, Table 42),
-    or None when its checksum (word 7, CRC-8 of words 0-6, unless the bypass value) is wrong."""
-    words = struct.unpack_from("<8H", image)
-    if words[7] == CHECKSUM_BYPASS or words[7] & 0xFF == crc8(bytes(image[:14])):
-        return words
-    return None
 
 
 def config_writes(words: tuple[int, ...]) -> tuple[tuple[int, bytes], ...]:

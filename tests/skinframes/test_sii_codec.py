@@ -27,6 +27,7 @@ from skinframes.sii import (
     SiiPdoEntry,
     SiiSyncManager,
     SyncManagerType,
+    config_area,
     crc8,
     decode_sii,
     encode_sii,
@@ -323,3 +324,15 @@ def test_the_stated_size_is_word_0x3e_plus_one_kibit() -> None:
     assert stated_eeprom_kibit(image) == 16
     image[0x7C:0x7E] = b"\xff\x00"
     assert stated_eeprom_kibit(bytes(image)) == 256
+
+
+def test_the_config_area_loads_with_its_crc_or_the_bypass_word_and_not_otherwise() -> None:
+    # datasheet I Table 42: word 7's low byte is the CRC-8 of words 0-6; 0x88A4 bypasses it
+    words = (0x0C08, 0x0000, 0x0000, 0x0000, 0x1234, 0x0000, 0x0000)
+    head = struct.pack("<7H", *words)
+    good = head + struct.pack("<H", crc8(head))
+    assert config_area(good + bytes(112)) == (*words, crc8(head))
+    bypass = head + b"\xa4\x88"
+    assert config_area(bypass) == (*words, 0x88A4)
+    assert config_area(head + struct.pack("<H", crc8(head) ^ 0x01)) is None
+    assert config_area(bytearray(head + struct.pack("<H", crc8(head) | 0x5500))) is not None
