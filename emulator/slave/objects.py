@@ -299,7 +299,9 @@ class _Assignment:
         return int(struct.unpack("<H", self.obj.entries[sub].value)[0])
 
     def pdos(self) -> list[int]:
-        return [self._pdo(s) for s in range(1, self.obj.count() + 1)]
+        """The PDOs assigned (subindices 1 to the count, UNSIGNED16 each)."""
+        entries = self.obj.entries
+        return [int.from_bytes(e.value, "little") for e in entries[1 : entries[0].get()[0] + 1]]
 
 
 class SkinDictionary(ObjectDictionary):

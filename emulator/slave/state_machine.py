@@ -348,6 +348,22 @@ class SkinPatchApplication(SlaveApplication):
 
     objects: SkinDictionary | None
 
+    def __init__(self, info: SlaveInfo) -> None:
+        super().__init__(info)
+        # what PREOP->SAFEOP reads of the SII's PDOs (ETG.2010 Table 11) at every slave: each
+        # PDO's bits, by the kind of SyncManager it goes to, and where each TxPDO lies in the
+        # patch's inputs
+        self._pdo_bits = {
+            SyncManagerType.INPUTS: {p.index: p.bit_length for p in info.tx_pdos},
+            SyncManagerType.OUTPUTS: {p.index: p.bit_length for p in info.rx_pdos},
+        }
+        self._tx_order = [p.index for p in info.tx_pdos]
+        self._tx_at: dict[int, tuple[int, int]] = {}
+        at = 0
+        for p in info.tx_pdos:
+            self._tx_at[p.index] = (at, p.bit_length // 8)
+            at += p.bit_length // 8
+
     def dictionary(self) -> SkinDictionary:
         """The skin patch's dictionary; taxels and outputs read live."""
         from emulator.slave.objects import skin_dictionary
@@ -368,12 +384,12 @@ class SkinPatchApplication(SlaveApplication):
             return self.info.sm_bytes(index)
         kind = self.info.sync_managers[index].type
         if kind == SyncManagerType.INPUTS:
-            assigned, pdos = self.objects.tx_pdos(), self.info.tx_pdos
+            assigned = self.objects.tx_pdos()
         elif kind == SyncManagerType.OUTPUTS:
-            assigned, pdos = self.objects.rx_pdos(), self.info.rx_pdos
+            assigned = self.objects.rx_pdos()
         else:
             return 0
-        bits = {p.index: p.bit_length for p in pdos}
+        bits = self._pdo_bits[kind]
         return (sum(bits[i] for i in assigned) + 7) // 8
 
     def _assigned_image(self) -> list[tuple[int, int]] | None:
@@ -382,10 +398,6 @@ class SkinPatchApplication(SlaveApplication):
         if self.objects is None:
             return None
         assigned = self.objects.tx_pdos()
-        if assigned == [p.index for p in self.info.tx_pdos]:
+        if assigned == self._tx_order:
             return None
-        at, ranges = 0, {}
-        for p in self.info.tx_pdos:
-            ranges[p.index] = (at, p.bit_length // 8)
-            at += p.bit_length // 8
-        return [ranges[i] for i in assigned]
+        return [self._tx_at[i] for i in assigned]
