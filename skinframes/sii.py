@@ -38,7 +38,7 @@ from skinframes.errors import (
     TruncatedError,
 )
 from skinframes.esi import EsiDevice, EsiFile, EsiPdo
-from skinframes.findings import Finding, error, warning
+from skinframes.findings import Finding, error, info, warning
 
 __all__ = [
     "CHECKSUM_BYPASS",
@@ -527,7 +527,8 @@ def _content(image: SiiImage) -> bytearray:
 class DecodedSii:
     """What :func:`decode_sii` found: the image, and findings about it.
 
-    ``findings`` reports a checksum that does not match (code ``sii.checksum``), a version other
+    ``findings`` reports a checksum that does not match (code ``sii.checksum``) or the word
+    that disables its check (``sii.checksum_bypassed``, an INFO: an ESC accepts it), a version other
     than 1 (``sii.version``) and an image shorter than its size word says (``sii.short``); none
     of them stops decoding. ``end_offset`` is the byte after the end category.
     """
@@ -604,7 +605,8 @@ def decode_sii(data: bytes) -> DecodedSii:
     """Decode an SII image (an EEPROM dump or an image file).
 
     A checksum that does not match is a finding, not an error: dumps of real slaves with a
-    bypassed or stale checksum still decode. Bytes after the end category are not read.
+    stale checksum still decode; the bypass word 0x88A4 is an INFO finding, as an ESC loads
+    the configuration area with it (:func:`config_area`). Bytes after the end category are not read.
 
     Raises:
         TruncatedError: fewer than 128 header bytes, a category running past the end of the
@@ -618,7 +620,15 @@ def decode_sii(data: bytes) -> DecodedSii:
     findings: list[Finding] = []
     config = data[:CONFIG_AREA_BYTES]
     checksum = int.from_bytes(data[14:16], "little")
-    if checksum & 0xFF != crc8(config):
+    if checksum == CHECKSUM_BYPASS:  # an ESC loads words 0-6 unchecked (datasheet I Table 42)
+        findings.append(
+            info(
+                "sii.checksum_bypassed",
+                f"SII word 7: {CHECKSUM_BYPASS:#06x}, checksum validation disabled: an ESC "
+                "loads words 0-6 without checking them",
+            )
+        )
+    elif checksum & 0xFF != crc8(config):
         findings.append(
             error(
                 "sii.checksum",

@@ -283,6 +283,18 @@ def test_a_wrong_checksum_is_a_finding_not_a_refusal() -> None:
     assert decoded.checksum == raw[14]
 
 
+def test_the_bypass_word_is_an_info_finding_not_a_checksum_error() -> None:
+    # datasheet I Table 42: word 7 = 0x88A4 disables the checksum check; an ESC loads the area
+    raw = bytearray(_image())
+    raw[14:16] = bytes([0xA4, 0x88])
+    decoded = decode_sii(bytes(raw))
+    assert [(f.code, str(f.severity)) for f in decoded.findings] == [
+        ("sii.checksum_bypassed", "info")
+    ]
+    assert decoded.checksum == 0x88A4
+    assert decoded.image == decode_sii(_image()).image
+
+
 def test_bad_images_raise_typed_errors() -> None:
     raw = _image()
     with pytest.raises(TruncatedError, match="header"):
