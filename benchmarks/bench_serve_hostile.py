@@ -69,10 +69,14 @@ ROOT = Path(__file__).resolve().parent.parent
 sys.path.insert(0, str(ROOT))
 
 from emulator.esc.chain import EcatChain, configure_frames  # noqa: E402
-from emulator.hostile import hostile_frames, master_reset_frames  # noqa: E402
+from emulator.hostile import (  # noqa: E402
+    eeprom_repair_frames,
+    hostile_frames,
+    master_reset_frames,
+)
 from emulator.live import CPU_BUDGET_US as BUDGET_US  # noqa: E402
 from emulator.live import BetweenFrames  # noqa: E402
-from emulator.slave.sii import SlaveInfo  # noqa: E402
+from emulator.slave.sii import SlaveInfo, build_sii  # noqa: E402
 from emulator.slave.state_machine import AlState  # noqa: E402
 from skinframes import ethercat, taxel  # noqa: E402
 from skinframes.errors import DecodeError  # noqa: E402
@@ -108,6 +112,25 @@ def final_frames(nodes: int, size: int, mailbox: bool) -> list[bytes]:
     setup = master_reset_frames(nodes) + configure_frames(patch_info(size, mailbox), nodes)
     frames = [with_index(frame, (i + 1) & 0xFF) for i, frame in enumerate(setup)]
     return [*frames, lrd_frame(nodes, size, idx=(len(frames) + 1) & 0xFF)]
+
+
+def eeprom_status_frames(nodes: int) -> list[bytes]:
+    """APRDs of EEPROM control/status 0x0502 at every slave, 80 a frame (index 0xFE)."""
+    reads = [Datagram(Command.APRD, -p & 0xFFFF, 0x0502, bytes(2), idx=0xFE) for p in range(nodes)]
+    return [
+        ethercat.frame(EcatFrame(tuple(reads[k : k + 80]))).to_bytes() for k in range(0, nodes, 80)
+    ]
+
+
+def checksum_errors(answers: list[bytes | None]) -> int:
+    """How many slaves the answers to :func:`eeprom_status_frames` show with an EEPROM
+    checksum error (0x0502 bit 11, datasheet II: configuration area A not loaded)."""
+    return sum(
+        bool(d.data[1] & 0x08)
+        for back in answers
+        if back is not None
+        for d in ethercat.decode(back[14:])[0].datagrams
+    )
 
 
 def with_index(frame: bytes, idx: int) -> bytes:
@@ -420,6 +443,17 @@ def live(
                 while select.select([sock.fileno()], [], [], 2.0)[0]:  # late answers
                     while sock.recv() is not None:
                         pass
+                if not ordinary:  # as bench_hostile_any's check: a corrupted EEPROM rewritten
+                    for frame in master_reset_frames(nodes):
+                        exchange(frame, 2000)
+                    status = [exchange(f, 2000, exact=True) for f in eeprom_status_frames(nodes)]
+                    if broken := checksum_errors(status):
+                        print(
+                            f"  {broken} slaves' EEPROM configuration area was corrupted; rewritten"
+                        )
+                        area = bytes(build_sii(patch_info(size, mailbox))[:16])
+                        for frame in eeprom_repair_frames([area] * nodes):
+                            exchange(frame, 2000)
                 unanswered = sum(exchange(frame, 2000, exact=True) is None for frame in setup)
                 back = exchange(lrd, 2000, exact=True)
             assert proc.poll() is None, "serve ended"
