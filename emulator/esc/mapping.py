@@ -44,7 +44,6 @@ __all__ = [
     "SmFound",
     "SmTable",
     "WritesInert",
-    "along",
     "byte_op",
     "cut",
     "decode_entries",
@@ -53,7 +52,6 @@ __all__ = [
     "esc_row_access",
     "fmmu_table",
     "forget",
-    "moved_along",
     "outside",
     "plan_logical",
     "plans_key",
@@ -230,11 +228,9 @@ class Caches:
         # logical accesses by the FMMUs they meet (shared_access)
         self.access: dict[tuple[object, ...], Access] = {}
         # the accesses of an access's first FMMU and of the FMMUs after it, by the FMMUs they
-        # meet (Access.rows), and of one FMMU moved to logical 0, by its other fields, the
-        # command and its length (moved_along)
+        # meet (Access.rows)
         self.parts: dict[tuple[object, ...], Access] = {}
-        # accesses through FMMU 0 and other FMMUs, by the accesses through each part, or by
-        # FMMU 0's access moved along (moved_along: access, frame offset) and the others'
+        # accesses through FMMU 0 and other FMMUs, by the accesses through each part
         # (table_access)
         self.joined: dict[tuple[object, ...], Access] = {}
         self.sm: dict[bytes, SmFound] = {}  # decoded SyncManager tables (sm_table)
@@ -483,9 +479,6 @@ class WritesInert(Protocol):
     def inert(self, addr: int, n: int) -> bool: ...
 
 
-_UNASKED: Final = object()  # Access.moved not worked out yet
-
-
 class Access:
     """A logical access (``cmd``, ``n`` bytes at ``lad``) by the FMMUs it meets, ``hit`` (active
     FMMUs in register order): its plan (:attr:`plan`, worked out when first asked), and what the
@@ -494,17 +487,11 @@ class Access:
     (None: not plain, :func:`esc_row_access`), ``events``, those its register reads clear,
     ``mailboxes``, those that must be idle at an ESC for the cut to hold there, ``dc``, the
     registers each ESC brings up to the frame's time first, ``shadow``, the write parts whose
-    register bytes each ESC puts among its shadow writes (:func:`esc_row_access`).
-
-    An access whose one FMMU lies wholly inside the datagram is that FMMU's access moved along
-    the frame (:meth:`moved`): worked out once for every logical start the FMMU may have."""
+    register bytes each ESC puts among its shadow writes (:func:`esc_row_access`)."""
 
     __slots__ = (
-        "_along",
-        "_at",
         "_caches",
         "_first",
-        "_moved",
         "_others",
         "_plan",
         "_registers",
@@ -528,10 +515,7 @@ class Access:
         self._plan: LogicalPlan | None = None
         self._registers: tuple[bool, bool] | None = None
         self._first: Access | None = None  # the first FMMU's access (Caches.parts)
-        self._at: tuple[Access, int] | None = None  # or that access moved along (moved)
         self._others: Access | None = None  # the others' (Caches.parts)
-        self._along: _Along | None = None  # _apart_along's shared work, for the last tables
-        self._moved: object = _UNASKED  # (the FMMU's access at logical 0, frame offset) or None
         self.areas: SmTable | None = None
         self.top = 0
         self.writes: WritesInert | None = None  # the register write plans (inert writes)
@@ -550,44 +534,12 @@ class Access:
         found._first, found._others = first, others
         return found
 
-    @staticmethod
-    def joined_along(fmmu: Fmmu, at: tuple[Access, int], others: Access) -> Access:
-        """:meth:`joined` for a first FMMU ``fmmu`` that lies wholly inside the access, whose
-        access is ``at`` (:func:`moved_along`): worked out from that one moved along, without
-        an access of its own (after hostile writes to the others, each ESC of a configured
-        line, mapping its own logical bytes with FMMU 0, joins anew)."""
-        found = Access(others._caches, (fmmu, *others.hit), others.cmd, others.lad, others.n)
-        found._at, found._others = at, others
-        return found
-
     @property
     def plan(self) -> LogicalPlan:
         """:func:`plan_logical` of the access."""
         if self._plan is None:
-            moved = self.moved()
-            if moved is None:
-                self._plan = plan_logical(self.hit, self.cmd, self.lad, self.n)
-            else:
-                self._plan = along(moved[0].plan, moved[1])
+            self._plan = plan_logical(self.hit, self.cmd, self.lad, self.n)
         return self._plan
-
-    def moved(self) -> tuple[Access, int] | None:
-        """When the access meets one FMMU and all its bytes: the access of that FMMU moved to
-        logical 0 through exactly its bytes (:attr:`Caches.parts`), and how many bytes further on
-        in the frame this access has them. Its plan is that one's with frame offsets that much
-        further on (:func:`along`), since :func:`plan_logical` places a part by its logical
-        offset from the datagram's start alone; its holes, events, mailboxes and DC registers
-        are the same, being physical. The ESCs of a configured line each map their own bytes
-        with FMMU 0 alike: they share one such access. None otherwise (or for that access
-        itself)."""
-        if self._moved is _UNASKED:
-            hit = self.hit
-            self._moved = (
-                moved_along(self._caches, hit[0], self.cmd, self.lad, self.n)
-                if len(hit) == 1
-                else None
-            )
-        return self._moved  # type: ignore[return-value]
 
     @property
     def registers(self) -> tuple[bool, bool]:
@@ -613,22 +565,8 @@ class Access:
         if self.areas is areas and self.top == top and self.writes is writes:
             return
         self.areas, self.top, self.writes = areas, top, writes
-        if len(self.hit) > 1:
-            moved_first, others = self._at, self._others
-            if moved_first is not None and others is not None:  # joined_along (no lookups)
-                if self._apart_along(others, moved_first, areas, top, writes):
-                    return
-            elif self._apart(areas, top, writes):
-                return
-        else:
-            moved = self.moved()
-            if moved is not None:
-                at, offset = moved
-                at.rows(areas, top, writes)
-                self.events, self.mailboxes, self.dc = at.events, at.mailboxes, at.dc
-                self.cut = None if at.cut is None else along(at.cut, offset)
-                self.shadow = _along(at.shadow, offset)
-                return
+        if len(self.hit) > 1 and self._apart(areas, top, writes):
+            return
         found = esc_row_access(self.plan, areas, top, writes.inert)
         if found is None:
             self.cut, self.events, self.mailboxes = None, 0, ()
@@ -682,44 +620,6 @@ class Access:
             others.plan[1] if writes_registers else (),
         )
 
-    def _apart_along(
-        self,
-        others: Access,
-        at: tuple[Access, int],
-        areas: SmTable,
-        top: int,
-        writes: WritesInert,
-    ) -> bool:
-        """:meth:`_apart` of an access whose first FMMU's part is ``at`` (:meth:`joined_along`):
-        what the ESCs of a configured line share after a change of the others (the others'
-        cut, the moved access's, their checks) is worked out once and kept with the others'
-        access for the tables last asked (:func:`_along_common`); each ESC moves the first's
-        part along and takes its claims from the others'."""
-        moved, offset = at
-        found = others._along
-        if not (
-            found is not None
-            and found.moved is moved
-            and found.areas is areas
-            and found.top == top
-            and found.writes is writes
-        ):
-            common = _along_common(others, moved, areas, top, writes)
-            found = _Along(moved, areas, top, writes, common)
-            others._along = found
-        common = found.common
-        if common is None:
-            return False
-        first_cut, shadow, effects, others_cut, register_writes, spans = common
-        return self._claimed(
-            along(first_cut, offset),
-            _along(shadow, offset),
-            effects,
-            others_cut,
-            register_writes,
-            spans,
-        )
-
     def _claimed(
         self,
         first_cut: LogicalPlan,
@@ -727,14 +627,11 @@ class Access:
         effects: tuple[int, tuple[tuple[int, int], ...], Mailboxes],
         others_cut: LogicalPlan,
         register_writes: tuple[LogicalOp, ...],
-        spans: tuple[tuple[int, int], tuple[int, int]] | None = None,
     ) -> bool:
         """The cut of :meth:`_apart` from the first FMMU's part's cut and shadow, its events,
         DC registers and the mailboxes of both (``effects``), and the others' cut, the frame
-        bytes the first claims taken from the others' (:func:`unclaimed`; not where the frame
-        bytes the others' reads and writes span, ``spans`` when known, :func:`_frame_span`, miss
-        them); False where the others' write parts of (inert) registers ``register_writes``
-        meet those bytes."""
+        bytes the first claims taken from the others' (:func:`unclaimed`); False where the
+        others' write parts of (inert) registers ``register_writes`` meet those bytes."""
         cmd, lad, n = self.cmd, self.lad, self.n
         f = self.hit[0]
         lo, hi = (
@@ -742,9 +639,9 @@ class Access:
             min(lad + n, f.log_end) - lad,
         )  # the frame bytes it claims
         reads, writes_ = others_cut
-        if f.reads and cmd != LWR and (spans is None or (lo < spans[0][1] and hi > spans[0][0])):
+        if f.reads and cmd != LWR:
             reads = unclaimed(reads, lo, hi, False)
-        if f.writes and cmd != LRD and (spans is None or (lo < spans[1][1] and hi > spans[1][0])):
+        if f.writes and cmd != LRD:
             if any(
                 op.phys < REGISTER_END and op.at < hi and op.at + op.width > lo
                 for op in register_writes
@@ -758,118 +655,12 @@ class Access:
         return True
 
 
-# what the ESCs of _apart_along share: the first's (moved) cut and shadow, (its events, its DC
-# registers, the mailboxes of both), the others' cut, their write parts of registers, and the
-# frame bytes the others' cut spans (reads, writes; _frame_span)
-_AlongCommon = tuple[
-    LogicalPlan,
-    tuple[LogicalOp, ...],
-    tuple[int, tuple[tuple[int, int], ...], Mailboxes],
-    LogicalPlan,
-    tuple[LogicalOp, ...],
-    tuple[tuple[int, int], tuple[int, int]],
-]
-
-
-class _Along(NamedTuple):
-    """What :meth:`Access._apart_along` keeps with the others' access: for the first's moved
-    access and the tables last asked, :func:`_along_common` of them."""
-
-    moved: Access
-    areas: SmTable
-    top: int
-    writes: WritesInert
-    common: _AlongCommon | None
-
-
-def _along_common(
-    others: Access, moved: Access, areas: SmTable, top: int, writes: WritesInert
-) -> _AlongCommon | None:
-    """What :meth:`Access._apart_along` shares among the ESCs whose first FMMU's access is
-    ``moved`` (moved along) and whose others' is ``others``, at SyncManager ``areas``, memory
-    ``top`` and register write plans ``writes``; None where :meth:`Access._apart` leaves it to
-    the whole plan (the others not plain, clearing events, reading DC registers or writing
-    registers to the shadow; the first not plain, or clearing an event the others may read)."""
-    reads_registers, writes_registers = others.registers
-    others.rows(areas, top, writes)
-    if others.cut is None or others.events or others.dc or others.shadow:
-        return None
-    moved.rows(areas, top, writes)
-    if moved.cut is None or (moved.events and reads_registers):
-        return None
-    effects = (moved.events, moved.dc, _merged(moved.mailboxes, others.mailboxes))
-    register_writes = others.plan[1] if writes_registers else ()
-    reads, writes_ = others.cut
-    # the register writes need not be in the writes' span: the cut may have left them out
-    spans = _frame_span(reads), _frame_span(writes_ + register_writes)
-    return moved.cut, moved.shadow, effects, others.cut, register_writes, spans
-
-
 def _merged(first: Mailboxes, others: Mailboxes) -> Mailboxes:
     """The mailboxes of the first FMMU's part and then the others' not among them (those of
     parts the claims took away as well: they need not be idle, but may)."""
     if not others:
         return first
     return first + tuple([m for m in others if m not in first])
-
-
-def moved_along(caches: Caches, f: Fmmu, cmd: int, lad: int, n: int) -> tuple[Access, int] | None:
-    """When the FMMU ``f`` lies wholly inside a logical access (``cmd``, ``n`` bytes at
-    ``lad``) and not at logical 0 with it: the access of ``f`` alone moved to logical 0
-    through exactly its bytes (:attr:`Caches.parts`), and how many bytes into the frame the
-    access has them (:meth:`Access.moved`); else None."""
-    start, end = f.log_start, f.log_end
-    if not (lad <= start and end <= lad + n and (start or lad)):
-        return None
-    # the FMMU moved to logical 0 is its fields but the logical ones, and its length: the key
-    # (made once a frame meets it, a NamedTuple made anew being Python's work, where a slice
-    # is a copy of the fields)
-    key = (f[2:], cmd, end - start)
-    at = caches.parts.get(key)
-    if at is None:
-        # (a NamedTuple's _replace and a call with *args run as Python: positional, native calls)
-        alone = (
-            Fmmu(
-                0,
-                end - start,
-                f.phys,
-                f.start_bit,
-                f.stop_bit,
-                f.phys_bit,
-                f.reads,
-                f.writes,
-                f.bytewise,
-                f.bits,
-            ),
-        )
-        at = remember(
-            caches.parts, key, Access(caches, alone, cmd, 0, end - start), PLAN_CACHE_ENTRIES
-        )
-    return at, start - lad
-
-
-def along(plan: LogicalPlan, offset: int) -> LogicalPlan:
-    """``plan`` (:func:`plan_logical`) with every part's frame bytes ``offset`` bytes further on."""
-    return _along(plan[0], offset), _along(plan[1], offset)
-
-
-def _along(ops: tuple[LogicalOp, ...], offset: int) -> tuple[LogicalOp, ...]:
-    if not ops:
-        return ops
-    return tuple(
-        [
-            _op(bytewise, phys, size, shift, mask, at + offset, width)
-            for bytewise, phys, size, shift, mask, at, width in ops
-        ]
-    )
-
-
-def _frame_span(ops: tuple[LogicalOp, ...]) -> tuple[int, int]:
-    """The frame bytes [start, end) that the parts ``ops`` of a plan span ((0, 0) for none):
-    claims outside it leave them as they are (:func:`unclaimed`)."""
-    if not ops:
-        return 0, 0
-    return min(op.at for op in ops), max(op.at + op.width for op in ops)
 
 
 def unclaimed(ops: tuple[LogicalOp, ...], lo: int, hi: int, write: bool) -> tuple[LogicalOp, ...]:
@@ -954,15 +745,8 @@ def table_access(caches: Caches, table: FmmuTable, cmd: int, lad: int, n: int) -
             found = shared_access(caches, f, cmd, lad, n, head.span)
         else:  # joined once per pair of parts' accesses, whatever else differs
             others = _part_access(caches, rest, key, cmd, lad, n)
-            at = None if not others.hit or len(f) > 1 else moved_along(caches, f[0], cmd, lad, n)
             if not others.hit:  # the others' span meets it, but none of them does
                 found = shared_access(caches, f, cmd, lad, n, head.span)
-            elif at is not None:  # FMMU 0 inside the access: moved along, no access of its own
-                joint = (at[0], at[1], others)
-                found = caches.joined.get(joint)
-                if found is None:
-                    found = Access.joined_along(f[0], at, others)
-                    remember(caches.joined, joint, found, PLAN_CACHE_ENTRIES)
             else:
                 pair = (shared_access(caches, f, cmd, lad, n, head.span), others)
                 found = caches.joined.get(pair)

@@ -649,7 +649,7 @@ def test_the_first_fmmu_worked_apart_maps_what_the_whole_plan_maps(
     0,
     1,
 )
-def test_first_fmmus_moved_along_take_what_the_others_leave_them(
+def test_first_fmmus_of_a_line_take_what_the_others_leave_them(
     first: tuple[int, ...],
     others: list[tuple[int, ...]],
     tables: list[mapping.SmTable],
@@ -659,10 +659,9 @@ def test_first_fmmus_moved_along_take_what_the_others_leave_them(
 ) -> None:
     """ESCs of a configured line, each mapping its own logical bytes with FMMU 0 (``step``
     bytes further on at each, the third one byte more), with the same other FMMUs: their
-    joined accesses worked out from FMMU 0's access moved along and the others'
-    (:meth:`mapping.Access.joined_along`, what they share kept with the others' access for
-    the SyncManager table and memory top last asked), each asked at one table and top after
-    another and back, map what each whole plan maps."""
+    joined accesses worked out from FMMU 0's access and the others' one shared
+    (:meth:`mapping.Access.joined`), each asked at one table and top after another and back,
+    map what each whole plan maps."""
     caches = mapping.Caches()  # a chain's
     log, length, bits, phys, kind = first
     rows = [(log + k * step, length + k // 2, bits, phys, kind) for k in range(3)]  # 2 sizes
@@ -680,52 +679,11 @@ def test_first_fmmus_moved_along_take_what_the_others_leave_them(
     tops = (0x10000, 0x1008, 0x10000)  # each change alone: the tables, the top, FMMU 0's size
     asked = [(areas, top) for top in tops for areas in (*tables, tables[0])]
     for f in mine:
-        at = mapping.moved_along(caches, f, int(cmd), lad, n)
-        assert at is not None
+        own = mapping.Access(caches, (f,), int(cmd), lad, n)
         for areas, top in asked:
-            access = mapping.Access.joined_along(f, at, shared)
+            access = mapping.Access.joined(own, shared)
             access.rows(areas, top, inert)
             assert_maps_as_whole(access, (f, *hit), areas, top)
-
-
-@given(
-    an_fmmu(st.sampled_from(FIRST_PHYS + OTHER_PHYS)),
-    sm_areas(),
-    st.sampled_from(LOGICAL),
-    st.integers(0, 40),
-    st.integers(0, 20),
-    st.sampled_from([0x1008, 0x10000]),
-)
-def test_an_fmmu_moved_along_the_frame_maps_what_it_maps_in_place(
-    fmmu_: tuple[int, ...],
-    areas: mapping.SmTable,
-    cmd: Command,
-    before: int,
-    after: int,
-    top: int,
-) -> None:
-    """An access through one FMMU that lies wholly inside it, ``before`` bytes after the
-    datagram's start and ``after`` bytes before its end, worked out as that FMMU's access at
-    logical 0 moved along the frame (:meth:`mapping.Access.moved`): the plan is plan_logical's,
-    and the cut, events and mailboxes are those of esc_row_access of it."""
-    caches = mapping.Caches()  # a chain's
-    log, length, bits, phys, kind = fmmu_
-    table = struct.pack("<IHBBHBBB3x", log, length, bits[0], bits[1], phys, bits[2], kind, 1)
-    hit, _ = mapping.decode_fmmus(caches, table)
-    assert len(hit) == 1  # (clipped at the end of the address space, perhaps)
-    lad, n = hit[0][0] - before, hit[0][1] - hit[0][0] + before + after
-    assume(lad >= 0)
-    plan = mapping.plan_logical(hit, int(cmd), lad, n)
-    whole = mapping.esc_row_access(plan, areas, top, Inert().inert)
-    access = mapping.Access(caches, hit, int(cmd), lad, n)
-    access.rows(areas, top, Inert())
-    assert (access.moved() is not None) == bool(hit[0][0] or lad)
-    assert access.plan == plan
-    if whole is None:
-        assert access.cut is None
-        return
-    assert (access.cut, access.events, access.mailboxes) == (whole[0][2], whole[1], whole[2])
-    assert (access.dc, access.shadow) == (whole.dc, whole.shadow)
 
 
 def test_the_first_fmmu_claims_its_frame_bytes_from_the_others_cut(
