@@ -32,6 +32,7 @@ from typing import Final
 # (from a Python module, each use is a lookup in its namespace: 1.6% of a hostile frame's
 # instructions)
 MODULES: Final = (
+    "al",
     "chain",
     "commands",
     "device",

@@ -65,6 +65,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
+from emulator.esc.al import control_written, reactions, status_written
 from emulator.esc.commands import (
     APRD,
     APRW,
@@ -107,7 +108,6 @@ from emulator.esc.mapping import (
 from emulator.esc.registers import (
     ADDRESS_SPACE,
     DC_SYNC0_ACTIVE,
-    EVENT_AL_STATUS,
     EVENT_DL_STATUS,
     PROCESS_RAM,
     REG_AL_CODE,
@@ -120,7 +120,6 @@ from emulator.esc.registers import (
     REG_ECAT_EVENT,
     REG_ECAT_EVENT_MASK,
     REG_FMMU,
-    REG_PDI_CONTROL,
     REG_PU_ERRORS,
     REG_RESET_ECAT,
     REG_RW_OFFSET,
@@ -542,12 +541,9 @@ class EscDevice:
 
     # --- the PDI side (the slave application) ---------------------------------------------------
     def pdi_set_al_status(self, state: int, *, error: bool, code: int) -> None:
-        """The application writes AL status and AL status code (datasheet I 10.1)."""
-        value = (state & 0x0F) | (0x10 if error else 0)
-        if value != self.al_status:
-            self.mem[REG_ECAT_EVENT] |= EVENT_AL_STATUS
+        """The application writes AL status and AL status code (:func:`al.status_written`)."""
+        if status_written(self.mem, state, error=error, code=code):
             self.update_irq()
-        struct.pack_into("<HxxH", self.mem, REG_AL_STATUS, value, code)
 
     def pdi_deactivate_sms(self, indices: Iterable[int], deactivate: bool) -> None:
         """PDI control 0x0807 bit 0: lock (True) or release SyncManagers ``indices`` (datasheet
@@ -1140,33 +1136,22 @@ class EscDevice:
         devices: Sequence[EscDevice], values: Sequence[int], pdi_control: Sequence[int]
     ) -> None:
         """After a frame wrote AL control (0x0120), at each of ``devices``, with its AL control
-        value and PDI control byte 0x0141: with the PDI operational, the AL status follows it
-        in device emulation (0x0141 bit 0), else the application reacts (datasheet I 10.1)."""
-        queue = devices[0].firmware_queue if devices else None
-        if queue is None or any(dev.firmware_queue is not queue for dev in devices):
-            for dev, value, control in zip(devices, values, pdi_control, strict=True):
-                if dev.pdi_operational:
-                    dev._al_control(value, control)
-            return
-        # one queue for all (the chain's): the reactions appended in one go, in order; an
-        # ESC in device emulation (0x0141 bit 0) sets AL status at once and queues nothing
-        queue.extend(
-            [
-                (dev, value)
-                for dev, value, control in zip(devices, values, pdi_control, strict=True)
-                if dev.pdi_operational and not control & 0x01
-            ]
-        )
-        if any(control & 0x01 for control in pdi_control):
-            for dev, value, control in zip(devices, values, pdi_control, strict=True):
-                if control & 0x01 and dev.pdi_operational:
-                    dev._al_control(value, control)
+        value and PDI control byte 0x0141: :func:`emulator.esc.al.reactions`, the firmware's
+        held (:meth:`_hold`)."""
+        EscDevice._hold(reactions(devices, values, pdi_control))
 
-    def _al_control(self, value: int, pdi_control: int) -> None:
-        if pdi_control & 0x01:  # device emulation: AL control -> AL status
-            self.pdi_set_al_status(value & 0x0F, error=bool(value & 0x10), code=0)
+    @staticmethod
+    def _hold(values: list[tuple[EscDevice, int]]) -> None:
+        """Each (ESC, AL control value) of ``values`` to its firmware (:meth:`_react`): in one
+        go where the ESCs share one queue (the chain's)."""
+        if not values:
+            return
+        queue = values[0][0].firmware_queue
+        if queue is not None and all(dev.firmware_queue is queue for dev, _ in values):
+            queue.extend(values)
         else:
-            self._react(value)
+            for dev, what in values:
+                dev._react(what)
 
     def _react(self, what: int) -> None:
         """The application reacts to the frame (:meth:`_reaction`), once the frame has passed when
@@ -1570,14 +1555,7 @@ def _commit_slots(
         _eeprom_commands(devices, memory, rows, which)
     which = al.nonzero()[0]
     if len(which):  # AL control, a mailbox the PDI empties by reading it (II 0x0120)
-        at = rows[which]
-        value = memory[at, REG_AL_CONTROL].astype(np.int64)
-        value |= memory[at, REG_AL_CONTROL + 1].astype(np.int64) << 8
-        control = memory[at, REG_PDI_CONTROL + 1].tolist()
-        writers = [devices[i] for i in which.tolist()]
-        for writer, pdi in zip(writers, control, strict=True):
-            writer.al_control_full = not pdi & 0x01  # but in device emulation
-        EscDevice._al_control_together(writers, value.tolist(), control)
+        EscDevice._hold(control_written(devices, memory, rows, which))
 
 
 def consecutive(rows: _Rows | slice) -> _Rows | slice:

@@ -12,11 +12,11 @@ from typing import Final, Protocol
 import numpy as np
 import numpy.typing as npt
 
+from emulator.esc.al import AL_CONTROL, control_free
 from emulator.esc.dc import DcClock, compare_together
 from emulator.esc.mapping import PLAN_CACHE_ENTRIES, Caches, remember
 from emulator.esc.registers import (
     FMMU_BYTES,
-    REG_AL_CONTROL,
     REG_DC_END,
     REG_DC_OFFSET,
     REG_DC_RECEIVE,
@@ -27,7 +27,6 @@ from emulator.esc.registers import (
     REG_EEPROM_PDI,
     REG_ERROR_COUNTERS,
     REG_FMMU,
-    REG_PDI_CONTROL,
     REG_PU_ERRORS,
     REG_RESET_ECAT,
     REG_SM,
@@ -53,7 +52,6 @@ __all__ = [
 
 # The registers whose ECAT writes do more than store (datasheet II), besides the SyncManagers and
 # the DC latch and compare: [start, end) of each block; what a write there does: write_special
-AL_CONTROL: Final = (REG_AL_CONTROL, REG_AL_CONTROL + 2)  # a mailbox to the PDI (II 0x0120)
 ERROR_COUNTERS: Final = (REG_ERROR_COUNTERS, 0x0314)  # RX, forwarded, PU, PDI, lost link (II 2.6)
 WATCHDOG_COUNTERS: Final = (0x0442, 0x0444)  # process data, PDI: a write clears both (II 0x0442)
 EEPROM_INTERFACE: Final = (REG_EEPROM_CONFIG, 0x0510)  # SII EEPROM interface (I 11.2, II 2.11)
@@ -135,8 +133,7 @@ class WritePlans:
             if hi > pos:
                 mask = int.from_bytes(self.masks[pos:hi], "little")
                 marks = (
-                    pos <= REG_AL_CONTROL < hi
-                    or (pos < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL)
+                    (pos < REG_DL_CONTROL + 4 and hi > REG_DL_CONTROL)
                     or (pos < self.fmmu_end and hi > REG_FMMU)
                     or (pos < REG_DC_END and hi > REG_DC_OFFSET)
                 )
@@ -237,14 +234,12 @@ def write_special(
     watchdog counters cleared (II 2.6, 0x0442), the EEPROM interface where ECAT owns it (I 11.2.2),
     SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
     and system time compare (:func:`compare_together`)."""
-    if lo < AL_CONTROL[1]:  # a mailbox while device emulation is off: a write the PDI has not
-        # read yet keeps out the next (II 0x0120); the application reacts to the rows in ``al``
-        free = np.fromiter([not dev.al_control_full for dev in devices], np.bool_, len(devices))
-        free |= (memory[rows, REG_PDI_CONTROL + 1] & 0x01) != 0  # device emulation
+    if lo < AL_CONTROL[1]:  # a mailbox (al.control_free); the firmware reacts to ``al``'s rows
+        free = control_free(devices, memory, rows)
         if free.any():
             taken = data[free] if data.ndim > 1 else data
             write_masked(memory, rows[free], lo, hi, taken, masks[lo:hi])
-            if lo == REG_AL_CONTROL:
+            if lo == AL_CONTROL[0]:  # (a write of its high byte alone is no request)
                 al |= free
         return
     if lo < REG_PU_ERRORS:  # one write clears all RX error counters

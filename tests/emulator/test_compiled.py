@@ -169,7 +169,7 @@ def test_the_build_says_in_one_line_why_the_escs_run_as_python(
     assert compiled.main() == 1
     said = capsys.readouterr().out.splitlines()
     assert said[0].startswith(
-        "compiling chain, commands, device, dl, eeprom, mapping, syncmanagers, together, write_plans"
+        "compiling al, chain, commands, device, dl, eeprom, mapping, syncmanagers, together, write_plans"
     )
     assert said[1].endswith("warning: Treating generator comprehension as list")  # mypyc's
     assert said[2:] == [
