@@ -30,7 +30,9 @@
 2. ``--live``: the same frames sent to ``skinframes serve ecat --nodes N`` over a veth pair in a
    private network namespace (needs root), one at a time (the next after the answer, or after
    ``--timeout-ms`` for a frame the chain drops); then, once late answers stopped coming, the
-   reset, the configuration and an LRD whose rows must be one published sample (a sample index
+   reset, the EEPROM configuration areas the frames corrupted rewritten (as a master's EEPROM
+   tool would: ``emulator.hostile.eeprom_repair_frames``, where 0x0502 shows a checksum error),
+   the configuration and an LRD whose rows must be one published sample (a sample index
    common to all rows: a short row may equal several samples of its patch); serve's own
    summary (frames it could not process, its maximum CPU per frame) is printed. With
    ``--ordinary``, the null run: the line is reset and configured first, and then ``--frames``
