@@ -528,9 +528,10 @@ class DecodedSii:
     """What :func:`decode_sii` found: the image, and findings about it.
 
     ``findings`` reports a checksum that does not match (code ``sii.checksum``) or the word
-    that disables its check (``sii.checksum_bypassed``, an INFO: an ESC accepts it), a version other
-    than 1 (``sii.version``) and an image shorter than its size word says (``sii.short``); none
-    of them stops decoding. ``end_offset`` is the byte after the end category.
+    that disables its check (``sii.checksum_bypassed``, an INFO: an ESC accepts it), a version
+    other than 1 (``sii.version``) and an image shorter than its size word says
+    (``sii.short``); none of them stops decoding. ``end_offset`` is the byte after the end
+    category.
     """
 
     image: SiiImage
@@ -606,7 +607,8 @@ def decode_sii(data: bytes) -> DecodedSii:
 
     A checksum that does not match is a finding, not an error: dumps of real slaves with a
     stale checksum still decode; the bypass word 0x88A4 is an INFO finding, as an ESC loads
-    the configuration area with it (:func:`config_area`). Bytes after the end category are not read.
+    the configuration area with it (:func:`config_area`). Bytes after the end category are not
+    read.
 
     Raises:
         TruncatedError: fewer than 128 header bytes, a category running past the end of the

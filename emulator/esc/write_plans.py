@@ -230,10 +230,12 @@ def write_special(
     al: npt.NDArray[np.bool_],
 ) -> None:
     """A write of ``data`` (one row, or one per row) into [lo, hi) at every row, a part of one
-    register block with side effects (cut by :meth:`WritePlans.plan`) of ``devices``: error counters and
-    watchdog counters cleared (II 2.6, 0x0442), the EEPROM interface where ECAT owns it (I 11.2.2),
-    SyncManager bytes 0-4 kept where the SyncManager was enabled (II 2.14.1), DC receive times
-    and system time compare (:func:`compare_together`)."""
+    register block with side effects (cut by :meth:`WritePlans.plan`) of ``devices``: AL control
+    where ECAT may write it (:func:`emulator.esc.al.control_free`; ``al`` marks the rows whose
+    firmware is to react), error counters and watchdog counters cleared (II 2.6, 0x0442), the
+    EEPROM interface where ECAT owns it (I 11.2.2), SyncManager bytes 0-4 kept where the
+    SyncManager was enabled (II 2.14.1), DC receive times and system time compare
+    (:func:`compare_together`)."""
     if lo < AL_CONTROL[1]:  # a mailbox (al.control_free); the firmware reacts to ``al``'s rows
         free = control_free(devices, memory, rows)
         if free.any():
