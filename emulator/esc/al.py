@@ -22,6 +22,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.esc.registers import (
+    DEVICE_EMULATION,
     EVENT_AL_STATUS,
     REG_AL_CONTROL,
     REG_AL_STATUS,
@@ -37,11 +38,11 @@ __all__ = [
     "control_free",
     "control_written",
     "reactions",
+    "status",
     "status_written",
 ]
 
 AL_CONTROL: Final = (REG_AL_CONTROL, REG_AL_CONTROL + 2)  # [start, end): a mailbox to the PDI
-DEVICE_EMULATION: Final = 0x01  # PDI control 0x0141 bit 0: AL control -> AL status by the ESC
 _Rows = npt.NDArray[np.intp]
 
 
@@ -110,12 +111,17 @@ def reactions(
     return firmware
 
 
+def status(mem: Memory) -> int:
+    """AL status 0x0130 of an ESC's memory ``mem``: the state in bits 0-3, error bit 4."""
+    return mem[REG_AL_STATUS] | mem[REG_AL_STATUS + 1] << 8
+
+
 def status_written(mem: Memory, state: int, *, error: bool, code: int) -> bool:
     """AL status 0x0130 (``state``, the error indication bit 4) and AL status code 0x0134 as
     the PDI writes them into an ESC's memory ``mem``: whether AL status changed, which sets
     the AL status event 0x0210 bit 3 (set here; the ESC's IRQ is the caller's)."""
     value = (state & 0x0F) | (0x10 if error else 0)
-    changed = value != mem[REG_AL_STATUS] | mem[REG_AL_STATUS + 1] << 8
+    changed = value != status(mem)
     if changed:
         mem[REG_ECAT_EVENT] |= EVENT_AL_STATUS
     struct.pack_into("<HxxH", mem, REG_AL_STATUS, value, code)

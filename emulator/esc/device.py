@@ -65,7 +65,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.esc.al import control_written, reactions, status_written
+from emulator.esc.al import control_written, reactions, status, status_written
 from emulator.esc.commands import (
     APRD,
     APRW,
@@ -461,8 +461,8 @@ class EscDevice:
 
     @property
     def al_status(self) -> int:
-        """AL status (0x0130): state in bits 0-3, error indication bit 4."""
-        return self.mem[REG_AL_STATUS] | self.mem[REG_AL_STATUS + 1] << 8
+        """AL status (0x0130): state in bits 0-3, error indication bit 4 (:func:`al.status`)."""
+        return status(self.mem)
 
     @property
     def al_status_code(self) -> int:

@@ -16,6 +16,7 @@ from emulator.errors import TopologyError
 __all__ = [
     "ADDRESS_SPACE",
     "DC_SYNC0_ACTIVE",
+    "DEVICE_EMULATION",
     "DL_ENHANCED_LINK",
     "DL_PDI_OPERATIONAL",
     "DL_PORT0",
@@ -158,6 +159,7 @@ DL_ENHANCED_LINK: Final = 0x0004  # enhanced link detection activated for at lea
 # ESC configuration 0x0141: enhanced link detection, bit 1 for all ports, bits 4-7 per port
 # (datasheet II 0x0141); DL status bit 2 shows it (II 0x0110), a reload keeps it (I 11.2.1)
 ENHANCED_LINK_BITS: Final = 0xF2
+DEVICE_EMULATION: Final = 0x01  # 0x0141 bit 0: AL status follows AL control (II 0x0141)
 DL_PORT0: Final = 0x0010 | 0x0200  # port 0: link, open, communication established
 DL_PORT1_LINK: Final = 0x0020 | 0x0800  # port 1: link, communication established
 DL_PORT1_CLOSED: Final = 0x0400  # port 1 loop closed
