@@ -13,12 +13,14 @@ not counted):
 - ``--lrds`` LRDs of the whole image, new taxels published to every patch before each (untimed,
   as serve's taxel feed publishes between frames): serve's everyday frame;
 - ``--hostile`` hostile frames of ``--seed`` with a master's reset every 500 (the frames of
-  ``bench_serve_hostile`` and ``bench_serve_ab``), 0 for none.
+  ``bench_serve_hostile`` and ``bench_serve_ab``), 0 for none;
+- ``--publishes`` the taxel feed's samples published to every patch, counted inside
+  ``EcatChain.publish`` instead (what serve does between frames once a period), 0 for none.
 
-Printed per checkout and workload: instructions per frame, and new / old.
+Printed per checkout and workload: instructions per frame (per sample published), and new / old.
 
     python benchmarks/bench_instructions.py OLD_CHECKOUT [NEW_CHECKOUT] [--nodes 160]
-        [--lrds 20] [--hostile 300] [--seed 0]
+        [--lrds 20] [--hostile 300] [--publishes 20] [--seed 0]
 
 Needs valgrind and each checkout's ESC modules compiled (``make``, or ``python -m
 emulator.esc.build`` in the checkout): the count is taken in the compiled ``answer``. A
@@ -43,6 +45,7 @@ from pathlib import Path
 ROOT = Path(__file__).resolve().parent.parent
 SIZE, EVERY = 8, 500  # bench_serve_hostile's defaults: bytes a patch, frames between resets
 ANSWER = "CPyDef_chain___EcatChain___answer"  # mypyc's C function for EcatChain.answer
+PUBLISH = "CPyDef_chain___EcatChain___publish"  # and for EcatChain.publish
 COLLECTED = re.compile(r"Collected : (\d+)")
 
 
@@ -65,6 +68,11 @@ def worker(checkout: str, nodes: int, workload: str, count: int, seed: int) -> N
             chain.answer(lrd)
             chain.run_firmware()
         print(count)
+    elif workload == "publish":  # the feed's samples, in turn (counted inside publish alone)
+        feed = TaxelFeed(nodes, SIZE, samples=16, seed=seed, period_s=0.0)
+        for _ in range(count):
+            feed.publish(chain, time.monotonic() + 1.0)
+        print(count)
     else:
         sent = [f for f, _ in with_resets(count, nodes, SIZE, seed, EVERY)]
         for frame in sent:
@@ -77,7 +85,8 @@ def counted(checkout: str, nodes: int, workload: str, count: int, seed: int) -> 
     """(instructions inside ``EcatChain.answer``, frames answered) of one workload."""
     with tempfile.TemporaryDirectory() as scratch:
         run = subprocess.run(
-            ["valgrind", "--tool=callgrind", f"--toggle-collect={ANSWER}",
+            ["valgrind", "--tool=callgrind",
+             f"--toggle-collect={PUBLISH if workload == 'publish' else ANSWER}",
              f"--callgrind-out-file={scratch}/callgrind.out", sys.executable, __file__,
              "--worker", checkout, "--nodes", str(nodes), "--workload", workload,
              "--count", str(count), "--seed", str(seed)],
@@ -120,9 +129,12 @@ def main() -> None:
     parser.add_argument(
         "--hostile", type=frames_count, default=300, help="hostile frames (default 300; 0: none)"
     )
+    parser.add_argument(
+        "--publishes", type=frames_count, default=20, help="samples published (default 20)"
+    )
     parser.add_argument("--seed", type=int, default=0, help="of the taxels and hostile frames")
     parser.add_argument("--worker", action="store_true", help=argparse.SUPPRESS)
-    parser.add_argument("--workload", choices=("lrd", "hostile"), help=argparse.SUPPRESS)
+    parser.add_argument("--workload", choices=("lrd", "hostile", "publish"), help=argparse.SUPPRESS)
     parser.add_argument("--count", type=int, help=argparse.SUPPRESS)
     args = parser.parse_args()
     if args.worker:
@@ -135,15 +147,24 @@ def main() -> None:
             )
     if shutil.which("valgrind") is None:
         parser.error("valgrind is not installed (apt install valgrind)")
-    workloads = [(w, n) for w, n in (("lrd", args.lrds), ("hostile", args.hostile)) if n]
-    print(f"{args.nodes} patches; instructions inside EcatChain.answer, counted by callgrind")
+    workloads = [
+        (w, n)
+        for w, n in (("lrd", args.lrds), ("hostile", args.hostile), ("publish", args.publishes))
+        if n
+    ]
+    print(
+        f"{args.nodes} patches; instructions inside EcatChain.answer (publish: inside "
+        "EcatChain.publish), counted by callgrind"
+    )
     for workload, count in workloads:
         per_frame = {}
         for name, checkout in (("old", args.old), ("new", args.new)):
             instructions, frames = counted(checkout, args.nodes, workload, count, args.seed)
             per_frame[name] = instructions / frames
+            unit = "sample" if workload == "publish" else "frame"
             print(
-                f"  {workload} {name} ({checkout}): {frames} frames, {per_frame[name]:,.0f} a frame"
+                f"  {workload} {name} ({checkout}): {frames} {unit}s, "
+                f"{per_frame[name]:,.0f} a {unit}"
             )
         print(f"  {workload} new / old: {per_frame['new'] / per_frame['old']:.3f}")
 

@@ -354,11 +354,19 @@ class TaxelFeed:
         self.period_s = period_s
         self.published = 0  # how many samples were published so far
         self._next = 0.0
+        self._line: tuple[EcatChain, bool] | None = None  # (the chain, _patches_only)
 
     def sample_index(self, published: int | None = None) -> int:
         """Which sample the ``published``-th publication (default: the last one) used."""
         count = self.published if published is None else published
         return (count - 1) % len(self.payloads)
+
+    def _patches_only(self, chain: EcatChain) -> bool:
+        """Whether every slave of ``chain`` is a skin patch (asked once a chain: a line's
+        applications stay those it was made with)."""
+        if self._line is None or self._line[0] is not chain:
+            self._line = (chain, all(type(d.app) is SkinPatchApplication for d in chain.devices))
+        return self._line[1]
 
     def publish(self, chain: EcatChain | Publisher, now: float) -> bool:
         """Publish the next sample if the period has passed; True if it did.
@@ -371,7 +379,7 @@ class TaxelFeed:
         rows = self.payloads[self.published % len(self.payloads)]
         if not isinstance(chain, EcatChain):
             chain.publish(rows)  # the EPL skin: every row a patch's
-        elif all(type(d.app) is SkinPatchApplication for d in chain.devices):
+        elif self._patches_only(chain):
             chain.publish(rows)
         else:
             _publish_line(chain.devices, rows)

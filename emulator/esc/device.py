@@ -401,6 +401,8 @@ class EscDevice:
         self._outputs_hook: Callable[[EscDevice, int], None] | None = getattr(
             self.app, "outputs_event", None
         )
+        # whether the application samples its inputs at SYNC0 pulses (it has sync0, dc.py)
+        self._samples = hasattr(self.app, "sync0")
         # where the application's reactions to a frame wait until the frame has passed (the
         # chain's list, EcatChain.run_firmware), or None: the application reacts at once
         self.firmware_queue: list[tuple[EscDevice, int]] | None = None
@@ -476,7 +478,7 @@ class EscDevice:
         Python: every ESC an LRD of the image reaches asks this (such a call cost a tenth of
         that LRD's instructions at 160 ESCs, benchmarks/README)."""
         active = self.mem[REG_DC_ACTIVATION] & DC_SYNC0_ACTIVE == DC_SYNC0_ACTIVE
-        return active and hasattr(self.app, "sync0")
+        return active and self._samples
 
     @property
     def changes_source_mac(self) -> bool:
@@ -570,10 +572,16 @@ class EscDevice:
     def pdi_write(self, addr: int, data: bytes) -> None:
         """The application writes memory; a whole read-SM buffer is a buffer exchange."""
         self.mem[addr : addr + len(data)] = data
+        self._pdi_wrote(addr, len(data))
+
+    def _pdi_wrote(self, addr: int, n: int) -> None:
+        """After the PDI wrote ``n`` bytes at ``addr``: each read SyncManager whose whole buffer
+        that is exchanges it (datasheet I 8.1; :func:`pdi_wrote`), a mailbox's then full, and
+        its interrupt for ECAT follows (:meth:`_sm_event`)."""
         if self._unmade is not None:
             self._make_sms()
         for sm in self._active:
-            if sm.start == addr and sm.length == len(data) and not sm.ecat_writes:
+            if sm.start == addr and sm.length == n and not sm.ecat_writes:
                 sm = self._own(sm)  # the ESC's own, in the list's place
                 st = REG_SM + SM_BYTES * sm.index + 5
                 if sm.mailbox:
@@ -1747,6 +1755,22 @@ def read_buffers(
             dev._sm_event(sm.index)
             changed = changed or dev.irq != before
     return changed
+
+
+def pdi_write_rows(
+    devices: Sequence[EscDevice],
+    memory: npt.NDArray[np.uint8],
+    rows: _Rows | slice,
+    addr: int,
+    data: npt.NDArray[np.uint8],
+) -> None:
+    """The PDI of each of ``devices``, whose memory is ``memory[rows]``, writes its row of
+    ``data`` at ``addr``: :meth:`EscDevice.pdi_write` at each, the bytes of all written at once
+    (a line of patches publishing a sample, :meth:`emulator.esc.chain.EcatChain.publish`)."""
+    n = data.shape[1]
+    memory[consecutive(rows), addr : addr + n] = data
+    for k in range(len(devices)):
+        devices[k]._pdi_wrote(addr, n)
 
 
 def finish_reads(

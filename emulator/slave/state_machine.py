@@ -269,11 +269,20 @@ class SlaveApplication:
         While SYNC0 is active (emulator.esc.dc) the data is what the sensor holds; the patch
         samples it at the next SYNC0 pulse (:meth:`sync0`).
         """
-        if len(data) != self._input_bytes or self._input_start is None:  # the whole patch
-            raise ValueError(f"inputs: {len(data)} bytes, the PDO has {self._input_bytes}")
-        self.inputs = bytes(data)
+        self.hold_inputs(data)
         if not device.dc_sampling:
             self._write_inputs(device)
+
+    def hold_inputs(self, data: bytes) -> int | None:
+        """The sensor holds ``data``, the slave's next inputs (all of them; else ValueError):
+        :meth:`publish` without the write, which a line of patches does for all of them at once
+        (:meth:`emulator.esc.chain.EcatChain.publish`). Where :meth:`_write_inputs` writes them
+        as they are: the input SyncManager's start when they are its image (no PDO assignment
+        reorders them); else None."""
+        if len(data) != self._input_bytes or self._input_start is None:  # the whole patch
+            raise ValueError(f"inputs: {len(data)} bytes, the PDO has {self._input_bytes}")
+        self.inputs = data if type(data) is bytes else bytes(data)
+        return self._input_start if self._image is None else None
 
     def _write_inputs(self, device: Pdi) -> None:
         """The held inputs into the input buffer, as the assigned PDOs map them."""

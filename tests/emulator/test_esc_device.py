@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 import struct
 
+import numpy as np
 import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
@@ -1121,6 +1122,39 @@ def test_sync0_pulses_and_taxels_sampled_at_sync0() -> None:
     assert int.from_bytes(stamp.data, "little") == 8_000_000
 
 
+def sync0_chain(
+    nodes: int, start_ns: int, command: C = C.BWR, adp: int = 0
+) -> tuple[EcatChain, list[int]]:
+    """A configured chain of ``nodes`` patches of 4 bytes whose clocks read ``now[0]`` (0 at
+    first; offsets 0), with SYNC0 every 1 ms from system time ``start_ns`` at the ESCs that
+    ``command`` with ``adp`` addresses (0x0990, 0x09A0, then 0x0981 = 3: SOEM's dc_sync order)."""
+    chain = EcatChain.configured(nodes, 4)
+    now = [0]
+    chain.clock_ns = lambda: now[0]
+    for dev in chain.devices:
+        dev.dc.retune(0.0, 0)
+    send(chain, Datagram(command, adp, 0x0990, struct.pack("<Q", start_ns)))
+    send(chain, Datagram(command, adp, 0x09A0, struct.pack("<I", 1_000_000)))
+    send(chain, Datagram(command, adp, 0x0981, b"\x03"))
+    return chain, now
+
+
+def test_a_line_publishes_each_patch_as_on_its_own() -> None:
+    """The line's publish writes the patches that do not sample at SYNC0 at once: the middle
+    one, with SYNC0 active (0x0981 = 3 at it alone), keeps the buffer SAFEOP wrote until a
+    pulse; the others show their new rows at once, given as an array or as rows of bytes."""
+    chain, now = sync0_chain(3, 5_000_000, C.FPWR, 0x1002)
+    lrd = Datagram.logical(C.LRD, 0, bytes(12))
+    chain.publish(np.array([[1] * 4, [2] * 4, [3] * 4], np.uint8))
+    assert one(chain, lrd).data == b"\x01" * 4 + bytes(4) + b"\x03" * 4
+    chain.publish([b"\x04" * 4, b"\x05" * 4, b"\x06" * 4])
+    assert one(chain, lrd).data == b"\x04" * 4 + bytes(4) + b"\x06" * 4
+    now[0] = 5_300_000  # the middle patch's first pulse (5 ms) took its sensor's sample
+    assert one(chain, lrd).data == b"\x04" * 4 + b"\x05" * 4 + b"\x06" * 4
+    held = [dev.app.inputs for dev in chain.devices]  # type: ignore[attr-defined]
+    assert held == [b"\x04" * 4, b"\x05" * 4, b"\x06" * 4]
+
+
 # --- the register audit against the datasheet (issue "One ESC, written once") ------------------
 def diff_ns(value: int) -> int:
     """0x092C: bit 31 set when the local copy is smaller, bits 0-30 the magnitude (II 0x092C)."""
@@ -1272,14 +1306,7 @@ def test_a_buffer_started_anew_is_sampled_at_sync0_when_ecat_opens_it() -> None:
     # SyncManager disabled and enabled again starts anew (II 2.14, 0x0806 bit 0) with no buffer;
     # with SYNC0 active, ECAT opening it lets the patch sample at the pulse (dc.py) and the
     # read returns that sample, in a configured chain as SOEM's dc_sync leaves it.
-    chain = EcatChain.configured(2, 4)
-    now = [0]
-    chain.clock_ns = lambda: now[0]
-    for dev in chain.devices:
-        dev.dc.retune(0.0, 0)
-    send(chain, Datagram(C.BWR, 0, 0x0990, struct.pack("<Q", 1_000_000)))
-    send(chain, Datagram(C.BWR, 0, 0x09A0, struct.pack("<I", 1_000_000)))
-    send(chain, Datagram(C.BWR, 0, 0x0981, b"\x03"))
+    chain, now = sync0_chain(2, 1_000_000)
     y = chain.devices[0].info.sm_of_type(SyncManagerType.INPUTS)
     assert y is not None
     start = chain.devices[0].sm_registers(y)[0]
