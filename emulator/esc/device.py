@@ -843,9 +843,7 @@ class EscDevice:
         pos = addr
         if pos < REGISTER_END:
             hi = min(end, REGISTER_END)
-            self.pending.append((pos, data[: hi - addr]))
-            if pos <= REG_RESET_ECAT < hi:
-                self._reset_written = data[REG_RESET_ECAT - addr]
+            self._write_shadow(((pos, data[: hi - addr]),))
             ok = 1
             pos = hi
         if pos >= end:
@@ -1029,8 +1027,9 @@ class EscDevice:
 
     def _write_shadow(self, entries: Iterable[tuple[int, bytes]]) -> None:
         """ECAT writes registers: each (address, bytes), below 0x0F80, into the shadow writes
-        (:attr:`pending`), as :meth:`_write` puts them there; a byte written into the reset
-        register 0x0040 counts towards a reset (datasheet II 2.3), the last one of the frame."""
+        (:attr:`pending`; the register bytes of every :meth:`_write`); a byte written into the
+        reset register 0x0040 counts towards a reset (datasheet II 2.3), the last one of the
+        frame."""
         for addr, data in entries:
             self.pending.append((addr, data))
             if addr <= REG_RESET_ECAT < addr + len(data):
