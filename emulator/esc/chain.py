@@ -297,6 +297,7 @@ class EcatChain:
             dev.dc.timebase, dev.dc.position = self.timebase, i
         self.frames = 0
         self.dropped = 0
+        self._input_widths = [dev.info.input_bytes for dev in self.devices]  # (publish)
         # the slave applications' reactions to the frame that just passed (AL control, mailbox
         # events), run once it has passed (run_firmware), as a slave's firmware reacts to the
         # events its ESC signals
@@ -389,13 +390,13 @@ class EcatChain:
     def publish(self, rows: npt.ArrayLike | Iterable[bytes]) -> None:
         """Each slave's application writes its next input buffer: one row per slave.
 
-        Called between frames, so that every frame sees one consistent sample per slave. What
-        each patch's :meth:`SkinPatchApplication.publish` does, for the line at once: each
-        patch holds its row (:meth:`~SkinPatchApplication.hold_inputs`), and unless it samples
-        at SYNC0 (:attr:`EscDevice.dc_sampling`) writes it, those whose inputs are their image
-        (:attr:`~SkinPatchApplication.straight_at`) all at once through the rows of
-        :attr:`memory` (:func:`pdi_write_rows`): 0.7 us a patch had been the round trip's p99
-        at 160 (benchmarks/README).
+        Called between frames, so that every frame sees one consistent sample per slave; rows
+        of other lengths than the slaves' inputs change nothing (TopologyError). What each
+        patch's :meth:`SkinPatchApplication.publish` does, for the line at once: each patch
+        holds its row (:meth:`~SkinPatchApplication.hold_inputs`) and, unless it samples at
+        SYNC0 (:attr:`EscDevice.dc_sampling`), writes it; those whose inputs are their image
+        all at once, through the rows of :attr:`memory` (:func:`pdi_write_rows`). Patch by
+        patch, publishing had set serve's round-trip p99 at 160 patches (benchmarks/README).
         """
         arr: npt.NDArray[np.uint8] | None = None
         if isinstance(rows, np.ndarray):
@@ -408,6 +409,10 @@ class EcatChain:
             data = list(rows)  # type: ignore[arg-type]  # (not an array: rows of bytes)
             if len(data) != len(self.devices):
                 raise TopologyError(f"publish: {len(data)} rows for {len(self)} slaves")
+        widths = self._input_widths
+        if [len(row) for row in data] != widths:  # (before any patch holds its row)
+            p = next(p for p, row in enumerate(data) if len(row) != widths[p])
+            raise TopologyError(f"publish: {len(data[p])} bytes for slave {p}, of {widths[p]}")
         devices, where = self.devices, []  # those whose inputs go as they are, all at start
         start: int | None = None
         for p, dev in enumerate(devices):

@@ -16,6 +16,7 @@ import pytest
 from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
+from emulator.errors import TopologyError
 from emulator.esc.chain import EcatChain, configure_frames
 from emulator.esc.device import EscDevice
 from emulator.hostile import hostile_frames, master_reset_frames
@@ -1153,6 +1154,20 @@ def test_a_line_publishes_each_patch_as_on_its_own() -> None:
     assert one(chain, lrd).data == b"\x04" * 4 + b"\x05" * 4 + b"\x06" * 4
     held = [dev.app.inputs for dev in chain.devices]  # type: ignore[attr-defined]
     assert held == [b"\x04" * 4, b"\x05" * 4, b"\x06" * 4]
+
+
+def test_a_publish_of_a_wrong_row_changes_no_patch() -> None:
+    """One LRD, one sample: a publish whose second row is short is refused before the first
+    patch holds or writes its row; the image still reads the sample before."""
+    chain = EcatChain.configured(2, 4)
+    chain.publish([b"\x01" * 4, b"\x02" * 4])
+    with pytest.raises(TopologyError, match="3 bytes for slave 1, of 4"):
+        chain.publish([b"\x03" * 4, b"\x04" * 3])
+    with pytest.raises(TopologyError, match="5 bytes for slave 0, of 4"):
+        chain.publish(np.full((2, 5), 7, np.uint8))
+    assert one(chain, Datagram.logical(C.LRD, 0, bytes(8))).data == b"\x01" * 4 + b"\x02" * 4
+    held = [dev.app.inputs for dev in chain.devices]  # type: ignore[attr-defined]
+    assert held == [b"\x01" * 4, b"\x02" * 4]
 
 
 # --- the register audit against the datasheet (issue "One ESC, written once") ------------------
