@@ -587,7 +587,7 @@ class EcatChain:
         map part of it), in chain order: (the working counter's increment, whether an ESC's
         event request changed). An LRD of a whole input buffer, or an LRW there that the ESC
         does not write, is one call (:meth:`EscDevice._read_buffered`); consecutive ESCs that
-        map the datagram onto plain memory with one plan cut (:meth:`EscDevice._row_access`;
+        map the datagram onto plain memory with one plan cut (:meth:`EscDevice._access`;
         idle mailboxes are holes in it, :meth:`EscDevice._row_cut`) are done at once over their
         rows (:func:`logical_together`), fewer than :data:`LOGICAL_TOGETHER_MIN` each on its own
         (:meth:`EscDevice._logical`: the per-ESC path, which the rows are proven equal to);
@@ -623,7 +623,7 @@ class EcatChain:
                 cleared = line[q]._clear_read_events(bits) or cleared
             return inc, cleared
 
-        # what _row_access gave the last ESC asked (None: ask), and what it follows from: the
+        # what _access gave the last ESC asked (None: ask), and what it follows from: the
         # next ESC with the same decoded FMMU and SyncManager tables, PDI state and register
         # write plans gets it (an Access holds what it worked out for the tables last asked:
         # an ESC on its own may ask it for others, so then it is asked again)
@@ -641,12 +641,10 @@ class EcatChain:
                     and dev.pdi_operational == pdi
                     and dev.write_plans is writes
                 ):
-                    found = dev._row_access(cmd, lad, n)
+                    found = dev._access(cmd, lad, n)
                     fmmus, areas = dev.fmmu_decoded, dev.sm_areas
                     pdi, writes = dev.pdi_operational, dev.write_plans
-                cut = found.cut  # where it holds at this ESC now (EscDevice._row_cut)
-                if found.mailboxes and cut is not None and not dev._mailboxes_idle(found.mailboxes):
-                    cut = None
+                cut = dev._row_cut(found)  # where it holds at this ESC now
                 if cut == _UNTOUCHED:
                     continue  # it does nothing with the datagram's bytes
                 if cut == run_plan and found.shadow == run_shadow:
@@ -665,7 +663,7 @@ class EcatChain:
             if isinstance(done, int):
                 wkc_inc += done
                 changed = changed or dev.irq != before
-            else:  # a run starts, even one that does nothing: the next are asked _row_access
+            else:  # a run starts, even one that does nothing: the next are asked _access
                 assert done.cut is not None  # and it holds here (row_cut)
                 run, run_plan, run_shadow = [p], done.cut, done.shadow
                 if done.events:

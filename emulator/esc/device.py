@@ -184,7 +184,7 @@ _RENAMED: Final = {
     "use_caches": "_use_caches",
     "finish_frame": "_finish_frame",
     "read_buffered": "_read_buffered",
-    "row_access": "_row_access",
+    "row_access": "_access",
     "refresh_dc": "_refresh_dc",
     "row_cut": "_row_cut",
     "mailboxes_idle": "_mailboxes_idle",
@@ -950,24 +950,20 @@ class EscDevice:
 
     def _access(self, cmd: int, lad: int, n: int) -> Access:
         """A logical access by this ESC's FMMUs (:func:`plan_logical`), worked out once per
-        FMMU table and access (:func:`table_access`); what the chain may do over the rows
-        (:meth:`Access.rows`) is remembered for the SyncManager table, memory top and register
-        write plans last asked about (ESCs configured alike ask alike)."""
+        FMMU table and access (:func:`table_access`), with what the chain may do over the rows
+        (:meth:`Access.rows`, :func:`emulator.esc.mapping.esc_row_access`), remembered for the
+        SyncManager table, memory top and register write plans last asked about (ESCs
+        configured alike ask alike): :attr:`Access.cut`, the plan cut, of a plain access, or of
+        one that is plain but for reads of DL or AL status, whose events
+        (:attr:`Access.events`) the ESC then clears (:meth:`_clear_read_events`), but for
+        mailboxes (:attr:`Access.mailboxes`) that must be idle (:meth:`_row_cut`), but for a
+        read of DC registers (:attr:`Access.dc`), which the ESC brings up to the frame's time
+        first (:meth:`_refresh_dc`), and but for writes of registers (:attr:`Access.shadow`),
+        whose bytes go among its shadow writes (:meth:`_write_shadow`)."""
         found = table_access(self._caches, self.fmmu_decoded, cmd, lad, n)
         top = ADDRESS_SPACE if self.pdi_operational else PROCESS_RAM  # I 11.2.1
         found.rows(self.sm_areas, top, self.write_plans)
         return found
-
-    def _row_access(self, cmd: int, lad: int, n: int) -> Access:
-        """A logical access with what the chain may do over the rows (:attr:`Access.cut`, the plan
-        cut, of a plain access, or of one that is plain but for reads of DL or AL status, whose
-        events, :attr:`Access.events`, the ESC then clears, :meth:`_clear_read_events`, but for
-        mailboxes, :attr:`Access.mailboxes`, that must be idle, :meth:`_mailboxes_idle`, but for a
-        read of DC registers, :attr:`Access.dc`, which the ESC brings up to the frame's time first,
-        :meth:`_refresh_dc`, and but for writes of registers, :attr:`Access.shadow`, whose bytes go
-        among its shadow writes, :meth:`_write_shadow`;
-        :func:`emulator.esc.mapping.esc_row_access`)."""
-        return self._access(cmd, lad, n)
 
     def _refresh_dc(self, registers: tuple[tuple[int, int], ...]) -> None:
         """Bring the DC registers [lo, hi) of ``registers`` (:attr:`Access.dc`) up to the
@@ -976,8 +972,8 @@ class EscDevice:
             self.dc.refresh(self.mem, lo, hi)
 
     def _row_cut(self, found: Access) -> LogicalPlan | None:
-        """``found.cut`` (:meth:`_row_access`) when it holds at this ESC now: its mailboxes
-        idle (:meth:`_mailboxes_idle`); else None."""
+        """``found.cut`` (:meth:`_access`) when it holds at this ESC now: its mailboxes idle
+        (:meth:`_mailboxes_idle`); else None."""
         if found.mailboxes and not self._mailboxes_idle(found.mailboxes):
             return None
         return found.cut
@@ -1016,7 +1012,7 @@ class EscDevice:
         self, cmd: int, lad: int, buf: bytearray, off: int, n: int
     ) -> int | Access:
         """A logical datagram (data ``buf[off:off+n]``) as :meth:`process` does it: the working
-        counter's increment; but when the chain may do it over the rows (:meth:`_row_access`),
+        counter's increment; but when the chain may do it over the rows (:meth:`_access`),
         that access, untouched, for the chain to do it together with the ESCs after this one."""
         if cmd in LRD_OR_LRW and self._read_buffered(lad, buf, off, n, cmd):
             return 1

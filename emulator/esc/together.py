@@ -6,7 +6,7 @@ commits as a line of one); it and :func:`~emulator.esc.device.finish_together` a
 here under their old names.
 
 A logical datagram (LRD, LWR, LRW) that ESCs with the same FMMU plan cut map onto plain memory
-(:meth:`EscDevice._row_access`) is done for all of them at once by :func:`logical_together`:
+(:meth:`EscDevice._access`) is done for all of them at once by :func:`logical_together`:
 hostile FMMUs, bit-wise ones among them, cost the ESCs one pass over rows instead of big-integer
 arithmetic ESC by ESC. (Reads of DL or AL status among them are of the committed bytes; the
 events they clear are the caller's, :meth:`EscDevice._clear_read_events`, and so is bringing DC

@@ -878,7 +878,7 @@ def test_the_esc_leaves_to_the_chain_what_it_does_over_the_rows() -> None:
         lad, n = rng.randrange(100), rng.randrange(1, 100)
         data = rng.randbytes(n)
         for dev in chain.devices:
-            found = dev._row_access(lrd_, lad, n)
+            found = dev._access(lrd_, lad, n)
             if dev._row_cut(found) is None:
                 seen["done"] += 1
                 continue
@@ -889,7 +889,7 @@ def test_the_esc_leaves_to_the_chain_what_it_does_over_the_rows() -> None:
     assert seen["left"] > 100 and seen["done"] > 100, seen
     chain.process_frame(bwr(0x0630, read_fmmu(0x4000, 0x0130, 2)))  # FMMU 3 reads AL status
     for dev in chain.devices:
-        found = dev._row_access(lrd_, 0x4000, 2)
+        found = dev._access(lrd_, 0x4000, 2)
         assert found.cut is not None and found.events == 0x08
 
 
