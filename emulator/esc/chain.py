@@ -27,7 +27,7 @@ from __future__ import annotations
 import struct
 from collections.abc import Callable, Container, Iterable, Sequence
 from dataclasses import dataclass, replace
-from typing import Final, NamedTuple
+from typing import Final, NamedTuple, cast
 
 import numpy as np
 import numpy.typing as npt
@@ -405,8 +405,11 @@ class EcatChain:
                 raise TopologyError(f"publish: rows of shape {arr.shape} for {len(self)} slaves")
             blob, width = arr.tobytes(), arr.shape[1]  # (one copy: a row's tobytes costs 0.1 us)
             data = [blob[at : at + width] for at in range(0, len(blob), width)]
-        else:
-            data = list(rows)  # type: ignore[arg-type]  # (not an array: rows of bytes)
+        else:  # rows of bytes, or of what an array of bytes takes (lists of ints, bytearrays)
+            data = [
+                row if type(row) is bytes else np.asarray(row, np.uint8).tobytes()
+                for row in cast("Iterable[object]", rows)
+            ]
             if len(data) != len(self.devices):
                 raise TopologyError(f"publish: {len(data)} rows for {len(self)} slaves")
         widths = self._input_widths

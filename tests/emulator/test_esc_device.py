@@ -1148,7 +1148,7 @@ def test_a_line_publishes_each_patch_as_on_its_own() -> None:
     lrd = Datagram.logical(C.LRD, 0, bytes(12))
     chain.publish(np.array([[1] * 4, [2] * 4, [3] * 4], np.uint8))
     assert one(chain, lrd).data == b"\x01" * 4 + bytes(4) + b"\x03" * 4
-    chain.publish([b"\x04" * 4, b"\x05" * 4, b"\x06" * 4])
+    chain.publish([[4] * 4, bytearray(b"\x05" * 4), b"\x06" * 4])  # what bytes() takes
     assert one(chain, lrd).data == b"\x04" * 4 + bytes(4) + b"\x06" * 4
     now[0] = 5_300_000  # the middle patch's first pulse (5 ms) took its sensor's sample
     assert one(chain, lrd).data == b"\x04" * 4 + b"\x05" * 4 + b"\x06" * 4
