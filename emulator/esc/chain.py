@@ -425,8 +425,8 @@ class EcatChain:
             at = app.hold_inputs(data[p])
             if dev.dc_sampling:
                 continue  # sampled at the next SYNC0 pulse
-            if at is None:  # laid out by the PDO assignment
-                app._write_inputs(dev)
+            if at is None:  # laid out by the PDO assignment: as the patch alone publishes
+                app.publish(dev, data[p])
             elif at == start or start is None:
                 start = at
                 where.append(p)
