@@ -1143,7 +1143,8 @@ def sync0_chain(
 def test_a_line_publishes_each_patch_as_on_its_own() -> None:
     """The line's publish writes the patches that do not sample at SYNC0 at once: the middle
     one, with SYNC0 active (0x0981 = 3 at it alone), keeps the buffer SAFEOP wrote until a
-    pulse; the others show their new rows at once, given as an array or as rows of bytes."""
+    pulse; the others show their new rows at once, given as an array or as rows (bytes, a
+    bytearray, a list of ints)."""
     chain, now = sync0_chain(3, 5_000_000, C.FPWR, 0x1002)
     lrd = Datagram.logical(C.LRD, 0, bytes(12))
     chain.publish(np.array([[1] * 4, [2] * 4, [3] * 4], np.uint8))
