@@ -6,7 +6,8 @@ Where the taxels sit (what the emulator writes, and what a master reading a skin
   (DS 301 4.6.1.1.4; byte ``12 * t + j`` is taxel j of triangle t, :mod:`skinframes.taxel`),
   valid only with the PRes flag RD set (the same clause: a CN sets it in NMT_CS_OPERATIONAL;
   before, while it boots, its payload is not valid data): a PRes with RD clear leaves the
-  node's sample missing, as an EtherCAT datagram that returns unprocessed does.
+  node's sample missing, as an EtherCAT datagram that returns unprocessed does, and so does a
+  PRes whose payload (its size field, DS 301 4.6.1.1.4) holds fewer than the node's bytes.
   A sample is one cycle; it starts at the MN's SoC (DS 301 4.2.4.1).
 - **EtherCAT**: node ``i`` (0-based position in the chain) owns ``bytes_per_node`` bytes at
   logical address ``base + i * bytes_per_node`` of the process image, read by LRD or LRW
@@ -641,8 +642,12 @@ class _Samples:
         count: npt.NDArray[np.int64],
         data: npt.NDArray[np.uint8],
     ) -> None:
-        """Each carrying item's ``count`` bytes at ``payload_at`` into (its sample, node)."""
+        """Each carrying item's ``count`` bytes at ``payload_at`` into (its sample, node); an
+        item with fewer bytes than the node's carries none (its sample stays missing, as one
+        the EtherCAT image does not cover whole: no zeros stand in for bytes not sent)."""
         items, row = self._open(time_ns, markers, carries)
+        whole = count[items] >= self.bytes_per_node
+        items, row = items[whole], row[whole]
         n_of = node[items]
         c_of = np.minimum(count[items], taxel.PATCH_BYTES)
         self._present[row, n_of] = True

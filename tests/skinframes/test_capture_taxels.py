@@ -134,6 +134,32 @@ def test_a_pres_without_rd_carries_no_sample(tshark: str, tmp_path: Path) -> Non
     assert (flat[1, 0] == 0x12).all() and (flat[1, 1] == 0x22).all()
 
 
+def test_a_pres_shorter_than_the_patch_carries_no_sample(tshark: str, tmp_path: Path) -> None:
+    # DS 301 4.6.1.1.4: a PRes's Size field counts its payload octets. CN 2 is OPERATIONAL (RD
+    # set) but sends no payload in cycle 0 (a CN whose TPDO mapping is empty) and 100 of its 192
+    # bytes in cycle 1: neither carries its patch, which stays missing rather than read as zeros
+    cycles = [
+        [PRes(1, b"\x11" * 192), PRes(2, b"")],
+        [PRes(1, b"\x12" * 192), PRes(2, b"\x22" * 100)],
+        [PRes(1, b"\x13" * 192), PRes(2, b"\x23" * 192)],
+    ]
+    records = []
+    for k, cycle in enumerate(cycles):
+        for j, message in enumerate([SoC(), *cycle]):
+            records.append((k * 1_000_000 + j * 100_000, powerlink.frame(message).to_bytes()))
+    path = tmp_path / "short.pcap"
+    write_pcap(path, records)
+    fields = tshark_util.fields(tshark, path, ["epl.pres.rd", "epl.pres.size"])
+    assert [row["epl.pres.rd"] for row in fields] == [[], ["1"], ["1"]] * 3
+    sizes = [row["epl.pres.size"] for row in fields]  # tshark reads the size where we do
+    assert sizes == [[], ["192"], ["0"], [], ["192"], ["100"], [], ["192"], ["192"]]
+    result = taxels_from_capture(path, nodes=2, bytes_per_node=192)
+    assert result.present.tolist() == [[True, False], [True, False], [True, True]]
+    flat = result.taxels.reshape(3, 2, -1)
+    assert not flat[0, 1].any() and not flat[1, 1].any()  # missing reads as zeros
+    assert (flat[1, 0] == 0x12).all() and (flat[2, 1] == 0x23).all()
+
+
 def test_no_skin_data_is_an_error(tmp_path: Path) -> None:
     with pytest.raises(FieldRangeError):
         taxels_from_capture(ROOT / "pcaps" / "ecat_all_commands.pcap", protocol="epl")
