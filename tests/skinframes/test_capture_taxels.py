@@ -112,6 +112,16 @@ def test_a_lost_pres_is_missing_not_invented(tmp_path: Path) -> None:
     assert not result.taxels[~result.present].any()
 
 
+def epl_cycles(path: Path, cycles: list[list[PRes]]) -> Path:
+    """A pcap of EPL cycles, each a SoC and the PRes given, 1 ms apart."""
+    records = []
+    for k, cycle in enumerate(cycles):
+        for j, message in enumerate([SoC(), *cycle]):
+            records.append((k * 1_000_000 + j * 100_000, powerlink.frame(message).to_bytes()))
+    write_pcap(path, records)
+    return path
+
+
 def test_a_pres_without_rd_carries_no_sample(tshark: str, tmp_path: Path) -> None:
     # DS 301 4.6.1.1.4: a PRes's payload is valid only with RD (flags byte 4, bit 0), which a CN
     # sets in NMT_CS_OPERATIONAL; CN 2 still boots in cycle 0 (RD clear, a payload of 0x55s)
@@ -119,12 +129,7 @@ def test_a_pres_without_rd_carries_no_sample(tshark: str, tmp_path: Path) -> Non
         [PRes(1, b"\x11" * 192), PRes(2, b"\x55" * 192, nmt_status=0x5D, flags1=0)],
         [PRes(1, b"\x12" * 192), PRes(2, b"\x22" * 192)],
     ]
-    records = []
-    for k, cycle in enumerate(cycles):
-        for j, message in enumerate([SoC(), *cycle]):
-            records.append((k * 1_000_000 + j * 100_000, powerlink.frame(message).to_bytes()))
-    path = tmp_path / "boot.pcap"
-    write_pcap(path, records)
+    path = epl_cycles(tmp_path / "boot.pcap", cycles)
     rd = [row["epl.pres.rd"] for row in tshark_util.fields(tshark, path, ["epl.pres.rd"])]
     assert rd == [[], ["1"], ["0"], [], ["1"], ["1"]]  # tshark reads the flag where we do
     result = taxels_from_capture(path, nodes=2, bytes_per_node=192)
@@ -143,12 +148,7 @@ def test_a_pres_shorter_than_the_patch_carries_no_sample(tshark: str, tmp_path: 
         [PRes(1, b"\x12" * 192), PRes(2, b"\x22" * 100)],
         [PRes(1, b"\x13" * 192), PRes(2, b"\x23" * 192)],
     ]
-    records = []
-    for k, cycle in enumerate(cycles):
-        for j, message in enumerate([SoC(), *cycle]):
-            records.append((k * 1_000_000 + j * 100_000, powerlink.frame(message).to_bytes()))
-    path = tmp_path / "short.pcap"
-    write_pcap(path, records)
+    path = epl_cycles(tmp_path / "short.pcap", cycles)
     fields = tshark_util.fields(tshark, path, ["epl.pres.rd", "epl.pres.size"])
     assert [row["epl.pres.rd"] for row in fields] == [[], ["1"], ["1"]] * 3
     sizes = [row["epl.pres.size"] for row in fields]  # tshark reads the size where we do
