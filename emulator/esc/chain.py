@@ -406,10 +406,7 @@ class EcatChain:
             blob, width = arr.tobytes(), arr.shape[1]  # (one copy: a row's tobytes costs 0.1 us)
             data = [blob[at : at + width] for at in range(0, len(blob), width)]
         else:  # rows of bytes, or of what an array of bytes takes (lists of ints, bytearrays)
-            data = [
-                row if type(row) is bytes else np.asarray(row, np.uint8).tobytes()
-                for row in cast("Iterable[object]", rows)
-            ]
+            data = [_row_bytes(p, row) for p, row in enumerate(cast("Iterable[object]", rows))]
             if len(data) != len(self.devices):
                 raise TopologyError(f"publish: {len(data)} rows for {len(self)} slaves")
         widths = self._input_widths
@@ -1271,6 +1268,18 @@ def _input_run(c: TraceCopy, inputs: tuple[int, int]) -> tuple[int, int, int] | 
     if lo >= hi:
         return None
     return c.dst + lo - c.src, lo - inputs[0], hi - lo
+
+
+def _row_bytes(position: int, row: object) -> bytes:
+    """A row given to :meth:`EcatChain.publish` as bytes: what an array of bytes takes (bytes, a
+    bytearray, a list of ints); values outside 0..255 are a TopologyError (a ValueError, as
+    ``bytes`` raises), a row of another type stays a TypeError."""
+    if type(row) is bytes:
+        return row
+    try:
+        return np.asarray(row, np.uint8).tobytes()
+    except (OverflowError, ValueError) as exc:
+        raise TopologyError(f"publish: the row of slave {position}: {exc}") from exc
 
 
 def _rows_of(data: Sequence[bytes]) -> npt.NDArray[np.uint8]:

@@ -1166,6 +1166,8 @@ def test_a_publish_of_a_wrong_row_changes_no_patch() -> None:
         chain.publish([b"\x03" * 4, b"\x04" * 3])
     with pytest.raises(TopologyError, match="5 bytes for slave 0, of 4"):
         chain.publish(np.full((2, 5), 7, np.uint8))
+    with pytest.raises(TopologyError, match="the row of slave 1"):  # a byte holds 0..255
+        chain.publish([[1] * 4, [1, 2, 3, 256]])
     assert one(chain, Datagram.logical(C.LRD, 0, bytes(8))).data == b"\x01" * 4 + b"\x02" * 4
     held = [dev.app.inputs for dev in chain.devices]  # type: ignore[attr-defined]
     assert held == [b"\x01" * 4, b"\x02" * 4]
