@@ -36,6 +36,7 @@ from skinframes.errors import (
     FrameTooLargeError,
     PcapFormatError,
 )
+from skinframes.write_behind import WriteBehind
 
 if TYPE_CHECKING:  # numpy is imported where an array is made: reading needs none
     import numpy as np
@@ -301,6 +302,12 @@ class CaptureWriter:
     :meth:`close` flushes it and leaves it open, and an exception leaves what was written
     (``fmt=None`` is classic pcap there: a stream has no suffix).
 
+    With ``write_behind`` the records are written by a thread of their own
+    (:class:`skinframes.write_behind.WriteBehind`), so that a busy disk or a slow reader of the
+    pipe does not hold up the program making them (``serve``): a record is built and handed over
+    at once, none is dropped (the writer waits when the thread is 64 MiB behind), and an
+    ``OSError`` of the thread is raised by the next call.
+
     Args:
         path: the capture file to create or replace, or a binary stream to write to.
         fmt: ``"pcap"``, ``"pcapng"`` or None (from the suffix).
@@ -308,6 +315,7 @@ class CaptureWriter:
         port_names: one ``if_name`` per port (pcapng).
         if_speed_bps: the ports' bit rate, written as each interface's ``if_speed`` (pcapng);
             None writes no speed.
+        write_behind: write the records from a thread of their own (see above).
 
     Raises:
         CaptureError: ``path`` is a symbolic link, a directory or not a regular file, its
@@ -324,8 +332,9 @@ class CaptureWriter:
         ports: int = 1,
         port_names: Sequence[str] | None = None,
         if_speed_bps: int | None = None,
+        write_behind: bool = False,
     ) -> None:
-        self._file: BinaryIO | None = None
+        self._file: BinaryIO | WriteBehind | None = None
         self._tmp: Path | None = None
         if isinstance(path, str | os.PathLike):
             stream: BinaryIO | None = None
@@ -363,13 +372,16 @@ class CaptureWriter:
         # what the image's frame bytes hold after write_repeated: (layout, template, fill places)
         self._image_holds: tuple[_Layout, bytes, tuple[tuple[int, int], ...]] | None = None
         if stream is not None:  # a pipe is not a file: the records stream as they come
-            self._file = stream
+            self._file = WriteBehind(stream, close_sink=False) if write_behind else stream
             self._file.write(header)
             self._bytes = len(header)
             return
         self._tmp, fd = create_temp(target)
         try:
-            self._file = open(fd, "wb", buffering=_BUFFER_BYTES)  # noqa: SIM115  # closed in close()
+            if write_behind:  # the thread gathers its chunks: the file needs no buffer
+                self._file = WriteBehind(open(fd, "wb", buffering=0), close_sink=True)  # noqa: SIM115
+            else:
+                self._file = open(fd, "wb", buffering=_BUFFER_BYTES)  # noqa: SIM115  # closed in close()
             self._file.write(header)
         except BaseException:
             self._abort()
@@ -577,7 +589,7 @@ class CaptureWriter:
         if f is None:
             return
         if self._stream is not None:  # the stream stays open: its owner closes it
-            f.flush()
+            (f.close if isinstance(f, WriteBehind) else f.flush)()
             return
         try:
             f.close()
@@ -606,18 +618,20 @@ class CaptureWriter:
                 self._abort()
 
     # --- internals ---
-    def _open_file(self) -> BinaryIO:
+    def _open_file(self) -> BinaryIO | WriteBehind:
         if self._file is None:
             raise CaptureError(f"{self._path}: the capture writer is closed")
         return self._file
 
     def _abort(self) -> None:
         f, self._file = self._file, None
-        if self._stream is not None:  # what reached the stream cannot be taken back
-            return
-        if f is not None:
+        if isinstance(f, WriteBehind):  # what the thread has not written is dropped
+            f.abort()  # (and the file closed)
+        elif self._stream is None and f is not None:
             with contextlib.suppress(OSError):
                 f.close()
+        if self._stream is not None:  # what reached the stream cannot be taken back
+            return
         self._remove_temp()
 
     def _remove_temp(self) -> None:

@@ -181,12 +181,14 @@ def add_parser(sub: Any) -> None:
 
 
 def _capture(path: str) -> CaptureWriter:
-    """``--pcap FILE``, atomically; ``-``: a pcapng (directions) streamed to stdout."""
+    """``--pcap FILE``, atomically; ``-``: a pcapng (directions) streamed to stdout. Written
+    behind (a thread of its own): a busy disk or a slow reader of the pipe does not hold up the
+    answers."""
     if path != STDOUT:
-        return CaptureWriter(path)
+        return CaptureWriter(path, write_behind=True)
     if sys.stdout.isatty():
         raise CaptureError("--pcap -: standard output is a terminal; pipe it or redirect it")
-    return CaptureWriter(sys.stdout.buffer, fmt="pcapng")
+    return CaptureWriter(sys.stdout.buffer, fmt="pcapng", write_behind=True)
 
 
 def run(args: argparse.Namespace) -> int:

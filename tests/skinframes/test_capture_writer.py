@@ -81,10 +81,11 @@ def pres(node: int, size: int) -> bytes:
 
 
 # --- bytes -----------------------------------------------------------------------------------------
-def test_pcap_bytes_equal_the_specification(tmp_path: Path) -> None:
+@pytest.mark.parametrize("behind", [False, True], ids=["direct", "write-behind"])
+def test_pcap_bytes_equal_the_specification(tmp_path: Path, behind: bool) -> None:
     records = [(1_700_000_000_123_456_789, pres(1, 36)), (0, pres(2, 100)), (PCAP_MAX_NS, b"\x01")]
     path = tmp_path / "x.pcap"
-    with CaptureWriter(path) as w:
+    with CaptureWriter(path, write_behind=behind) as w:
         for t, data in records:
             w.write(t, data, port=0, outbound=True)  # direction: not representable, not written
         assert w.records == 3
@@ -95,10 +96,11 @@ def test_pcap_bytes_equal_the_specification(tmp_path: Path) -> None:
     assert w.bytes_written == len(raw)
 
 
-def test_pcapng_bytes_equal_the_specification(tmp_path: Path) -> None:
+@pytest.mark.parametrize("behind", [False, True], ids=["direct", "write-behind"])
+def test_pcapng_bytes_equal_the_specification(tmp_path: Path, behind: bool) -> None:
     path = tmp_path / "x.pcapng"
     a, b = pres(3, 37), pres(4, 1490)  # 61 bytes: 3 of padding; 1514
-    with CaptureWriter(path, ports=2, port_names=["master", "ring end"]) as w:
+    with CaptureWriter(path, ports=2, port_names=["master", "ring end"], write_behind=behind) as w:
         w.write(5, a)
         w.write((1 << 32) + 7, b, port=1, outbound=True)
         w.write(9, a, port=1, outbound=False, crc_error=True, comment="bit 9 flipped")
@@ -165,14 +167,16 @@ def blocks(draw: st.DrawFn) -> tuple[str, int, np.ndarray, np.ndarray, np.ndarra
     return fmt, n_ports, times.reshape(k, r), lengths, data, ports, outbound
 
 
-@given(blocks(), st.integers(1, 3), st.sampled_from([1, 150, 1000, None]))
+@given(blocks(), st.integers(1, 3), st.sampled_from([1, 150, 1000, None]), st.booleans())
 def test_write_block_equals_write_one_by_one(
     block: tuple[str, int, np.ndarray, np.ndarray, np.ndarray, object, object],
     repeat: int,
     chunk_bytes: int | None,
+    behind: bool,
 ) -> None:
     # chunk_bytes: the size of write_block's reused image (None: the default), so that blocks
-    # are written in chunks of 1, a few, or all of their rows
+    # are written in chunks of 1, a few, or all of their rows; behind: the chunks go to the
+    # writer's thread while the image is refilled (WriteBehind copies them)
     fmt, n_ports, times, lengths, data, ports, outbound = block
     k, r = times.shape
     port_arr = None if ports is None else np.array(ports, dtype=np.int32)
@@ -195,7 +199,7 @@ def test_write_block_equals_write_one_by_one(
         chunk = capture_writer._CHUNK_BYTES if chunk_bytes is None else chunk_bytes
         with (
             mock.patch.object(capture_writer, "_CHUNK_BYTES", chunk),
-            CaptureWriter(many, fmt=fmt, ports=n_ports) as w2,
+            CaptureWriter(many, fmt=fmt, ports=n_ports, write_behind=behind) as w2,
         ):
             for _ in range(repeat):
                 w2.write_block(times, lengths, data, ports=port_arr, outbound=out_arr)
@@ -390,12 +394,13 @@ class BoomError(Exception):
 
 @pytest.mark.parametrize("error", [BoomError, KeyboardInterrupt])
 @pytest.mark.parametrize("name", ["x.pcap", "x.pcapng"])
+@pytest.mark.parametrize("behind", [False, True], ids=["direct", "write-behind"])
 def test_exception_keeps_the_previous_file(
-    tmp_path: Path, error: type[BaseException], name: str
+    tmp_path: Path, error: type[BaseException], name: str, behind: bool
 ) -> None:
     path = tmp_path / name
     path.write_bytes(b"the previous capture")
-    with pytest.raises(error), CaptureWriter(path) as w:
+    with pytest.raises(error), CaptureWriter(path, write_behind=behind) as w:
         w.write(0, pres(1, 36))
         w.write_block(np.zeros((3, 1), np.int64), np.array([60]), np.zeros((3, 60), np.uint8))
         assert [p.name for p in tmp_path.iterdir() if p != path] != []  # the temporary file
@@ -404,10 +409,11 @@ def test_exception_keeps_the_previous_file(
     assert list(tmp_path.iterdir()) == [path]
 
 
-def test_success_replaces_the_previous_file_and_only_then(tmp_path: Path) -> None:
+@pytest.mark.parametrize("behind", [False, True], ids=["direct", "write-behind"])
+def test_success_replaces_the_previous_file_and_only_then(tmp_path: Path, behind: bool) -> None:
     path = tmp_path / "x.pcap"
     path.write_bytes(b"old")
-    with CaptureWriter(path) as w:
+    with CaptureWriter(path, write_behind=behind) as w:
         w.write(0, pres(1, 36))
         assert path.read_bytes() == b"old"  # not yet
         (tmp,) = (p for p in tmp_path.iterdir() if p != path)
@@ -416,8 +422,9 @@ def test_success_replaces_the_previous_file_and_only_then(tmp_path: Path) -> Non
     assert list(tmp_path.iterdir()) == [path]
 
 
-def test_unclosed_writer_leaves_nothing(tmp_path: Path) -> None:
-    w = CaptureWriter(tmp_path / "x.pcap")
+@pytest.mark.parametrize("behind", [False, True], ids=["direct", "write-behind"])
+def test_unclosed_writer_leaves_nothing(tmp_path: Path, behind: bool) -> None:
+    w = CaptureWriter(tmp_path / "x.pcap", write_behind=behind)
     w.write(0, pres(1, 36))
     del w
     assert list(tmp_path.iterdir()) == []

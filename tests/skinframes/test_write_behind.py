@@ -1,0 +1,147 @@
+"""WriteBehind: the writer never waits for a slow sink until it is the bound behind, nothing is
+dropped, and the sink's errors come back to the writer.
+
+The slow sink is a file whose ``write`` blocks until the test releases it, so nothing here
+depends on how fast the machine is: a writer that waited for the sink would never return before
+the release (the release also comes from a timer, 30 s on, so that such a failure ends).
+"""
+
+from __future__ import annotations
+
+import errno
+import io
+import os
+import threading
+from pathlib import Path
+
+import pytest
+
+from skinframes import capture_writer
+from skinframes.pcap import CaptureWriter, read_capture
+from skinframes.write_behind import CHUNK_BYTES, WriteBehind
+
+RELEASE_S = 30.0  # the release a failing test gets from its timer
+
+
+class HeldSink(io.BytesIO):
+    """A stream whose writes wait until ``release`` is set; ``entered`` once one waits."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.release = threading.Event()
+        self.entered = threading.Event()
+        self.writes = 0
+
+    def write(self, data: object) -> int:
+        self.entered.set()
+        self.release.wait()
+        self.writes += 1
+        return super().write(data)  # type: ignore[arg-type]
+
+
+def released_later(sink: HeldSink) -> threading.Timer:
+    timer = threading.Timer(RELEASE_S, sink.release.set)
+    timer.daemon = True
+    timer.start()
+    return timer
+
+
+def test_writes_return_while_the_sink_waits_and_nothing_is_dropped() -> None:
+    sink = HeldSink()
+    timer = released_later(sink)
+    behind = WriteBehind(sink, close_sink=False)
+    pieces = [os.urandom(1000 + k) for k in range(3000)]  # about 4.5 MB, four chunks and more
+    for piece in pieces:
+        behind.write(piece)
+    assert sink.entered.wait(RELEASE_S)  # the thread took the first chunk and waits in write
+    assert not sink.release.is_set(), "write() waited for the sink"
+    sink.release.set()
+    behind.close()
+    timer.cancel()
+    assert sink.getvalue() == b"".join(pieces)
+    assert not sink.closed  # a stream is left open, flushed
+
+
+def test_the_writer_waits_once_the_bound_is_held() -> None:
+    # a bound of two chunks: with the sink held, the writer gets at most the chunk being
+    # written, two held and the one it gathers past the thread; then it waits
+    sink = HeldSink()
+    timer = released_later(sink)
+    behind = WriteBehind(sink, close_sink=False, held_bytes=2 * CHUNK_BYTES)
+    chunk = bytes(CHUNK_BYTES)
+    returned = []
+
+    def writer() -> None:
+        for k in range(8):
+            behind.write(chunk)
+            returned.append(k)
+
+    thread = threading.Thread(target=writer, daemon=True)
+    thread.start()
+    assert sink.entered.wait(RELEASE_S)
+    thread.join(0.5)  # long enough for an unbounded writer to take all 8
+    assert thread.is_alive() and len(returned) <= 4, returned
+    sink.release.set()
+    thread.join()
+    behind.close()
+    timer.cancel()
+    assert len(returned) == 8
+    assert sink.getvalue() == chunk * 8
+
+
+class FullDisk(io.RawIOBase):
+    def writable(self) -> bool:
+        return True
+
+    def write(self, data: object) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def test_an_error_of_the_sink_is_raised_by_the_next_call() -> None:
+    behind = WriteBehind(FullDisk(), close_sink=True)
+    behind.write(b"x" * 10)
+    with pytest.raises(OSError, match="No space left") as raised:
+        behind.flush()
+    assert raised.value.errno == errno.ENOSPC
+    with pytest.raises(OSError, match="No space left"):
+        behind.write(b"more")
+    behind.abort()  # as a capture writer leaving its with block does
+
+
+def test_a_capture_that_meets_a_full_disk_leaves_the_previous_file(tmp_path: Path) -> None:
+    path = tmp_path / "x.pcap"
+    path.write_bytes(b"the previous capture")
+
+    def full_disk_open(file: int, mode: str, buffering: int) -> FullDisk:
+        os.close(file)  # the temporary file's descriptor: its writes fail from now on
+        return FullDisk()
+
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(capture_writer, "open", full_disk_open, raising=False)
+        writer = CaptureWriter(path, write_behind=True)
+    with pytest.raises(OSError, match="No space left"), writer:
+        for t in range(5):
+            writer.write(t, bytes(60))
+    assert path.read_bytes() == b"the previous capture"
+    assert list(tmp_path.iterdir()) == [path]
+
+
+def test_an_abort_drops_what_a_held_sink_has_not_taken(tmp_path: Path) -> None:
+    sink = HeldSink()
+    timer = released_later(sink)
+    behind = WriteBehind(sink, close_sink=True)
+    behind.write(bytes(3 * CHUNK_BYTES))
+    assert sink.entered.wait(RELEASE_S)
+    sink.release.set()  # the write under way ends; what is held is dropped
+    behind.abort()
+    timer.cancel()
+    assert sink.closed and sink.writes <= 1
+
+
+def test_a_capture_written_behind_reads_back_whole(tmp_path: Path) -> None:
+    path = tmp_path / "x.pcapng"
+    frames = [bytes([k % 256]) * (60 + k % 1400) for k in range(3000)]
+    with CaptureWriter(path, write_behind=True) as writer:
+        for t, frame in enumerate(frames):
+            writer.write(t, frame, outbound=bool(t % 2))
+    assert [(r.time_ns, r.data) for r in read_capture(path)] == list(enumerate(frames))
