@@ -213,15 +213,15 @@ def run(args: argparse.Namespace) -> int:
         args.drift_ppm = DEFAULT_DRIFT_PPM
     period_s = args.period_ms / 1000.0
     esi = check_esi_slaves(args.esi, args.esi_inputs, args.esi_modules)
+    total = args.nodes + len(esi)  # the count first: --bytes cannot mend it
+    if total > MAX_SERVED_SLAVES:
+        raise TopologyError(f"served EtherCAT chain: {total} slaves (1..{MAX_SERVED_SLAVES})")
     if args.nodes or not esi:
         if args.bytes is None and args.nodes:
             raise TopologyError("serve ecat: --bytes is required with --nodes > 0")
         check_served_ecat(args.nodes, args.bytes or 1, args.samples, period_s)
     else:
         check_served_ecat(1, 1, args.samples, period_s)  # the feed's limits; no patch
-    total = args.nodes + len(esi)
-    if total > MAX_SERVED_SLAVES:
-        raise TopologyError(f"served EtherCAT chain: {total} slaves (1..{MAX_SERVED_SLAVES})")
     size = args.bytes or 0
     chain = mixed_chain(
         args.nodes,

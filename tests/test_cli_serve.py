@@ -61,6 +61,8 @@ def test_link_problems_are_one_error_line(
     [
         (["--nodes", "0", "--bytes", "16"], "served EtherCAT chain: 0 slaves (1..1024)"),
         (["--nodes", "1025", "--bytes", "16"], "served EtherCAT chain: 1025 slaves (1..1024)"),
+        # the count before the missing --bytes, which would not mend it
+        (["--nodes", "70000"], "served EtherCAT chain: 70000 slaves (1..1024)"),
         (["--nodes", "2", "--bytes", "1487"], "EtherCAT: 1487 bytes per slave (1..1486)"),
         (["--nodes", "2", "--bytes", "16", "--samples", "0"], "taxel feed: 0 samples"),
         (["--nodes", "2", "--bytes", "16", "--period-ms", "0"], "taxel feed: a period of 0.0 s"),
