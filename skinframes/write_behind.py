@@ -14,6 +14,7 @@ reader went) is raised by the next ``write``, ``flush`` or ``close``.
 from __future__ import annotations
 
 import contextlib
+import os
 import threading
 from collections import deque
 from typing import BinaryIO, Final
@@ -39,6 +40,7 @@ class WriteBehind:
 
     def __init__(self, sink: BinaryIO, *, close_sink: bool, held_bytes: int = HELD_BYTES) -> None:
         self._sink = sink
+        self._fd = _descriptor(sink)  # the thread writes to it, not through the stream's lock
         self._close_sink = close_sink
         self._held_limit = held_bytes
         self._gathered = bytearray()
@@ -74,10 +76,12 @@ class WriteBehind:
         flushed."""
         try:
             self.flush()
-        finally:
-            self._end(drop=False)
-            if self._close_sink:
-                self._sink.close()
+        except BaseException:  # what is left cannot be written, or must not be waited for
+            self.abort()
+            raise
+        self._end(drop=False)  # the thread has nothing left: it ends at once
+        if self._close_sink:
+            self._sink.close()
 
     def abort(self) -> None:
         """Drop what the thread has not written, end it, and close ``sink`` (``close_sink``);
@@ -125,8 +129,9 @@ class WriteBehind:
                 chunk = self._chunks[0]
             try:
                 view = memoryview(chunk)
-                while view:  # an unbuffered file may take part of it
-                    view = view[self._sink.write(view) or 0 :]
+                while view:  # a write may take part of it
+                    done = self._sink.write(view) if self._fd is None else os.write(self._fd, view)
+                    view = view[done or 0 :]
             except Exception as exc:  # raised by the writer's next call instead
                 with self._cond:
                     self._error = exc
@@ -139,3 +144,15 @@ class WriteBehind:
                     self._chunks.popleft()
                     self._held -= len(chunk)
                 self._cond.notify_all()
+
+
+def _descriptor(sink: BinaryIO) -> int | None:
+    """The file descriptor under ``sink``, its buffer flushed, or None (an in-memory stream).
+    The thread writes to the descriptor: a thread stuck in a write to a pipe would otherwise
+    hold the stream's lock, which Python takes again at exit (``sys.stdout``)."""
+    try:
+        fd = sink.fileno()
+    except (OSError, ValueError):  # io.UnsupportedOperation is both
+        return None
+    sink.flush()
+    return fd

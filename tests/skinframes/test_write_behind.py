@@ -13,6 +13,7 @@ import io
 import os
 import threading
 from pathlib import Path
+from typing import BinaryIO, cast
 
 import pytest
 
@@ -98,7 +99,7 @@ class FullDisk(io.RawIOBase):
 
 
 def test_an_error_of_the_sink_is_raised_by_the_next_call() -> None:
-    behind = WriteBehind(FullDisk(), close_sink=True)
+    behind = WriteBehind(cast(BinaryIO, FullDisk()), close_sink=True)
     behind.write(b"x" * 10)
     with pytest.raises(OSError, match="No space left") as raised:
         behind.flush()
@@ -145,3 +146,30 @@ def test_a_capture_written_behind_reads_back_whole(tmp_path: Path) -> None:
         for t, frame in enumerate(frames):
             writer.write(t, frame, outbound=bool(t % 2))
     assert [(r.time_ns, r.data) for r in read_capture(path)] == list(enumerate(frames))
+
+
+def test_a_pipe_gets_everything_and_stays_open() -> None:
+    # a stream over a descriptor (as sys.stdout.buffer): what it had buffered comes first, the
+    # thread writes the rest to the descriptor, and close leaves the stream open
+    read_fd, write_fd = os.pipe()
+    got = bytearray()
+    reader = threading.Thread(target=lambda: got.extend(iter_pipe(read_fd)), daemon=True)
+    reader.start()
+    with open(write_fd, "wb") as stream:  # buffered, as sys.stdout.buffer is
+        stream.write(b"before ")
+        behind = WriteBehind(stream, close_sink=False)
+        pieces = [os.urandom(700) for _ in range(500)]  # several chunks, more than a pipe holds
+        for piece in pieces:
+            behind.write(piece)
+        behind.close()
+        assert not stream.closed
+    reader.join()
+    assert bytes(got) == b"before " + b"".join(pieces)
+
+
+def iter_pipe(fd: int) -> bytes:
+    out = bytearray()
+    while data := os.read(fd, 65536):
+        out += data
+    os.close(fd)
+    return bytes(out)
