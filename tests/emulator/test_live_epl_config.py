@@ -9,10 +9,11 @@ and the console MN logs it as an error history entry. Timing is kept robust on a
 host by a PRes timeout (and asynchronous slot timeout) of 700 us, which serve under
 ``--rt-priority`` keeps with room to spare (PReq to PRes in serve's capture: 0.2-0.3 ms at the
 99.9th percentile, 0.9 ms at most, while a disk writer ran), and which leaves 3.3 ms of the
-10 ms cycle free (worst cycle 6,677 us): the MN's own timing needs it. With the command's
-default of 1 ms (worst cycle 9,377 us, 0.6 ms free) the MN counted 4 and 6 cycles exceeded
-(0x8232) after every CN was OPERATIONAL in two runs on an idle host, with 700 us none
-(benchmarks/README.md, bench_capture_stall's section); a longer timeout made it drop to PreOp1.
+10 ms cycle free (worst cycle 6,677 us): the MN's own timing needs room. With the command's
+default of 1 ms (worst cycle 9,377 us, 0.6 ms free) the MN counted 18 cycles exceeded (0x8232)
+after every CN was OPERATIONAL in six runs on an idle host (0-6 a run), with 700 us one in
+seven runs (benchmarks/README.md, bench_capture_stall's section); a longer timeout made it drop
+to PreOp1.
 Nothing here asserts a time. Needs root, iproute2 and the kit (epl_live_util).
 """
 
