@@ -49,6 +49,8 @@ class WriteBehind:
         self._error: Exception | None = None
         self._ending = False  # no more chunks come: the thread ends once it has written the held
         self._dropping = False  # abort(): the held chunks are dropped
+        self._closes_sink = False  # abort() left closing the sink to the thread, still writing
+        self._finished = False  # the thread writes no more (set as it ends, under the lock)
         self._cond = threading.Condition()
         self._thread = threading.Thread(target=self._run, name="write-behind", daemon=True)
         self._thread.start()
@@ -85,12 +87,17 @@ class WriteBehind:
 
     def abort(self) -> None:
         """Drop what the thread has not written, end it, and close ``sink`` (``close_sink``);
-        waits at most :data:`ABORT_WAIT_S` for a write under way (a pipe nobody reads)."""
+        waits at most :data:`ABORT_WAIT_S` for a write under way (a pipe nobody reads). A thread
+        still inside its write then closes ``sink`` itself when the write returns: closed here,
+        its descriptor could be reused by a file opened meanwhile and written to by the thread."""
         self._gathered.clear()
         self._end(drop=True)
         if self._close_sink:
-            with contextlib.suppress(OSError):
-                self._sink.close()
+            with self._cond:
+                if not self._finished:
+                    self._closes_sink = True
+                    return
+            self._close_quietly()
 
     # --- internals ---
     def _raise(self) -> None:
@@ -119,7 +126,21 @@ class WriteBehind:
             self._cond.notify_all()
         self._thread.join(ABORT_WAIT_S if drop else None)
 
+    def _close_quietly(self) -> None:
+        with contextlib.suppress(OSError):
+            self._sink.close()
+
     def _run(self) -> None:
+        try:
+            self._write_chunks()
+        finally:
+            with self._cond:
+                self._finished = True
+                closes = self._closes_sink
+            if closes:
+                self._close_quietly()
+
+    def _write_chunks(self) -> None:
         while True:
             with self._cond:
                 while not self._chunks and not self._ending:
@@ -129,7 +150,7 @@ class WriteBehind:
                 chunk = self._chunks[0]
             try:
                 view = memoryview(chunk)
-                while view:  # a write may take part of it
+                while view and not self._dropping:  # a write may take part of it
                     done = self._sink.write(view) if self._fd is None else os.write(self._fd, view)
                     view = view[done or 0 :]
             except Exception as exc:  # raised by the writer's next call instead

@@ -17,7 +17,7 @@ from typing import BinaryIO, cast
 
 import pytest
 
-from skinframes import capture_writer
+from skinframes import capture_writer, write_behind
 from skinframes.pcap import CaptureWriter, read_capture
 from skinframes.write_behind import CHUNK_BYTES, WriteBehind
 
@@ -137,6 +137,25 @@ def test_an_abort_drops_what_a_held_sink_has_not_taken(tmp_path: Path) -> None:
     behind.abort()
     timer.cancel()
     assert sink.closed and sink.writes <= 1
+
+
+def test_an_abort_leaves_closing_to_a_thread_still_inside_its_write(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    # closed under the thread, the sink's descriptor could be reused by a file opened meanwhile
+    # and written to by the thread's next write
+    monkeypatch.setattr(write_behind, "ABORT_WAIT_S", 0.01)
+    sink = HeldSink()
+    timer = released_later(sink)
+    behind = WriteBehind(sink, close_sink=True)
+    behind.write(bytes(3 * CHUNK_BYTES))
+    assert sink.entered.wait(RELEASE_S)
+    behind.abort()  # returns while the thread still waits inside write
+    assert not sink.release.is_set() and not sink.closed
+    sink.release.set()
+    behind._thread.join(RELEASE_S)
+    timer.cancel()
+    assert sink.closed and sink.writes == 1  # the write under way, then nothing more
 
 
 def test_a_capture_written_behind_reads_back_whole(tmp_path: Path) -> None:
