@@ -12,12 +12,13 @@ times every ``write`` with ``perf_counter``. The capture goes to
         copies each flushed buffer into its page cache, which on this VM takes milliseconds a
         MiB, and throttles a writer while other programs' dirty pages go to the disk.
 
-The two writers take turns over ``--rounds``. Printed per target and writer: the writes, the
+The two writers take turns over ``--rounds``. ``--chunk-bytes`` sets the chunk the thread is
+handed (``skinframes.write_behind.CHUNK_BYTES``, 64 KiB), to show what 1 MiB chunks cost. Printed per target and writer: the writes, the
 median and the largest time of one, and how many took 1 ms or more (serve's answer budget is
 in the hundreds of microseconds). Printed, never asserted.
 
     python benchmarks/bench_capture_stall.py [--seconds 10] [--rate 2000] [--frame-bytes 250]
-        [--burst 20] [--pause-ms 200] [--every-ms 1000] [--rounds 2] [--dir D]
+        [--burst 20] [--pause-ms 200] [--every-ms 1000] [--rounds 2] [--chunk-bytes N] [--dir D]
 """
 
 from __future__ import annotations
@@ -30,9 +31,11 @@ import sys
 import tempfile
 import time
 from pathlib import Path
+from typing import BinaryIO, cast
 
 sys.path.insert(0, str(Path(__file__).resolve().parent.parent))
 
+from skinframes import write_behind
 from skinframes.capture_writer import CaptureWriter
 
 READER = """
@@ -74,7 +77,8 @@ def one_run(target: str, behind: bool, args: argparse.Namespace, folder: str) ->
     )
     assert reader.stdin is not None
     try:
-        with CaptureWriter(reader.stdin, fmt="pcapng", write_behind=behind) as writer:
+        pipe = cast(BinaryIO, reader.stdin)
+        with CaptureWriter(pipe, fmt="pcapng", write_behind=behind) as writer:
             times = write_for(writer, args)
     finally:
         reader.stdin.close()
@@ -91,12 +95,14 @@ def main() -> None:
     p.add_argument("--pause-ms", type=float, default=200.0)
     p.add_argument("--every-ms", type=float, default=1000.0)
     p.add_argument("--rounds", type=int, default=2)
+    p.add_argument("--chunk-bytes", type=int, default=write_behind.CHUNK_BYTES)
     p.add_argument("--dir", default=None)
     args = p.parse_args()
+    write_behind.CHUNK_BYTES = args.chunk_bytes  # type: ignore[misc]  # read at each write
     print(
         f"{args.rate} records/s of {args.frame_bytes} bytes in bursts of {args.burst}, "
         f"{args.seconds:g} s a run, {args.rounds} rounds; pipe reader pauses {args.pause_ms:g} ms "
-        f"every {args.every_ms:g} ms; nproc {os.cpu_count()}, loadavg {os.getloadavg()[0]:.2f}"
+        f"every {args.every_ms:g} ms; chunks of {args.chunk_bytes} bytes; nproc {os.cpu_count()}, loadavg {os.getloadavg()[0]:.2f}"
     )
     with tempfile.TemporaryDirectory(dir=args.dir) as folder:
         for target in ("pipe", "file"):
