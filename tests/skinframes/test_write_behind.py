@@ -1,7 +1,7 @@
 """WriteBehind: the writer does not wait for a slow sink until the thread is the bound behind,
 nothing is dropped, and the sink's errors come back to the writer.
 
-The slow sink is a file whose ``write`` blocks until the test releases it, so nothing here
+The slow sink is a stream whose ``write`` blocks until the test releases it, so nothing here
 depends on how fast the machine is: a writer that waited for the sink would never return before
 the release (the release also comes from a timer, 30 s on, so that such a failure ends).
 """
