@@ -14,8 +14,7 @@ import json
 import sys
 import threading
 import traceback
-from collections.abc import Callable, Iterator
-from types import FrameType
+from collections.abc import Callable
 from typing import Any, TextIO
 
 from emulator.esc import compiled
@@ -34,7 +33,7 @@ from skinframes_cli.options import (
     int_up_to,
     protocol_arg,
 )
-from skinframes_cli.signals import handling
+from skinframes_cli.signals import first_stops
 
 STDOUT = "-"  # --pcap -: the capture on standard output
 MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
@@ -57,7 +56,8 @@ def add_parser(sub: Any) -> None:
         "a veth pair in a network namespace (see the README). epl --mn: be the MN instead, "
         "booting the real CNs a CDC names (--cdc, as openCONFIGURATOR writes it) or the skin "
         "of --nodes and --bytes, then polling them every cycle. Needs root or CAP_NET_RAW. Runs "
-        "until SIGINT or SIGTERM (or --cycles), then prints what it served.",
+        "until SIGINT or SIGTERM (or --cycles), then prints what it served; a second signal "
+        "stops it at once, dropping what --pcap has not written yet.",
     )
     protocol_arg(p, "protocol", choices=("ecat", "epl"))
     p.add_argument("--iface", required=True, help="network interface the master is wired to")
@@ -309,16 +309,11 @@ def _on_error(debug: bool) -> Callable[[BaseException, bytes], None]:
     return on_error
 
 
-@contextlib.contextmanager
-def _until_signal(stop: threading.Event) -> Iterator[None]:
-    """Inside, SIGINT and SIGTERM set ``stop`` (serve ends its loop); the handlers before are
-    back afterwards."""
-
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        stop.set()
-
-    with handling(on_signal):
-        yield
+def _until_signal(stop: threading.Event) -> contextlib.AbstractContextManager[None]:
+    """Inside, the first SIGINT or SIGTERM sets ``stop`` (serve ends its loop, then finishes
+    its capture), a second one ends serve at once (:func:`first_stops`: a capture's reader that
+    does not read cannot hold it); the handlers before are back afterwards."""
+    return first_stops(stop.set)
 
 
 def run_epl(args: argparse.Namespace) -> int:

@@ -26,7 +26,7 @@ import threading
 from collections.abc import Callable, Iterator
 from types import FrameType
 
-__all__ = ["Terminated", "handled", "handling", "raise_if_signalled"]
+__all__ = ["Terminated", "first_stops", "handled", "handling", "raise_if_signalled"]
 
 
 class Terminated(BaseException):
@@ -59,17 +59,39 @@ def handled() -> Iterator[None]:
         yield
         return
 
-    def on_signal(signum: int, frame: FrameType | None) -> None:
-        _received.append(signum)
-        _raise(signum)
-
     _received.clear()
     try:
-        with handling(on_signal):
+        with handling(_raised):
             yield
     finally:
         _received.clear()  # (the command is over: its signal is reported, not carried on)
         _forget_interrupt_in_exec()
+
+
+def _raised(signum: int, frame: FrameType | None) -> None:
+    """A signal remembered and raised (:func:`handled`)."""
+    _received.append(signum)
+    _raise(signum)
+
+
+@contextlib.contextmanager
+def first_stops(stop: Callable[[], None]) -> Iterator[None]:
+    """Inside, the first SIGINT or SIGTERM calls ``stop`` (a loop ends at its own pace, then the
+    command finishes its files), and any after it is remembered and raised as :func:`handled`
+    raises it: nothing on the way out, such as a pipe whose reader does not read, can then keep
+    the command from ending (what it had not written is dropped, and a file keeps its previous
+    content). The handlers before are back afterwards (:func:`handling`)."""
+    stopping = False
+
+    def on_signal(signum: int, frame: FrameType | None) -> None:
+        nonlocal stopping
+        if stopping:
+            _raised(signum, frame)
+        stopping = True
+        stop()
+
+    with handling(on_signal):
+        yield
 
 
 def _forget_interrupt_in_exec() -> None:

@@ -251,6 +251,90 @@ def test_serve_pcap_dash_streams_every_frame_and_reports_on_stderr(
     assert got == [(0x07, 1, 0), (0x07, 0, 2)] * 2
 
 
+def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """``serve ecat --pcap -`` into a pipe whose reader does not read: the first SIGINT ends
+    serving and serve waits to hand over its capture; a second one ends it at once, with 130
+    and the interrupted line (it waited for the reader for as long as the reader waited). A
+    stand-in socket and stdout, no root needed; the stand-in reader reads after 60 s at the
+    latest, when serve without the second signal's effect would end with 0."""
+    import io
+    import os
+    import signal
+    import socket
+    import threading
+
+    import emulator.live
+    from skinframes import ethercat
+    from skinframes.ethercat import Command, Datagram, EcatFrame
+    from skinframes_cli import main
+
+    brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
+    entered, release = threading.Event(), threading.Event()
+
+    class Unread(io.RawIOBase):  # a pipe's writing end whose reader does not read
+        def writable(self) -> bool:
+            return True
+
+        def write(self, data: object) -> int:
+            entered.set()
+            release.wait(60)
+            return len(memoryview(data))  # type: ignore[arg-type]
+
+    class Stdout:
+        buffer = Unread()
+
+        def isatty(self) -> bool:
+            return False
+
+        def flush(self) -> None:
+            pass
+
+    class Fake:  # emulator.live.RawSocket's interface; the first SIGINT once both were read
+        def __init__(self, iface: str) -> None:
+            self.inbox = [brd, brd]
+            self.r, self.w = socket.socketpair()
+            self.w.send(b"x")
+
+        def __enter__(self) -> Fake:
+            return self
+
+        def __exit__(self, *exc: object) -> None:
+            self.r.close()
+            self.w.close()
+
+        def fileno(self) -> int:
+            return self.r.fileno()
+
+        def recv(self) -> bytes | None:
+            if not self.inbox:
+                signal.raise_signal(signal.SIGINT)  # serve's own handler: stop serving
+                return None
+            return self.inbox.pop(0)
+
+        def send(self, frame: bytes) -> None:
+            pass
+
+    def second() -> None:  # once the capture's thread is inside its write
+        if entered.wait(60):
+            os.kill(os.getpid(), signal.SIGINT)
+
+    monkeypatch.setattr(emulator.live, "RawSocket", Fake)
+    monkeypatch.setattr("sys.stdout", Stdout())
+    sender = threading.Thread(target=second, daemon=True)
+    sender.start()
+    try:
+        code = main(["serve", "ecat", "--iface", "fake0", "--nodes", "2", "--bytes", "4",
+                     "--pcap", "-"])  # fmt: skip
+    finally:
+        release.set()
+        sender.join()
+    assert code == 130
+    err = capsys.readouterr().err
+    assert err.splitlines()[-1] == "skinframes: interrupted (SIGINT); no file was left half-written"
+
+
 # --- -q/--quiet: information off, errors on ------------------------------------------------------
 def _skin_log(tmp_path: Path) -> Path:
     from skinframes.canbus import TimedSample, TriangleSample, sample_frames

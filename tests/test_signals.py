@@ -1,4 +1,5 @@
-"""skinframes_cli.signals.handling: the handlers before are back whenever a signal comes.
+"""skinframes_cli.signals.handling: the handlers before are back whenever a signal comes;
+first_stops: a first signal stops, a second is raised.
 
 The signals are raised in this process with :func:`signal.raise_signal` at a chosen step of
 putting the handlers in place or back (CPython runs a Python handler before raise_signal
@@ -13,7 +14,13 @@ from types import FrameType
 
 import pytest
 
-from skinframes_cli.signals import handling
+from skinframes_cli.signals import (
+    Terminated,
+    first_stops,
+    handled,
+    handling,
+    raise_if_signalled,
+)
 
 Handler = Callable[[int, FrameType | None], None]
 
@@ -93,3 +100,22 @@ def test_a_signal_inside_goes_to_the_handler_given(
         signal.raise_signal(signal.SIGTERM)
     assert got == []
     assert signal.getsignal(signal.SIGTERM) is record
+
+
+def test_a_first_signal_stops_and_a_second_is_raised_and_remembered(
+    before: tuple[list[int], Handler],
+) -> None:
+    """first_stops (serve): the first signal calls stop and nothing is raised, so that serving
+    ends at its own pace; the second is raised as handled() raises it, and remembered."""
+    got, record = before
+    stops: list[str] = []
+    with handled():
+        with pytest.raises(Terminated), first_stops(lambda: stops.append("stop")):
+            signal.raise_signal(signal.SIGINT)
+            assert stops == ["stop"]
+            signal.raise_signal(signal.SIGTERM)
+        assert stops == ["stop"]
+        with pytest.raises(Terminated):
+            raise_if_signalled()
+    assert got == []
+    assert signal.getsignal(signal.SIGINT) is record
