@@ -194,14 +194,44 @@ def test_analyze_reads_standard_input(tmp_path: Path) -> None:
     assert a == b
 
 
+class _FakeSocket:
+    """emulator.live.RawSocket's interface for serve: ``frames`` received, then SIGINT."""
+
+    def __init__(self, frames: list[bytes]) -> None:
+        import socket
+
+        self.inbox = list(frames)
+        self.r, self.w = socket.socketpair()
+        self.w.send(b"x")  # always readable
+
+    def __enter__(self) -> _FakeSocket:
+        return self
+
+    def __exit__(self, *exc: object) -> None:
+        self.r.close()
+        self.w.close()
+
+    def fileno(self) -> int:
+        return self.r.fileno()
+
+    def recv(self) -> bytes | None:
+        if not self.inbox:
+            import signal
+
+            signal.raise_signal(signal.SIGINT)  # serve's own handler: stop serving
+            return None
+        return self.inbox.pop(0)
+
+    def send(self, frame: bytes) -> None:
+        pass
+
+
 def test_serve_pcap_dash_streams_every_frame_and_reports_on_stderr(
     monkeypatch: pytest.MonkeyPatch, capsysbinary: pytest.CaptureFixture[bytes], tshark: str,
     tmp_path: Path,
 ) -> None:  # fmt: skip
     """``serve ecat --pcap -``: the frames in and out as a pcapng on stdout (tshark reads it:
     two BRDs in, two answers out), the summary on stderr; a stand-in socket, no root needed."""
-    import signal
-    import socket
 
     import emulator.live
     from skinframes import ethercat
@@ -210,32 +240,7 @@ def test_serve_pcap_dash_streams_every_frame_and_reports_on_stderr(
 
     brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
 
-    class Fake:  # emulator.live.RawSocket's interface; SIGINT once every frame was read
-        def __init__(self, iface: str) -> None:
-            self.inbox = [brd, brd]
-            self.r, self.w = socket.socketpair()
-            self.w.send(b"x")
-
-        def __enter__(self) -> Fake:
-            return self
-
-        def __exit__(self, *exc: object) -> None:
-            self.r.close()
-            self.w.close()
-
-        def fileno(self) -> int:
-            return self.r.fileno()
-
-        def recv(self) -> bytes | None:
-            if not self.inbox:
-                signal.raise_signal(signal.SIGINT)  # serve's own handler: stop serving
-                return None
-            return self.inbox.pop(0)
-
-        def send(self, frame: bytes) -> None:
-            pass
-
-    monkeypatch.setattr(emulator.live, "RawSocket", Fake)
+    monkeypatch.setattr(emulator.live, "RawSocket", lambda iface: _FakeSocket([brd, brd]))
     argv = ["serve", "ethercat", "--iface", "fake0", "--nodes", "2", "--bytes", "4"]
     assert main([*argv, "--pcap", "-", "--json"]) == 0
     out, err = capsysbinary.readouterr()
@@ -262,7 +267,6 @@ def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
     import io
     import os
     import signal
-    import socket
     import threading
 
     import emulator.live
@@ -291,36 +295,11 @@ def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
         def flush(self) -> None:
             pass
 
-    class Fake:  # emulator.live.RawSocket's interface; the first SIGINT once both were read
-        def __init__(self, iface: str) -> None:
-            self.inbox = [brd, brd]
-            self.r, self.w = socket.socketpair()
-            self.w.send(b"x")
-
-        def __enter__(self) -> Fake:
-            return self
-
-        def __exit__(self, *exc: object) -> None:
-            self.r.close()
-            self.w.close()
-
-        def fileno(self) -> int:
-            return self.r.fileno()
-
-        def recv(self) -> bytes | None:
-            if not self.inbox:
-                signal.raise_signal(signal.SIGINT)  # serve's own handler: stop serving
-                return None
-            return self.inbox.pop(0)
-
-        def send(self, frame: bytes) -> None:
-            pass
-
     def second() -> None:  # once the capture's thread is inside its write
         if entered.wait(60):
             os.kill(os.getpid(), signal.SIGINT)
 
-    monkeypatch.setattr(emulator.live, "RawSocket", Fake)
+    monkeypatch.setattr(emulator.live, "RawSocket", lambda iface: _FakeSocket([brd, brd]))
     monkeypatch.setattr("sys.stdout", Stdout())
     sender = threading.Thread(target=second, daemon=True)
     sender.start()
