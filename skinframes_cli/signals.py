@@ -25,6 +25,7 @@ import signal
 import threading
 from collections.abc import Callable, Iterator
 from types import FrameType
+from typing import Final
 
 __all__ = ["Terminated", "first_stops", "handled", "handling", "raise_if_signalled"]
 
@@ -36,6 +37,7 @@ class Terminated(BaseException):
     """
 
 
+BOTH: Final = (signal.SIGINT, signal.SIGTERM)  # the signals that end a command
 _received: list[int] = []  # the signals that arrived while a command ran (main thread's)
 
 
@@ -75,12 +77,15 @@ def _raised(signum: int, frame: FrameType | None) -> None:
 
 
 @contextlib.contextmanager
-def first_stops(stop: Callable[[], None]) -> Iterator[None]:
-    """Inside, the first SIGINT or SIGTERM calls ``stop`` (a loop ends at its own pace, then the
-    command finishes its files), and any after it is remembered and raised as :func:`handled`
-    raises it: nothing on the way out, such as a pipe whose reader does not read, can then keep
-    the command from ending (what it had not written is dropped, and a file keeps its previous
-    content). The handlers before are back afterwards (:func:`handling`)."""
+def first_stops(
+    stop: Callable[[], None], which: tuple[signal.Signals, ...] = BOTH
+) -> Iterator[None]:
+    """Inside, the first of the signals ``which`` calls ``stop`` (a loop ends at its own pace,
+    then the command finishes its files), and any after it is remembered and raised as
+    :func:`handled` raises it: nothing on the way out, such as a pipe whose reader does not
+    read, can then keep the command from ending (what it had not written is dropped, and a
+    file keeps its previous content). The handlers before are back afterwards
+    (:func:`handling`)."""
     stopping = False
 
     def on_signal(signum: int, frame: FrameType | None) -> None:
@@ -90,7 +95,7 @@ def first_stops(stop: Callable[[], None]) -> Iterator[None]:
         stopping = True
         stop()
 
-    with handling(on_signal):
+    with handling(on_signal, which):
         yield
 
 
@@ -103,8 +108,10 @@ def _forget_interrupt_in_exec() -> None:
 
 
 @contextlib.contextmanager
-def handling(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]:
-    """Inside, SIGINT and SIGTERM go to ``handler``; the handlers before are back afterwards,
+def handling(
+    handler: Callable[[int, FrameType | None], None], which: tuple[signal.Signals, ...] = BOTH
+) -> Iterator[None]:
+    """Inside, the signals ``which`` go to ``handler``; the handlers before are back afterwards,
     all of them whenever a signal comes. One that comes while they are put back is held and
     raised again once they are (:func:`signal.raise_signal`): the handler before takes it."""
     held: list[int] = []  # signals that came while the handlers before were put back
@@ -118,7 +125,7 @@ def handling(handler: Callable[[int, FrameType | None], None]) -> Iterator[None]
 
     previous: dict[signal.Signals, Callable[[int, FrameType | None], object] | int] = {}
     try:
-        for sig in (signal.SIGINT, signal.SIGTERM):  # each one's before known before it changes
+        for sig in which:  # each one's before known before it changes
             previous[sig] = signal.getsignal(sig) or signal.SIG_DFL
             signal.signal(sig, on_signal)
         yield

@@ -21,13 +21,13 @@ import threading
 import time
 from collections import Counter
 from collections.abc import Iterator
-from types import FrameType
 from typing import Any, Final
 
 from skinframes.monitor import Monitor
 from skinframes.text import escape
 from skinframes_cli.live import add_live, capture_input, first_frames, is_live
 from skinframes_cli.options import bounded_float
+from skinframes_cli.signals import first_stops
 
 REFRESH_S: Final = 0.25  # the terminal view is redrawn this often
 ROWS_MAX: Final = 16  # nodes or patterns listed one a row; beyond, summarised
@@ -112,12 +112,15 @@ class Feed:
                     due = start_wall + (rec.time_ns - first_ns) / 1e9 / self._speed
                     while not self.stop.is_set() and (wait := due - time.monotonic()) > 0:
                         time.sleep(min(wait, 0.05))
+                line = None
                 with self.lock:
                     self.monitor.feed(rec)
                     if every is not None and (span := self.monitor.span_s) >= next_s:
                         # one line, however many intervals the capture skipped
-                        print(plain_line(self.monitor.snapshot()), flush=True)
+                        line = plain_line(self.monitor.snapshot())
                         next_s = (span // every + 1) * every
+                if line is not None:  # (the lock free while a reader of stdout waits)
+                    _emit(line)
         except BaseException as exc:  # handed to the main thread, which reports it
             self.error = exc
         finally:
@@ -157,21 +160,36 @@ def run(args: argparse.Namespace) -> int:
 
 @contextlib.contextmanager
 def _sigint_event(feed: Feed) -> Iterator[threading.Event]:
-    """Ctrl-C (main thread) ends the watch: the reading stops and the command ends with 0."""
+    """Ctrl-C (main thread) ends the watch: the reading stops and the command ends with 0; a
+    second Ctrl-C ends it at once, 130, while it still waits (a reader of stdout that does not
+    read; :func:`first_stops`)."""
     stop = threading.Event()
     if threading.current_thread() is not threading.main_thread():
         yield stop
         return
 
-    def interrupted(signum: int, frame: FrameType | None) -> None:
+    def interrupted() -> None:
         stop.set()
         feed.halt()
 
-    previous = signal.signal(signal.SIGINT, interrupted)
-    try:
+    with first_stops(interrupted, (signal.SIGINT,)):
         yield stop
-    finally:
-        signal.signal(signal.SIGINT, previous)
+
+
+def _emit(line: str) -> None:
+    """Print ``line`` on stdout: written to its descriptor when it has one, so that a thread
+    waiting for a reader of stdout holds no lock of Python's (whose stdout, flushed at exit,
+    would wait for that lock: a second Ctrl-C could not end the command)."""
+    try:
+        fd = sys.stdout.fileno()
+    except (OSError, ValueError):  # io.UnsupportedOperation is both: no descriptor
+        print(line, flush=True)
+        return
+    sys.stdout.flush()
+    encoding = getattr(sys.stdout, "encoding", None) or "utf-8"
+    data = memoryview((line + "\n").encode(encoding, "replace"))
+    while data:
+        data = data[os.write(fd, data) :]
 
 
 # --- plain: lines --------------------------------------------------------------------------------
@@ -179,7 +197,7 @@ def _lines(feed: Feed, stop: threading.Event) -> None:
     """The reader prints the lines as the capture's time passes; here the last one."""
     while not stop.is_set() and not feed.done.wait(0.05):
         pass
-    print(plain_line(feed.snapshot()) + " (end)", flush=True)
+    _emit(plain_line(feed.snapshot()) + " (end)")
 
 
 def _us(s: dict[str, float] | None, key: str = "median_us") -> str:

@@ -120,3 +120,72 @@ def test_closed_ring_in_classic_pcap_plain_line_is_analyzes(tmp_path: Path) -> N
     last = done.stdout.splitlines()[-1]
     assert f"round trip {busiest['round_trip']['median_ns'] / 1000:.1f} us" in last, last
     assert "sent 200 lost 0, wkc 1 deviations 0" in last, last
+
+
+def test_a_second_ctrl_c_ends_plain_lines_into_a_pipe_nobody_reads(
+    epl_run: tuple[Path, dict[str, object]],
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """``--plain`` into a pipe of 4 KiB whose reader does not read (the run's lines are over
+    20 KiB): the first Ctrl-C stops the reading and the command waits to write; a second ends
+    it at once, 130 and the interrupted line (before, it waited for as long as the reader did).
+    In process; the stand-in reader reads after 60 s at the latest, when a watch deaf to the
+    second Ctrl-C ends with 0."""
+    import fcntl
+    import termios
+    import threading
+    import time
+
+    from skinframes_cli import main, watch
+
+    path, _ = epl_run
+    r, w = os.pipe()
+    fcntl.fcntl(w, fcntl.F_SETPIPE_SZ, 4096)
+    out = open(w, "w", encoding="utf-8")  # noqa: SIM115 (closed below, once the reader is done)
+    monkeypatch.setattr("sys.stdout", out)
+    halted, done = threading.Event(), threading.Event()
+    halt = watch.Feed.halt
+
+    def halting(feed: watch.Feed) -> None:
+        halt(feed)
+        halted.set()
+
+    monkeypatch.setattr(watch.Feed, "halt", halting)
+
+    def queued() -> int:
+        return int.from_bytes(fcntl.ioctl(r, termios.FIONREAD, bytes(4)), sys.byteorder)
+
+    def drain() -> None:
+        while os.read(r, 1 << 16):
+            pass
+
+    def interrupt() -> None:
+        deadline = time.monotonic() + 60
+        while queued() < 4096 - 512 and time.monotonic() < deadline:  # the pipe as good as full
+            time.sleep(0.01)
+        os.kill(os.getpid(), signal.SIGINT)
+        if halted.wait(60):
+            os.kill(os.getpid(), signal.SIGINT)
+        if not done.wait(60):
+            drain()
+
+    sender = threading.Thread(target=interrupt, daemon=True)
+    sender.start()
+    try:
+        code = main(["watch", str(path), "--plain", "--speed", "0", "--interval", "0.001"])
+    finally:
+        done.set()
+        reader = threading.Thread(target=drain, daemon=True)
+        reader.start()  # the reader reads at last: the feed's write returns, and it stops
+        for thread in threading.enumerate():
+            if thread.name == "watch-feed":
+                thread.join(60)
+        sender.join(60)
+        out.close()
+        reader.join(60)
+        os.close(r)
+    assert code == 130
+    assert capsys.readouterr().err.splitlines()[-1] == (
+        "skinframes: interrupted (SIGINT); no file was left half-written"
+    )
