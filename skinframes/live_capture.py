@@ -342,14 +342,22 @@ class LiveCapture:
     def sigint_stops(self) -> Iterator[None]:
         """In the main thread, SIGINT (Ctrl-C) ends the capture instead of raising (reading
         does this itself; a caller that prints before reading wraps both in it, so that no
-        Ctrl-C falls between)."""
+        Ctrl-C falls between). A second one goes to the handler before (Python's raises
+        :class:`KeyboardInterrupt`): the caller may still be waiting, for a reader of its
+        output that does not read, say."""
         if threading.current_thread() is not threading.main_thread():
             yield
             return
+        before = signal.getsignal(signal.SIGINT)
 
         def interrupted(signum: int, frame: FrameType | None) -> None:
-            self.interrupted = True
-            self.stop()
+            if not self.interrupted:
+                self.interrupted = True
+                self.stop()
+            elif callable(before):
+                before(signum, frame)
+            elif before != signal.SIG_IGN:  # SIG_DFL, or a handler not set from Python
+                raise KeyboardInterrupt
 
         previous = signal.signal(signal.SIGINT, interrupted)
         try:

@@ -251,6 +251,25 @@ def test_decode_iface_stops_on_ctrl_c_with_what_it_saw(net: VethPair) -> None:
     assert not any(line.startswith("skinframes") for line in lines)
 
 
+def test_a_second_ctrl_c_goes_to_the_handler_before(net: VethPair) -> None:
+    """The first Ctrl-C ends the capture, and nothing is raised; a second goes to the handler
+    before (the command's raises KeyboardInterrupt): a command still waiting to print, for a
+    reader that does not read, ends at once (before, every Ctrl-C ended the capture again)."""
+    capture = live_capture(net, duration_s=60.0)
+    got: list[int] = []
+    before = signal.signal(signal.SIGINT, lambda signum, frame: got.append(signum))
+    try:
+        with capture.sigint_stops():
+            signal.raise_signal(signal.SIGINT)
+            assert capture.interrupted and got == []
+            signal.raise_signal(signal.SIGINT)
+            assert got == [signal.SIGINT]
+    finally:
+        signal.signal(signal.SIGINT, before)
+    assert list(capture) == []  # ended by the first
+    assert signal.getsignal(signal.SIGINT) is before
+
+
 def test_analyze_iface_ctrl_c_in_the_middle_reports_what_it_saw(net: VethPair) -> None:
     proc = in_netns(net, "analyze", "--iface", MASTER, "--json")
     wait_for_start(proc)
