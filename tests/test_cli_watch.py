@@ -127,44 +127,43 @@ def test_a_second_ctrl_c_ends_plain_lines_into_a_pipe_nobody_reads(
     monkeypatch: pytest.MonkeyPatch,
     capsys: pytest.CaptureFixture[str],
 ) -> None:
-    """``--plain`` into a pipe of 4 KiB whose reader does not read (the run's lines are over
-    20 KiB): the first Ctrl-C stops the reading and the command waits to write; a second ends
-    it at once, 130 and the interrupted line (before, it waited for as long as the reader did).
-    In process; the stand-in reader reads after 60 s at the latest, when a watch deaf to the
-    second Ctrl-C ends with 0."""
+    """``--plain`` into a pipe that is full and whose reader does not read: the first Ctrl-C
+    stops the reading and the command waits to write its lines; a second ends it at once, 130
+    and the interrupted line (before, it waited for as long as the reader did). In process;
+    the stand-in reader reads after 60 s at the latest, when a watch deaf to the second Ctrl-C
+    ends with 0."""
     import fcntl
-    import termios
     import threading
-    import time
 
     from skinframes_cli import main, watch
 
     path, _ = epl_run
     r, w = os.pipe()
     fcntl.fcntl(w, fcntl.F_SETPIPE_SZ, 4096)
+    assert os.write(w, bytes(4096)) == 4096  # full: no line of the watch gets in
     out = open(w, "w", encoding="utf-8")  # noqa: SIM115 (closed below, once the reader is done)
     monkeypatch.setattr("sys.stdout", out)
-    halted, done = threading.Event(), threading.Event()
-    halt = watch.Feed.halt
+    started, halted, done = threading.Event(), threading.Event(), threading.Event()
+    start, halt = watch.Feed.start, watch.Feed.halt
 
-    def halting(feed: watch.Feed) -> None:
+    def starting(feed: watch.Feed) -> None:  # (the watch's Ctrl-C handler is in place)
+        start(feed)
+        started.set()
+
+    def halting(feed: watch.Feed) -> None:  # (called by the handler of the first Ctrl-C)
         halt(feed)
         halted.set()
 
+    monkeypatch.setattr(watch.Feed, "start", starting)
     monkeypatch.setattr(watch.Feed, "halt", halting)
-
-    def queued() -> int:
-        return int.from_bytes(fcntl.ioctl(r, termios.FIONREAD, bytes(4)), sys.byteorder)
 
     def drain() -> None:
         while os.read(r, 1 << 16):
             pass
 
     def interrupt() -> None:
-        deadline = time.monotonic() + 60
-        while queued() < 4096 - 512 and time.monotonic() < deadline:  # the pipe as good as full
-            time.sleep(0.01)
-        os.kill(os.getpid(), signal.SIGINT)
+        if started.wait(60):
+            os.kill(os.getpid(), signal.SIGINT)
         if halted.wait(60):
             os.kill(os.getpid(), signal.SIGINT)
         if not done.wait(60):
