@@ -19,6 +19,8 @@ import threading
 from collections import deque
 from typing import BinaryIO, Final
 
+from skinframes.helper_threads import leave_signals_to_main
+
 # gathered before the thread gets them; under glibc's mmap threshold (128 KiB), so that a chunk
 # comes from the heap: chunks of 1 MiB, each a fresh mapping whose pages fault in, held the
 # writer up 1-9 ms each (benchmarks/bench_capture_stall.py; 64 KiB: at most 0.7 ms)
@@ -131,6 +133,7 @@ class WriteBehind:
             self._sink.close()
 
     def _run(self) -> None:
+        leave_signals_to_main()  # (a Ctrl-C taken here would not reach a waiting close)
         try:
             self._write_chunks()
         finally:

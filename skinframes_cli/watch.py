@@ -23,6 +23,7 @@ from collections import Counter
 from collections.abc import Iterator
 from typing import Any, Final
 
+from skinframes.helper_threads import leave_signals_to_main
 from skinframes.monitor import Monitor
 from skinframes.text import escape
 from skinframes_cli.live import add_live, capture_input, first_frames, is_live
@@ -98,6 +99,7 @@ class Feed:
             self._live.stop()
 
     def _run(self) -> None:
+        leave_signals_to_main()  # (a Ctrl-C taken here would not reach the waiting main thread)
         try:
             start_wall: float | None = None
             first_ns = 0

@@ -272,16 +272,19 @@ def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
     import emulator.live
     from skinframes import ethercat
     from skinframes.ethercat import Command, Datagram, EcatFrame
+    from skinframes.helper_threads import leave_signals_to_main
     from skinframes_cli import main
 
     brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
     entered, release = threading.Event(), threading.Event()
+    masks: list[set[signal.Signals]] = []
 
     class Unread(io.RawIOBase):  # a pipe's writing end whose reader does not read
         def writable(self) -> bool:
             return True
 
         def write(self, data: object) -> int:
+            masks.append(signal.pthread_sigmask(signal.SIG_BLOCK, []))  # the writer's
             entered.set()
             release.wait(60)
             return len(memoryview(data))  # type: ignore[arg-type]
@@ -296,6 +299,7 @@ def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
             pass
 
     def second() -> None:  # once the capture's thread is inside its write
+        leave_signals_to_main()  # (the kernel gives the signal to a thread that takes it)
         if entered.wait(60):
             os.kill(os.getpid(), signal.SIGINT)
 
@@ -310,6 +314,8 @@ def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
         release.set()
         sender.join()
     assert code == 130
+    # the capture's thread blocks them: a signal it took would not end a wait for it
+    assert masks and all({signal.SIGINT, signal.SIGTERM} <= mask for mask in masks)
     err = capsys.readouterr().err
     assert err.splitlines()[-1] == "skinframes: interrupted (SIGINT); no file was left half-written"
 

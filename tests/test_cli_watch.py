@@ -13,6 +13,7 @@ import re
 import signal
 import subprocess
 import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -135,6 +136,7 @@ def test_a_second_ctrl_c_ends_plain_lines_into_a_pipe_nobody_reads(
     import fcntl
     import threading
 
+    from skinframes.helper_threads import leave_signals_to_main
     from skinframes_cli import main, watch
 
     path, _ = epl_run
@@ -162,6 +164,7 @@ def test_a_second_ctrl_c_ends_plain_lines_into_a_pipe_nobody_reads(
             pass
 
     def interrupt() -> None:
+        leave_signals_to_main()  # (the kernel gives the signal to a thread that takes it)
         if started.wait(60):
             os.kill(os.getpid(), signal.SIGINT)
         if halted.wait(60):
@@ -188,3 +191,23 @@ def test_a_second_ctrl_c_ends_plain_lines_into_a_pipe_nobody_reads(
     assert capsys.readouterr().err.splitlines()[-1] == (
         "skinframes: interrupted (SIGINT); no file was left half-written"
     )
+
+
+def test_the_feed_leaves_sigint_and_sigterm_to_the_main_thread() -> None:
+    """The reader thread blocks both: a Ctrl-C the kernel gave it would reach the main thread
+    only once that thread next ran Python code, which a wait for a reader may put off for
+    ever."""
+    from skinframes_cli.watch import Feed
+
+    masks: list[set[signal.Signals]] = []
+
+    def records() -> Iterator[object]:  # read by the feed's thread
+        masks.append(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+        yield from ()
+
+    feed = Feed(records(), 0, None)
+    feed.start()
+    feed.thread.join(60)
+    assert feed.error is None
+    assert masks and {signal.SIGINT, signal.SIGTERM} <= masks[0]
+    assert not {signal.SIGINT, signal.SIGTERM} & signal.pthread_sigmask(signal.SIG_BLOCK, [])

@@ -192,3 +192,22 @@ def iter_pipe(fd: int) -> bytes:
         out += data
     os.close(fd)
     return bytes(out)
+
+
+def test_the_thread_leaves_sigint_and_sigterm_to_the_main_thread() -> None:
+    """The writing thread blocks both: a Ctrl-C the kernel gave it while it waits for a
+    reader would reach the main thread, waiting in close for it, only once that wait ended."""
+    import signal
+
+    masks: list[set[signal.Signals]] = []
+
+    class Sink(io.BytesIO):
+        def write(self, data: object) -> int:
+            masks.append(signal.pthread_sigmask(signal.SIG_BLOCK, []))
+            return super().write(data)  # type: ignore[arg-type]
+
+    behind = WriteBehind(Sink(), close_sink=True)
+    behind.write(b"x")
+    behind.close()
+    assert masks and {signal.SIGINT, signal.SIGTERM} <= masks[0]
+    assert not {signal.SIGINT, signal.SIGTERM} & signal.pthread_sigmask(signal.SIG_BLOCK, [])
