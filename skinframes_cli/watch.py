@@ -31,6 +31,9 @@ from skinframes_cli.options import bounded_float
 from skinframes_cli.signals import first_stops
 
 REFRESH_S: Final = 0.25  # the terminal view is redrawn this often
+# the main thread's waits end this often and begin again: CPython runs a signal's handler between
+# bytecodes, and one that arrives as a blocking wait begins is seen only when that wait ends
+WAIT_S: Final = 0.1
 ROWS_MAX: Final = 16  # nodes or patterns listed one a row; beyond, summarised
 PATCHES_PER_ROW: Final = 40
 CONTACT_SHADES: Final = ((0, "·"), (1, "░"), (4, "▒"), (8, "▓"), (12, "█"))  # triangles -> glyph
@@ -154,7 +157,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             _lines(feed, stop)
         feed.halt()
-        feed.thread.join()
+        while feed.thread.is_alive():  # (WAIT_S at a time: a Ctrl-C is handled meanwhile)
+            feed.thread.join(WAIT_S)
     if feed.error is not None:
         raise feed.error
     return 0
@@ -191,7 +195,10 @@ def _emit(line: str) -> None:
     encoding = getattr(sys.stdout, "encoding", None) or "utf-8"
     data = memoryview((line + "\n").encode(encoding, "replace"))
     while data:
-        data = data[os.write(fd, data) :]
+        # no write before stdout takes one, waited for WAIT_S at a time: a Ctrl-C that
+        # came as a blocking write began would be handled only once the reader read
+        if select.select([], [fd], [], WAIT_S)[1]:
+            data = data[os.write(fd, data) :]
 
 
 # --- plain: lines --------------------------------------------------------------------------------
