@@ -14,7 +14,7 @@ import json
 import sys
 import threading
 import traceback
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from typing import Any, TextIO
 
 from emulator.esc import compiled
@@ -23,6 +23,7 @@ from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat, check_se
 from skinframes.capture_writer import CaptureWriter
 from skinframes.errors import CaptureError, SkinframesError
 from skinframes.ethercat import MAX_DATAGRAM_DATA_BYTES
+from skinframes.helper_threads import leave_signals_to_main
 from skinframes.powerlink import MAX_CN_NODE_ID, MAX_PDO_PAYLOAD_BYTES, MIN_CN_NODE_ID
 from skinframes.powerlink.cdc import MN_PDO_CHANNELS
 from skinframes.text import escape
@@ -36,6 +37,7 @@ from skinframes_cli.options import (
 from skinframes_cli.signals import first_stops
 
 STDOUT = "-"  # --pcap -: the capture on standard output
+CLOSE_NOTE_S = 1.0  # a capture still being written this long after serving stopped: a line
 MAX_SAMPLES = 1024  # --samples: distinct taxel samples held in memory
 MAX_INT_ARG = 1 << 31  # --nodes/--bytes: larger is refused at parse; the range is checked in run
 MAX_U32 = (1 << 32) - 1  # --cycle-us: 0x1006 is an UNSIGNED32 of us
@@ -180,15 +182,40 @@ def add_parser(sub: Any) -> None:
     p.set_defaults(run=run)
 
 
-def _capture(path: str) -> CaptureWriter:
+@contextlib.contextmanager
+def _capture(path: str) -> Iterator[CaptureWriter]:
     """``--pcap FILE``, atomically; ``-``: a pcapng (directions) streamed to stdout. Written
     behind (a thread of its own): a busy disk or a slow reader of the pipe does not hold up the
-    answers."""
+    answers. When serving has stopped and the capture is still being written after
+    :data:`CLOSE_NOTE_S`, a line on stderr says why serve waits, and how not to."""
     if path != STDOUT:
-        return CaptureWriter(path, write_behind=True)
-    if sys.stdout.isatty():
+        writer = CaptureWriter(path, write_behind=True)
+    elif sys.stdout.isatty():
         raise CaptureError("--pcap -: standard output is a terminal; pipe it or redirect it")
-    return CaptureWriter(sys.stdout.buffer, fmt="pcapng", write_behind=True)
+    else:
+        writer = CaptureWriter(sys.stdout.buffer, fmt="pcapng", write_behind=True)
+    with writer:
+        yield writer
+        closed = threading.Event()
+        note = threading.Thread(target=_note_unless, args=(closed, path), daemon=True)
+        note.start()
+        try:
+            writer.close()
+        finally:
+            closed.set()
+
+
+def _note_unless(closed: threading.Event, path: str) -> None:
+    """The line of :func:`_capture` unless ``closed`` is set within :data:`CLOSE_NOTE_S`."""
+    leave_signals_to_main()
+    if not closed.wait(CLOSE_NOTE_S):
+        what = "its reader" if path == STDOUT else "the disk"
+        print(
+            f"stopping: the capture is not all written yet, waiting for {what}; "
+            "SIGINT/SIGTERM again drops the rest and stops at once",
+            file=sys.stderr,
+            flush=True,
+        )
 
 
 def run(args: argparse.Namespace) -> int:

@@ -256,30 +256,35 @@ def test_serve_pcap_dash_streams_every_frame_and_reports_on_stderr(
     assert got == [(0x07, 1, 0), (0x07, 0, 2)] * 2
 
 
-def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
-    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+@pytest.mark.parametrize("again", [True, False], ids=["signal-again", "reader-reads"])
+def test_serve_says_why_it_waits_for_the_reader_and_a_second_sigint_stops_it(
+    again: bool, monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
 ) -> None:
     """``serve ecat --pcap -`` into a pipe whose reader does not read: the first SIGINT ends
-    serving and serve waits to hand over its capture; a second one ends it at once, with 130
-    and the interrupted line (it waited for the reader for as long as the reader waited). A
-    stand-in socket and stdout, no root needed; the stand-in reader reads after 60 s at the
-    latest, when serve without the second signal's effect would end with 0."""
+    serving and serve waits to hand over its capture. A second SIGINT ends it at once, with 130
+    and the interrupted line (it waited for the reader for as long as the reader waited);
+    without one, serve says on stderr why it waits, and once the reader reads it ends as usual.
+    A stand-in socket and stdout, no root needed; the stand-in reader reads after 60 s at the
+    latest (serve without the second signal's effect then ends with 0; without the line, the
+    reader waits for it that long)."""
     import io
     import os
     import signal
     import threading
 
     import emulator.live
+    import skinframes_cli.serve
     from skinframes import ethercat
     from skinframes.ethercat import Command, Datagram, EcatFrame
     from skinframes.helper_threads import leave_signals_to_main
     from skinframes_cli import main
 
     brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
-    entered, release = threading.Event(), threading.Event()
+    entered, release, noted = threading.Event(), threading.Event(), threading.Event()
     masks: list[set[signal.Signals]] = []
+    note = "stopping: the capture is not all written yet, waiting for its reader; "
 
-    class Unread(io.RawIOBase):  # a pipe's writing end whose reader does not read
+    class Unread(io.RawIOBase):  # a pipe's writing end whose reader reads when released
         def writable(self) -> bool:
             return True
 
@@ -298,13 +303,32 @@ def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
         def flush(self) -> None:
             pass
 
+    class Stderr:  # capsys's, and whether the line came
+        def __init__(self, stream: object) -> None:
+            self.stream = stream
+
+        def write(self, text: str) -> int:
+            if text.startswith(note):
+                noted.set()
+            return self.stream.write(text)  # type: ignore[attr-defined, no-any-return]
+
+        def flush(self) -> None:
+            self.stream.flush()  # type: ignore[attr-defined]
+
     def second() -> None:  # once the capture's thread is inside its write
         leave_signals_to_main()  # (the kernel gives the signal to a thread that takes it)
-        if entered.wait(60):
+        if not entered.wait(60):
+            return
+        if again:
             os.kill(os.getpid(), signal.SIGINT)
+        elif noted.wait(60):
+            release.set()
 
     monkeypatch.setattr(emulator.live, "RawSocket", lambda iface: _FakeSocket([brd, brd]))
     monkeypatch.setattr("sys.stdout", Stdout())
+    monkeypatch.setattr("sys.stderr", Stderr(sys.stderr))
+    if not again:
+        monkeypatch.setattr(skinframes_cli.serve, "CLOSE_NOTE_S", 0.0)  # (the line at once)
     sender = threading.Thread(target=second, daemon=True)
     sender.start()
     try:
@@ -313,11 +337,16 @@ def test_a_second_sigint_stops_serve_while_its_capture_waits_for_the_reader(
     finally:
         release.set()
         sender.join()
-    assert code == 130
     # the capture's thread blocks them: a signal it took would not end a wait for it
     assert masks and all({signal.SIGINT, signal.SIGTERM} <= mask for mask in masks)
-    err = capsys.readouterr().err
-    assert err.splitlines()[-1] == "skinframes: interrupted (SIGINT); no file was left half-written"
+    lines = capsys.readouterr().err.splitlines()
+    if again:
+        assert code == 130
+        assert lines[-1] == "skinframes: interrupted (SIGINT); no file was left half-written"
+        return
+    assert code == 0
+    assert lines[1] == note + "SIGINT/SIGTERM again drops the rest and stops at once"
+    assert lines[2].startswith("served 2 of 2 frames")
 
 
 # --- -q/--quiet: information off, errors on ------------------------------------------------------
