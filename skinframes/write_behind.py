@@ -19,7 +19,7 @@ import threading
 from collections import deque
 from typing import BinaryIO, Final
 
-from skinframes.helper_threads import leave_signals_to_main
+from skinframes.helper_threads import MAIN_WAIT_S, leave_signals_to_main
 
 # gathered before the thread gets them; under glibc's mmap threshold (128 KiB), so that a chunk
 # comes from the heap: chunks of 1 MiB, each a fresh mapping whose pages fault in, held the
@@ -27,10 +27,6 @@ from skinframes.helper_threads import leave_signals_to_main
 CHUNK_BYTES: Final = 1 << 16
 HELD_BYTES: Final = 64 << 20  # at most this much (and one write more) waits for the thread
 ABORT_WAIT_S: Final = 1.0  # how long abort() waits for a thread inside a write (a stuck pipe)
-# the caller's waits for the thread end this often and begin again: CPython runs a signal's
-# handler between bytecodes, and one that arrives as a wait for a lock begins is seen only when
-# that wait ends (a Ctrl-C while close() waits for a reader that does not read)
-CALLER_WAIT_S: Final = 0.1
 
 
 class WriteBehind:
@@ -75,7 +71,7 @@ class WriteBehind:
             self._hand_over()
         with self._cond:
             while self._held and self._error is None:
-                self._cond.wait(CALLER_WAIT_S)
+                self._cond.wait(MAIN_WAIT_S)  # (a Ctrl-C meanwhile is handled)
         self._raise()
         self._sink.flush()
 
@@ -116,7 +112,7 @@ class WriteBehind:
             while self._held and self._held + len(chunk) > self._held_limit:
                 if self._error is not None:
                     break
-                self._cond.wait(CALLER_WAIT_S)
+                self._cond.wait(MAIN_WAIT_S)
             self._raise()
             self._chunks.append(chunk)
             self._held += len(chunk)

@@ -27,6 +27,8 @@ from collections.abc import Callable, Iterator
 from types import FrameType
 from typing import Final
 
+from skinframes.helper_threads import HANDLED_IN_MAIN
+
 __all__ = ["Terminated", "first_stops", "handled", "handling", "raise_if_signalled"]
 
 
@@ -37,7 +39,7 @@ class Terminated(BaseException):
     """
 
 
-BOTH: Final = (signal.SIGINT, signal.SIGTERM)  # the signals that end a command
+BOTH: Final = HANDLED_IN_MAIN  # SIGINT and SIGTERM, the signals that end a command
 _received: list[int] = []  # the signals that arrived while a command ran (main thread's)
 
 

@@ -23,7 +23,7 @@ from collections import Counter
 from collections.abc import Iterator
 from typing import Any, Final
 
-from skinframes.helper_threads import leave_signals_to_main
+from skinframes.helper_threads import MAIN_WAIT_S, leave_signals_to_main
 from skinframes.monitor import Monitor
 from skinframes.text import escape
 from skinframes_cli.live import add_live, capture_input, first_frames, is_live
@@ -31,9 +31,6 @@ from skinframes_cli.options import bounded_float
 from skinframes_cli.signals import first_stops
 
 REFRESH_S: Final = 0.25  # the terminal view is redrawn this often
-# the main thread's waits end this often and begin again: CPython runs a signal's handler between
-# bytecodes, and one that arrives as a blocking wait begins is seen only when that wait ends
-WAIT_S: Final = 0.1
 ROWS_MAX: Final = 16  # nodes or patterns listed one a row; beyond, summarised
 PATCHES_PER_ROW: Final = 40
 CONTACT_SHADES: Final = ((0, "·"), (1, "░"), (4, "▒"), (8, "▓"), (12, "█"))  # triangles -> glyph
@@ -157,8 +154,8 @@ def run(args: argparse.Namespace) -> int:
         else:
             _lines(feed, stop)
         feed.halt()
-        while feed.thread.is_alive():  # (WAIT_S at a time: a Ctrl-C is handled meanwhile)
-            feed.thread.join(WAIT_S)
+        while feed.thread.is_alive():  # (MAIN_WAIT_S at a time: a Ctrl-C is handled meanwhile)
+            feed.thread.join(MAIN_WAIT_S)
     if feed.error is not None:
         raise feed.error
     return 0
@@ -195,9 +192,9 @@ def _emit(line: str) -> None:
     encoding = getattr(sys.stdout, "encoding", None) or "utf-8"
     data = memoryview((line + "\n").encode(encoding, "replace"))
     while data:
-        # no write before stdout takes one, waited for WAIT_S at a time: a Ctrl-C that
+        # no write before stdout takes one, waited for MAIN_WAIT_S at a time: a Ctrl-C that
         # came as a blocking write began would be handled only once the reader read
-        if select.select([], [fd], [], WAIT_S)[1]:
+        if select.select([], [fd], [], MAIN_WAIT_S)[1]:
             data = data[os.write(fd, data) :]
 
 
