@@ -33,7 +33,8 @@ def test_the_default_cycle_is_the_models_worst_rounded_up(
     )
     assert code == 0 and stdout == ""
     assert "cycle 10000 us (the model's worst cycle rounded up to 1 ms)" in err
-    assert "worst cycle 9376.6 us" in err
+    assert "worst cycle 9376.6 us, 623.4 us free" in err
+    assert "note: 623 us free beyond the worst cycle" in err  # under 1 ms: the real MN's room
     entries = decode_cdc(out.read_bytes())
     values = {(e.index, e.subindex): e.value for e in entries if e.index != 0x1F81}
     assert values[(0x1006, 0)] == 10_000
@@ -41,6 +42,22 @@ def test_the_default_cycle_is_the_models_worst_rounded_up(
     assert sorted(e.subindex for e in entries if e.index == 0x1F22) == list(range(1, 9))
     # 4 MN objects + 17 per CN (the MN's 13 per-node objects, its 4 PDO channel entries)
     assert len(entries) == 4 + 17 * 8
+
+
+def test_a_cycle_with_a_millisecond_free_has_no_note(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """The worst cycle of 8 CNs x 192 bytes is 9376.64 us (by hand, above): 11000 us leaves
+    1623.4 us free, 10376 us 999.4 us (a note), 10377 us 1000.4 us (none)."""
+    argv = ["epl-config", "--nodes", "8", "--bytes", "192", "--out", str(tmp_path / "c.cdc")]
+    for cycle_us, free, note in (
+        ("11000", "1623.4", False),
+        ("10376", "999.4", True),
+        ("10377", "1000.4", False),
+    ):
+        code, _, err = run([*argv, "--cycle-us", cycle_us], capsys)
+        assert code == 0 and f"worst cycle 9376.6 us, {free} us free" in err
+        assert ("note:" in err) is note, err
 
 
 def test_txt_is_the_same_configuration_as_text(
