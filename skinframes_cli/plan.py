@@ -6,10 +6,11 @@ import argparse
 import json
 from typing import Any
 
-from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, JSON_KEYS_HELP
+from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, JSON_KEYS_HELP, TABLES
 from emulator.model.params import PRESETS
-from emulator.model.plan import plan
+from emulator.model.plan import LAYOUTS_IN_ALL, plan
 from skinframes_cli.options import add_cn_response, bounded_int, timing
+from skinframes_cli.progress import progress_bar
 
 NAMES = {EPL: "EPL", ECAT: "EtherCAT open ring", ECAT_CLOSED_RING: "EtherCAT closed ring"}
 
@@ -40,7 +41,8 @@ def add_parser(sub: Any) -> None:
 def run(args: argparse.Namespace) -> int:
     """Print the plan."""
     params = timing(args)
-    result = plan(args.nodes, args.bytes, params)
+    with progress_bar(LAYOUTS_IN_ALL, "layouts") as step:
+        result = plan(args.nodes, args.bytes, params, progress=step)
     if args.json:
         print(json.dumps(result.to_json(), indent=2))
         return 0
@@ -48,12 +50,16 @@ def run(args: argparse.Namespace) -> int:
         f"{args.nodes} nodes x {args.bytes} bytes, preset {params.label}: physical limit "
         f"{result.limit_us:.2f} us (N x B bytes at 100 Mbit/s)"
     )
-    for table, network in result.networks.items():
+    for table in TABLES:
+        network = result.networks.get(table)
+        if network is None:
+            print(f"  {NAMES[table]:<22} n/a: {result.not_applicable[table]}")
+            continue
         best = network.best
         others = ", ".join(f"{o.layout} {o.cycle_us:.2f} us" for o in network.alternatives)
         print(
             f"  {NAMES[table]:<22} best {best.layout:<9} {best.cycle_us:>10.2f} us "
-            f"({best.frames_per_cycle} frames per cycle, {100 * network.efficiency:.1f} % of the "
+            f"({best.frames_per_cycle} frame{'s' * (best.frames_per_cycle != 1)} per cycle, {100 * network.efficiency:.1f} % of the "
             f"limit)   [{others}; eqs. 3-19: {network.analytic_us:.2f} us]"
         )
     return 0

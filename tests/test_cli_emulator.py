@@ -8,6 +8,8 @@ from pathlib import Path
 import pytest
 from data.paper_tables import OLD_NAMES, PAPER_TABLES
 
+from emulator.model.cycle_time import cycle_us
+from emulator.model.params import WIRE
 from skinframes import read_capture
 from skinframes_cli import main
 
@@ -98,6 +100,35 @@ def test_plan_prefers_the_logical_image_for_many_patches(
     assert doc["ecat"]["layout"] == "logical"
     assert doc["ecat"]["frames_per_cycle"] == 21  # ceil(30720 / 1486)
     assert doc["epl"]["cycle_us"] > doc["ecat"]["cycle_us"]
+
+
+def test_plan_marks_a_network_that_cannot_have_the_cell_not_applicable(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """240 patches: beyond EPL's 239 CNs (DS 301 node ids), within EtherCAT's; 1490 bytes: an
+    EPL PRes payload (C_DLL_ISOCHR_MAX_PAYL), beyond one EtherCAT datagram (1486). Once this
+    was an error for every network; no network at all still is."""
+    doc = run_json(capsys, "plan", "--nodes", "240", "--bytes", "8", "--json")
+    assert doc["epl"] is None and doc["not_applicable"] == {"epl": ["EPL: 240 CNs (1..239)"]}
+    assert doc["limit_us"] == pytest.approx(240 * 8 * 0.08)
+    assert doc["ecat"]["analytic_us"] == round(cycle_us("ecat", 240, 8, WIRE), 6)
+    assert doc["ecat_closed_ring"] == doc["ecat_redundant"] is not None
+    doc = run_json(capsys, "plan", "--nodes", "2", "--bytes", "1490", "--json")
+    assert doc["epl"]["analytic_us"] == round(cycle_us("epl", 2, 1490, WIRE), 6)
+    assert doc["ecat"] is doc["ecat_closed_ring"] is doc["ecat_redundant"] is None
+    reason = ["EtherCAT (emulated): 1490 bytes per slave (1..1486)"]
+    assert doc["not_applicable"] == dict.fromkeys(
+        ("ecat", "ecat_closed_ring", "ecat_redundant"), reason
+    )
+    assert main(["plan", "--nodes", "240", "--bytes", "8"]) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert lines[1] == "  EPL                    n/a: EPL: 240 CNs (1..239)"
+    assert lines[2].startswith("  EtherCAT open ring     best ")
+    assert main(["plan", "--nodes", "1025", "--bytes", "8"]) == 2
+    err = capsys.readouterr().err
+    assert err == (
+        "skinframes: error: EPL: 1025 CNs (1..239); EtherCAT (emulated): 1025 slaves (1..1024)\n"
+    )
 
 
 def test_plot_writes_a_png(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:

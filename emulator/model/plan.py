@@ -8,20 +8,22 @@ fastest is kept. The physical limit is the time the taxel bytes alone take on on
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from collections.abc import Callable
+from dataclasses import dataclass, field
 from typing import Any, Final
 
 import numpy as np
 import numpy.typing as npt
 
-from emulator.model.cycle_time import simulate, validate
+from emulator.errors import TopologyError
+from emulator.model.cycle_time import simulate
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, TABLES, with_old_keys
 from emulator.model.params import WIRE, TimingParams
-from emulator.model.sweep import analytic_grid
+from emulator.model.sweep import analytic_grid, cell_reason
 from emulator.model.units import PS_PER_US
 from emulator.net.ecat import LAYOUTS
 
-__all__ = ["LayoutOption", "NetworkPlan", "Plan", "limit_us", "plan"]
+__all__ = ["LAYOUTS_IN_ALL", "LayoutOption", "NetworkPlan", "Plan", "limit_us", "plan"]
 
 Num = npt.ArrayLike
 PER_SLAVE: Final = "per-slave"
@@ -30,6 +32,7 @@ TABLE_LAYOUTS: Final[dict[str, tuple[str, ...]]] = {
     ECAT: LAYOUTS,
     ECAT_CLOSED_RING: LAYOUTS,
 }
+LAYOUTS_IN_ALL: Final = sum(len(layouts) for layouts in TABLE_LAYOUTS.values())
 
 
 @dataclass(frozen=True, slots=True)
@@ -84,7 +87,9 @@ class Plan:
     """The plan for ``nodes`` x ``data_bytes`` under one preset.
 
     Attributes:
-        networks: keyed by table name (``epl``, ``ecat``, ``ecat_closed_ring``), in that order.
+        networks: keyed by table name (``epl``, ``ecat``, ``ecat_closed_ring``), in that order:
+            those that can have ``nodes`` x ``data_bytes``.
+        not_applicable: the others, each with the reason (e.g. ``"EPL: 500 CNs (1..239)"``).
     """
 
     nodes: int
@@ -93,17 +98,22 @@ class Plan:
     limit_us: float
     networks: dict[str, NetworkPlan]
     epl_cn_response_us: float = 1.0  # D_CN of the timing constants (TimingParams)
+    not_applicable: dict[str, str] = field(default_factory=dict)
 
     def to_json(self) -> dict[str, Any]:
-        """The ``skinframes plan --json`` document (docs/interface.md); the closed ring also
-        under its old name ``ecat_redundant``."""
+        """The ``skinframes plan --json`` document (docs/interface.md): a network that cannot
+        have the cell null, and its reason under ``not_applicable`` (as ``tables --json``);
+        the closed ring also under its old name ``ecat_redundant``."""
+        networks = {t: n.to_json() if (n := self.networks.get(t)) else None for t in TABLES}
+        na = {t: [reason] for t, reason in self.not_applicable.items()}
         return {
             "nodes": self.nodes,
             "bytes": self.data_bytes,
             "preset": self.preset,
             "epl_cn_response_us": self.epl_cn_response_us,
             "limit_us": self.limit_us,
-            **with_old_keys({table: n.to_json() for table, n in self.networks.items()}),
+            **with_old_keys(networks),
+            **({"not_applicable": with_old_keys(na)} if na else {}),
         }
 
 
@@ -113,28 +123,49 @@ def limit_us(nodes: Num, data_bytes: Num, params: TimingParams) -> Any:
     return np.asarray(nodes) * np.asarray(data_bytes) * params.byte_ps / PS_PER_US
 
 
-def plan(nodes: int, data_bytes: int, params: TimingParams = WIRE) -> Plan:
-    """Emulate every layout of every network for one cycle and keep the fastest of each.
+def plan(
+    nodes: int,
+    data_bytes: int,
+    params: TimingParams = WIRE,
+    *,
+    progress: Callable[[int], None] | None = None,
+) -> Plan:
+    """Emulate every layout of every network for one cycle and keep the fastest of each; a
+    network that cannot have ``nodes`` nodes of ``data_bytes`` (e.g. > 239 EPL CNs, as
+    :func:`emulator.model.sweep.cell_reason` says for the emulated model) is not applicable.
+
+    ``progress`` is called with the layouts done (or passed over) since its last call, of
+    :data:`LAYOUTS_IN_ALL` (a thousand slaves of 1486 bytes take a minute or two).
 
     Raises:
-        TopologyError: a network cannot have ``nodes`` nodes of ``data_bytes`` (e.g. > 239 EPL CNs).
+        TopologyError: no network can have them.
     """
     limit = float(limit_us(nodes, data_bytes, params))
     networks: dict[str, NetworkPlan] = {}
+    na: dict[str, str] = {}
     for table in TABLES:
-        validate(table, nodes, data_bytes)
-        options = tuple(
-            _emulate(table, nodes, data_bytes, params, layout) for layout in TABLE_LAYOUTS[table]
-        )
+        reason = cell_reason(table, nodes, data_bytes, "emulated")
+        if reason is not None:
+            na[table] = reason
+            if progress is not None:
+                progress(len(TABLE_LAYOUTS[table]))
+            continue
+        options = []
+        for layout in TABLE_LAYOUTS[table]:
+            options.append(_emulate(table, nodes, data_bytes, params, layout))
+            if progress is not None:
+                progress(1)
         best = min(options, key=lambda o: o.cycle_us)
         networks[table] = NetworkPlan(
             best=best,
             overhead_us=best.cycle_us - limit,
             efficiency=limit / best.cycle_us,
-            alternatives=options,
+            alternatives=tuple(options),
             analytic_us=round(float(analytic_grid(table, [nodes], [data_bytes], params)[0, 0]), 6),
         )
-    return Plan(nodes, data_bytes, params.name, limit, networks, params.epl_cn_response_us)
+    if not networks:
+        raise TopologyError("; ".join(dict.fromkeys(na.values())))  # (one line per cause)
+    return Plan(nodes, data_bytes, params.name, limit, networks, params.epl_cn_response_us, na)
 
 
 def _emulate(
