@@ -72,7 +72,7 @@ def check_pcap_size(
     if path is None or path == STDOUT or allow or cycles <= 1:
         return
     fmt = "pcapng" if path.lower().endswith(".pcapng") else "pcap"
-    estimate, one = estimated_capture_bytes(one_cycle, cycles, fmt=fmt, ports=ports)
+    estimate, one = estimated_capture_bytes(one_cycle, cycles, fmt=fmt, ports=ports, name=path)
     if estimate > LARGE_PCAP_BYTES:
         raise SkinframesError(
             f"--pcap {escape(path)}: about {estimate / 1e9:.1f} GB ({cycles} cycles of "
