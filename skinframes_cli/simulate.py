@@ -72,7 +72,7 @@ def check_pcap_size(
     if path is None or path == STDOUT or allow or cycles <= 1:
         return
     fmt = "pcapng" if path.lower().endswith(".pcapng") else "pcap"
-    estimate, one = estimated_capture_bytes(one_cycle, cycles, fmt=fmt, ports=ports)
+    estimate, one = estimated_capture_bytes(one_cycle, cycles, fmt=fmt, ports=ports, name=path)
     if estimate > LARGE_PCAP_BYTES:
         raise SkinframesError(
             f"--pcap {escape(path)}: about {estimate / 1e9:.1f} GB ({cycles} cycles of "
@@ -158,7 +158,8 @@ def add_parser(sub: Any) -> None:
         "--pres-timeout-us",
         type=bounded_float(0, MAX_TIMEOUT_US),
         metavar="US",
-        help="EPL: the MN's PRes timeout; rejected if a CN cannot meet it",
+        help="EPL: the MN's PRes timeout (default: each CN's round trip + 25 us); a CN that "
+        "cannot meet it loses its PRes, counted in the working counter and the diagnosis",
     )
     p.add_argument(
         "--pcap",
@@ -344,7 +345,7 @@ def run(args: argparse.Namespace) -> int:
     lines.append(
         f"  cycle time: min {c['min']:.3f} us, median {c['median']:.3f} us, max {c['max']:.3f} us"
     )
-    if faults:
+    if faults or result.degraded:
         wkc = ", ".join(f"{d.cycle}: {d.wkc}/{d.expected_wkc}" for d in result.details)
         lines.append(f"  working counter (got/expected) from cycle on: {wkc}")
         if result.recovery_us is not None:

@@ -468,6 +468,20 @@ def test_allow_large_pcap_and_a_stream_skip_the_estimate() -> None:
     assert build_parser().parse_args(argv).allow_large_pcap is True
 
 
+def test_the_estimate_names_the_users_pcap_in_its_errors(tmp_path: Path) -> None:
+    """Every frame across link 0 corrupted: the one-cycle estimate already meets a CRC mark a
+    classic pcap cannot carry, and its error names the user's file, not the byte counter's -."""
+    bits = tmp_path / "bits.pcap"
+    argv = ["simulate", "ecat", "--nodes", "2", "--bytes", "8", "--fault", "biterr:0:1"]
+    result = skinframes(*argv, "--cycles", "2", "--pcap", str(bits))
+    assert result.returncode == 2 and result.stdout == b""
+    assert result.stderr.decode().splitlines() == [
+        f"skinframes: error: {bits}: classic pcap cannot carry CRC marks or comments; "
+        "name the file .pcapng"
+    ]
+    assert list(tmp_path.iterdir()) == []  # nothing written, no temporary file
+
+
 # --- information is not prefixed like an error ----------------------------------------------------
 ESI = b"""<?xml version="1.0"?>
 <EtherCATInfo><Vendor><Id>2</Id><Name>Two</Name></Vendor><Descriptions><Devices>

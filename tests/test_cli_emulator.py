@@ -89,7 +89,25 @@ def test_simulate_json_keys_and_pcap(capsys: pytest.CaptureFixture[str], tmp_pat
 
 def test_simulate_epl_text(capsys: pytest.CaptureFixture[str]) -> None:
     assert main(["simulate", "epl", "--nodes", "4", "--bytes", "192"]) == 0
-    assert "cycle time" in capsys.readouterr().out
+    out = capsys.readouterr().out
+    assert "cycle time" in out
+    assert "working counter" not in out and "diagnosis" not in out  # healthy: nothing lost
+
+
+def test_simulate_text_shows_losses_without_a_fault(capsys: pytest.CaptureFixture[str]) -> None:
+    """A PRes timeout of 0 us no CN can meet (its PRes starts a cable and a response time after
+    the PReq): none of the 2 PRes of each of the 4 cycles arrives, and the text report says so
+    as it does under --fault; the value is accepted, as the help says."""
+    argv = ["simulate", "epl", "--nodes", "2", "--bytes", "8", "--pres-timeout-us", "0"]
+    assert main(argv) == 0
+    lines = capsys.readouterr().out.splitlines()
+    assert "  working counter (got/expected) from cycle on: 0: 0/2" in lines
+    for cn in (1, 2):
+        prefix = f"  diagnosis: CN {cn}: 4 of 4 PRes lost (the MN's loss-of-PRes counter)"
+        assert any(line.startswith(prefix) for line in lines)
+    assert main(["simulate", "--help"]) == 0
+    helped = " ".join(capsys.readouterr().out.split())  # argparse wraps the lines
+    assert "rejected" not in helped and "cannot meet it loses its PRes, counted" in helped
 
 
 def test_plan_prefers_the_logical_image_for_many_patches(

@@ -60,11 +60,11 @@ class CaptureSink:
 
 
 class _ByteCounter:
-    """A binary stream that keeps only the number of bytes written to it."""
+    """A binary stream that keeps only the number of bytes written to it; ``name`` is the file
+    the capture writer names in its errors."""
 
-    name = "-"
-
-    def __init__(self) -> None:
+    def __init__(self, name: str) -> None:
+        self.name = name
         self.count = 0
 
     def write(self, data: bytes | memoryview) -> int:
@@ -76,14 +76,20 @@ class _ByteCounter:
 
 
 def estimated_capture_bytes(
-    one_cycle: Callable[..., object], cycles: int, *, fmt: str, ports: int
+    one_cycle: Callable[..., object],
+    cycles: int,
+    *,
+    fmt: str,
+    ports: int,
+    name: str | os.PathLike[str] = "-",
 ) -> tuple[int, int]:
     """The size of the capture a run of ``cycles`` cycles writes, estimated before it runs:
     ``one_cycle(cycles=1, sink=...)`` (a ``simulate_ecat``/``simulate_epl`` with its arguments
-    bound) writes one cycle into a byte counter, as ``fmt`` with ``ports`` interfaces. Returns
+    bound) writes one cycle into a byte counter, as ``fmt`` with ``ports`` interfaces; an error
+    of the capture writer names the file ``name`` (the one the run will write). Returns
     (the estimate, the bytes of the one cycle). A run with a start-up sequence carries it
     once, so the estimate overstates it."""
-    counter = _ByteCounter()
+    counter = _ByteCounter(os.fspath(name))
     with CaptureWriter(counter, fmt=fmt, ports=ports) as writer:  # type: ignore[arg-type]
         one_cycle(cycles=1, sink=CaptureSink(writer))
     return counter.count * cycles, counter.count

@@ -87,6 +87,13 @@ class SimResult:
         return sum(self.durations.values())
 
     @property
+    def degraded(self) -> bool:
+        """Whether the run lost answers or saw errors, fault or not (e.g. a PRes timeout a CN
+        cannot meet): a listed cycle's working counter is not the expected one, or the
+        counters gave a diagnosis."""
+        return bool(self.diagnosis) or any(d.wkc != d.expected_wkc for d in self.details)
+
+    @property
     def duration_ps(self) -> int:
         """The whole run: the sum of its cycles."""
         return sum(ps * n for ps, n in self.durations.items())
