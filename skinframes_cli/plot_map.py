@@ -69,8 +69,8 @@ def make_map(
     params = preset(preset_name) if params is None else params
     sizes = np.arange(1, MAX_BYTES + 1, dtype=np.int64)
     panels: dict[str, MapPanel] = {}
-    for table, _ in PANELS:
-        ns = np.arange(1, FIGURE_MAX_NODES[table] + 1, dtype=np.int64)
+    for table, _ in PANELS:  # the nodes axis reaches your configuration (EPL blank past 239)
+        ns = np.arange(1, max(FIGURE_MAX_NODES[table], nodes) + 1, dtype=np.int64)
         grid = analytic_grid(table, ns.tolist(), sizes.tolist(), params).T
         panels[table] = MapPanel(ns, sizes, grid)
     low = min(float(np.nanmin(p.cycle_us)) for p in panels.values())

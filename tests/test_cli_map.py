@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import struct
+import warnings
 from pathlib import Path
 
 import numpy as np
@@ -43,6 +44,21 @@ def test_map_png_and_its_contours(tmp_path: Path) -> None:
     # 1673.23 us, so the open ring's 1 ms line crosses 130 nodes between 32 and 128 bytes
     crossing = [y for xy in panels["ecat"].contours[1000.0] for x, y in xy if x == 130]
     assert crossing and all(32 < y < 128 for y in crossing)
+
+
+def test_the_nodes_axis_reaches_your_configuration(tmp_path: Path) -> None:
+    """1000 patches (``--nodes`` allows 1..1024): every panel's nodes axis runs to 1000, so the
+    star lands inside it; EPL's field is empty beyond its 239 CNs (DS 301 node ids). Drawn
+    with matplotlib's warnings as errors: once the star sat beyond the axes and the layout
+    collapsed ("constrained_layout not applied")."""
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        panels = make_map(tmp_path / "map.png", "paper", 1000, 192)
+    for p in panels.values():
+        assert p.nodes[0] == 1 and p.nodes[-1] == 1000
+    epl = panels["epl"].cycle_us
+    assert np.isnan(epl[:, 239:]).all() and not np.isnan(epl[:, :239]).any()
+    assert not np.isnan(panels["ecat"].cycle_us).any()
 
 
 def test_map_cli_svg(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None:
