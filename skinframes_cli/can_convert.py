@@ -35,7 +35,9 @@ def add_convert(sub: Any) -> None:
         help=f"write a --pcap file estimated above {LARGE_PCAP_BYTES / 1e9:g} GB (refused "
         "without it, before anything is written; as simulate)",
     )
-    p.add_argument("--preset", choices=list(PRESETS), default="wire")
+    p.add_argument(
+        "--preset", choices=list(PRESETS), default="wire", help="timing constants (default: wire)"
+    )
     p.add_argument(
         "--closed-ring",
         "--redundant",

@@ -41,7 +41,9 @@ def add_parser(sub: Any) -> None:
         default=None,
         help="output file, .png or .svg (default cycle_time.png, with --map map.png)",
     )
-    p.add_argument("--preset", choices=list(PRESETS), default="paper")
+    p.add_argument(
+        "--preset", choices=list(PRESETS), default="paper", help="timing constants (default: paper)"
+    )
     add_cn_response(p)
     p.add_argument(
         "--step",

@@ -134,13 +134,15 @@ def add_parser(sub: Any) -> None:
         action="store_true",
         help="EtherCAT closed ring, Table III (--redundant: its old name)",
     )
-    p.add_argument("--preset", choices=list(PRESETS), default="paper")
+    p.add_argument(
+        "--preset", choices=list(PRESETS), default="paper", help="timing constants (default: paper)"
+    )
     add_cn_response(p)
     p.add_argument(
         "--layout",
         choices=list(LAYOUTS),
         default="per-slave",
-        help="EtherCAT: one LRD per slave (paper) or a contiguous logical image",
+        help="EtherCAT: one LRD per slave (paper; the default) or a contiguous logical image",
     )
     p.add_argument(
         "--cycles",

@@ -346,6 +346,31 @@ def test_help(capsys: pytest.CaptureFixture[str]) -> None:
         assert err == ""
 
 
+def _options(parser: argparse.ArgumentParser, path: str) -> list[tuple[str, argparse.Action]]:
+    """Every option of ``parser`` and its subcommands, with the command path that has it."""
+    found: list[tuple[str, argparse.Action]] = []
+    for action in parser._actions:
+        if isinstance(action, argparse._SubParsersAction):
+            for name, sub in action.choices.items():
+                found += _options(sub, f"{path} {name}")
+        elif action.option_strings:
+            found.append((path, action))
+    return found
+
+
+def test_every_option_with_a_default_names_it_in_its_help() -> None:
+    """A value that is used unless given (not a flag's False, not a list that --X appends to)
+    is said in the option's help: `simulate --preset` once showed no help at all."""
+    missing = [
+        f"{path} {action.option_strings[-1]} (default {action.default!r})"
+        for path, action in _options(build_parser(), "skinframes")
+        if action.default not in (None, False, argparse.SUPPRESS)
+        and not isinstance(action.default, list)
+        and "default" not in (action.help or "").lower()
+    ]
+    assert missing == []
+
+
 def test_module_entry_point() -> None:
     golden = PCAPS / "epl_cycle_4cn.pcap"
     result = subprocess.run(

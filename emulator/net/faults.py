@@ -81,7 +81,7 @@ def parse_fault(spec: str) -> Fault:
     if kind in ("biterr", "drop") and not 0.0 <= value <= 1.0:
         raise FaultError(f"fault {spec!r}: probability {value} outside 0..1")
     if kind == "late" and value < 0:
-        raise FaultError(f"fault {spec!r}: a CN cannot answer early")
+        raise FaultError(f"fault {spec!r}: a node cannot answer early")
     return Fault(kind, int(a), 0, value)
 
 
