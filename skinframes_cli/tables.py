@@ -38,8 +38,8 @@ def add_parser(sub: Any) -> None:
         "tables",
         help="cycle-time tables (the paper's Tables I-III by default)",
         description="Cycle times of EPL and EtherCAT (open and closed ring) for each number of "
-        "nodes and payload size. With --preset paper the printed paper value and the difference "
-        "are shown where the paper has that cell.",
+        "nodes and payload size. With --preset paper each table ends with how many of its "
+        "cells the paper prints and the largest difference from them.",
     )
     p.add_argument(
         "--model",
@@ -136,7 +136,8 @@ def _text(args: argparse.Namespace, params: TimingParams, source: Iterable[Any])
             print(f"      n/a: {reason}")
         if deltas:
             print(
-                f"      {len(deltas)} cells printed in the paper; largest difference "
+                f"      {len(deltas)} cell{'s' * (len(deltas) != 1)} printed in the paper; "
+                f"largest difference "
                 f"{max(deltas):.4f} us (the paper rounds to 0.01)"
             )
         deltas.clear()

@@ -56,3 +56,9 @@ def test_nonsense_is_one_error_line(capsys: pytest.CaptureFixture[str], argv: li
     err = captured.err.strip().splitlines()
     assert len(err) == 1 and err[0].startswith("skinframes: error:")
     assert captured.out == ""
+
+
+def test_one_printed_cell_is_one_cell(capsys: pytest.CaptureFixture[str]) -> None:
+    """130 nodes x 2 bytes is a cell of each of the paper's Tables I-III."""
+    assert main(["tables", "--nodes", "130", "--bytes", "2"]) == 0
+    assert capsys.readouterr().out.count("      1 cell printed in the paper; largest") == 3

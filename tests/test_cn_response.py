@@ -39,7 +39,7 @@ def test_tables_text_says_what_it_shows(capsys: pytest.CaptureFixture[str]) -> N
     out = capsys.readouterr().out
     assert out.splitlines()[0] == "model analytic, preset paper, EPL CN response 92.5 us"
     # EPL's paper cell is not compared (it is for 1 us); EtherCAT's still are
-    assert out.count("cells printed in the paper") == 2
+    assert out.count("1 cell printed in the paper") == 2
 
 
 def test_emulated_model_takes_it_too(capsys: pytest.CaptureFixture[str]) -> None:
