@@ -36,6 +36,8 @@ def check_target(target: Path) -> None:
     if target.exists() and not target.is_file():
         raise CaptureError(f"{target}: exists and is not a regular file")
     if not target.parent.is_dir():
+        if target.parent.exists():
+            raise CaptureError(f"{target}: {target.parent} is not a directory")
         raise CaptureError(f"{target}: directory {target.parent} does not exist")
 
 

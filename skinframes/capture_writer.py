@@ -53,6 +53,7 @@ __all__ = [
     "CaptureWriter",
     "MarkedRecord",
     "PcapWriter",
+    "capture_format",
     "pcap_bytes",
     "pcap_header",
     "pcapng_bytes",
@@ -278,6 +279,27 @@ class _Layout:
     sources: tuple[int, ...]
 
 
+COMPRESSED_SUFFIXES: Final = (".gz", ".zst", ".lz4", ".xz", ".bz2")  # what Wireshark may read
+
+
+def capture_format(path: str | os.PathLike[str]) -> str:
+    """The format a capture file named ``path`` is written in: ``pcapng`` for ``.pcapng``
+    (any case), else ``pcap``.
+
+    Raises:
+        CaptureError: a compressed name (``.gz`` ...): captures are written uncompressed, and
+            such a file would hold plain pcap under a name that says otherwise.
+    """
+    name = os.fspath(path)
+    suffix = Path(name).suffix.lower()
+    if suffix in COMPRESSED_SUFFIXES:
+        raise CaptureError(
+            f"{name}: captures are written uncompressed; name it .pcap or .pcapng "
+            f"(and compress it afterwards)"
+        )
+    return "pcapng" if suffix == ".pcapng" else "pcap"
+
+
 class CaptureWriter:
     """Stream records into a pcap or pcapng file that appears at ``path`` only when complete.
 
@@ -343,7 +365,7 @@ class CaptureWriter:
             stream = path
             target = Path(str(getattr(stream, "name", "-")))
         if fmt is None:
-            fmt = "pcapng" if stream is None and target.suffix.lower() == ".pcapng" else "pcap"
+            fmt = capture_format(target) if stream is None else "pcap"
         if fmt not in FORMATS:
             raise CaptureError(f"capture format {fmt!r}: expected one of {', '.join(FORMATS)}")
         ports = operator.index(ports)

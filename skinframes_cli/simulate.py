@@ -68,10 +68,11 @@ def check_pcap_size(
     the estimate is that times ``cycles``. A stream (``-``) is the reader's to stop and is not
     checked."""
     from emulator.net.api import estimated_capture_bytes
+    from skinframes.capture_writer import capture_format
 
     if path is None or path == STDOUT or allow or cycles <= 1:
         return
-    fmt = "pcapng" if path.lower().endswith(".pcapng") else "pcap"
+    fmt = capture_format(path)
     estimate, one = estimated_capture_bytes(one_cycle, cycles, fmt=fmt, ports=ports, name=path)
     if estimate > LARGE_PCAP_BYTES:
         raise SkinframesError(

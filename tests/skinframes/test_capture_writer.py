@@ -460,7 +460,7 @@ def test_refused_paths(tmp_path: Path) -> None:
         (dangling, "symbolic link"),
         (tmp_path / "dir.pcap", "directory"),
         (tmp_path / "missing" / "x.pcap", "does not exist"),
-        (target / "x.pcap", "does not exist"),  # a file where the directory should be
+        (target / "x.pcap", "real.pcap is not a directory"),  # a file where a folder should be
     ):
         with pytest.raises(CaptureError, match=why):
             CaptureWriter(path)
@@ -470,6 +470,16 @@ def test_refused_paths(tmp_path: Path) -> None:
     assert target.read_bytes() == b"keep me"
     assert not (tmp_path / "nowhere.pcap").exists()
     assert not (tmp_path / "missing").exists()
+
+
+def test_a_compressed_name_is_refused_not_written_plain(tmp_path: Path) -> None:
+    """x.pcapng.gz once got a classic pcap, uncompressed: neither what the name says."""
+    for name in ("x.pcap.gz", "x.pcapng.GZ", "x.pcapng.zst", "x.pcap.xz"):
+        with pytest.raises(CaptureError, match=f"{name}: captures are written uncompressed"):
+            CaptureWriter(tmp_path / name)
+    assert list(tmp_path.iterdir()) == []
+    assert capture_writer.capture_format("a.PCAPNG") == "pcapng"
+    assert capture_writer.capture_format("a.cap") == "pcap"
 
 
 # --- write_repeated == write, record by record ------------------------------------------------------
