@@ -11,6 +11,7 @@ from typing import Any
 from emulator.model.params import PRESETS
 from skinframes import taxel
 from skinframes.errors import SkinframesError
+from skinframes_cli.can import damage_report
 from skinframes_cli.figure import save_figure
 from skinframes_cli.options import add_can_log, can_log_suffix
 from skinframes_cli.progress import progress_bar
@@ -125,6 +126,7 @@ def run(args: argparse.Namespace) -> int:
             doc = compare(samples, preset(args.preset), progress=done)
     if samples.left_out.anything:
         print(samples.left_out.text(), file=sys.stderr)
+    damage_report(samples.left_out.damaged, samples.left_out.damaged_records)
     if args.plot:
         plot(doc, Path(args.plot))
     if args.json:
