@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Final
 
 from skinframes.protocols import PROTOCOL_ALIASES, protocol_name
 from skinframes.text import escape
+from skinframes_cli.streams import STDIO
 
 if TYPE_CHECKING:
     from emulator.model.params import TimingParams
@@ -25,6 +26,7 @@ __all__ = [
     "add_cn_response",
     "bounded_float",
     "bounded_int",
+    "file_output",
     "finite_float",
     "int_list",
     "int_list_in",
@@ -105,6 +107,17 @@ def out_path(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty file name")
     return text
+
+
+def file_output(text: str) -> str:
+    """An argparse ``type`` for an output a pipe cannot carry (a folder, a picture, a numpy
+    file): :func:`out_path`, and not ``-``."""
+    if text == STDIO:
+        raise argparse.ArgumentTypeError(
+            f"{STDIO!r}: this output is written to files only, not to standard output "
+            "(./- names a file called -)"
+        )
+    return out_path(text)
 
 
 def protocol_arg(

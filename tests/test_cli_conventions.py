@@ -437,6 +437,38 @@ def test_output_folders_are_refused_alike(
         assert folder.read_text() == "mine"
 
 
+FILE_ONLY = [  # outputs no pipe carries (folders, pictures, numpy files)
+    ["decode", "CAPTURE", "--taxels", "-"],
+    ["analyze", "CAPTURE", "--csv", "-"],
+    ["analyze", "CAPTURE", "--plot", "-"],
+    ["compare", "skin.asc", "--plot", "-"],
+    ["plot", "--out", "-"],
+    ["demo", "--no-plot", "--out", "-"],
+    ["vectors", "--out", "-"],
+]
+
+
+@pytest.mark.parametrize("argv", FILE_ONLY, ids=[" ".join(a[::2]) for a in FILE_ONLY])
+def test_file_only_outputs_refuse_dash_when_the_arguments_are_read(
+    argv: list[str],
+    tmp_path: Path,
+    epl_capture: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from skinframes_cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main([str(epl_capture) if a == "CAPTURE" else a for a in argv]) == 2
+    captured = capsys.readouterr()
+    option = argv[-2]
+    assert captured.err.splitlines() == [
+        f"skinframes: error: argument {option}: '-': this output is written to files only, "
+        f"not to standard output (./- names a file called -) (see 'skinframes {argv[0]} --help')"
+    ]
+    assert captured.out == "" and not (tmp_path / "-").exists()
+
+
 # --- a huge pcap is refused before it is written ---------------------------------------------------
 BIG = ["simulate", "ecat", "--nodes", "160", "--bytes", "192", "--closed-ring"]
 
