@@ -28,7 +28,7 @@ from skinframes.errors import SkinframesError
 from skinframes.powerlink import NmtState
 from skinframes_cli.figure import save_figure
 from skinframes_cli.live import add_live, capture_input, first_frames, is_live
-from skinframes_cli.options import file_output
+from skinframes_cli.options import file_output, in_path
 from skinframes_cli.progress import progress_bar
 
 MODEL_PRESET: Final = "wire"
@@ -47,7 +47,11 @@ def add_parser(sub: Any) -> None:
         "network the capture shows and the emulator's cycle time for it (wire preset).",
     )
     p.add_argument(
-        "path", nargs="?", help="capture file (pcap, pcapng, gzip); - for standard input"
+        "path",
+        nargs="?",
+        type=in_path,
+        metavar="PATH",
+        help="capture file (pcap, pcapng, gzip); - for standard input",
     )
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.add_argument(

@@ -18,6 +18,7 @@ from skinframes_cli.options import (
     bounded_int,
     file_output,
     frame_ranges,
+    in_path,
     protocol_arg,
 )
 from skinframes_cli.streams import input_path
@@ -37,7 +38,13 @@ def add_parser(sub: Any) -> None:
         "Skipped records are reported on stderr with their reason. With --taxels, write the "
         "capture's skin taxels as a numpy array instead.",
     )
-    p.add_argument("path", nargs="?", help="capture file; - for standard input (or --iface)")
+    p.add_argument(
+        "path",
+        nargs="?",
+        type=in_path,
+        metavar="PATH",
+        help="capture file; - for standard input (or --iface)",
+    )
     p.add_argument("--json", action="store_true", help="JSON Lines: one object per frame")
     p.add_argument(
         "--taxels",

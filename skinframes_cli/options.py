@@ -28,6 +28,7 @@ __all__ = [
     "bounded_int",
     "file_output",
     "finite_float",
+    "in_path",
     "int_list",
     "int_list_in",
     "int_up_to",
@@ -107,6 +108,12 @@ def out_path(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty file name")
     return text
+
+
+def in_path(text: str) -> str:
+    """An argparse ``type`` for a file to read (``-``: standard input): not empty, as
+    :func:`out_path`."""
+    return out_path(text)
 
 
 def file_output(text: str) -> str:
@@ -202,7 +209,9 @@ def add_can_log(p: argparse.ArgumentParser, help: str) -> None:
     of standard input, which has no suffix to tell it."""
     from skinframes.canbus.log import PCAP_SUFFIXES, PYTHON_CAN_SUFFIXES
 
-    p.add_argument("trace", metavar="LOG", help=f"{help}; - for standard input (--log-format)")
+    p.add_argument(
+        "trace", metavar="LOG", type=in_path, help=f"{help}; - for standard input (--log-format)"
+    )
     known = [s.lstrip(".") for s in (*PYTHON_CAN_SUFFIXES, *PCAP_SUFFIXES)]
     p.add_argument(
         "--log-format",
