@@ -12,6 +12,7 @@ complete one; the second streams the cycles in order, chunk by chunk, so a long 
 from __future__ import annotations
 
 import array
+import dataclasses
 from collections.abc import Callable, Generator, Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -25,6 +26,7 @@ from emulator.model.units import PS_PER_NS
 from skinframes import canbus, taxel
 from skinframes.canbus.lines import DataTuple
 from skinframes.canbus.log import CanLog, CanLogFormatError, CanLogReader, RecordCounts
+from skinframes.pcap import Skipped
 
 __all__ = [
     "CycleChunk",
@@ -61,6 +63,8 @@ class LeftOut:
         other_frames: frames that are not skin data (other identifiers, error frames).
         skipped_records: records of the file that are not frames (see ``records``).
         records: the file's records, decoded or skipped with a reason.
+        damaged: the first damaged records with their index and reason (a truncated log: the
+            reader stopped, the rest of the file unread), as ``can decode`` lists them.
     """
 
     boards: tuple[canbus.BoardCounts, ...] = ()
@@ -71,6 +75,12 @@ class LeftOut:
     other_frames: int = 0
     skipped_records: int = 0
     records: RecordCounts | None = None
+    damaged: tuple[Skipped, ...] = ()
+
+    @property
+    def damaged_records(self) -> int:
+        """Skipped records that are damage (``records.damaged``), not headers or comments."""
+        return self.records.damaged if self.records is not None else len(self.damaged)
 
     @property
     def anything(self) -> bool:
@@ -86,6 +96,7 @@ class LeftOut:
             "cycles_missing_board": {str(b): n for b, n in self.missing},
             "other_frames": self.other_frames,
             "skipped_records": self.skipped_records,
+            "damaged_records": self.damaged_records,
             "boards": [b.to_json() for b in self.boards],
         }
 
@@ -275,17 +286,25 @@ class SkinLog:
     def open(cls, path: str | Path, progress: Callable[[int], None] | None = None) -> SkinLog:
         """A CAN log file (any format :class:`CanLogReader` reads)."""
 
+        readers: list[CanLogReader] = []
+
         def opener() -> tuple[Iterable[Batch], Callable[[], RecordCounts | None]]:
             reader = CanLogReader(path)
+            if not readers:  # the first pass: its accounting is the log's
+                readers.append(reader)
             return reader.batches(), lambda: reader.record_counts
 
-        return cls(str(path), opener, progress)
+        log = cls(str(path), opener, progress)
+        log.left_out = dataclasses.replace(log.left_out, damaged=tuple(readers[0].damaged))
+        return log
 
     @classmethod
     def of(cls, log: CanLog) -> SkinLog:
         """A CAN log read whole (:func:`skinframes.canbus.log.read_can_log`)."""
         frames: Batch = list(log.frames)
-        return cls(log.path, lambda: ((frames,), lambda: log.records))
+        skin = cls(log.path, lambda: ((frames,), lambda: log.records))
+        skin.left_out = dataclasses.replace(skin.left_out, damaged=log.skipped)
+        return skin
 
     @property
     def data_bytes(self) -> int:

@@ -28,6 +28,7 @@ from skinframes.errors import SkinframesError
 from skinframes.powerlink import NmtState
 from skinframes_cli.figure import save_figure
 from skinframes_cli.live import add_live, capture_input, first_frames, is_live
+from skinframes_cli.options import file_output, in_path
 from skinframes_cli.progress import progress_bar
 
 MODEL_PRESET: Final = "wire"
@@ -46,11 +47,22 @@ def add_parser(sub: Any) -> None:
         "network the capture shows and the emulator's cycle time for it (wire preset).",
     )
     p.add_argument(
-        "path", nargs="?", help="capture file (pcap, pcapng, gzip); - for standard input"
+        "path",
+        nargs="?",
+        type=in_path,
+        metavar="PATH",
+        help="capture file (pcap, pcapng, gzip); - for standard input",
     )
     p.add_argument("--json", action="store_true", help="one JSON document")
-    p.add_argument("--csv", metavar="DIR", help="write one CSV file per table into DIR")
-    p.add_argument("--plot", metavar="FILE", help="histograms and state timeline (.png or .svg)")
+    p.add_argument(
+        "--csv", type=file_output, metavar="DIR", help="write one CSV file per table into DIR"
+    )
+    p.add_argument(
+        "--plot",
+        type=file_output,
+        metavar="FILE",
+        help="histograms and state timeline (.png or .svg)",
+    )
     p.add_argument(
         "--expected-wkc",
         type=int,

@@ -38,7 +38,7 @@ from skinframes_cli.can_convert import add_convert
 from skinframes_cli.options import add_can_log, can_log_suffix, int_list
 from skinframes_cli.streams import STDIO, input_path
 
-__all__ = ["SUBCOMMANDS", "add_decode", "add_parser", "board_text", "report"]
+__all__ = ["SUBCOMMANDS", "add_decode", "add_parser", "board_text", "damage_report", "report"]
 
 MAX_LISTED: Final = 10  # ids / malformed frames listed on stderr before "... N more"
 
@@ -180,13 +180,19 @@ def report(
         )
     if c.malformed > MAX_LISTED:
         print(f"... {c.malformed - MAX_LISTED} more malformed", file=err)
-    for s in damaged[:MAX_LISTED]:
-        print(f"skipped record {s.index}: {s.reason}", file=err)
-    if records.damaged > MAX_LISTED:
-        print(f"... {records.damaged - MAX_LISTED} more skipped records", file=err)
+    damage_report(damaged, records.damaged)
     print(f"{_records_text(records)}", file=err)
     for b in c.boards:
         print(f"{board_text(b, c.triangles)}", file=err)
+
+
+def damage_report(damaged: Sequence[Skipped], count: int) -> None:
+    """The damaged records of a CAN log on stderr (a truncated log: where its reader stopped),
+    the first :data:`MAX_LISTED` with their index and reason; ``count``: all of them."""
+    for s in damaged[:MAX_LISTED]:
+        print(f"skipped record {s.index}: {s.reason}", file=sys.stderr)
+    if count > MAX_LISTED:
+        print(f"... {count - MAX_LISTED} more skipped records", file=sys.stderr)
 
 
 def board_text(b: BoardCounts, triangles: int) -> str:

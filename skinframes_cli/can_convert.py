@@ -65,6 +65,7 @@ def _convert(args: argparse.Namespace, trace: str) -> int:
     from emulator.model.params import preset
     from emulator.net import simulate_ecat, simulate_epl
     from emulator.skin_samples import SkinLog
+    from skinframes_cli.can import damage_report  # can imports this module
     from skinframes_cli.progress import progress_bar
     from skinframes_cli.simulate import STDOUT, check_pcap_size, pcap_target
 
@@ -107,4 +108,5 @@ def _convert(args: argparse.Namespace, trace: str) -> int:
     )
     if log.left_out.anything:
         print(log.left_out.text(), file=sys.stderr)
+    damage_report(log.left_out.damaged, log.left_out.damaged_records)
     return 0

@@ -17,6 +17,7 @@ from skinframes.check import CaptureReport, FrameFinding, check_capture, check_f
 from skinframes.findings import Severity
 from skinframes.text import escape
 from skinframes_cli.live import add_live, capture_input, first_frames, is_live
+from skinframes_cli.options import in_path
 from skinframes_cli.progress import progress_bar
 
 
@@ -32,7 +33,11 @@ def add_parser(sub: Any) -> None:
         "an error.",
     )
     p.add_argument(
-        "path", nargs="?", help="capture file (pcap, pcapng, gzip); - for standard input"
+        "path",
+        nargs="?",
+        type=in_path,
+        metavar="PATH",
+        help="capture file (pcap, pcapng, gzip); - for standard input",
     )
     p.add_argument("--json", action="store_true", help="one JSON document (every finding)")
     p.add_argument(

@@ -11,8 +11,9 @@ from typing import Any
 from emulator.model.params import PRESETS
 from skinframes import taxel
 from skinframes.errors import SkinframesError
+from skinframes_cli.can import damage_report
 from skinframes_cli.figure import save_figure
-from skinframes_cli.options import add_can_log, can_log_suffix
+from skinframes_cli.options import add_can_log, can_log_suffix, file_output
 from skinframes_cli.progress import progress_bar
 from skinframes_cli.streams import input_path
 
@@ -41,7 +42,12 @@ def add_parser(sub: Any) -> None:
         default="wire",
         help="Ethernet timing constants (default: wire)",
     )
-    p.add_argument("--plot", metavar="FILE", help="also draw the comparison (.png or .svg)")
+    p.add_argument(
+        "--plot",
+        type=file_output,
+        metavar="FILE",
+        help="also draw the comparison (.png or .svg)",
+    )
     p.add_argument("--json", action="store_true", help="one JSON document")
     p.set_defaults(run=run)
 
@@ -125,6 +131,7 @@ def run(args: argparse.Namespace) -> int:
             doc = compare(samples, preset(args.preset), progress=done)
     if samples.left_out.anything:
         print(samples.left_out.text(), file=sys.stderr)
+    damage_report(samples.left_out.damaged, samples.left_out.damaged_records)
     if args.plot:
         plot(doc, Path(args.plot))
     if args.json:

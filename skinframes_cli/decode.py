@@ -13,7 +13,14 @@ from skinframes.pcap import Capture
 from skinframes.selection import FrameSelection
 from skinframes.text import escape
 from skinframes_cli.live import add_live, capture_input, file_input, is_live
-from skinframes_cli.options import add_skin_layout, bounded_int, frame_ranges, protocol_arg
+from skinframes_cli.options import (
+    add_skin_layout,
+    bounded_int,
+    file_output,
+    frame_ranges,
+    in_path,
+    protocol_arg,
+)
 from skinframes_cli.streams import input_path
 
 
@@ -31,10 +38,17 @@ def add_parser(sub: Any) -> None:
         "Skipped records are reported on stderr with their reason. With --taxels, write the "
         "capture's skin taxels as a numpy array instead.",
     )
-    p.add_argument("path", nargs="?", help="capture file; - for standard input (or --iface)")
+    p.add_argument(
+        "path",
+        nargs="?",
+        type=in_path,
+        metavar="PATH",
+        help="capture file; - for standard input (or --iface)",
+    )
     p.add_argument("--json", action="store_true", help="JSON Lines: one object per frame")
     p.add_argument(
         "--taxels",
+        type=file_output,
         metavar="OUT",
         help="write the taxels (samples x nodes x 16 x 12, uint8) to OUT.npy; OUT.npz also "
         "holds time_ns and present",

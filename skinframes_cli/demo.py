@@ -13,7 +13,7 @@ from skinframes.check import check_capture
 from skinframes.errors import CaptureError
 from skinframes.pcap import read_capture, write_pcap
 from skinframes.text import escape
-from skinframes_cli.options import out_path
+from skinframes_cli.options import file_output
 
 NODES = taxel.BODY_PATCHES  # 160 patches
 BYTES = taxel.PATCH_BYTES  # 192 bytes each
@@ -36,7 +36,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--out",
-        type=out_path,
+        type=file_output,
         default="out",
         help="output directory (default: ./out); created if its parent exists",
     )

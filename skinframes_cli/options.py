@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING, Any, Final
 
 from skinframes.protocols import PROTOCOL_ALIASES, protocol_name
 from skinframes.text import escape
+from skinframes_cli.streams import STDIO
 
 if TYPE_CHECKING:
     from emulator.model.params import TimingParams
@@ -25,7 +26,9 @@ __all__ = [
     "add_cn_response",
     "bounded_float",
     "bounded_int",
+    "file_output",
     "finite_float",
+    "in_path",
     "int_list",
     "int_list_in",
     "int_up_to",
@@ -105,6 +108,23 @@ def out_path(text: str) -> str:
     if not text.strip():
         raise argparse.ArgumentTypeError("an empty file name")
     return text
+
+
+def in_path(text: str) -> str:
+    """An argparse ``type`` for a file to read (``-``: standard input): not empty, as
+    :func:`out_path`."""
+    return out_path(text)
+
+
+def file_output(text: str) -> str:
+    """An argparse ``type`` for an output a pipe cannot carry (a folder, a picture, a numpy
+    file): :func:`out_path`, and not ``-``."""
+    if text == STDIO:
+        raise argparse.ArgumentTypeError(
+            f"{STDIO!r}: this output is written to files only, not to standard output "
+            "(./- names a file called -)"
+        )
+    return out_path(text)
 
 
 def protocol_arg(
@@ -189,7 +209,9 @@ def add_can_log(p: argparse.ArgumentParser, help: str) -> None:
     of standard input, which has no suffix to tell it."""
     from skinframes.canbus.log import PCAP_SUFFIXES, PYTHON_CAN_SUFFIXES
 
-    p.add_argument("trace", metavar="LOG", help=f"{help}; - for standard input (--log-format)")
+    p.add_argument(
+        "trace", metavar="LOG", type=in_path, help=f"{help}; - for standard input (--log-format)"
+    )
     known = [s.lstrip(".") for s in (*PYTHON_CAN_SUFFIXES, *PCAP_SUFFIXES)]
     p.add_argument(
         "--log-format",

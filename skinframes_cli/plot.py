@@ -15,7 +15,7 @@ from skinframes.atomic_file import check_target
 from skinframes.errors import SkinframesError
 from skinframes.text import escape
 from skinframes_cli.figure import save_figure
-from skinframes_cli.options import add_cn_response, bounded_int, out_path, timing
+from skinframes_cli.options import add_cn_response, bounded_int, file_output, timing
 
 PAYLOADS = (2, 32, 128, 192, 256)
 PANELS = (
@@ -37,7 +37,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--out",
-        type=out_path,
+        type=file_output,
         default=None,
         help="output file, .png or .svg (default cycle_time.png, with --map map.png)",
     )

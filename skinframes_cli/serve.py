@@ -30,6 +30,7 @@ from skinframes.text import escape
 from skinframes_cli.options import (
     bounded_int,
     finite_float,
+    in_path,
     int_list_in,
     int_up_to,
     protocol_arg,
@@ -83,6 +84,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--esi",
         action="append",
+        type=in_path,
         default=[],
         metavar="ESI.xml[#TYPE]",
         help="after the patches, a slave as the ESI file describes it (device TYPE, by Type "
@@ -93,6 +95,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--esi-inputs",
         action="append",
+        type=in_path,
         default=[],
         metavar="FILE",
         help="input values for the n-th --esi slave from the n-th such CSV file (header "
@@ -162,6 +165,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--cdc",
+        type=in_path,
         metavar="FILE",
         help="epl --mn: the concise device configuration (mnobd.cdc, as openCONFIGURATOR or "
         "`skinframes epl-config` writes it) naming the CNs, the cycle and what to write to each",

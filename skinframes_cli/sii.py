@@ -28,6 +28,7 @@ from skinframes.sii import (
     sii_from_esi,
 )
 from skinframes.text import escape
+from skinframes_cli.options import in_path
 from skinframes_cli.streams import STDIO, input_bytes, output
 
 
@@ -41,7 +42,10 @@ def add_parser(sub: Any) -> None:
         "it holds (--json for JSON).",
     )
     p.add_argument(
-        "path", metavar="FILE", help="an ESI .xml file, or an SII image to decode; - for stdin"
+        "path",
+        metavar="FILE",
+        type=in_path,
+        help="an ESI .xml file, or an SII image to decode; - for stdin",
     )
     p.add_argument(
         "--device",
@@ -68,8 +72,6 @@ def _is_xml(data: bytes) -> bool:
 
 def run(args: argparse.Namespace) -> int:
     """Build or decode."""
-    if not args.path:
-        raise SkinframesError("FILE: an empty name")
     data = input_bytes(args.path)
     if _is_xml(data):
         if args.out is None and not args.json:

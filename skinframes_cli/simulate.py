@@ -21,6 +21,7 @@ from skinframes_cli.options import (
     add_cn_response,
     bounded_float,
     bounded_int,
+    in_path,
     out_path,
     protocol_arg,
     timing,
@@ -194,6 +195,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--esi",
         action="append",
+        type=in_path,
         default=[],
         metavar="ESI.xml[#TYPE]",
         help="EtherCAT: after the patches, a slave as the ESI file describes it (device TYPE, "
@@ -204,6 +206,7 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--esi-inputs",
         action="append",
+        type=in_path,
         default=[],
         metavar="FILE",
         help="EtherCAT: input values for the n-th --esi slave from the n-th such CSV file "

@@ -7,6 +7,7 @@ from typing import Any
 
 from skinframes import vectors
 from skinframes.atomic_file import output_folder
+from skinframes_cli.options import file_output
 
 
 def add_parser(sub: Any) -> None:
@@ -19,7 +20,12 @@ def add_parser(sub: Any) -> None:
         "the malformed cases check knows; line N of the JSON Lines states frame N's expected "
         "fields (Wireshark's names) and findings.",
     )
-    p.add_argument("--out", required=True, help="output directory; created if its parent exists")
+    p.add_argument(
+        "--out",
+        type=file_output,
+        required=True,
+        help="output directory; created if its parent exists",
+    )
     p.set_defaults(run=run)
 
 

@@ -27,7 +27,7 @@ from skinframes.helper_threads import MAIN_WAIT_S, leave_signals_to_main
 from skinframes.monitor import Monitor
 from skinframes.text import escape
 from skinframes_cli.live import add_live, capture_input, first_frames, is_live
-from skinframes_cli.options import bounded_float
+from skinframes_cli.options import bounded_float, in_path
 from skinframes_cli.signals import first_stops
 
 REFRESH_S: Final = 0.25  # the terminal view is redrawn this often
@@ -49,7 +49,11 @@ def add_parser(sub: Any) -> None:
         "a terminal: one line every --interval seconds.",
     )
     p.add_argument(
-        "path", nargs="?", help="capture file (pcap, pcapng, gzip); - for stdin (or --iface)"
+        "path",
+        nargs="?",
+        type=in_path,
+        metavar="PATH",
+        help="capture file (pcap, pcapng, gzip); - for stdin (or --iface)",
     )
     add_live(p)
     p.add_argument(

@@ -165,6 +165,30 @@ def test_can_decode_bad_input(
     assert needle in one_error_line(err)
 
 
+@pytest.mark.parametrize(
+    "argv",
+    [
+        ["can", "decode"],
+        ["can", "convert", "--to", "epl", "--pcap", "out.pcap"],
+        ["compare"],
+    ],
+)
+@pytest.mark.parametrize("folder", ["logs", "logs.asc"])
+def test_a_folder_as_can_log_is_said_to_be_one(
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    monkeypatch: pytest.MonkeyPatch,
+    argv: list[str],
+    folder: str,
+) -> None:
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / folder).mkdir()
+    code, out, err = run([*argv[:2], folder, *argv[2:]], capsys)
+    assert code == 2 and out == ""
+    assert one_error_line(err) == f"skinframes: error: {folder}: cannot read (is a directory)"
+    assert not (tmp_path / "out.pcap").exists()
+
+
 def test_python_m_skinframes_can_decode(tmp_path: Path) -> None:
     path = skin_trace(tmp_path, ".blf")
     result = subprocess.run(

@@ -115,6 +115,28 @@ def test_compare_without_skin_data_is_one_error_line(
     assert len(err) == 1 and err[0].startswith("skinframes: error:")
 
 
+def test_compare_and_convert_report_a_truncated_log_as_can_decode_does(
+    skin_trace: tuple[Path, np.ndarray], tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    import gzip
+
+    packed = gzip.compress(skin_trace[0].read_bytes())
+    cut = tmp_path / "cut.log.gz"
+    cut.write_bytes(packed[: len(packed) // 2])  # the reader stops at the end: EOFError
+    assert main(["can", "decode", str(cut)]) == 0
+    (stopped,) = [
+        line for line in capsys.readouterr().err.splitlines() if line.startswith("skipped record")
+    ]
+    assert "EOFError" in stopped and stopped.endswith("rest of file unread")
+    out = tmp_path / "cut.pcap"
+    assert main(["can", "convert", str(cut), "--to", "epl", "--pcap", str(out)]) == 0
+    assert stopped in capsys.readouterr().err.splitlines()
+    assert main(["compare", str(cut), "--json"]) == 0
+    captured = capsys.readouterr()
+    assert stopped in captured.err.splitlines()
+    assert json.loads(captured.out)["left_out"]["damaged_records"] == 1
+
+
 def test_convert_and_compare_keep_every_complete_sample_and_say_what_they_left_out(
     tmp_path: Path, capsys: pytest.CaptureFixture[str]
 ) -> None:

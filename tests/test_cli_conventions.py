@@ -437,6 +437,72 @@ def test_output_folders_are_refused_alike(
         assert folder.read_text() == "mine"
 
 
+FILE_ONLY = [  # outputs no pipe carries (folders, pictures, numpy files)
+    ["decode", "CAPTURE", "--taxels", "-"],
+    ["analyze", "CAPTURE", "--csv", "-"],
+    ["analyze", "CAPTURE", "--plot", "-"],
+    ["compare", "skin.asc", "--plot", "-"],
+    ["plot", "--out", "-"],
+    ["demo", "--no-plot", "--out", "-"],
+    ["vectors", "--out", "-"],
+]
+
+
+@pytest.mark.parametrize("argv", FILE_ONLY, ids=[" ".join(a[::2]) for a in FILE_ONLY])
+def test_file_only_outputs_refuse_dash_when_the_arguments_are_read(
+    argv: list[str],
+    tmp_path: Path,
+    epl_capture: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from skinframes_cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main([str(epl_capture) if a == "CAPTURE" else a for a in argv]) == 2
+    captured = capsys.readouterr()
+    option = argv[-2]
+    assert captured.err.splitlines() == [
+        f"skinframes: error: argument {option}: '-': this output is written to files only, "
+        f"not to standard output (./- names a file called -) (see 'skinframes {argv[0]} --help')"
+    ]
+    assert captured.out == "" and not (tmp_path / "-").exists()
+
+
+EMPTY_INPUTS = [  # every file a command reads: "" is refused by its option type
+    (["decode", ""], "PATH"),
+    (["check", ""], "PATH"),
+    (["analyze", ""], "PATH"),
+    (["watch", ""], "PATH"),
+    (["sii", ""], "FILE"),
+    (["can", "decode", ""], "LOG"),
+    (["can", "convert", "", "--to", "ecat", "--pcap", "o.pcap"], "LOG"),
+    (["compare", ""], "LOG"),
+    (["simulate", "ecat", "--nodes", "1", "--bytes", "4", "--esi", ""], "--esi"),
+    (["simulate", "ecat", "--nodes", "1", "--bytes", "4", "--esi-inputs", ""], "--esi-inputs"),
+    (["serve", "ecat", "--iface", "lo", "--nodes", "1", "--bytes", "4", "--esi", ""], "--esi"),
+    (["serve", "epl", "--mn", "--iface", "lo", "--cdc", ""], "--cdc"),
+]
+
+
+@pytest.mark.parametrize(("argv", "name"), EMPTY_INPUTS, ids=[n for _, n in EMPTY_INPUTS])
+def test_an_empty_input_name_is_refused_naming_the_argument(
+    argv: list[str],
+    name: str,
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    from skinframes_cli import main
+
+    monkeypatch.chdir(tmp_path)
+    assert main(argv) == 2
+    prog = " ".join(argv[: 2 if argv[0] == "can" else 1])
+    assert capsys.readouterr().err.splitlines() == [
+        f"skinframes: error: argument {name}: an empty file name (see 'skinframes {prog} --help')"
+    ]
+
+
 # --- a huge pcap is refused before it is written ---------------------------------------------------
 BIG = ["simulate", "ecat", "--nodes", "160", "--bytes", "192", "--closed-ring"]
 

@@ -279,15 +279,18 @@ class CanLogReader:
     ``log_format`` (``".asc"``, ``".log.gz"``, ...: :data:`STREAM_SUFFIXES`, their ``.gz``);
     ``path`` then only names it in messages.
 
-    Raises (when iterated):
-        CanLogFormatError: unknown suffix, unreadable file, or damaged before the first frame;
-            a stream of a format that needs a file (BLF, SQLite).
+    Raises:
+        CanLogFormatError: ``path`` is a directory, or its suffix is unknown; when iterated:
+            an unreadable file, or damaged before the first frame; a stream of a format that
+            needs a file (BLF, SQLite).
     """
 
     def __init__(
         self, path: str | Path, *, stream: IO[bytes] | None = None, log_format: str | None = None
     ) -> None:
         self.path = str(path)
+        if stream is None and Path(path).is_dir():  # before its suffix: a folder has none
+            raise CanLogFormatError(f"{self.path}: cannot read (is a directory)")
         self.format = can_log_format(path if log_format is None else f"{path}{log_format}")
         self._stream = stream
         if stream is not None and self.format.removesuffix(".gz") not in STREAM_SUFFIXES:
