@@ -439,3 +439,63 @@ def test_a_damaged_capture_reports_its_skipped_records(
     assert lines[-1] == f"{whole + len(lost)} records: {whole} decoded, {len(lost)} skipped"
     assert main(["decode", str(path)]) == 0  # word for word as decode says it
     assert capsys.readouterr().err == err
+
+
+@pytest.mark.tshark
+@pytest.mark.parametrize("suffix", ["pcapng", "pcap"])
+def test_closed_ring_every_lost_frame_is_unanswered(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, tshark: str, suffix: str
+) -> None:
+    """Cable 8..9 of a 16-slave closed ring breaks at cycle 2: the emulator loses 2 frames, the
+    first of that cycle from each master port. Both ports send at one time stamp, and the first
+    port's lost frame was taken for the second copy that runs the ring unprocessed, its next
+    send for that copy's return: pattern 0 said 4 sent, 3 returned, none unanswered. Expected
+    from tshark on the pcapng: the master's sends are its ports' unmarked frames on the
+    interface each port sends from; one is answered when a frame of its port and first
+    datagram index comes before the port's next send. The classic pcap holds the same frames."""
+    import tshark_util
+
+    pcapng = tmp_path / "f.pcapng"
+    argv = ("ecat", "--nodes", "16", "--bytes", "192", "--closed-ring", "--fault", "cable:8@2")
+    sim = simulate(capsys, *argv, "--pcap", str(pcapng))
+    assert any(d.startswith("2 frames lost on the way") for d in sim["diagnosis"])
+    rows = tshark_util.fields(
+        tshark, pcapng, ["frame.number", "frame.interface_id", "eth.src", "ecat.idx"], "ecat"
+    )
+    home: dict[str, str] = {}  # port -> the interface it sends from
+    pending: dict[tuple[str, str], int] = {}
+    sent: dict[str, int] = {}
+    lost: dict[str, list[int]] = {}
+    for row in rows:
+        (number,), (iface,), (src,), idx = (
+            row["frame.number"],
+            row["frame.interface_id"],
+            row["eth.src"],
+            row["ecat.idx"],
+        )
+        marked = int(src[:2], 16) & 0x02
+        port = f"{int(src[:2], 16) & ~0x02:02x}{src[2:]}"
+        if not marked:
+            home.setdefault(port, iface)
+        key = (port, idx[0])
+        if not marked and home[port] == iface:  # a send
+            if key in pending:
+                lost.setdefault(port, []).append(pending[key])
+            pending[key] = int(number)
+            sent[port] = sent.get(port, 0) + 1
+        else:
+            del pending[key]
+    assert sorted(n for frames in lost.values() for n in frames) == [25, 26]
+    assert not pending  # every last send returned
+    if suffix == "pcap":
+        path = tmp_path / "f.pcap"
+        simulate(capsys, *argv, "--pcap", str(path))
+    else:
+        path = pcapng
+    patterns = analyze(capsys, str(path))["ecat"]["patterns"]
+    assert sum(p["frames"] for p in patterns) == sum(sent.values())
+    got = {p["port"]: [] for p in patterns}
+    for p in patterns:
+        got[p["port"]] += p["unanswered"]
+        assert p["returned"] == p["frames"] - len(p["unanswered"])
+    assert got == {port: lost.get(port, []) for port in got}
