@@ -30,7 +30,7 @@ from skinframes import ethercat, ethernet, powerlink, taxel
 from skinframes.analysis import CaptureAnalyzer, Summary, plain_frame
 from skinframes.analysis.ecat import walk
 from skinframes.ethercat import Command
-from skinframes.pcap import LINKTYPE_ETHERNET, Record
+from skinframes.pcap import LINKTYPE_ETHERNET, Record, Skipped
 from skinframes.powerlink.enums import MessageType
 from skinframes.powerlink.schemas import PDO_HEADER_BYTES, PDO_SIZE_OFFSET, SRC_OFFSET
 
@@ -80,6 +80,7 @@ class Monitor:
         self.last_ns: int | None = None
         self.contact: dict[int, int] = {}  # patch (from 0) -> triangles in contact
         self._lad_base: int | None = None
+        self.skipped: tuple[Skipped, ...] = ()  # the capture's, once read (its ``skipped``)
 
     # --- feeding ----------------------------------------------------------------------------
     def feed(self, rec: Record) -> None:
@@ -139,6 +140,7 @@ class Monitor:
             "frames": a.records,
             "other": a.counts["other"],
             "span_s": self.span_s,
+            "skipped": len(self.skipped),
         }
         if a.epl is not None:
             e = a.epl

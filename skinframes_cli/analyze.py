@@ -27,7 +27,7 @@ from skinframes.atomic_file import atomic_output, output_folder
 from skinframes.errors import SkinframesError
 from skinframes.powerlink import NmtState
 from skinframes_cli.figure import save_figure
-from skinframes_cli.live import add_live, capture_input, first_frames, is_live
+from skinframes_cli.live import add_live, capture_input, first_frames, is_live, report_records
 from skinframes_cli.options import file_output, in_path
 from skinframes_cli.progress import progress_bar
 
@@ -140,6 +140,9 @@ def run(args: argparse.Namespace) -> int:
         print(json.dumps(doc, indent=2))
     else:
         _print_text(doc, analysis)
+    if analysis.skipped:  # as decode reports them
+        n = analysis.records
+        report_records(n + len(analysis.skipped), n, analysis.skipped)
     return 0
 
 
@@ -204,6 +207,11 @@ def _model_with_measured_cn(doc: dict[str, Any], a: Analysis) -> None:
 def _print_text(doc: dict[str, Any], a: Analysis) -> None:
     counts = ", ".join(f"{k} {v}" for k, v in doc["counts"].items())
     out = [f"{doc['path']}: {a.records} records ({counts})"]
+    if a.skipped:
+        out.append(
+            f"skipped: {len(a.skipped)} records could not be read, not analysed: frames "
+            f"{_ranges([s.frame for s in a.skipped])} (the reasons on stderr)"
+        )
     if a.epl is not None:
         out += _epl_text(a.epl)
     if a.ecat is not None:

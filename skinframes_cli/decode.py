@@ -12,7 +12,7 @@ from skinframes.errors import SkinframesError
 from skinframes.pcap import Capture
 from skinframes.selection import FrameSelection
 from skinframes.text import escape
-from skinframes_cli.live import add_live, capture_input, file_input, is_live
+from skinframes_cli.live import add_live, capture_input, file_input, is_live, report_records
 from skinframes_cli.options import (
     add_skin_layout,
     bounded_int,
@@ -154,15 +154,14 @@ def _listing(args: argparse.Namespace, chosen: FrameSelection, capture: Any, *, 
     close = getattr(records, "close", None)
     if close is not None:  # a stop before the end: the counts are of the records read
         close()
-    for s in capture.skipped:
-        print(f"skipped frame {s.frame}: {escape(s.reason)}", file=sys.stderr)
-    for f in capture.findings:
-        where = f"frame {f.frame}" if f.index >= 0 else ("capture" if flush else "file")
-        print(f"{where}: {escape(f.finding.message)}", file=sys.stderr)
-    line = f"{capture.total} records: {decoded} decoded, {len(capture.skipped)} skipped"
-    if chosen.active or limit is not None:
-        line += f"; {shown} shown"
-    print(line, file=sys.stderr)
+    report_records(
+        capture.total,
+        decoded,
+        capture.skipped,
+        capture.findings,
+        where="capture" if flush else "file",
+        suffix=f"; {shown} shown" if chosen.active or limit is not None else "",
+    )
     return 0
 
 

@@ -11,18 +11,26 @@ from __future__ import annotations
 import argparse
 import contextlib
 import sys
-from collections.abc import Iterator
+from collections.abc import Iterator, Sequence
 from typing import TYPE_CHECKING, Final
 
 from skinframes.errors import SkinframesError
-from skinframes.pcap import Capture, FirstRecords, RecordSource
+from skinframes.findings import FrameFinding
+from skinframes.pcap import Capture, FirstRecords, RecordSource, Skipped
 from skinframes.text import escape
 from skinframes_cli.options import bounded_float, bounded_int
 
 if TYPE_CHECKING:
     from skinframes.live_capture import LiveCapture
 
-__all__ = ["add_live", "capture_input", "file_input", "first_frames", "is_live"]
+__all__ = [
+    "add_live",
+    "capture_input",
+    "file_input",
+    "first_frames",
+    "is_live",
+    "report_records",
+]
 
 MAX_DURATION_S: Final = 1e7  # about 116 days
 
@@ -122,3 +130,23 @@ def first_frames(args: argparse.Namespace) -> RecordSource:
     records when ``-c N`` is given (as ``tshark -c``)."""
     capture = file_input(args.path)
     return capture if args.count is None else FirstRecords(capture, args.count)
+
+
+def report_records(
+    total: int,
+    decoded: int,
+    skipped: Sequence[Skipped],
+    findings: Sequence[FrameFinding] = (),
+    *,
+    where: str = "file",
+    suffix: str = "",
+) -> None:
+    """On stderr, what reading a capture found: each skipped record with its reason, what is
+    wrong but readable (``frame N: ...``, ``where``: the capture's own), then ``N records: D
+    decoded, S skipped`` and ``suffix``."""
+    for s in skipped:
+        print(f"skipped frame {s.frame}: {escape(s.reason)}", file=sys.stderr)
+    for f in findings:
+        print(f"{f'frame {f.frame}' if f.index >= 0 else where}: {escape(f.finding.message)}",
+              file=sys.stderr)  # fmt: skip
+    print(f"{total} records: {decoded} decoded, {len(skipped)} skipped{suffix}", file=sys.stderr)

@@ -26,7 +26,7 @@ from typing import Any, Final
 from skinframes.helper_threads import MAIN_WAIT_S, leave_signals_to_main
 from skinframes.monitor import Monitor
 from skinframes.text import escape
-from skinframes_cli.live import add_live, capture_input, first_frames, is_live
+from skinframes_cli.live import add_live, capture_input, first_frames, is_live, report_records
 from skinframes_cli.options import bounded_float, in_path
 from skinframes_cli.signals import first_stops
 
@@ -104,12 +104,14 @@ class Feed:
 
     def _run(self) -> None:
         leave_signals_to_main()  # (a Ctrl-C taken here would not reach the waiting main thread)
+        records: Any = ()
         try:
+            records = iter(self._records)
             start_wall: float | None = None
             first_ns = 0
             every = self.every_s
             next_s = every or 0.0
-            for rec in self._records:
+            for rec in records:
                 if self.stop.is_set():
                     break
                 if self._live is None and self._speed > 0:
@@ -130,6 +132,12 @@ class Feed:
         except BaseException as exc:  # handed to the main thread, which reports it
             self.error = exc
         finally:
+            close = getattr(records, "close", None)
+            if close is not None:  # a stop before the end: the records skipped of those read
+                close()
+            if self.error is None:
+                with self.lock:
+                    self.monitor.skipped = tuple(getattr(self._records, "skipped", ()))
             self.done.set()
 
     def snapshot(self) -> dict[str, Any]:
@@ -162,6 +170,9 @@ def run(args: argparse.Namespace) -> int:
             feed.thread.join(MAIN_WAIT_S)
     if feed.error is not None:
         raise feed.error
+    skipped, n = feed.monitor.skipped, feed.monitor.analyzer.records
+    if skipped:  # as decode reports them
+        report_records(n + len(skipped), n, skipped)
     return 0
 
 
@@ -311,6 +322,12 @@ def render(doc: dict[str, Any], source: str, *, paused: bool, ended: bool) -> An
         f"  {doc['frames']} frames in {doc['span_s']:.3f} s  [{state}]  q quits, p pauses",
     )
     parts: list[Any] = [head]
+    if doc.get("skipped"):
+        parts.append(
+            Text(
+                f"skipped: {doc['skipped']} records could not be read (listed on stderr at the end)"
+            )
+        )
     if "epl" in doc:
         e = doc["epl"]
         s = e["soc_period"]

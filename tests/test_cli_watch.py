@@ -211,3 +211,30 @@ def test_the_feed_leaves_sigint_and_sigterm_to_the_main_thread() -> None:
     assert feed.error is None
     assert masks and {signal.SIGINT, signal.SIGTERM} <= masks[0]
     assert not {signal.SIGINT, signal.SIGTERM} & signal.pthread_sigmask(signal.SIG_BLOCK, [])
+
+
+@pytest.mark.parametrize("how", ["cut", "gzip"])
+def test_a_damaged_capture_reports_its_skipped_records(
+    capsys: pytest.CaptureFixture[str], tmp_path: Path, how: str
+) -> None:
+    """As analyze (and decode) report them: once, watch said nothing of the records lost."""
+    from test_cli_analyze import damaged
+
+    from skinframes.pcap import read_capture
+    from skinframes_cli import main
+    from skinframes_cli.watch import Feed, render
+
+    path, whole, lost = damaged(capsys, tmp_path, how)
+    assert main(["watch", str(path), "--speed", "0"]) == 0
+    out, err = capsys.readouterr()
+    assert out.splitlines()[-1].startswith(f"t 0.000 s  frames {whole} ")
+    lines = err.splitlines()
+    assert [line.split(":")[0] for line in lines[:-1]] == [f"skipped frame {f}" for f in lost]
+    assert lines[-1] == f"{whole + len(lost)} records: {whole} decoded, {len(lost)} skipped"
+    feed = Feed(read_capture(path), 0, None)  # the view
+    feed.start()
+    feed.thread.join(60)
+    doc = feed.snapshot()
+    assert doc["skipped"] == len(lost)
+    line = f"skipped: {len(lost)} records could not be read (listed on stderr at the end)"
+    assert line in str(render(doc, str(path), paused=False, ended=True).renderables[1])

@@ -21,7 +21,7 @@ its bytes 1-2 are reserved there).
 from __future__ import annotations
 
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any, Final
 
@@ -29,7 +29,7 @@ from skinframes import ethernet, ipv4udp, vlan
 from skinframes.analysis.ecat import LOGICAL_WKC_PER_SLAVE, EcatAnalysis, EcatAnalyzer
 from skinframes.analysis.epl import EplAnalysis, EplAnalyzer
 from skinframes.analysis.stats import Series, Summary, Window
-from skinframes.pcap import LINKTYPE_ETHERNET, Record, read_capture
+from skinframes.pcap import LINKTYPE_ETHERNET, Record, Skipped, read_capture
 from skinframes.pcap_plain import NotPlainError, RecordRow, iter_plain_pcap, record_rows
 
 __all__ = [
@@ -90,15 +90,19 @@ class Analysis:
     epl: EplAnalysis | None
     ecat: EcatAnalysis | None
     config: tuple[InferredConfig, ...]
+    skipped: tuple[Skipped, ...] = ()  # records the reader could not read (its ``skipped``)
 
     def to_json(self) -> dict[str, Any]:
-        """``{"records", "counts", "epl", "ecat", "config"}`` (docs/interface.md)."""
+        """``{"records", "counts", "epl", "ecat", "config", "skipped"}`` (docs/interface.md)."""
         return {
             "records": self.records,
             "counts": self.counts,
             "epl": self.epl.to_json() if self.epl else None,
             "ecat": self.ecat.to_json() if self.ecat else None,
             "config": [c.to_json() for c in self.config],
+            "skipped": [
+                {"index": s.index, "frame": s.frame, "reason": s.reason} for s in self.skipped
+            ],
         }
 
 
@@ -113,13 +117,15 @@ def analyze_capture(
 
     Args:
         records: the capture's records in order (``read_capture(path)``); frame numbers are
-            ``record.index + 1``, as Wireshark counts.
+            ``record.index + 1``, as Wireshark counts. The records a capture (any
+            :class:`~skinframes.pcap.RecordSource`) skipped are the analysis's ``skipped``.
         expected_wkc: the working counter every process-data (logical) datagram should return;
             default: each datagram's steady state (its most frequent value).
         pres_timeout_ns: the MN's PRes timeout; a PRes later than this after its PReq is late.
         progress: called with the number of records read since the last call.
     """
-    return _analyze_rows(record_rows(records), expected_wkc, pres_timeout_ns, progress)
+    analysis = _analyze_rows(record_rows(records), expected_wkc, pres_timeout_ns, progress)
+    return replace(analysis, skipped=tuple(getattr(records, "skipped", ())))  # read: known now
 
 
 def analyze_file(

@@ -15,7 +15,8 @@ agree and either the bit or the interface differ; otherwise it is sent by the ma
 a closed ring's master sends each frame from both ports, and the copy from the second port
 runs the ring unprocessed (in forwarding direction, no bit set) back to the first; so a frame
 that equals its port's outstanding send, working counters and all, while the same frame sent
-earlier from another port of the master is outstanding too, is that copy's return. An outbound frame followed by another outbound frame of the same key before its
+earlier (in capture order: both sends may carry one time stamp) from another port of the
+master is outstanding too, is that copy's return. An outbound frame followed by another outbound frame of the same key before its
 return is *unanswered* (lost), provided the capture holds returns of that pattern at all.
 
 Per pattern and master port: the period between outbound frames, the round trip (outbound to
@@ -403,11 +404,12 @@ class _Layout:
 _Sent = tuple[int, int, int, int, tuple[int, ...], tuple[int, ...]]
 
 
-def _forwarded(sends: dict[bytes, _Sent], port: bytes, sent_ns: int) -> bool:
-    """Whether another master port has the same frame outstanding, sent no later than this
-    port's (sent at ``sent_ns``): a closed ring's second copy, run unprocessed (module
-    docstring)."""
-    return any(p != port and s[1] <= sent_ns for p, s in sends.items())
+def _forwarded(sends: dict[bytes, _Sent], port: bytes, sent: int) -> bool:
+    """Whether another master port has the same frame outstanding, sent before this port's
+    (frame ``sent``): a closed ring's second copy, run unprocessed (module docstring). Before
+    in capture order, not by time: the master's two sends may share a time stamp, and the
+    first port's send, lost, is not the second copy of the other's."""
+    return any(p != port and s[0] < sent for p, s in sends.items())
 
 
 class EcatAnalyzer:
@@ -484,7 +486,7 @@ class EcatAnalyzer:
         if before is not None and (
             before[2] != bit
             or before[3] != interface
-            or (before[5] == wkcs and _forwarded(sends, port, before[1]))
+            or (before[5] == wkcs and _forwarded(sends, port, before[0]))
         ):
             del sends[port]
             stream.returned += 1
