@@ -12,7 +12,7 @@ import contextlib
 import importlib
 import signal
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Iterator, Mapping, Sequence
 from types import ModuleType
 from typing import TYPE_CHECKING, Any, Final
 
@@ -102,13 +102,7 @@ def build_parser(modules: Sequence[str] = COMMAND_MODULES) -> argparse.ArgumentP
         prog="skinframes",
         description="Build, check and time the EPL, EtherCAT and CAN frames of a robot skin.",
     )
-    parser.add_argument("--debug", action="store_true", help="show tracebacks on errors")
-    parser.add_argument(
-        "-q",
-        "--quiet",
-        action="store_true",
-        help="print no information on stderr (counts, summaries, progress); errors still print",
-    )
+    _global_flags(parser, False)
     parser.add_argument(
         "--version",
         action="version",
@@ -120,7 +114,34 @@ def build_parser(modules: Sequence[str] = COMMAND_MODULES) -> argparse.ArgumentP
     )
     for name in modules:
         _command_module(name).add_parser(sub)
+    _after_commands(sub.choices)
     return parser
+
+
+def _after_commands(commands: Mapping[str, argparse.ArgumentParser]) -> None:
+    """:data:`GLOBAL_FLAGS` after the command too, and after a command's own (``can
+    decode``); aliases share their parser."""
+    for command in {id(p): p for p in commands.values()}.values():
+        _global_flags(command, argparse.SUPPRESS)
+        for action in command._actions:
+            if isinstance(action, argparse._SubParsersAction):
+                _after_commands(action.choices)
+
+
+def _global_flags(parser: argparse.ArgumentParser, default: object) -> None:
+    """:data:`GLOBAL_FLAGS` on ``parser``: before the command with ``default`` False, and
+    after it with SUPPRESS, so that a flag given there is taken and one not given leaves the
+    first's value."""
+    parser.add_argument(
+        "--debug", action="store_true", default=default, help="show tracebacks on errors"
+    )
+    parser.add_argument(
+        "-q",
+        "--quiet",
+        action="store_true",
+        default=default,
+        help="print no information on stderr (counts, summaries, progress); errors still print",
+    )
 
 
 def _modules_for(argv: Sequence[str]) -> Sequence[str]:

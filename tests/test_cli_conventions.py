@@ -369,12 +369,14 @@ def test_quiet_drops_the_information_and_keeps_the_results(tmp_path: Path, flag:
         skinframes(*SIM[:2], "--nodes", "2", "--bytes", "4", "--pcap", str(capture)).returncode == 0
     )
     for argv in (["can", "decode", str(log)], ["decode", str(capture)], ["check", str(capture)]):
-        loud, quiet = skinframes(*argv), skinframes(flag, *argv)
-        assert loud.returncode == quiet.returncode == 0, quiet.stderr
-        assert quiet.stdout == loud.stdout
+        loud = skinframes(*argv)
         info = loud.stderr.decode().splitlines()
         assert info and not any(line.startswith("skinframes: error:") for line in info)
-        assert quiet.stderr == b""
+        # before the command, and (new) after it, as users type it
+        for quiet in (skinframes(flag, *argv), skinframes(*argv, flag)):
+            assert loud.returncode == quiet.returncode == 0, quiet.stderr
+            assert quiet.stdout == loud.stdout
+            assert quiet.stderr == b""
 
 
 def test_quiet_keeps_the_error_line() -> None:
@@ -382,6 +384,13 @@ def test_quiet_keeps_the_error_line() -> None:
     assert result.returncode == 2 and result.stdout == b""
     (line,) = result.stderr.decode().splitlines()
     assert line.startswith("skinframes: error: ")
+
+
+def test_debug_after_the_command_shows_the_traceback() -> None:
+    result = skinframes("decode", str(ROOT / "no-such.pcap"), "--debug")
+    assert result.returncode == 1  # Python's own exit for an exception that escaped
+    assert b"Traceback (most recent call last)" in result.stderr
+    assert b"PcapFormatError" in result.stderr
 
 
 # --- output folders: one rule ---------------------------------------------------------------------
