@@ -259,12 +259,13 @@ def _esi_slaves(args: argparse.Namespace) -> list[Any]:
 def run(args: argparse.Namespace) -> int:
     """Emulate and report."""
     from emulator.net import simulate_ecat, simulate_epl
-    from emulator.net.faults import FAULT_HELP, parse_fault
+    from emulator.net.faults import FAULT_HELP, check_fault_cycles, parse_fault
 
     if "help" in args.fault:
         print(FAULT_HELP)
         return 0
     faults = tuple(parse_fault(spec) for spec in args.fault)
+    check_fault_cycles(faults, args.cycles)
     if args.protocol == "epl" and args.redundant:
         raise SkinframesError("--closed-ring (--redundant) applies to EtherCAT only")
     if args.startup and (args.protocol != "ecat" or args.redundant or faults):

@@ -155,6 +155,24 @@ def test_plot_writes_a_png(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -
     assert out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_a_fault_at_a_cycle_the_run_does_not_reach_is_refused(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """4 cycles are cycles 0..3 (the default --cycles): a break at cycle 4 never happens."""
+    ring = ["simulate", "ecat", "--nodes", "4", "--bytes", "8", "--closed-ring"]
+    assert main([*ring, "--fault", "cable:1@4"]) == 2
+    assert capsys.readouterr().err == (
+        "skinframes: error: fault cable:1@4: cycle 4 is not in the run's 4 cycles "
+        "(0..3; --cycles more)\n"
+    )
+    assert main([*ring, "--fault", "cable:1@3"]) == 0
+    assert "link 1..2 down at cycle 3" in capsys.readouterr().out
+    epl = ["simulate", "epl", "--nodes", "4", "--bytes", "8", "--fault", "power:2@10"]
+    assert main([*epl, "--cycles", "10"]) == 2
+    assert "cycle 10 is not in the run's 10 cycles" in capsys.readouterr().err
+    assert main([*epl, "--cycles", "11"]) == 0
+
+
 @pytest.mark.parametrize(
     "argv",
     [

@@ -15,7 +15,7 @@ from typing import Final
 
 from emulator.errors import FaultError
 
-__all__ = ["FAULT_HELP", "Fault", "corruption_mark", "parse_fault"]
+__all__ = ["FAULT_HELP", "Fault", "check_fault_cycles", "corruption_mark", "parse_fault"]
 
 FAULT_HELP: Final = """Fault SPECs (repeat --fault for several; nodes count from the master = 0):
   cable:K@C     the cable between node K and K+1 breaks at the start of cycle C
@@ -92,6 +92,17 @@ def check_faults(faults: tuple[Fault, ...], nodes: int, links: int, protocol: st
             raise FaultError(f"fault {f}: link {f.where} does not exist (0..{links - 1})")
         if f.kind in ("power", "late") and not 1 <= f.where <= nodes:
             raise FaultError(f"fault {f}: node {f.where} does not exist (1..{nodes})")
+
+
+def check_fault_cycles(faults: tuple[Fault, ...], cycles: int) -> None:
+    """Raise FaultError for a cable or power fault at a cycle a run of ``cycles`` cycles
+    (0 .. cycles - 1) does not reach: it would never happen, and the run would look healthy."""
+    for f in faults:
+        if f.kind in ("cable", "power") and f.cycle >= cycles:
+            raise FaultError(
+                f"fault {f}: cycle {f.cycle} is not in the run's {cycles} cycles "
+                f"(0..{cycles - 1}; --cycles more)"
+            )
 
 
 def corruption_mark(link: int) -> str:
