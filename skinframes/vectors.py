@@ -225,15 +225,15 @@ def lines(vectors: list[tuple[str, int, bytes]]) -> list[dict[str, Any]]:
 
 
 def write(out_dir: str | Path, *, progress: Callable[[str], None] | None = None) -> list[Path]:
-    """Write ``vectors.pcap`` and ``vectors.jsonl`` into ``out_dir`` (which must exist)."""
+    """Write ``vectors.pcap`` and ``vectors.jsonl`` into ``out_dir`` (which must exist), as a
+    set: where either cannot be written (a symbolic link, say), neither is."""
     vectors = build()
     folder = Path(out_dir)
     pcap_path, jsonl_path = folder / PCAP_NAME, folder / JSONL_NAME
-    with atomic_output(pcap_path, "wb") as f:
+    with atomic_output(pcap_path, "wb") as f, atomic_output(jsonl_path, "w") as g:
         f.write(pcap_bytes([(t, raw) for _, t, raw in vectors]))
-    with atomic_output(jsonl_path, "w") as f:
         for obj in lines(vectors):
-            f.write(json.dumps(obj, sort_keys=True) + "\n")
+            g.write(json.dumps(obj, sort_keys=True) + "\n")
     if progress is not None:
         progress(f"{len(vectors)} frames")
     return [pcap_path, jsonl_path]

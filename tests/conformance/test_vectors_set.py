@@ -48,3 +48,20 @@ def test_vector_set_agrees_with_tshark(
     kinds = {o["name"].split(".")[1] for o in lines if o["name"].startswith("ecat.")}
     assert {"NOP", "APRD", "FRMW", "LRW", "type4_nv", "type5_mailbox"} <= kinds
     assert len(lines) >= 80
+
+
+@pytest.mark.parametrize("refused", ["vectors.pcap", "vectors.jsonl"])
+def test_the_set_is_written_whole_or_not_at_all(
+    refused: str, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A symbolic link in place of either file is refused (never written through), and the
+    other file is not written either: once vectors.pcap was, beside a refused vectors.jsonl."""
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.write_text("keep")
+    out = tmp_path / "out"
+    out.mkdir()
+    (out / refused).symlink_to(elsewhere)
+    assert main(["vectors", "--out", str(out)]) == 2
+    assert "symbolic link" in capsys.readouterr().err
+    assert sorted(p.name for p in out.iterdir()) == [refused]
+    assert elsewhere.read_text() == "keep"
