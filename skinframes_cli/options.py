@@ -253,6 +253,10 @@ def frame_ranges(text: str) -> tuple[tuple[int, int | None], ...]:
         raise argparse.ArgumentTypeError(f"more than {MAX_LIST_VALUES} ranges")
     for part in parts:
         lo_text, colon, hi_text = part.partition(":")
+        if ":" in hi_text:  # A:B:C (a step, as in --nodes): not a frame range
+            raise argparse.ArgumentTypeError(
+                f"{escape(part)!r}: expected N, A:B or A: (no step for frames)"
+            )
         lo = _int(lo_text, "a frame number") if lo_text.strip() or not colon else 1
         hi = (_int(hi_text, "a frame number") if hi_text.strip() else None) if colon else lo
         if lo < 1 or (hi is not None and hi < lo):

@@ -3,12 +3,15 @@ display filters on third-party captures (SOURCES.md) and against frame numbers b
 
 from __future__ import annotations
 
+import argparse
 import json
 import subprocess
 import sys
 from pathlib import Path
 
 import pytest
+
+from skinframes_cli.options import frame_ranges
 
 ROOT = Path(__file__).resolve().parent.parent
 ECAT = "ethercrab_replay-ek1100-el2828-el2889.pcapng"  # 3578 frames, 3 real terminals
@@ -89,3 +92,9 @@ def test_bad_selections_are_one_error_line(shared_captures: Path, argv: list[str
     (line,) = result.stderr.splitlines()
     assert line.startswith("skinframes: error: ")
     assert not (ROOT / "t.npy").exists()
+
+
+def test_a_step_in_frames_names_the_whole_range() -> None:
+    """1:2:3 once said ``'2:3': expected a frame number``: the part after the first colon."""
+    with pytest.raises(argparse.ArgumentTypeError, match=r"^'1:2:3': expected N, A:B or A: "):
+        frame_ranges("5,1:2:3")
