@@ -74,20 +74,19 @@ def _rows(doc: dict[str, Any]) -> list[tuple[str, dict[str, Any]]]:
 def print_table(doc: dict[str, Any]) -> None:
     """The side-by-side table."""
     print(
-        f"{len(doc['boards'])} boards x {doc['triangles']} triangles ({doc['bytes_per_board']} "
+        f"{len(doc['boards'])} board{'s' * (len(doc['boards']) != 1)} x {doc['triangles']} "
+        f"triangles ({doc['bytes_per_board']} "
         f"bytes each), {doc['samples']} samples every {doc['period_us'] / 1000:g} ms; "
         f"Ethernet preset {doc['preset']}\n"
     )
-    print(
-        f"{'bus':<22}{'cycle':>13}{'bus load':>10}{'wire bytes':>12}{'nodes in':>12}"
-        f"{'nodes in':>12}"
-    )
-    print(f"{'':<22}{'[us]':>13}{'':>10}{'per sample':>12}{'1 ms':>12}{'5 ms':>12}")
+    nodes = f"{taxel.PATCH_BYTES}-B nodes"  # whole patches, whatever the log's boards carry
+    print(f"{'bus':<22}{'cycle':>13}{'bus load':>10}{'wire bytes':>12}{nodes:>13}{nodes:>13}")
+    print(f"{'':<22}{'[us]':>13}{'':>10}{'per sample':>12}{'in 1 ms':>13}{'in 5 ms':>13}")
     for label, v in _rows(doc):
         print(
             f"{label:<22}{v['cycle_us']:>13.2f}{100 * v['bus_load']:>9.2f}%"
-            f"{v['wire_bytes_per_sample']:>12.0f}{v['max_nodes_1ms']:>12}"
-            f"{v['max_nodes_5ms']:>12}"
+            f"{v['wire_bytes_per_sample']:>12.0f}{v['max_nodes_1ms']:>13}"
+            f"{v['max_nodes_5ms']:>13}"
         )
 
 

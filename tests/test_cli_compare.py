@@ -100,6 +100,9 @@ def test_compare_plot_and_text(
     assert main(["compare", str(skin_trace[0]), "--plot", str(png)]) == 0
     text = capsys.readouterr().out
     assert "CAN as recorded" in text and "EtherCAT" in text
+    # the nodes columns count whole 192-byte patches, whatever the log's boards carry
+    assert text.splitlines()[2].endswith("192-B nodes  192-B nodes")
+    assert text.splitlines()[3].endswith("in 1 ms      in 5 ms")
     assert png.read_bytes()[:4] == b"\x89PNG"
 
 
