@@ -1,8 +1,14 @@
-"""``tables`` over large grids: cells beyond a protocol, --csv, nonsense values (exit 2)."""
+"""``tables`` over large grids: cells beyond a protocol, --csv, nonsense values (exit 2), a
+signal to the whole process group while the emulated model's workers run."""
 
 from __future__ import annotations
 
 import json
+import os
+import signal
+import subprocess
+import sys
+import time
 from pathlib import Path
 
 import pytest
@@ -10,6 +16,8 @@ import pytest
 from emulator.model.cycle_time import cycle_us
 from emulator.model.params import WIRE
 from skinframes_cli import main
+
+ROOT = Path(__file__).resolve().parent.parent
 
 
 def test_tables_beyond_epl_shows_not_applicable(capsys: pytest.CaptureFixture[str]) -> None:
@@ -62,3 +70,72 @@ def test_one_printed_cell_is_one_cell(capsys: pytest.CaptureFixture[str]) -> Non
     """130 nodes x 2 bytes is a cell of each of the paper's Tables I-III."""
     assert main(["tables", "--nodes", "130", "--bytes", "2"]) == 0
     assert capsys.readouterr().out.count("      1 cell printed in the paper; largest") == 3
+
+
+def _workers(pid: int) -> list[int]:
+    """The pool workers ``pid`` started (Linux /proc: its children that run spawn_main)."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        try:
+            stat = (entry / "stat").read_text()
+            ppid = int(stat.rpartition(")")[2].split()[1])
+            if ppid == pid and b"spawn_main" in (entry / "cmdline").read_bytes():
+                found.append(int(entry.name))
+        except (OSError, ValueError):  # not a process, or one that ended meanwhile
+            continue
+    return found
+
+
+def _still_running(pid: int) -> bool:
+    """A worker that still runs (an exited one has no command line, an unknown pid no entry)."""
+    try:
+        return b"spawn_main" in Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="needs Linux /proc")
+@pytest.mark.parametrize("moment", ["started", "computing"])
+@pytest.mark.parametrize(
+    ("sig", "line"),
+    [
+        (signal.SIGINT, "skinframes: interrupted (SIGINT); no file was left half-written"),
+        (signal.SIGTERM, "skinframes: terminated (SIGTERM); no file was left half-written"),
+    ],
+)
+def test_a_signal_to_the_whole_group_ends_the_emulated_workers_quietly(
+    tmp_path: Path, moment: str, sig: signal.Signals, line: str
+) -> None:
+    """A Ctrl-C reaches the terminal's whole process group, the pool's workers too: they leave
+    it to the command (one line, none of their tracebacks) and end with it, as they do for a
+    SIGTERM to the group (a worker killed while it waited for a task left the lock behind that
+    the pool's terminate() waited for). Sent as soon as both workers exist (still starting
+    Python), or once their first rows are in the temporary file."""
+    target = tmp_path / "grid.csv"
+    target.write_text("previous")
+    argv = [sys.executable, "-m", "skinframes", "tables", "--model", "emulated", "--nodes",
+            "1:1000:1", "--bytes", "1:10:1", "--csv", str(target), "--jobs", "2"]  # fmt: skip
+    proc = subprocess.Popen(
+        argv, cwd=ROOT, stdout=subprocess.PIPE, stderr=subprocess.PIPE, start_new_session=True
+    )
+    try:
+        workers: list[int] = []
+        while proc.poll() is None and len(workers) < 2:  # wait for the workers, not the clock
+            workers = _workers(proc.pid)
+            time.sleep(0.002)
+        assert len(workers) == 2, "the run ended before its workers started"
+        written = moment == "started"
+        while proc.poll() is None and not written:
+            written = any(p.stat().st_size for p in tmp_path.glob(".grid.csv.*.tmp"))
+            time.sleep(0.002)
+        os.killpg(proc.pid, sig)  # the whole group, as a terminal's Ctrl-C
+        _out, err = proc.communicate(timeout=300)
+    finally:
+        if proc.poll() is None:
+            os.killpg(proc.pid, signal.SIGKILL)
+            proc.wait()
+    assert proc.returncode == 128 + sig, err
+    assert err.decode().splitlines() == [line]
+    assert [pid for pid in workers if _still_running(pid)] == []
+    assert target.read_text() == "previous"
+    assert list(tmp_path.iterdir()) == [target]

@@ -1,5 +1,6 @@
 """skinframes_cli.signals.handling: the handlers before are back whenever a signal comes;
-first_stops: a first signal stops, a second is raised.
+first_stops: a first signal stops, a second is raised; skinframes.helper_threads.signals_held:
+signals wait for the block's end, and what it starts begins with them blocked.
 
 The signals are raised in this process with :func:`signal.raise_signal` at a chosen step of
 putting the handlers in place or back (CPython runs a Python handler before raise_signal
@@ -9,11 +10,13 @@ returns), so each case happens every run.
 from __future__ import annotations
 
 import signal
+import threading
 from collections.abc import Callable, Iterator
 from types import FrameType
 
 import pytest
 
+from skinframes.helper_threads import signals_held
 from skinframes_cli.signals import (
     Terminated,
     first_stops,
@@ -119,3 +122,31 @@ def test_a_first_signal_stops_and_a_second_is_raised_and_remembered(
             raise_if_signalled()
     assert got == []
     assert signal.getsignal(signal.SIGINT) is record
+
+
+@pytest.mark.parametrize("where", ["this thread", "another thread"])
+def test_signals_held_come_when_the_block_ends_and_what_it_starts_has_them_blocked(
+    before: tuple[list[int], Handler], where: str
+) -> None:
+    """Inside, a signal waits, whether this thread (blocked) or another one (a library's, which
+    the kernel may choose) takes it; a thread started inside begins with both blocked."""
+    got, record = before
+    masks: list[set[signal.Signals]] = []
+
+    def started() -> None:
+        masks.append(signal.pthread_sigmask(signal.SIG_BLOCK, set()))
+        if where == "another thread":
+            signal.pthread_sigmask(signal.SIG_UNBLOCK, {signal.SIGTERM})
+            signal.raise_signal(signal.SIGTERM)
+
+    with signals_held():
+        if where == "this thread":
+            signal.raise_signal(signal.SIGTERM)
+        thread = threading.Thread(target=started)
+        thread.start()
+        thread.join()
+        assert got == []
+    assert got == [signal.SIGTERM]
+    assert {signal.SIGINT, signal.SIGTERM} <= masks[0]
+    assert signal.getsignal(signal.SIGINT) is record and signal.getsignal(signal.SIGTERM) is record
+    assert signal.SIGTERM not in signal.pthread_sigmask(signal.SIG_BLOCK, set())

@@ -11,8 +11,12 @@ from __future__ import annotations
 
 import contextlib
 import multiprocessing
+import multiprocessing.pool
 import os
+import signal
 from collections.abc import Callable, Iterator, Sequence
+from multiprocessing import resource_tracker
+from types import FrameType
 from typing import Final
 
 import numpy as np
@@ -24,6 +28,7 @@ from emulator.model.limits import ECAT_RANGE, MAX_EMULATED_SLAVES, RANGES, Range
 from emulator.model.names import EPL, TABLES, is_closed_ring, table_name
 from emulator.model.params import TimingParams
 from emulator.model.units import PS_PER_US
+from skinframes.helper_threads import HANDLED_IN_MAIN, signals_held
 
 __all__ = [
     "TABLES",
@@ -189,6 +194,38 @@ def _emulate_row(task: _Task) -> npt.NDArray[np.int64]:
     return cycle_ps_row(table, n, np.asarray(sizes, dtype=np.int64), params)
 
 
+@contextlib.contextmanager
+def _pool(workers: int) -> Iterator[multiprocessing.pool.Pool]:
+    """A pool whose workers leave SIGINT and SIGTERM to the command, terminated when the block
+    ends: a Ctrl-C reaches the terminal's whole process group, and a worker that took it would
+    print its own traceback. The workers start with both blocked, then ignore SIGINT
+    (:func:`_worker_started`); one that came meanwhile is raised once the pool is in the block.
+    """
+    resource_tracker.ensure_running()  # (started inside, it would unblock both as it began)
+    with contextlib.ExitStack() as stack:
+        with signals_held():
+            pool = stack.enter_context(
+                multiprocessing.get_context("spawn").Pool(workers, _worker_started)
+            )
+        yield pool
+
+
+def _worker_started() -> None:
+    """A worker's first call: SIGINT ignored, and SIGTERM (the pool's terminate(), or the one
+    the whole group got) ends the worker quietly by SystemExit, which on the way out releases
+    the pool's queue locks it may hold: a worker killed while it waits for a task keeps the lock
+    the pool's terminate() then waits for, for good."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, _exit_quietly)
+    if hasattr(signal, "pthread_sigmask"):
+        signal.pthread_sigmask(signal.SIG_UNBLOCK, HANDLED_IN_MAIN)
+
+
+def _exit_quietly(signum: int, frame: FrameType | None) -> None:
+    signal.signal(signum, signal.SIG_DFL)  # a second one (the pool's, after the group's) kills
+    raise SystemExit(128 + signum)
+
+
 def _emulated_rows(
     params: TimingParams,
     nodes: Sequence[int],
@@ -210,7 +247,7 @@ def _emulated_rows(
     workers = max(1, min(jobs or os.cpu_count() or 1, len(tasks)))
     with contextlib.ExitStack() as stack:
         if workers > 1:
-            pool = stack.enter_context(multiprocessing.get_context("spawn").Pool(workers))
+            pool = stack.enter_context(_pool(workers))
             done: Iterator[npt.NDArray[np.int64]] = pool.imap(_emulate_row, tasks, chunksize=1)
         else:
             done = map(_emulate_row, tasks)
