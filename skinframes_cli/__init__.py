@@ -162,18 +162,22 @@ def main(argv: Sequence[str] | None = None) -> int:
     """Run the command line; returns the exit code (0 ok, 1 problems found, 2 bad input)."""
     if argv is None:
         argv = sys.argv[1:]
-    parser = build_parser(_modules_for(argv))
+    debug = False  # (--debug, once the arguments are read)
     try:
-        args = parser.parse_args(argv)
-    except SystemExit as exc:  # usage errors (exit 2) and --help (exit 0), as a return code
-        return exc.code if isinstance(exc.code, int) else 2
-    try:
-        with signals.handled(), _information(args.quiet):
-            code: int = args.run(args)
-            signals.raise_if_signalled()  # one that something swallowed: not a success
+        # the signals are the command's from here: importing a command's module (numpy,
+        # matplotlib) takes up to half a second, where a Ctrl-C gave Python's traceback
+        with signals.handled():
+            try:
+                args = build_parser(_modules_for(argv)).parse_args(argv)
+            except SystemExit as exc:  # usage errors (exit 2) and --help (exit 0), as a code
+                return exc.code if isinstance(exc.code, int) else 2
+            debug = args.debug
+            with _information(args.quiet):
+                code: int = args.run(args)
+                signals.raise_if_signalled()  # one that something swallowed: not a success
         return code
     except SkinframesError as exc:
-        if args.debug:
+        if debug:
             raise
         print(f"skinframes: error: {escape(exc)}", file=sys.stderr)
         return 2
@@ -181,7 +185,7 @@ def main(argv: Sequence[str] | None = None) -> int:
         _quiet_stdout()
         return 0
     except OSError as exc:
-        if args.debug:
+        if debug:
             raise
         text = f"{exc.strerror or exc}: {exc.filename or ''}".rstrip(": ")
         print(f"skinframes: error: {escape(text)}", file=sys.stderr)

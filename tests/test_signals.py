@@ -150,3 +150,27 @@ def test_signals_held_come_when_the_block_ends_and_what_it_starts_has_them_block
     assert {signal.SIGINT, signal.SIGTERM} <= masks[0]
     assert signal.getsignal(signal.SIGINT) is record and signal.getsignal(signal.SIGTERM) is record
     assert signal.SIGTERM not in signal.pthread_sigmask(signal.SIG_BLOCK, set())
+
+
+def test_a_ctrl_c_while_the_command_s_module_loads_is_the_interrupt_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """A command's module imports numpy or matplotlib: up to half a second in which a Ctrl-C
+    once gave Python's KeyboardInterrupt traceback. The signal comes from inside that import."""
+    import skinframes_cli
+
+    load = skinframes_cli._command_module
+
+    def interrupted_load(name: str) -> object:
+        signal.raise_signal(signal.SIGINT)
+        return load(name)
+
+    monkeypatch.setattr(skinframes_cli, "_command_module", interrupted_load)
+    try:
+        code = skinframes_cli.main(["tables"])
+    except KeyboardInterrupt:
+        pytest.fail("the Ctrl-C escaped main")
+    assert code == 130
+    assert capsys.readouterr().err == (
+        "skinframes: interrupted (SIGINT); no file was left half-written\n"
+    )
