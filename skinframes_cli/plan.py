@@ -42,7 +42,7 @@ def run(args: argparse.Namespace) -> int:
     """Print the plan."""
     params = timing(args)
     with progress_bar(LAYOUTS_IN_ALL, "layouts") as step:
-        result = plan(args.nodes, args.bytes, params, progress=step)
+        result = plan(args.nodes, args.bytes, params, progress=step, skip_impossible=True)
     if args.json:
         print(json.dumps(result.to_json(), indent=2))
         return 0

@@ -16,7 +16,7 @@ import numpy as np
 import numpy.typing as npt
 
 from emulator.errors import TopologyError
-from emulator.model.cycle_time import simulate
+from emulator.model.cycle_time import simulate, validate
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, TABLES, with_old_keys
 from emulator.model.params import WIRE, TimingParams
 from emulator.model.sweep import analytic_grid, cell_reason
@@ -129,21 +129,26 @@ def plan(
     params: TimingParams = WIRE,
     *,
     progress: Callable[[int], None] | None = None,
+    skip_impossible: bool = False,
 ) -> Plan:
-    """Emulate every layout of every network for one cycle and keep the fastest of each; a
-    network that cannot have ``nodes`` nodes of ``data_bytes`` (e.g. > 239 EPL CNs, as
-    :func:`emulator.model.sweep.cell_reason` says for the emulated model) is not applicable.
+    """Emulate every layout of every network for one cycle and keep the fastest of each.
+    A network that cannot have ``nodes`` nodes of ``data_bytes`` (e.g. > 239 EPL CNs) raises;
+    with ``skip_impossible`` (``skinframes plan``) it is left out instead, its reason in
+    :attr:`Plan.not_applicable` (as :func:`emulator.model.sweep.cell_reason` says for the
+    emulated model).
 
     ``progress`` is called with the layouts done (or passed over) since its last call, of
     :data:`LAYOUTS_IN_ALL` (a thousand slaves of 1486 bytes take a minute or two).
 
     Raises:
-        TopologyError: no network can have them.
+        TopologyError: a network cannot have them (with ``skip_impossible``: none can).
     """
     limit = float(limit_us(nodes, data_bytes, params))
     networks: dict[str, NetworkPlan] = {}
     na: dict[str, str] = {}
     for table in TABLES:
+        if not skip_impossible:
+            validate(table, nodes, data_bytes)
         reason = cell_reason(table, nodes, data_bytes, "emulated")
         if reason is not None:
             na[table] = reason

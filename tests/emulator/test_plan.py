@@ -77,3 +77,12 @@ def test_json_document(small: Plan) -> None:
 def test_impossible_network_raises() -> None:
     with pytest.raises(TopologyError, match="240 CNs"):
         plan(240, 8, PAPER)
+
+
+def test_impossible_network_skipped_when_asked() -> None:
+    """skinframes plan's way: EPL cannot have 240 CNs, EtherCAT can; no network, an error."""
+    p = plan(240, 8, PAPER, skip_impossible=True)
+    assert list(p.networks) == ["ecat", "ecat_closed_ring"]
+    assert p.not_applicable == {"epl": "EPL: 240 CNs (1..239)"}
+    with pytest.raises(TopologyError, match=r"EPL: 1025 CNs .*; EtherCAT .*1025 slaves"):
+        plan(1025, 8, PAPER, skip_impossible=True)
