@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 import sys
 from pathlib import Path
-from typing import Any
+from typing import Any, Final
 
 from emulator.model.names import ECAT, ECAT_CLOSED_RING, EPL, is_closed_ring
 from emulator.model.paper_tables import FIGURE_MAX_NODES
@@ -16,6 +16,8 @@ from skinframes.errors import SkinframesError
 from skinframes.text import escape
 from skinframes_cli.figure import save_figure
 from skinframes_cli.options import add_cn_response, bounded_int, file_output, timing
+
+STEP_NODES: Final = 20  # nodes between the emulated markers, unless --step
 
 PAYLOADS = (2, 32, 128, 192, 256)
 PANELS = (
@@ -48,8 +50,8 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--step",
         type=bounded_int(1, max(FIGURE_MAX_NODES.values())),
-        default=20,
-        help="nodes between emulated points, 1..240 (default 20)",
+        default=None,
+        help=f"nodes between emulated points, 1..240 (default {STEP_NODES}; not with --map)",
     )
     p.add_argument(
         "--map",
@@ -60,21 +62,21 @@ def add_parser(sub: Any) -> None:
     p.add_argument(
         "--nodes",
         type=bounded_int(1, 1024),
-        default=taxel.BODY_PATCHES,
+        default=None,
         help=f"--map: your configuration's nodes, drawn as a point, 1..1024 "
         f"(default {taxel.BODY_PATCHES})",
     )
     p.add_argument(
         "--bytes",
         type=bounded_int(1, 1490),
-        default=taxel.PATCH_BYTES,
+        default=None,
         help=f"--map: your configuration's bytes per node, 1..1490 (default {taxel.PATCH_BYTES})",
     )
     p.set_defaults(run=run)
 
 
 def make_plot(
-    out: Path, preset_name: str, step: int = 20, *, params: TimingParams | None = None
+    out: Path, preset_name: str, step: int = STEP_NODES, *, params: TimingParams | None = None
 ) -> Path:
     """Draw the figure into ``out``; ``params`` (``--cn-response-us``) in place of the
     preset's, when given."""
@@ -145,15 +147,21 @@ def make_plot(
 
 def run(args: argparse.Namespace) -> int:
     """Draw and report the file."""
+    ignored = ["--step"] if args.map else ["--nodes", "--bytes"]
+    given = [o for o in ignored if getattr(args, o[2:]) is not None]
+    if given:  # (information: a script that passes them keeps working)
+        where = "not with --map" if args.map else "with --map only"
+        print(f"note: {' and '.join(given)}: {where}; ignored", file=sys.stderr)
     if args.map:
         from skinframes_cli.plot_map import make_map
 
         out = Path("map.png" if args.out is None else args.out)
-        make_map(out, args.preset, args.nodes, args.bytes, params=timing(args))
+        nodes = taxel.BODY_PATCHES if args.nodes is None else args.nodes
+        data_bytes = taxel.PATCH_BYTES if args.bytes is None else args.bytes
+        make_map(out, args.preset, nodes, data_bytes, params=timing(args))
         print(f"wrote {escape(out)}")
         return 0
-    path = make_plot(
-        Path(args.out or "cycle_time.png"), args.preset, args.step, params=timing(args)
-    )
+    step = STEP_NODES if args.step is None else args.step
+    path = make_plot(Path(args.out or "cycle_time.png"), args.preset, step, params=timing(args))
     print(f"wrote {escape(path)}")
     return 0

@@ -97,6 +97,9 @@ def run(args: argparse.Namespace) -> int:
         raise SkinframesError(f"--jobs {args.jobs}: at least 1")
     if args.json and args.csv == "-":
         raise SkinframesError("--json and --csv both on stdout: give --csv a FILE")
+    if args.jobs is not None and args.model != "emulated":  # (information: scripts keep working)
+        print("note: --jobs: with --model emulated only (the formulas run in one process); "
+              "ignored", file=sys.stderr)  # fmt: skip
     params = timing(args)
     cells = 3 * len(args.nodes) * len(args.bytes)
     kw = {"jobs": args.jobs}

@@ -70,3 +70,18 @@ def test_map_cli_svg(tmp_path: Path, capsys: pytest.CaptureFixture[str]) -> None
     assert main(["plot", "--map", "--out", str(tmp_path / "map.gif")]) == 2
     assert main(["plot", "--map", "--out", str(tmp_path / "no" / "map.png")]) == 2
     assert not (tmp_path / "map.gif").exists()
+
+
+def test_options_the_other_figure_takes_are_noted_as_ignored(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """--nodes/--bytes place your configuration on the map; --step spaces the plot's markers:
+    given to the other figure, each was once ignored without a word."""
+    argv = ["plot", "--map", "--out", str(tmp_path / "m.png"), "--step", "5"]
+    assert main(argv) == 0
+    assert "note: --step: not with --map; ignored" in capsys.readouterr().err
+    argv = ["plot", "--out", str(tmp_path / "p.png"), "--step", "120", "--nodes", "100"]
+    assert main(argv) == 0
+    assert "note: --nodes: with --map only; ignored" in capsys.readouterr().err
+    assert main(["plot", "--map", "--out", str(tmp_path / "m.png"), "--nodes", "100"]) == 0
+    assert "note:" not in capsys.readouterr().err

@@ -66,6 +66,17 @@ def test_nonsense_is_one_error_line(capsys: pytest.CaptureFixture[str], argv: li
     assert captured.out == ""
 
 
+def test_jobs_with_the_formulas_is_noted_as_ignored(capsys: pytest.CaptureFixture[str]) -> None:
+    assert main(["tables", "--nodes", "130", "--bytes", "2", "--jobs", "2"]) == 0
+    assert capsys.readouterr().err == (
+        "note: --jobs: with --model emulated only (the formulas run in one process); ignored\n"
+    )
+    assert (
+        main(["tables", "--model", "emulated", "--nodes", "3", "--bytes", "2", "--jobs", "1"]) == 0
+    )
+    assert "note:" not in capsys.readouterr().err
+
+
 def test_one_printed_cell_is_one_cell(capsys: pytest.CaptureFixture[str]) -> None:
     """130 nodes x 2 bytes is a cell of each of the paper's Tables I-III."""
     assert main(["tables", "--nodes", "130", "--bytes", "2"]) == 0
