@@ -19,7 +19,7 @@ from typing import Any, Final
 import numpy as np
 
 from emulator import WIRE, EmulatorError, simulate_ecat, simulate_epl
-from emulator.model.params import with_cn_response
+from emulator.model.params import PRESETS, TimingParams, preset, with_cn_response
 from skinframes.analysis import Analysis, InferredConfig, Summary, analyze_capture, analyze_file
 from skinframes.analysis.ecat import EcatAnalysis
 from skinframes.analysis.epl import EplAnalysis
@@ -44,7 +44,8 @@ def add_parser(sub: Any) -> None:
         description="EPL: SoC period, PReq->PRes response times, missing and late responses, "
         "NMT states, ASnd services, NMT commands and error entries. EtherCAT: cyclic frames by "
         "datagram pattern, period, round trip, working-counter deviations, AL states. Both: the "
-        "network the capture shows and the emulator's cycle time for it (wire preset).",
+        "network the capture shows and the emulator's cycle time for it (--preset, wire by "
+        "default).",
     )
     p.add_argument(
         "path",
@@ -76,24 +77,34 @@ def add_parser(sub: Any) -> None:
         metavar="US",
         help="EPL: the MN's PRes timeout; a PRes later than this after its PReq is late",
     )
+    p.add_argument(
+        "--preset",
+        choices=list(PRESETS),
+        default=MODEL_PRESET,
+        help=f"the model's timing constants (default: {MODEL_PRESET}; paper for a capture "
+        "simulate made with its default)",
+    )
     add_live(p)
     p.set_defaults(run=run)
 
 
-def model_cycle_us(config: InferredConfig, cn_response_ps: int | None = None) -> float | None:
-    """The emulator's median cycle time for the inferred network (wire preset; EPL with each
-    CN answering in ``cn_response_ps`` when given, :func:`emulator.model.params.
-    with_cn_response`), or None when the emulator cannot build it."""
+def model_cycle_us(
+    config: InferredConfig, cn_response_ps: int | None = None, params: TimingParams = WIRE
+) -> float | None:
+    """The emulator's median cycle time for the inferred network (``params``, the wire preset
+    by default; EPL with each CN answering in ``cn_response_ps`` when given,
+    :func:`emulator.model.params.with_cn_response`), or None when the emulator cannot build
+    it."""
     try:
         if config.protocol == "epl":
             cycles = 2 * config.nodes if config.asnd else 2
-            params = with_cn_response(WIRE, cn_response_ps)
-            r = simulate_epl(config.nodes, config.bytes, params, cycles=cycles, asnd=config.asnd)
+            epl = with_cn_response(params, cn_response_ps)
+            r = simulate_epl(config.nodes, config.bytes, epl, cycles=cycles, asnd=config.asnd)
         else:
             r = simulate_ecat(
                 config.nodes,
                 config.bytes,
-                WIRE,
+                params,
                 closed_ring=config.topology == "closed",
                 layout=config.layout,
                 cycles=2,
@@ -124,14 +135,15 @@ def run(args: argparse.Namespace) -> int:
     else:
         analysis = _analyze_file(args, timeout_ns)
         source = str(args.path)
-    models = {c.protocol: model_cycle_us(c) for c in analysis.config}
+    params = preset(args.preset)
+    models = {c.protocol: model_cycle_us(c, params=params) for c in analysis.config}
     doc = analysis.to_json()
     doc["path"] = source
-    doc["model_preset"] = MODEL_PRESET
+    doc["model_preset"] = args.preset
     for c in doc["config"]:
         c["model_cycle_us"] = models[c["protocol"]]
     if analysis.epl is not None and any(c["protocol"] == "epl" for c in doc["config"]):
-        _model_with_measured_cn(doc, analysis)
+        _model_with_measured_cn(doc, analysis, params)
     if args.csv is not None:
         _write_csv(Path(args.csv), analysis, doc)
     if args.plot is not None:
@@ -186,7 +198,7 @@ def _limited(lines: list[str], out: list[str]) -> None:
         out.append(f"    ... {len(lines) - TEXT_LIST_LIMIT} more (--json or --csv list all)")
 
 
-def _model_with_measured_cn(doc: dict[str, Any], a: Analysis) -> None:
+def _model_with_measured_cn(doc: dict[str, Any], a: Analysis, params: TimingParams) -> None:
     """The EPL network's model beside what it predicts (issue 40): the cycle's used part (SoC to
     its last frame), and the model again with the CNs' own answer, the median PReq -> PRes time
     of all polls, as D_CN (``cn_response_median_us``, ``model_cycle_measured_cn_us``; the
@@ -200,7 +212,7 @@ def _model_with_measured_cn(doc: dict[str, Any], a: Analysis) -> None:
             continue
         c["cn_response_median_us"] = None if median_ns is None else median_ns / _NS_PER_US
         c["model_cycle_measured_cn_us"] = (
-            None if not median_ns else model_cycle_us(config, round(median_ns * 1000))
+            None if not median_ns else model_cycle_us(config, round(median_ns * 1000), params)
         )
 
 

@@ -499,3 +499,22 @@ def test_closed_ring_every_lost_frame_is_unanswered(
         got[p["port"]] += p["unanswered"]
         assert p["returned"] == p["frames"] - len(p["unanswered"])
     assert got == {port: lost.get(port, []) for port in got}
+
+
+def test_the_model_beside_a_capture_takes_the_preset_it_was_made_with(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    """simulate's default preset is paper, analyze's model wire: a capture simulate made with
+    its defaults showed '1.01 x the model'. With --preset paper (new) the model is the run's."""
+    pcap = tmp_path / "p.pcapng"
+    argv = ["simulate", "ecat", "--nodes", "8", "--bytes", "192", "--cycles", "20"]
+    assert main([*argv, "--pcap", str(pcap)]) == 0
+    capsys.readouterr()
+    docs = {}
+    for name in ("wire", "paper"):
+        assert main(["analyze", str(pcap), "--json", "--preset", name]) == 0
+        docs[name] = json.loads(capsys.readouterr().out)
+    (wire,), (paper,) = docs["wire"]["config"], docs["paper"]["config"]
+    assert docs["paper"]["model_preset"] == "paper" and docs["wire"]["model_preset"] == "wire"
+    assert paper["model_cycle_us"] * 1000 == pytest.approx(paper["measured_period_ns"], abs=1)
+    assert wire["model_cycle_us"] != paper["model_cycle_us"]  # the two presets differ
