@@ -46,7 +46,7 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--bytes",
-        type=int_up_to(MAX_TAXEL_BYTES),
+        type=bounded_int(1, MAX_TAXEL_BYTES),
         required=True,
         help=f"taxel bytes per CN, 1..{MAX_TAXEL_BYTES}",
     )

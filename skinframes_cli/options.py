@@ -33,6 +33,7 @@ __all__ = [
     "int_list_in",
     "int_up_to",
     "out_path",
+    "positive_float",
     "protocol_arg",
     "timing",
 ]
@@ -101,6 +102,20 @@ def finite_float(hi: float) -> Callable[[str], float]:
     """An argparse ``type``: a finite number no larger than ``hi`` (the command checks the
     lower end with its own message)."""
     return bounded_float(-math.inf, hi)
+
+
+def positive_float(hi: float) -> Callable[[str], float]:
+    """An argparse ``type``: a finite number above 0, up to ``hi`` (a period, a rate)."""
+    up_to = finite_float(hi)
+
+    def parse(text: str) -> float:
+        value = up_to(text)
+        if not value > 0:
+            raise argparse.ArgumentTypeError(f"{value:g}: expected a number above 0, up to {hi:g}")
+        return value
+
+    parse.__name__ = "number"
+    return parse
 
 
 def out_path(text: str) -> str:

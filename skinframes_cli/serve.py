@@ -18,7 +18,7 @@ from collections.abc import Callable, Iterator
 from typing import Any, TextIO
 
 from emulator.esc import compiled
-from emulator.esc.dc import DEFAULT_DRIFT_PPM
+from emulator.esc.dc import DEFAULT_DRIFT_PPM, MAX_DRIFT_PPM
 from emulator.model.limits import MAX_SERVED_SLAVES, check_served_ecat, check_served_epl
 from skinframes.capture_writer import CaptureWriter
 from skinframes.errors import CaptureError, SkinframesError
@@ -28,11 +28,12 @@ from skinframes.powerlink import MAX_CN_NODE_ID, MAX_PDO_PAYLOAD_BYTES, MIN_CN_N
 from skinframes.powerlink.cdc import MN_PDO_CHANNELS
 from skinframes.text import escape
 from skinframes_cli.options import (
+    bounded_float,
     bounded_int,
-    finite_float,
     in_path,
     int_list_in,
     int_up_to,
+    positive_float,
     protocol_arg,
 )
 from skinframes_cli.signals import first_stops
@@ -119,15 +120,15 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--samples",
-        type=int_up_to(MAX_SAMPLES),
+        type=bounded_int(1, MAX_SAMPLES),
         default=64,
         help=f"distinct taxel samples, cycled, 1..{MAX_SAMPLES} (default 64)",
     )
     p.add_argument(
         "--period-ms",
-        type=finite_float(60_000),
+        type=positive_float(60_000),
         default=1.0,
-        help="time between two taxel samples in ms (default 1)",
+        help="time between two taxel samples in ms, above 0, up to 60000 (default 1)",
     )
     p.add_argument(
         "--no-mailbox",
@@ -137,10 +138,10 @@ def add_parser(sub: Any) -> None:
     )
     p.add_argument(
         "--drift-ppm",
-        type=float,
+        type=bounded_float(0, MAX_DRIFT_PPM),
         default=None,
         help="ecat: largest clock drift of a patch's distributed clock in ppm, each patch's "
-        "drawn with --seed (0..200, default 25)",
+        f"drawn with --seed (0..{MAX_DRIFT_PPM:g}, default {DEFAULT_DRIFT_PPM:g})",
     )
     p.add_argument(
         "--pcap",
@@ -238,8 +239,11 @@ def run(args: argparse.Namespace) -> int:
     from emulator.live import RawSocket, TaxelFeed, mixed_chain, serve
     from emulator.slave.esi_slave import check_esi_slaves, esi_device
 
-    if args.node_ids is not None or args.rt_priority is not None:
-        raise SkinframesError("--node-ids and --rt-priority apply to serve epl only")
+    given = [o for o, v in (("--node-ids", args.node_ids), ("--rt-priority", args.rt_priority))
+             if v is not None]  # fmt: skip
+    if given:
+        verb = "apply" if len(given) > 1 else "applies"
+        raise SkinframesError(f"{' and '.join(given)} {verb} to serve epl only")
     if args.drift_ppm is None:
         args.drift_ppm = DEFAULT_DRIFT_PPM
     period_s = args.period_ms / 1000.0

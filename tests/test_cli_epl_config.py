@@ -97,6 +97,7 @@ def test_a_cycle_shorter_than_the_worst_is_written_with_a_note(
         (["--nodes", "41", "--bytes", "8"], "40 RPDO and 40 TPDO channels"),
         (["--nodes", "240", "--bytes", "8"], "--nodes"),
         (["--nodes", "2", "--bytes", "1490"], "--bytes"),
+        (["--nodes", "2", "--bytes", "0"], "argument --bytes: 0: expected an integer in 1..1489"),
         (["--nodes", "2", "--bytes", "8", "--node-ids", "3,3"], "twice"),
         (["--nodes", "2", "--bytes", "8", "--node-ids", "3"], "1 ids for 2 nodes"),
         (["--nodes", "8", "--bytes", "192", "--cycle-us", "100"], "even with 1 us CNs"),

@@ -64,16 +64,41 @@ def test_link_problems_are_one_error_line(
         # the count before the missing --bytes, which would not mend it
         (["--nodes", "70000"], "served EtherCAT chain: 70000 slaves (1..1024)"),
         (["--nodes", "2", "--bytes", "1487"], "EtherCAT: 1487 bytes per slave (1..1486)"),
-        (["--nodes", "2", "--bytes", "16", "--samples", "0"], "taxel feed: 0 samples"),
-        (["--nodes", "2", "--bytes", "16", "--period-ms", "0"], "taxel feed: a period of 0.0 s"),
+        # the feed's and the clocks' limits, refused as the arguments are read (new: by name)
+        (
+            ["--nodes", "2", "--bytes", "16", "--samples", "0"],
+            "argument --samples: 0: expected an integer in 1..1024",
+        ),
+        (
+            ["--nodes", "2", "--bytes", "16", "--period-ms", "0"],
+            "argument --period-ms: 0: expected a number above 0, up to 60000",
+        ),
+        (
+            ["--nodes", "2", "--bytes", "16", "--period-ms", "-1"],
+            "argument --period-ms: -1: expected a number above 0, up to 60000",
+        ),
         (["--nodes", "2", "--bytes", "16", "--pcap", ""], "--pcap: an empty file name"),
-        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "nan"], "clock drift: nan ppm (0..200)"),
-        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "1e400"], "clock drift: inf ppm"),
-        (["--nodes", "2", "--bytes", "16", "--drift-ppm", "-1"], "clock drift: -1.0 ppm"),
+        (
+            ["--nodes", "2", "--bytes", "16", "--drift-ppm", "nan"],
+            "argument --drift-ppm: 'nan': expected a finite number",
+        ),
+        (
+            ["--nodes", "2", "--bytes", "16", "--drift-ppm", "1e400"],
+            "argument --drift-ppm: '1e400': expected a finite number",
+        ),
+        (
+            ["--nodes", "2", "--bytes", "16", "--drift-ppm", "-1"],
+            "argument --drift-ppm: -1: expected a number in 0..200",
+        ),
+        (
+            ["--nodes", "2", "--bytes", "16", "--drift-ppm", "201"],
+            "argument --drift-ppm: 201: expected a number in 0..200",
+        ),
     ],
 )
 def test_bad_arguments(capsys: pytest.CaptureFixture[str], args: list[str], message: str) -> None:
-    """The limits are emulator.model.limits.check_served_ecat's; the check runs before any socket."""
+    """The limits are emulator.model.limits.check_served_ecat's (and the feed's and clocks',
+    as the arguments are read); the check runs before any socket."""
     assert main(["serve", "ecat", "--iface", "lo", *args]) == 2
     err = capsys.readouterr().err
     assert err.startswith(f"skinframes: error: {message}")

@@ -28,7 +28,7 @@ from skinframes_cli import main
         (["--nodes", "2", "--bytes", "0"], "served EPL CN: 0 taxel bytes (1..1490)"),
         (["--nodes", "3", "--bytes", "8", "--node-ids", "1,2"], "--node-ids: 2 ids for 3 nodes"),
         (["--nodes", "2", "--bytes", "8", "--node-ids", "5,5"], "--node-ids: an id appears twice"),
-        (["--nodes", "2", "--bytes", "8", "--samples", "0"], "taxel feed: 0 samples"),
+        (["--nodes", "2", "--bytes", "8", "--samples", "0"], "argument --samples: 0: expected"),
         (["--nodes", "2", "--bytes", "8", "--no-mailbox"], "--no-mailbox, --drift-ppm and --esi"),
         (
             ["--nodes", "2", "--bytes", "8", "--drift-ppm", "3"],
@@ -51,8 +51,13 @@ def test_epl_options_are_refused_for_ecat(
     capsys: pytest.CaptureFixture[str], option: list[str]
 ) -> None:
     assert main(["serve", "ecat", "--iface", "lo", "--nodes", "1", "--bytes", "8", *option]) == 2
-    assert capsys.readouterr().err.startswith(
-        "skinframes: error: --node-ids and --rt-priority apply to serve epl only"
+    assert capsys.readouterr().err == (
+        f"skinframes: error: {option[0]} applies to serve epl only\n"  # (new: only the one given)
+    )
+    argv = ["serve", "ecat", "--iface", "lo", "--nodes", "1", "--bytes", "8", "--node-ids", "1"]
+    assert main([*argv, "--rt-priority", "5"]) == 2
+    assert capsys.readouterr().err == (
+        "skinframes: error: --node-ids and --rt-priority apply to serve epl only\n"
     )
 
 
