@@ -193,3 +193,18 @@ def test_a_bad_checksum_is_reported_not_refused(
     path.write_bytes(bytes(raw))
     code, text, _ = _run(capsys, "sii", str(path), "--json")
     assert code == 0 and [f["code"] for f in json.loads(text)["findings"]] == ["sii.checksum"]
+
+
+def test_a_cut_image_is_reported_short(
+    shared_esi: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "s250.bin"  # the user's report: 250 of the image's 256 bytes
+    path.write_bytes((shared_esi / "soes_linux_lan9252demo.bin").read_bytes()[:250])
+    code, text, _ = _run(capsys, "sii", str(path), "--json")
+    assert code == 0 and json.loads(text)["findings"] == [
+        {
+            "severity": "warning",
+            "code": "sii.short",
+            "message": "SII: 250 bytes, the size word says 256",
+        }
+    ]
