@@ -673,7 +673,7 @@ def decode_sii(data: bytes) -> DecodedSii:
         else:
             fields[decoder[0]] = decoder[1](body, start)
         pos = start + size
-    if len(data) < eeprom_bytes and len(data) < pos:
+    if len(data) < eeprom_bytes:
         findings.append(
             warning("sii.short", f"SII: {len(data)} bytes, the size word says {eeprom_bytes}")
         )

@@ -193,3 +193,67 @@ def test_a_bad_checksum_is_reported_not_refused(
     path.write_bytes(bytes(raw))
     code, text, _ = _run(capsys, "sii", str(path), "--json")
     assert code == 0 and [f["code"] for f in json.loads(text)["findings"]] == ["sii.checksum"]
+
+
+def test_a_cut_image_is_reported_short(
+    shared_esi: Path, tmp_path: Path, capsys: pytest.CaptureFixture[str]
+) -> None:
+    path = tmp_path / "s250.bin"  # the user's report: 250 of the image's 256 bytes
+    path.write_bytes((shared_esi / "soes_linux_lan9252demo.bin").read_bytes()[:250])
+    code, text, _ = _run(capsys, "sii", str(path), "--json")
+    assert code == 0 and json.loads(text)["findings"] == [
+        {
+            "severity": "warning",
+            "code": "sii.short",
+            "message": "SII: 250 bytes, the size word says 256",
+        }
+    ]
+
+
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        # the user's report (before: "SII: ..." without element or line, or struct's messages);
+        # lines 25 (Type), 31 (the first Sm) and 58 (ByteSize) of BogusIO.xml
+        ("<ByteSize>2048", "<ByteSize>100", "line 58: <ByteSize>: 100 is not a multiple of 128"),
+        (
+            "<ByteSize>2048",
+            "<ByteSize>2000000000",
+            "line 58: <ByteSize>: 2000000000 is outside 128..8388608",
+        ),
+        (
+            'ProductCode="#xB0901030"',
+            'ProductCode="#x1B0901030"',
+            "line 25: <Type>: ProductCode=#x1B0901030 is outside 0..4294967295",
+        ),
+        (
+            'RevisionNo="42"',
+            'RevisionNo="-1"',
+            "line 25: <Type>: RevisionNo=-1 is outside 0..4294967295",
+        ),
+        (
+            'StartAddress="#x1800"',
+            'StartAddress="#x11800"',
+            "line 31: <Sm>: StartAddress=#x11800 is outside 0..65535",
+        ),
+        (
+            'ControlByte="#x64"',
+            'ControlByte="#x164"',
+            "line 31: <Sm>: ControlByte=#x164 is outside 0..255",
+        ),
+    ],
+)
+def test_a_value_outside_its_sii_field_names_the_element_and_line(
+    shared_esi: Path,
+    tmp_path: Path,
+    capsys: pytest.CaptureFixture[str],
+    old: str,
+    new: str,
+    message: str,
+) -> None:
+    text = (shared_esi / "hw_device_mgr_BogusIO.xml").read_text(encoding="utf-8")
+    assert text.count(old) == 1
+    path = tmp_path / "m.xml"
+    path.write_text(text.replace(old, new), encoding="utf-8")
+    code, _, err = _run(capsys, "sii", str(path), "--json")
+    assert (code, err) == (2, f"skinframes: error: {path}: {message}\n")

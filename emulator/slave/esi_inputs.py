@@ -8,8 +8,9 @@ change, every ``--period-ms``; 0 before the first) takes row ``c`` modulo the nu
 Entries the file does not name keep the counter pattern.
 
 Every named entry must be an entry of one of the device's TxPDOs (its ``BitLen`` is the entry's
-width); a value must fit that width (signed or unsigned). Anything else is a
-:class:`~skinframes.errors.DecodeError` naming the file and the line.
+width); a value must fit that width (signed or unsigned). Anything else, and a file that is
+not UTF-8 text or is larger than :data:`MAX_INPUTS_BYTES`, is a
+:class:`~skinframes.errors.DecodeError` naming the file (and the line, where there is one).
 """
 
 from __future__ import annotations
@@ -17,13 +18,18 @@ from __future__ import annotations
 import csv
 import dataclasses
 import io
-from collections.abc import Sequence
+from collections.abc import Iterator, Sequence
 from pathlib import Path
+from typing import Final
 
 from skinframes.errors import DecodeError
 from skinframes.esi import EsiDevice, parse_number
 
-__all__ = ["EsiInputs", "pack_entries", "read_esi_inputs"]
+__all__ = ["MAX_INPUTS_BYTES", "EsiInputs", "pack_entries", "read_esi_inputs"]
+
+# a larger file is refused before it is read whole: 4 MiB holds 2 million one-digit rows (read in
+# about 6 s into 0.2 GB of tuples), or 170,000 rows of four 16-bit values
+MAX_INPUTS_BYTES: Final = 4 << 20
 
 
 @dataclasses.dataclass(frozen=True, slots=True)
@@ -49,17 +55,18 @@ def read_esi_inputs(path: str | Path, device: EsiDevice) -> EsiInputs:
     """Read an inputs file for ``device`` (see the module's description).
 
     Raises:
-        DecodeError: the file is empty, names an entry no TxPDO of the device has, or holds a
-            row of the wrong length or a value that is no number or does not fit its entry.
-        OSError: the file cannot be read.
+        DecodeError: the file is empty, too large or not UTF-8 text, names an entry no TxPDO
+            of the device has, or holds a line that is not CSV, a row of the wrong length or a
+            value that is no number or does not fit its entry.
+        OSError: the file cannot be read (missing, a directory, no permission).
     """
     source = str(path)
-    text = Path(path).read_text(encoding="utf-8")
+    text = _text(path, source)
     widths = {(e.index, e.subindex): e.bit_length for p in device.tx_pdos for e in p.entries}
     header: list[tuple[int, int]] | None = None
     bits: list[int] = []
     rows: list[tuple[int, ...]] = []
-    for number, cells in _rows(text):
+    for number, cells in _rows(text, source):
         where = f"{source}: line {number}"
         if header is None:
             header = [_entry(cell, where) for cell in cells]
@@ -94,16 +101,32 @@ def pack_entries(layout: Sequence[tuple[int, int, int]], values: Sequence[int]) 
     return whole.to_bytes((at + 7) // 8, "little")
 
 
-def _rows(text: str) -> list[tuple[int, list[str]]]:
+def _text(path: str | Path, source: str) -> str:
+    """The file's text, read as UTF-8 up to :data:`MAX_INPUTS_BYTES`."""
+    with open(path, "rb") as file:
+        data = file.read(MAX_INPUTS_BYTES + 1)
+    if len(data) > MAX_INPUTS_BYTES:
+        raise DecodeError(f"{source}: larger than {MAX_INPUTS_BYTES >> 20} MiB")
+    try:
+        return data.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = len((data[: exc.start].decode("utf-8") + ".").splitlines())  # as _rows counts
+        raise DecodeError(
+            f"{source}: line {line}: byte {data[exc.start]:#04x} is not UTF-8 text"
+        ) from None
+
+
+def _rows(text: str, source: str) -> Iterator[tuple[int, list[str]]]:
     """(line number, cells) of every line that is not blank or a comment."""
-    out = []
     for number, line in enumerate(text.splitlines(), start=1):
         start = line.lstrip()
         if not start or (start.startswith("#") and start[:2].lower() != "#x"):
             continue
-        (cells,) = csv.reader(io.StringIO(line))
-        out.append((number, [c.strip() for c in cells]))
-    return out
+        try:
+            (cells,) = csv.reader(io.StringIO(line))
+        except csv.Error as exc:  # a cell longer than csv.field_size_limit()
+            raise DecodeError(f"{source}: line {number}: not CSV: {exc}") from None
+        yield number, [c.strip() for c in cells]
 
 
 def _entry(cell: str, where: str) -> tuple[int, int]:

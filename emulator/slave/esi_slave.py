@@ -118,7 +118,8 @@ def parse_esi_spec(spec: str) -> tuple[str, str | None]:
 def load_esi_slave(spec: str, modules: Sequence[str] | None = None) -> EsiSlave:
     """Read ``ESI.xml[#TYPE]`` and build the device's SII image; a modular device gets the
     ``modules`` (selectors, :func:`skinframes.esi.configure_slots`) in its slots, its SII
-    stays the device's own (ETG.5001: the modules' PDOs are read over CoE).
+    stays the device's own (ETG.5001: the modules' PDOs are read over CoE); no modules (``[]``,
+    ``--esi-modules ''``) suit a device without slots too.
 
     Raises:
         EsiFormatError: the file is no usable ESI, TYPE names no device of it, or the modules
@@ -130,7 +131,7 @@ def load_esi_slave(spec: str, modules: Sequence[str] | None = None) -> EsiSlave:
     esi = read_esi(Path(path))
     device = esi.device(selector)
     image = sii_from_esi(esi, device).image
-    if modules is not None:
+    if modules is not None and (modules or device.slots is not None):
         device = configure_slots(esi, device, modules)
     return EsiSlave(esi, device, encode_sii(image), source=path)
 

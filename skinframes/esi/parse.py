@@ -14,7 +14,7 @@ from __future__ import annotations
 import os
 import xml.etree.ElementTree as ET
 from pathlib import Path
-from typing import Final
+from typing import Final, NamedTuple
 from xml.parsers import expat
 
 from skinframes.errors import EsiFormatError
@@ -136,6 +136,58 @@ _TRUE: Final = frozenset({"1", "true"})
 _FALSE: Final = frozenset({"0", "false"})
 
 
+class _Range(NamedTuple):
+    """The values a number may take: ``low..high``, a multiple of ``step``; ``unit`` for the
+    message."""
+
+    low: int
+    high: int
+    step: int = 1
+    unit: str = ""
+
+
+_U8: Final = _Range(0, 0xFF)
+_U16: Final = _Range(0, 0xFFFF)
+_U32: Final = _Range(0, 0xFFFF_FFFF)
+_I16: Final = _Range(-(1 << 15), (1 << 15) - 1)
+
+# The ranges of the numbers read, by (element, attribute; "" for its text): the SII field each
+# goes into (ETG.2010 Tables 2-14) or the CoE field (ETG.1000.6: index 16 bits, subindex and
+# mapped length 8). A number outside is an error naming the element and its line.
+_RANGES: Final[dict[tuple[str, str], _Range]] = {
+    ("Id", ""): _U32,  # Vendor/Id: words 8-9
+    ("Type", "ProductCode"): _U32,  # words 0xA-0xB
+    ("Type", "RevisionNo"): _U32,  # words 0xC-0xD
+    ("Type", "ModuleIdent"): _U32,  # ETG.5001 0xF030 (a module's ident)
+    ("ModuleIdent", ""): _U32,
+    ("ByteSize", ""): _Range(128, 0x10000 * 128, 128),  # word 0x3E: ByteSize / 128 - 1
+    ("EBusCurrent", ""): _I16,  # GENERAL: mA, signed
+    ("CatNo", ""): _U16,  # a category's type
+    ("Sm", "StartAddress"): _U16,  # SYNCM (Table 9)
+    ("Sm", "DefaultSize"): _U16,
+    ("Sm", "ControlByte"): _U8,
+    ("Sm", "Enable"): _U8,
+    ("Sm", "No"): _U8,  # AlternativeSmMapping
+    ("Fmmu", "Sm"): _U8,
+    ("RxPdo", "Sm"): _U8,  # TXPDO/RXPDO (Table 11)
+    ("TxPdo", "Sm"): _U8,
+    ("Index", ""): _U16,  # a PDO's, an entry's or an object's
+    ("Exclude", ""): _U16,
+    ("Pdo", ""): _U16,
+    ("SubIndex", ""): _U8,  # an entry's (Table 12)
+    ("SubIdx", ""): _U8,
+    ("BitLen", ""): _U8,
+    ("AssignActivate", ""): _U16,  # DC (Table 14)
+    ("CycleTimeSync0", ""): _Range(0, 0xFFFF_FFFF, unit="ns"),
+    ("CycleTimeSync1", ""): _Range(0, 0xFFFF_FFFF, unit="ns"),
+    # a shift time is an xs:int: a negative one goes in as its two's complement
+    ("ShiftTimeSync0", ""): _Range(-(1 << 31), (1 << 31) - 1, unit="ns"),
+    ("ShiftTimeSync1", ""): _Range(-(1 << 31), (1 << 31) - 1, unit="ns"),
+    ("CycleTimeSync0", "Factor"): _I16,
+    ("CycleTimeSync1", "Factor"): _I16,
+}
+
+
 class _Context:
     """Turns elements into the model; every failure names the element and its line."""
 
@@ -158,9 +210,22 @@ class _Context:
     def number(self, el: ET.Element) -> int:
         text = self.text(el)
         try:
-            return parse_number(text)
+            value = parse_number(text)
         except ValueError:
             raise self.error(el, f"{text!r} is not a number (decimal or #x hex)") from None
+        return self.in_range(el, "", text, value)
+
+    def in_range(self, el: ET.Element, name: str, text: str, value: int) -> int:
+        """``value`` (of attribute ``name``, "" for the text) if it is in its :data:`_RANGES`."""
+        limits = _RANGES.get((el.tag, name))
+        if limits is None or (limits.low <= value <= limits.high and value % limits.step == 0):
+            return value
+        what = f"{name}={text.strip()}" if name else text.strip()
+        if limits.unit:
+            what += f" {limits.unit}"
+        if value % limits.step:
+            raise self.error(el, f"{what} is not a multiple of {limits.step}")
+        raise self.error(el, f"{what} is outside {limits.low}..{limits.high}")
 
     def child_number(self, el: ET.Element, tag: str, default: int | None = None) -> int:
         child = el.find(tag)
@@ -177,9 +242,10 @@ class _Context:
                 raise self.error(el, f"missing attribute {name}")
             return default
         try:
-            return parse_number(text)
+            value = parse_number(text)
         except ValueError:
             raise self.error(el, f"{name}={text!r} is not a number (decimal or #x hex)") from None
+        return self.in_range(el, name, text, value)
 
     def attr_optional(self, el: ET.Element, name: str) -> int | None:
         return None if el.get(name) is None else self.attr_number(el, name)
@@ -370,16 +436,9 @@ class _Context:
         )
 
     def dc_time(self, op: ET.Element, tag: str) -> int:
-        """A time of a DC op mode in ns, 0 when absent: a cycle time 0..2**32-1 (the SII's
-        32-bit field, ETG.2010 Table 14), a shift time an ESI xs:int (it may be negative)."""
+        """A time of a DC op mode in ns, 0 when absent (its range in :data:`_RANGES`)."""
         el = op.find(tag)
-        if el is None:
-            return 0
-        value = self.number(el)
-        low, high = (-(2**31), 2**31 - 1) if tag.startswith("Shift") else (0, 2**32 - 1)
-        if not low <= value <= high:
-            raise self.error(el, f"{value} ns is outside {low}..{high}")
-        return value
+        return 0 if el is None else self.number(el)
 
     def dc(self, dc: ET.Element | None) -> tuple[EsiDcOpMode, ...]:
         if dc is None:

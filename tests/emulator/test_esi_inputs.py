@@ -72,6 +72,43 @@ def test_a_bad_file_names_its_line(
         read_esi_inputs(write(tmp_path, text), device)
 
 
+@pytest.mark.parametrize(
+    ("data", "message"),
+    [
+        # 0xe9 (Latin-1 "é") followed by a newline is no UTF-8 sequence; line 2 as the user counts
+        (b"0x6000:1\n\xe9\n", "line 2: byte 0xe9 is not UTF-8 text"),
+        (b"0x6000:1\n1\n\x00\xff\xfe\n", "line 3: byte 0xff is not UTF-8 text"),
+        # a cell over the csv module's 131072-character field limit
+        (b"0x6000:1\n1," + b"7" * 200_000 + b"\n", "line 2: not CSV: field larger than"),
+        # one byte over the 4 MiB limit, refused before it is read whole
+        ((b"0x6000:1\n" + b"1\n" * (2 << 20))[: (4 << 20) + 1], "larger than 4 MiB"),
+    ],
+)
+def test_a_hostile_file_is_one_decode_error(
+    shared_esi: Path, tmp_path: Path, data: bytes, message: str
+) -> None:
+    device = load_esi_slave(str(shared_esi / LAN9252)).device
+    path = tmp_path / "inputs.csv"
+    path.write_bytes(data)
+    with pytest.raises(DecodeError, match=f"^{path}: {message}"):
+        read_esi_inputs(path, device)
+
+
+def test_simulate_refuses_a_file_that_is_not_text_in_one_line(
+    capsys: pytest.CaptureFixture[str], shared_esi: Path, tmp_path: Path
+) -> None:
+    latin1 = tmp_path / "in4.csv"
+    latin1.write_bytes(b"0x6000:1\n\xe9\n")  # the user's report: a traceback, exit 1
+    argv = ["simulate", "ecat", "--nodes", "0", "--bytes", "1", "--esi", str(shared_esi / LAN9252)]
+    for inputs, message in (
+        (latin1, f"{latin1}: line 2: byte 0xe9 is not UTF-8 text"),
+        (tmp_path, f"--esi-inputs {tmp_path}: Is a directory"),
+    ):
+        code = main([*argv, "--esi-inputs", str(inputs)])
+        err = capsys.readouterr().err
+        assert (code, err) == (2, f"skinframes: error: {message}\n")
+
+
 def test_the_slave_publishes_the_rows_in_turn(shared_esi: Path, tmp_path: Path) -> None:
     slave = load_esi_slave(str(shared_esi / LAN9252))
     path = write(tmp_path, "0x6000:1\n0x11\n0x22\n0x33\n")

@@ -179,6 +179,21 @@ def test_esi_modules_in_the_json(capsys: pytest.CaptureFixture[str]) -> None:
     assert esi["modules"] == "0x10001,0x20002"  # HEAD-A's and DO-4's ModuleIdent
 
 
+def test_an_empty_esi_modules_list_suits_a_slave_without_slots(
+    capsys: pytest.CaptureFixture[str], shared_esi: Path
+) -> None:
+    """The docs: ``''`` for a slave without modules, so that the second --esi, a modular one,
+    can get its list (the first, the LAN9252 demo, has no Slots)."""
+    argv = ["simulate", "ecat", "--nodes", "0", "--bytes", "1", "--cycles", "2", "--json"]
+    argv += ["--esi", str(shared_esi / DEMO), "--esi", str(MODULAR)]
+    assert main([*argv, "--esi-modules", "", "--esi-modules", "HEAD-A,DO-4"]) == 0
+    plain, modular = json.loads(capsys.readouterr().out)["esi"]
+    assert "modules" not in plain and modular["modules"] == "0x10001,0x20002"
+    # a list that names a module is still refused for it
+    assert main([*argv, "--esi-modules", "HEAD-A"]) == 2
+    assert "has no <Slots>, so no modules" in capsys.readouterr().err
+
+
 @pytest.mark.parametrize(
     ("extra", "message"),
     [

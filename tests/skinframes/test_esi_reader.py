@@ -210,6 +210,63 @@ def test_bad_input_names_the_element_and_line(text: bytes, message: str) -> None
     assert isinstance(info.value, DecodeError) and str(info.value).startswith("x.xml: line ")
 
 
+@pytest.mark.parametrize(
+    ("old", "new", "message"),
+    [
+        # the SII's fields (ETG.2010): identity UDINTs, SYNCM words and bytes, the size word
+        (b"<Id>2<", b"<Id>#x100000000<", "3: <Id>: #x100000000 is outside 0..4294967295"),
+        (b'No="#x1"', b'No="-1"', "8: <Type>: RevisionNo=-1 is outside 0..4294967295"),
+        (b'Enable="1"', b'Enable="256"', "9: <Sm>: Enable=256 is outside 0..255"),
+        (b'"#x1000"', b'"65536"', "9: <Sm>: StartAddress=65536 is outside 0..65535"),
+        (b'<Fmmu Sm="0">', b'<Fmmu Sm="#x100">', "10: <Fmmu>: Sm=#x100 is outside 0..255"),
+        (b'<TxPdo Sm="0">', b'<TxPdo Sm="256">', "11: <TxPdo>: Sm=256 is outside 0..255"),
+        # CoE: index 16 bits, subindex and mapped length 8
+        (b"<Index>#x1a00<", b"<Index>#x11a00<", "11: <Index>: #x11a00 is outside 0..65535"),
+        (b"<Exclude>#x1a01", b"<Exclude>-1", "11: <Exclude>: -1 is outside 0..65535"),
+        (b"<SubIndex>1<", b"<SubIndex>256<", "12: <SubIndex>: 256 is outside 0..255"),
+        (b"<BitLen>7<", b"<BitLen>300<", "13: <BitLen>: 300 is outside 0..255"),
+        (b"<Pdo>#x1a00", b"<Pdo>#x10000", "15: <Pdo>: #x10000 is outside 0..65535"),
+        (b'<Sm No="0">', b'<Sm No="-1">', "15: <Sm>: No=-1 is outside 0..255"),
+        # DC (Table 14): AssignActivate a word, the cycle factors INTs
+        (b"#x300<", b"#x10300<", "16: <AssignActivate>: #x10300 is outside 0..65535"),
+        (b'"-2"', b'"-32769"', "18: <CycleTimeSync1>: Factor=-32769 is outside -32768..32767"),
+        # the size word 0x3E: ByteSize / 128 - 1 in 16 bits
+        (b"<ByteSize>512", b"<ByteSize>500", "19: <ByteSize>: 500 is not a multiple of 128"),
+        (b"<ByteSize>512", b"<ByteSize>8388736", "19: <ByteSize>: 8388736 is outside 128..8388608"),
+        (b"<CatNo>1<", b"<CatNo>65536<", "20: <CatNo>: 65536 is outside 0..65535"),
+    ],
+)
+def test_a_number_outside_its_field_names_the_element_and_line(
+    old: bytes, new: bytes, message: str
+) -> None:
+    assert MULTI.count(old) == 1
+    with pytest.raises(EsiFormatError) as info:
+        parse_esi(MULTI.replace(old, new), source="x.xml")
+    assert str(info.value) == f"x.xml: line {message}"
+
+
+def test_the_ends_of_the_ranges_are_taken() -> None:
+    text = MULTI
+    for old, new in (
+        (b'ProductCode="#x10"', b'ProductCode="#xFFFFFFFF"'),
+        (b'Enable="1"', b'Enable="255"'),
+        (b"<Index>#x1a00</Index>", b"<Index>#xFFFF</Index>"),
+        (b'Factor="-2"', b'Factor="-32768"'),
+        (b"<ShiftTimeSync0>100<", b"<ShiftTimeSync0>-2147483648<"),
+        (b"<ByteSize>512", b"<ByteSize>8388608"),
+    ):
+        text = text.replace(old, new)
+    device = parse_esi(text).devices[0]
+    assert (device.product_code, device.sync_managers[0].enable, device.tx_pdos[0].index) == (
+        0xFFFF_FFFF,
+        255,
+        0xFFFF,
+    )
+    (mode,) = device.dc_op_modes
+    assert (mode.cycle_time_sync1_factor, mode.shift_time_sync0_ns) == (-32768, -(2**31))
+    assert device.eeprom is not None and device.eeprom.byte_size == 0x10000 * 128
+
+
 def test_a_type_text_with_an_at_sign_is_matched_whole_first() -> None:
     def device(type_text: str, revision: int) -> bytes:
         return (

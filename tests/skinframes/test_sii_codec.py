@@ -128,7 +128,9 @@ def test_decoding_a_shipped_image_gives_what_the_xml_says(pair: tuple[Path, byte
     xml, shipped = pair
     facts = xml_facts(xml)
     decoded = decode_sii(shipped)
-    assert decoded.findings == ()
+    # SOES's xmc4300 image is its used 292 bytes of the 3968 its ByteSize (and size word) say
+    short = len(shipped) < facts["byte_size"]  # type: ignore[operator]
+    assert [f.code for f in decoded.findings] == (["sii.short"] if short else [])
     img = decoded.image
     assert (img.vendor_id, img.product_code, img.revision) == facts["identity"]
     assert img.config_data == facts["config"] and img.serial == 0
@@ -281,6 +283,18 @@ def test_a_wrong_checksum_is_a_finding_not_a_refusal() -> None:
     assert [f.code for f in decoded.findings] == ["sii.checksum"]
     assert decoded.image == decode_sii(_image()).image
     assert decoded.checksum == raw[14]
+
+
+def test_an_image_cut_short_of_its_size_word_is_a_finding(shared_esi: Path) -> None:
+    # the user's report: the first 250 bytes of a 256-byte image (size word 1: (1 + 1) * 128),
+    # its end category at bytes 0xF4-0xF5 still inside them
+    shipped = (shared_esi / "soes_linux_lan9252demo.bin").read_bytes()
+    assert len(shipped) == 256 and struct.unpack_from("<H", shipped, 0x7C)[0] == 1
+    decoded = decode_sii(shipped[:250])
+    assert [(f.code, f.message) for f in decoded.findings] == [
+        ("sii.short", "SII: 250 bytes, the size word says 256")
+    ]
+    assert decode_sii(shipped).findings == ()
 
 
 def test_the_bypass_word_is_an_info_finding_not_a_checksum_error() -> None:
