@@ -50,7 +50,7 @@ from emulator.esc.registers import EscConfig
 from emulator.slave.sii import SlaveInfo
 from emulator.slave.state_machine import SkinPatchApplication
 from skinframes import taxel
-from skinframes.capture_writer import CaptureWriter
+from skinframes.capture_writer import CAPTURE_SNAPLEN, CaptureWriter
 
 __all__ = [
     "CPU_BUDGET_US",
@@ -86,7 +86,9 @@ class RawSocket:
 
     ``promiscuous`` asks the interface for every frame (PACKET_MR_PROMISC, packet(7)), as
     emulated nodes with MAC addresses of their own need (EPL: the MN sends each PReq to its
-    CN's MAC address); the membership ends with the socket.
+    CN's MAC address); the membership ends with the socket. A received frame keeps its first
+    ``CAPTURE_SNAPLEN`` (65535) bytes, any Ethernet frame whole, jumbo frames too, and
+    :meth:`receive` tells its length on the wire (``MSG_TRUNC``, packet(7)).
 
     Raises:
         LinkError: no such interface, or not root / no CAP_NET_RAW.
@@ -118,20 +120,28 @@ class RawSocket:
                 sock.setsockopt(SOL_PACKET, PACKET_ADD_MEMBERSHIP, mreq)
         sock.setblocking(False)
         self.sock = sock
+        self._buffer = bytearray(CAPTURE_SNAPLEN)
+        self._view = memoryview(self._buffer)
 
     def fileno(self) -> int:
         """The socket's file descriptor (for select)."""
         return self.sock.fileno()
 
-    def recv(self) -> bytes | None:
-        """One received frame, None when nothing is waiting (frames this host sent skipped)."""
+    def receive(self) -> tuple[bytes, int] | None:
+        """One received frame (its first 65535 bytes) and its length on the wire, None when
+        nothing is waiting (frames this host sent skipped)."""
         while True:
             try:
-                data, addr = self.sock.recvfrom(MAX_FRAME_BYTES + 64)
+                length, addr = self.sock.recvfrom_into(self._buffer, 0, socket.MSG_TRUNC)
             except BlockingIOError:
                 return None
             if addr[2] != PACKET_OUTGOING:
-                return data
+                return bytes(self._view[:length]), length
+
+    def recv(self) -> bytes | None:
+        """One received frame (its first 65535 bytes), None when nothing is waiting."""
+        got = self.receive()
+        return None if got is None else got[0]
 
     def send(self, frame: bytes) -> None:
         """Transmit one frame."""
@@ -606,10 +616,11 @@ def serve(
             readable, _, _ = select.select([fd], [], [], timeout)
             if not readable:
                 continue
-            while (frame := sock.recv()) is not None:
+            while (got := sock.receive()) is not None:
+                frame, length = got
                 stats.frames_in += 1
                 if capture is not None:
-                    capture.write(wall_ns(), frame, outbound=False)
+                    capture.write(wall_ns(), frame, outbound=False, orig_len=length)
                 t0, c0 = clock(), cpu()
                 try:
                     back = chain.answer(frame)

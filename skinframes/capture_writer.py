@@ -208,9 +208,15 @@ def _idb(
 
 
 def _epb(
-    interface: int, time_ns: int, data: bytes, flags: int | None, comment: str | None
+    interface: int,
+    time_ns: int,
+    data: bytes,
+    flags: int | None,
+    comment: str | None,
+    orig_len: int | None = None,
 ) -> bytes:
-    """Enhanced Packet Block (4.3): the frame padded to 4 bytes, then comment and flags options."""
+    """Enhanced Packet Block (4.3): the frame padded to 4 bytes, then comment and flags options;
+    ``orig_len``: the original length (None: the captured one)."""
     if time_ns < 0:
         raise PcapFormatError(f"pcapng: negative timestamp {time_ns} ns")
     opts = b""
@@ -222,7 +228,8 @@ def _epb(
         opts += struct.pack("<HH", OPT_ENDOFOPT, 0)
     n = len(data)
     size = EPB_HEADER_BYTES + n + (-n % 4) + len(opts) + 4
-    head = _EPB_HEAD.pack(BLOCK_EPB, size, interface, time_ns >> 32, time_ns & 0xFFFFFFFF, n, n)
+    orig = n if orig_len is None else orig_len
+    head = _EPB_HEAD.pack(BLOCK_EPB, size, interface, time_ns >> 32, time_ns & 0xFFFFFFFF, n, orig)
     return b"".join((head, data, bytes(-n % 4), opts, struct.pack("<I", size)))
 
 
@@ -442,6 +449,7 @@ class CaptureWriter:
         outbound: bool | None = None,
         crc_error: bool = False,
         comment: str | None = None,
+        orig_len: int | None = None,
     ) -> None:
         """Append one record.
 
@@ -452,10 +460,13 @@ class CaptureWriter:
             outbound: the direction (pcapng ``epb_flags``); None: not recorded.
             crc_error: mark the frame as received with a bad FCS (pcapng only).
             comment: a packet comment (pcapng only).
+            orig_len: the frame's length on the wire when ``frame`` is cut short of it (pcap
+                orig_len, pcapng original length); None: ``len(frame)``.
 
         Raises:
             CaptureError: ``crc_error`` or ``comment`` in a classic pcap; the writer is closed.
-            FieldRangeError: a timestamp or port out of range.
+            FieldRangeError: a timestamp, port or ``orig_len`` out of range (``orig_len``:
+                ``len(frame)`` .. 2**32 - 1).
             FrameTooLargeError: a frame longer than the snaplen (65535).
         """
         f = self._open_file()
@@ -466,7 +477,12 @@ class CaptureWriter:
             raise FrameTooLargeError(
                 f"capture: frame of {len(frame)} bytes exceeds the snaplen {CAPTURE_SNAPLEN}"
             )
-        record = self._record(t, frame, port, outbound, crc_error, comment)
+        if orig_len is not None and not len(frame) <= operator.index(orig_len) < 1 << 32:
+            raise FieldRangeError(
+                f"capture: original length {orig_len} outside {len(frame)}..{(1 << 32) - 1}",
+                field="orig_len",
+            )
+        record = self._record(t, frame, port, outbound, crc_error, comment, orig_len)
         f.write(record)
         self._records += 1
         self._bytes += len(record)
@@ -687,6 +703,7 @@ class CaptureWriter:
         outbound: bool | None,
         crc_error: bool,
         comment: str | None,
+        orig_len: int | None = None,
     ) -> bytes:
         """One record as the file holds it (the single encoder of write and write_block)."""
         if self._fmt == "pcap":
@@ -695,8 +712,8 @@ class CaptureWriter:
                     f"{self._path}: classic pcap cannot carry CRC marks or comments; "
                     "name the file .pcapng"
                 )
-            return record_header(time_ns, len(frame)) + frame
-        return _epb(port, time_ns, frame, _epb_flags(outbound, crc_error), comment)
+            return record_header(time_ns, len(frame), orig_len) + frame
+        return _epb(port, time_ns, frame, _epb_flags(outbound, crc_error), comment, orig_len)
 
     def _stamp(self, layout: _Layout, t: npt.NDArray[np.int64]) -> None:
         """Write the timestamps ``t`` (rows, R) into the first rows of the layout's image."""

@@ -236,6 +236,12 @@ class LiveCapture:
         self._stop_ns = time.time_ns()
         self._stop.set()
 
+    def interrupt(self) -> None:
+        """End the capture as Ctrl-C does (any thread): :meth:`stop`, and ``interrupted`` is
+        True (the end line says ``(stopped by Ctrl-C)``)."""
+        self.interrupted = True
+        self.stop()
+
     @property
     def skipped(self) -> tuple[Skipped, ...]:
         """Nothing is skipped: every frame the kernel hands over is a record."""
@@ -352,8 +358,7 @@ class LiveCapture:
 
         def interrupted(signum: int, frame: FrameType | None) -> None:
             if not self.interrupted:
-                self.interrupted = True
-                self.stop()
+                self.interrupt()
             elif callable(before):
                 before(signum, frame)
             elif before != signal.SIG_IGN:  # SIG_DFL, or a handler not set from Python

@@ -136,10 +136,11 @@ def _report(args: argparse.Namespace, report: CaptureReport) -> int:
         _quiet_stdout()
     if not args.json:
         counts = ", ".join(f"{k} {v}" for k, v in sorted(report.counts.items()))
+        kinds = f" ({counts})" if counts else ""  # none for a capture without records
         hidden = len(report.findings) - report.findings.count_at_least(floor)
         more = f", {hidden} below {floor} not listed (--verbose lists them)" if hidden else ""
         print(
-            f"{escape(report.path)}: {report.total} records ({counts}): "
+            f"{escape(report.path)}: {report.total} records{kinds}: "
             f"{report.errors} errors, {report.warnings} warnings{more}",
             file=sys.stderr,
         )

@@ -102,6 +102,12 @@ class Feed:
         if self._live is not None:
             self._live.stop()
 
+    def interrupt(self) -> None:
+        """Stop reading as Ctrl-C does (a live capture says it was interrupted)."""
+        if self._live is not None:
+            self._live.interrupt()
+        self.halt()
+
     def _run(self) -> None:
         leave_signals_to_main()  # (a Ctrl-C taken here would not reach the waiting main thread)
         records: Any = ()
@@ -188,7 +194,7 @@ def _sigint_event(feed: Feed) -> Iterator[threading.Event]:
 
     def interrupted() -> None:
         stop.set()
-        feed.halt()
+        feed.interrupt()
 
     with first_stops(interrupted, (signal.SIGINT,)):
         yield stop

@@ -112,8 +112,11 @@ class SkinSocket:
         if answer is not None:
             self.inbox.append(answer)
 
-    def recv(self) -> bytes | None:
-        return self.inbox.popleft() if self.inbox else None
+    def receive(self) -> tuple[bytes, int] | None:
+        if not self.inbox:
+            return None
+        frame = self.inbox.popleft()
+        return frame, len(frame)
 
     def __enter__(self) -> SkinSocket:
         return self

@@ -215,6 +215,22 @@ def test_check_json_one_document(name: str, capsys: pytest.CaptureFixture[str]) 
     assert err == ""
 
 
+@pytest.mark.parametrize("fmt", ["pcap", "pcapng"])
+def test_check_a_capture_without_records(
+    tmp_path: Path, capsys: pytest.CaptureFixture[str], fmt: str
+) -> None:
+    """Only the file's header: 0 records and no empty ``()`` of kinds."""
+    path = tmp_path / f"hdr.{fmt}"
+    if fmt == "pcap":  # the 24-byte global header (nanoseconds, snaplen 65535, Ethernet)
+        path.write_bytes(struct.pack("<IHHiIII", 0xA1B23C4D, 2, 4, 0, 0, 65535, 1))
+    else:  # a Section Header Block and an Interface Description Block
+        shb = struct.pack("<IIIHHqI", 0x0A0D0D0A, 28, 0x1A2B3C4D, 1, 0, -1, 28)
+        path.write_bytes(shb + struct.pack("<IIHHII", 1, 20, 1, 0, 65535, 20))
+    code, out, err = run(["check", str(path)], capsys)
+    assert (code, out) == (0, "")
+    assert err.splitlines()[-1] == f"{path}: 0 records: 0 errors, 0 warnings"
+
+
 def test_check_error_exit_1(capture_with_error: Path, capsys: pytest.CaptureFixture[str]) -> None:
     code, out, err = run(["check", str(capture_with_error)], capsys)
     assert code == 1

@@ -214,13 +214,14 @@ class _FakeSocket:
     def fileno(self) -> int:
         return self.r.fileno()
 
-    def recv(self) -> bytes | None:
+    def receive(self) -> tuple[bytes, int] | None:
         if not self.inbox:
             import signal
 
             signal.raise_signal(signal.SIGINT)  # serve's own handler: stop serving
             return None
-        return self.inbox.pop(0)
+        frame = self.inbox.pop(0)
+        return frame, len(frame)
 
     def send(self, frame: bytes) -> None:
         pass

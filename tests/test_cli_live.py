@@ -251,6 +251,24 @@ def test_decode_iface_stops_on_ctrl_c_with_what_it_saw(net: VethPair) -> None:
     assert not any(line.startswith("skinframes") for line in lines)
 
 
+def test_watch_iface_says_it_was_stopped_by_ctrl_c(net: VethPair) -> None:
+    """watch's end line follows the live capture's rule, as check's and decode's (before, it
+    left out ``(stopped by Ctrl-C)``: watch's own Ctrl-C handler stopped the capture)."""
+    proc = in_netns(net, "watch", "--iface", MASTER, "--plain", "--interval", "0.001")
+    wait_for_start(proc)
+    send(net, wanted()[:2], gap_s=0.002)  # two frames 2 ms apart: a line, so watch is running
+    assert proc.stdout is not None
+    assert select.select([proc.stdout], [], [], 60)[0], "no line from watch"
+    assert proc.stdout.readline().startswith("t ")
+    proc.send_signal(signal.SIGINT)
+    out, err = proc.communicate(timeout=60)
+    assert proc.returncode == 0, err
+    assert out.splitlines()[-1].endswith(" (end)")
+    last = err.splitlines()[-1]
+    assert re.fullmatch(rf"{MASTER}: \d+ frames in [\d.]+ s, 0 dropped by the kernel "
+                        r"\(stopped by Ctrl-C\)", last), last  # fmt: skip
+
+
 def test_a_second_ctrl_c_goes_to_the_handler_before(net: VethPair) -> None:
     """The first Ctrl-C ends the capture, and nothing is raised; a second goes to the handler
     before (the command's raises KeyboardInterrupt): a command still waiting to print, for a

@@ -117,11 +117,12 @@ class PairSocket:
     def fileno(self) -> int:
         return self.r.fileno()
 
-    def recv(self) -> bytes | None:
+    def receive(self) -> tuple[bytes, int] | None:
         if not self.inbox:
             self.stop.set()
             return None
-        return self.inbox.pop(0)
+        frame = self.inbox.pop(0)
+        return frame, len(frame)
 
     def send(self, frame: bytes) -> None:
         self.outbox.append(frame)

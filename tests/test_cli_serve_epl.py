@@ -69,22 +69,23 @@ def test_node_ids_out_of_range_are_refused_at_parse(capsys: pytest.CaptureFixtur
 
 
 class ScriptedSocket:
-    """Stands in for RawSocket: MN frames in, answers kept; SIGINT once every frame was read,
-    as a user stops serve."""
+    """Stands in for RawSocket: MN frames in (as RawSocket, their first ``snaplen`` bytes and
+    their length), answers kept; SIGINT once every frame was read, as a user stops serve."""
 
-    def __init__(self, frames: list[bytes]) -> None:
-        self.inbox, self.outbox = list(frames), []
+    def __init__(self, frames: list[bytes], snaplen: int = 65535) -> None:
+        self.inbox, self.outbox, self.snaplen = list(frames), [], snaplen
         self.r, self.w = socket.socketpair()
         self.w.send(b"x")
 
     def fileno(self) -> int:
         return self.r.fileno()
 
-    def recv(self) -> bytes | None:
+    def receive(self) -> tuple[bytes, int] | None:
         if not self.inbox:
             signal.raise_signal(signal.SIGINT)
             return None
-        return self.inbox.pop(0)
+        frame = self.inbox.pop(0)
+        return frame[: self.snaplen], len(frame)
 
     def send(self, frame: bytes) -> None:
         self.outbox.append(frame)
@@ -135,6 +136,23 @@ def test_serve_epl_answers_and_reports(
         (5, 240),
         (6, 6),
     ]
+
+
+@pytest.mark.tshark
+def test_serve_epl_pcap_keeps_the_wire_length_of_a_frame_cut_at_the_snaplen(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path, tshark: str
+) -> None:
+    """A frame longer than the socket keeps (65535 bytes, on an interface of a 64 KiB MTU) is
+    recorded cut, with its length on the wire as the original length."""
+    frames = [soa(0, 0), preq(9) + bytes(70_000 - len(preq(9))), soa(1, 6)]
+    scripted = ScriptedSocket(frames)
+    monkeypatch.setattr(emulator.live, "RawSocket", lambda *a, **k: scripted)
+    capture = tmp_path / "serve.pcapng"
+    argv = ["serve", "epl", "--iface", "veth9", "--nodes", "1", "--bytes", "8", "--node-ids", "6"]
+    assert main([*argv, "--pcap", str(capture), "-q"]) == 0
+    rows = tshark_util.run(tshark, capture, "-Y", "frame.p2p_dir == 1", "-T", "fields",
+                           "-e", "frame.len", "-e", "frame.cap_len")  # fmt: skip
+    assert rows.split() == [str(n) for f in frames for n in (len(f), min(len(f), 65535))]
 
 
 @pytest.mark.parametrize(

@@ -82,7 +82,7 @@ def serve_epl(
     perf = time.perf_counter
     answer = skin.answer
     send = sock.send
-    recv = sock.recv
+    receive = sock.receive
     next_tick = 0
     with BetweenFrames(freeze=False) as collector:  # EPL frames make reference cycles
         while not stop.is_set():
@@ -93,7 +93,8 @@ def serve_epl(
             if not readable:  # a quiet moment: every node gets the last sample
                 skin.refresh()
             else:
-                while (frame := recv()) is not None:
+                while (got := receive()) is not None:
+                    frame, length = got
                     t0, seen_ns = perf(), wall_ns()
                     back = answer(frame)  # the fast path: a prepared frame, or None
                     if back is not None:
@@ -106,7 +107,7 @@ def serve_epl(
                         stats.answer_us_max = max(stats.answer_us_max, took_us)
                     stats.frames_in += 1
                     if capture is not None:
-                        capture.write(seen_ns, frame, outbound=False)
+                        capture.write(seen_ns, frame, outbound=False, orig_len=length)
                         if back is not None:
                             capture.write(sent_ns, back, outbound=True)
                     try:

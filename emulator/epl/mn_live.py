@@ -91,13 +91,14 @@ class SocketLink:
 
     def recv(self, until_ns: int) -> tuple[bytes, int] | None:
         while True:
-            frame = self.sock.recv()
+            got = self.sock.receive()
             now = time.monotonic_ns()
-            if frame is not None:
+            if got is not None:
+                frame, length = got
                 self.frames_in += 1
                 self.record_sent()
                 if self.capture is not None:
-                    self.capture.write(self.wall_ns(now), frame, outbound=False)
+                    self.capture.write(self.wall_ns(now), frame, outbound=False, orig_len=length)
                 return frame, now
             self.record_sent()
             if now >= until_ns:

@@ -412,6 +412,37 @@ def test_serve_survives_hostile_frames_and_answers_a_configured_read(net: VethPa
     print(f"\nhostile: {answered} answers, serve CPU max {summary['cpu_us_max']} us per frame")
 
 
+@pytest.mark.tshark
+def test_serve_pcap_keeps_the_wire_length_of_jumbo_frames(
+    live: None, tshark: str, tmp_path: Path
+) -> None:
+    """Frames longer than 1522 bytes (jumbo, on a veth of MTU 65535) are received whole up to
+    the capture's snap length, 65535: ``serve --pcap`` records each with its length on the wire
+    as the original length (before, it read 1586 bytes and recorded 1586 as both); serve drops
+    them (no EtherCAT frame is that long) and answers the BRD sent after them."""
+    brd = ethercat.frame(EcatFrame((Datagram(Command.BRD, 0, 0x0130, bytes(2)),))).to_bytes()
+    jumbo = [brd[:14] + bytes(n - 14) for n in (6000, 8000, 65535 + 14)]
+    path = tmp_path / "serve.pcapng"
+    with veth_netns(prefix="jumbo") as pair:
+        for dev in (pair.master, pair.slave):
+            live_util.in_netns(pair, "ip", "link", "set", dev, "mtu", "65535").check_returncode()
+        with serving(pair, 4, 16, path) as server, netns_socket(pair.master, pair.netns) as sock:
+            for frame in [*jumbo, brd]:
+                sock.send(frame)
+            deadline = time.monotonic() + 60.0  # the answer to the BRD: serve read all before it
+            answer = None
+            while answer is None and select.select([sock], [], [], deadline - time.monotonic())[0]:
+                answer = sock.recv()
+            assert answer is not None, "no answer to the BRD"
+    assert server["rc"] == 0, server["stderr"]
+    summary = server["summary"]
+    assert (summary["frames_in"], summary["frames_out"], summary["dropped"]) == (4, 1, 3)
+    assert summary["errors"] == 0
+    rows = tshark_util.run(tshark, path, "-T", "fields", "-e", "frame.len", "-e", "frame.cap_len")
+    sent = [(len(f), min(len(f), 65535)) for f in [*jumbo, brd]] + [(len(answer), len(answer))]
+    assert [tuple(map(int, row.split())) for row in rows.splitlines()] == sent
+
+
 def test_independent_master_over_the_wire(net: VethPair) -> None:
     nodes, size = 5, 192
     with serving(net, nodes, size) as server:

@@ -300,6 +300,22 @@ def test_tshark_reads_the_pcap_and_a_block(tshark: str, tmp_path: Path) -> None:
     assert [int(r["epl.src"][0]) for r in rows] == [1, 2, 3, 4] * k
 
 
+@pytest.mark.tshark
+@pytest.mark.parametrize("name", ["cut.pcap", "cut.pcapng"])
+def test_a_cut_frame_keeps_its_original_length(tshark: str, tmp_path: Path, name: str) -> None:
+    path = tmp_path / name
+    frame = pres(1, 36)
+    with CaptureWriter(path) as w:
+        w.write(0, frame[:30], orig_len=len(frame))  # the first 30 bytes of a 60-byte frame
+        w.write(1, frame, orig_len=None)
+        for bad in (29, 2**32):
+            with pytest.raises(FieldRangeError):
+                w.write(2, frame[:30], orig_len=bad)
+    rows = tshark_util.run(tshark, path, "-T", "fields", "-e", "frame.len", "-e", "frame.cap_len")
+    assert rows.split() == ["60", "30", "60", "60"]
+    assert [r.orig_len for r in read_capture(path)] == [60, 60]
+
+
 def test_read_capture_reads_everything_back(tmp_path: Path) -> None:
     records = mixed_records()
     path = tmp_path / "mixed.pcapng"
