@@ -35,17 +35,22 @@ class Terminal:
             os.execvp(command[0], command)
         self.out = ""
 
-    def read_until(self, needle: str, timeout_s: float = 60) -> str:
-        """Read until a whole view (one redraw to the next) shows ``needle``; that view."""
+    def read_until(self, needle: str | re.Pattern[str], timeout_s: float = 60) -> str:
+        """Read until a whole view (one redraw to the next) shows ``needle`` (a text, or a
+        pattern it matches); that view."""
+
+        def shown(screen: str) -> bool:
+            return needle in screen if isinstance(needle, str) else bool(needle.search(screen))
+
         deadline = time.monotonic() + timeout_s
-        while needle not in self.screen() and time.monotonic() < deadline:
+        while not shown(self.screen()) and time.monotonic() < deadline:
             if select.select([self.fd], [], [], 0.1)[0]:
                 try:
                     self.out += os.read(self.fd, 65536).decode(errors="replace")
                 except OSError:
                     break
         screen = self.screen()
-        assert needle in screen, f"{needle!r} not shown: {ANSI.sub('', self.out)[-2000:]}"
+        assert shown(screen), f"{needle!r} not shown: {ANSI.sub('', self.out)[-2000:]}"
         return screen
 
     def screen(self) -> str:

@@ -31,7 +31,6 @@ from skinframes import ethercat, ethernet, powerlink
 from skinframes.errors import InterfaceError
 from skinframes.ethercat import Command, Datagram, EcatFrame
 from skinframes.live_capture import LiveCapture, capture_filter
-from skinframes_cli.watch import REFRESH_S
 
 IN_CI = os.environ.get("CI", "").lower() == "true"
 ROOT = Path(__file__).resolve().parent.parent
@@ -350,17 +349,17 @@ def test_analyze_iface_sees_a_real_masters_process_data(net: VethPair, tmp_path:
         soem = json.loads(master.stdout.splitlines()[-1])
         capture.send_signal(signal.SIGINT)
         out, err = capture.communicate(timeout=120)
-        time.sleep(2 * REFRESH_S)  # the view shows the last frames
-        view.out = ""
-        screen = view.read_until("LRW")
+        assert capture.returncode == 0, err
+        doc = json.loads(out)
+        (pd,) = [p for p in doc["ecat"]["patterns"] if p["cyclic"]]  # SOEM: one LRW a cycle
+        # the view, once its feed has read what analyze read (it may lag the wire: wait for
+        # the count, not for a time; a view that never shows it fails here)
+        screen = view.read_until(re.compile(rf"^ *{pd['frames']}\s+\d+\s+[\d.]+\s.*\sLRW ", re.M))
         view.press("q")
         assert view.wait() == 0
     finally:
         serve.send_signal(signal.SIGINT)
         serve.communicate(timeout=60)
-    assert capture.returncode == 0, err
-    doc = json.loads(out)
-    (pd,) = [p for p in doc["ecat"]["patterns"] if p["cyclic"]]  # SOEM: one LRW frame a cycle
     assert pd["datagrams"].startswith("LRW")
     assert pd["frames"] >= cycles >= 500 and pd["returned"] == pd["frames"]
     assert pd["unanswered"] == [] and set(soem["wkc"]) == {soem["expected_wkc"]}
